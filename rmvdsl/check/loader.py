@@ -1,0 +1,118 @@
+"""Reading a spec and the files it imports (stage 1 of the pipeline)."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+
+from rmvdsl.diagnostics import Diagnostic, Label, closest, error
+from rmvdsl.grammar import ast
+from rmvdsl.grammar.parser import parse_source
+from rmvdsl.source import SourceFile, SourceMap
+
+
+class UsageError(Exception):
+    """A problem with the command line's own input (exit code 2), not with a spec."""
+
+
+def read_text(path: str) -> str:
+    """Read a UTF-8 file; raise UsageError with a one-line reason otherwise."""
+    try:
+        with open(path, "rb") as handle:
+            data = handle.read()
+    except FileNotFoundError:
+        raise UsageError(f"{path}: no such file") from None
+    except IsADirectoryError:
+        raise UsageError(f"{path}: is a directory, not a file") from None
+    except PermissionError:
+        raise UsageError(f"{path}: permission denied") from None
+    except OSError as exc:
+        raise UsageError(f"{path}: cannot read: {exc.strerror}") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise UsageError(
+            f"{path}: not UTF-8 text (invalid byte 0x{data[exc.start]:02x} at offset {exc.start})"
+        ) from None
+    return text.removeprefix("\ufeff")
+
+
+@dataclass
+class Loaded:
+    sources: SourceMap
+    specs: list[ast.Spec]
+    diagnostics: list[Diagnostic]
+    damaged_names: set[str] = field(default_factory=set)
+    damaged_ranges: dict[str, list[tuple[int, int]]] = field(default_factory=dict)
+
+
+def load(path: str, text: str | None = None) -> Loaded:
+    """Parse `path` (or the given text for it) and, depth first, its imports."""
+    sources = SourceMap()
+    loaded = Loaded(sources, [], [])
+    root_text = read_text(path) if text is None else text
+    _load_file(os.path.normpath(path), root_text, loaded, active=[])
+    return loaded
+
+
+def _load_file(path: str, text: str, loaded: Loaded, active: list[str]) -> None:
+    source = loaded.sources.add(SourceFile(path, text))
+    parsed = parse_source(source)
+    loaded.specs.append(parsed.spec)
+    loaded.diagnostics.extend(parsed.diagnostics)
+    loaded.damaged_names |= parsed.damaged_names
+    loaded.damaged_ranges[path] = parsed.damaged_ranges
+    active.append(path)
+    for item in parsed.spec.items:
+        if isinstance(item, ast.ImportDecl):
+            _load_import(path, item, loaded, active)
+    active.pop()
+
+
+def _load_import(importer: str, item: ast.ImportDecl, loaded: Loaded, active: list[str]) -> None:
+    target = os.path.normpath(os.path.join(os.path.dirname(importer), item.path.value))
+    if target in active:
+        chain = " -> ".join(os.path.basename(p) for p in [*active[active.index(target) :], target])
+        loaded.diagnostics.append(
+            error(
+                "RMV002",
+                f"import cycle: {chain}",
+                item.path.span,
+                label="this import closes the cycle",
+                help="move the shared declarations into a file that both import",
+            )
+        )
+        return
+    if loaded.sources.get(target) is not None:
+        return  # already read through another import
+    try:
+        text = read_text(target)
+    except UsageError as exc:
+        missing = not os.path.exists(target)
+        loaded.diagnostics.append(
+            error(
+                "RMV001" if missing else "RMV003",
+                f"cannot import `{item.path.value}`: {str(exc).split(': ', 1)[-1]}",
+                item.path.span,
+                label="imported here",
+                secondary=[],
+                help=_import_help(importer, item.path.value) if missing else None,
+            )
+        )
+        return
+    _load_file(target, text, loaded, active)
+
+
+def _import_help(importer: str, wanted: str) -> str:
+    folder = os.path.dirname(importer) or "."
+    try:
+        candidates = [name for name in os.listdir(folder) if name.endswith(".rmv")]
+    except OSError:
+        candidates = []
+    best = closest(os.path.basename(wanted), candidates)
+    if best:
+        return f"did you mean `{best}`?"
+    return f"paths are relative to the importing file's folder, {folder}"
+
+
+__all__ = ["Label", "Loaded", "UsageError", "load", "read_text"]

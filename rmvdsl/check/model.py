@@ -1,0 +1,94 @@
+"""The resolved model of a spec: what every check and every target reads.
+
+It gathers the declarations of the root file and of everything it imports into one
+namespace, with each name's declaration and each use of a name (the editor's
+go-to-definition and rename will read `references`).
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass, field
+
+from rmvdsl.grammar import ast
+from rmvdsl.source import SourceMap, Span
+
+
+class Kind(enum.Enum):
+    TOPIC = "topic"
+    VARIABLE = "variable"
+    VALUE_EVENT = "event"
+    BOOL_EVENT = "boolean event"
+    EMITTED_EVENT = "emitted event"
+    ALERT = "alert"
+    TRANSDUCER = "transducer"
+    STATE = "state"
+    PROPERTY = "property"
+
+    @property
+    def article(self) -> str:
+        return "an" if self.value[0] in "aeiou" else "a"
+
+    def described(self) -> str:
+        return f"{self.article} {self.value}"
+
+
+EVENT_KINDS = frozenset({Kind.VALUE_EVENT, Kind.BOOL_EVENT, Kind.EMITTED_EVENT})
+BOOLEAN_KINDS = frozenset({Kind.BOOL_EVENT, Kind.EMITTED_EVENT})
+PROPOSITION_KINDS = frozenset({Kind.STATE, Kind.BOOL_EVENT, Kind.EMITTED_EVENT})
+MEASUREMENT_KINDS = frozenset({Kind.VARIABLE, Kind.VALUE_EVENT, Kind.BOOL_EVENT})
+
+
+@dataclass
+class Symbol:
+    name: str
+    kind: Kind
+    span: Span  # the name where it is declared
+    decl: ast.Node
+    owner: str | None = None  # the transducer of a state, or of an emitted event
+
+    def __hash__(self) -> int:
+        return id(self)
+
+
+@dataclass(frozen=True)
+class Reference:
+    name: str
+    span: Span
+    symbol: Symbol
+
+
+@dataclass
+class Model:
+    sources: SourceMap
+    specs: list[ast.Spec] = field(default_factory=list)  # root first
+    system: ast.SystemDecl | None = None
+    time_unit: str | None = None
+    database: ast.DatabaseDecl | None = None
+    topics: dict[str, ast.TopicDecl] = field(default_factory=dict)
+    variables: dict[str, ast.VarDecl] = field(default_factory=dict)
+    events: dict[str, ast.EventDecl] = field(default_factory=dict)
+    # Events produced by transducers (`emit X`): name -> the transitions emitting it.
+    emitted: dict[str, list[ast.Transition]] = field(default_factory=dict)
+    alerts: dict[str, ast.AlertDecl] = field(default_factory=dict)
+    transducers: dict[str, ast.TransducerDecl] = field(default_factory=dict)
+    properties: dict[str, ast.PropertyDecl] = field(default_factory=dict)
+    whitelists: list[ast.WhitelistDecl] = field(default_factory=list)
+    nodes: list[ast.NodeDecl] = field(default_factory=list)
+    intrusion: ast.IntrusionDecl | None = None
+    symbols: dict[str, Symbol] = field(default_factory=dict)
+    references: list[Reference] = field(default_factory=list)
+
+    @property
+    def root(self) -> ast.Spec | None:
+        return self.specs[0] if self.specs else None
+
+    def declarations(self) -> list[ast.Decl]:
+        return [item for spec in self.specs for item in spec.items]
+
+    def uses_of(self, symbol: Symbol) -> list[Reference]:
+        return [r for r in self.references if r.symbol is symbol]
+
+    def state_owner(self, name: str) -> str | None:
+        symbol = self.symbols.get(name)
+        return symbol.owner if symbol is not None and symbol.kind is Kind.STATE else None

@@ -1,0 +1,811 @@
+"""Names: declare every symbol, resolve every use, and check each declaration's
+structure (stage 2 of the pipeline).
+
+The result is the resolved `Model` and the diagnostics of this stage.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Iterator
+
+from rmvdsl.check import settings as schemas
+from rmvdsl.check.model import (
+    BOOLEAN_KINDS,
+    EVENT_KINDS,
+    MEASUREMENT_KINDS,
+    PROPOSITION_KINDS,
+    Kind,
+    Model,
+    Reference,
+    Symbol,
+)
+from rmvdsl.check.rosnames import message_type_problem, name_problem, suggest_name
+from rmvdsl.diagnostics import Diagnostic, Label, did_you_mean, error, warning
+from rmvdsl.grammar import ast
+from rmvdsl.logic import formula as fm
+from rmvdsl.source import SourceMap, Span
+
+INFLUX_FUNCTIONS = frozenset(
+    {
+        *schemas.AGGREGATES,
+        *schemas.SELECTORS,
+        "abs", "acos", "asin", "atan", "atan2", "ceil", "cos", "cumulative_sum", "derivative",
+        "difference", "elapsed", "exp", "floor", "histogram", "ln", "log", "log2", "log10",
+        "moving_average", "non_negative_derivative", "non_negative_difference", "pow", "round",
+        "sin", "sqrt", "tan",
+    }
+)  # fmt: skip
+ARRAY_AGGREGATES = ("min", "max", "sum", "mean", "count", "any", "all")
+TIME_UNIT_NAMES = ("ns", "us", "ms", "s", "m", "h")
+FILL_NAMES = ("none", "null", "previous", "linear")
+
+# Each action's positional parameters (required, then optional) and keywords.
+ACTIONS: dict[str, tuple[tuple[str, ...], tuple[str, ...], tuple[str, ...]]] = {
+    "log": ((), ("message",), ("level", "message")),
+    "publish": (("topic",), ("message",), ("topic", "message")),
+    "post": (("url",), (), ("url", "timeout")),
+    "exec": (("command",), ("args",), ("command",)),
+    "tcp": (("address",), (), ("address",)),
+}
+LOG_LEVELS = ("debug", "info", "warn", "error", "fatal")
+
+
+class NameChecker:
+    def __init__(
+        self,
+        specs: list[ast.Spec],
+        sources: SourceMap,
+        damaged: set[str],
+        damaged_ranges: dict[str, list[tuple[int, int]]],
+    ) -> None:
+        self.model = Model(sources, specs)
+        self.diagnostics: list[Diagnostic] = []
+        self.damaged = damaged
+        self.damaged_ranges = damaged_ranges
+        self.used: set[int] = set()  # ids of used symbols
+
+    # ---- driver ----
+
+    def run(self) -> tuple[Model, list[Diagnostic]]:
+        decls = self.model.declarations()
+        for decl in decls:
+            self.declare(decl)
+        for decl in decls:
+            self.check_decl(decl)
+        self.check_event_cycles()
+        self.report_unused()
+        return self.model, self.diagnostics
+
+    def report(self, diagnostic: Diagnostic) -> None:
+        # Inside a declaration with syntax errors, parts may be missing: what
+        # follows from a missing part is not reported, the syntax error is.
+        if diagnostic.code in _CONSEQUENTIAL and self.in_damaged(diagnostic.span):
+            return
+        self.diagnostics.append(diagnostic)
+
+    def in_damaged(self, span: Span) -> bool:
+        return any(start <= span.start < end for start, end in self.damaged_ranges.get(span.path, ()))
+
+    # ---- declaring ----
+
+    def declare(self, decl: ast.Decl) -> None:
+        model = self.model
+        match decl:
+            case ast.SystemDecl():
+                if model.system is not None:
+                    self.once_only("`system`", decl.name, model.system.name)
+                else:
+                    model.system = decl
+            case ast.TimeUnitDecl():
+                self.declare_time_unit(decl)
+            case ast.DatabaseDecl():
+                if model.database is not None:
+                    self.once_only("`database`", decl.name or decl, model.database.name or model.database)
+                else:
+                    model.database = decl
+            case ast.TopicDecl():
+                self.add(decl.name, Kind.TOPIC, decl) and model.topics.setdefault(decl.name.name, decl)
+            case ast.VarDecl():
+                self.add(decl.name, Kind.VARIABLE, decl) and model.variables.setdefault(decl.name.name, decl)
+            case ast.EventDecl():
+                kind = Kind.BOOL_EVENT if decl.boolean else Kind.VALUE_EVENT
+                self.add(decl.name, kind, decl) and model.events.setdefault(decl.name.name, decl)
+            case ast.AlertDecl():
+                self.add(decl.name, Kind.ALERT, decl) and model.alerts.setdefault(decl.name.name, decl)
+            case ast.TransducerDecl():
+                self.declare_transducer(decl)
+            case ast.PropertyDecl():
+                self.add(decl.name, Kind.PROPERTY, decl) and model.properties.setdefault(decl.name.name, decl)
+            case ast.WhitelistDecl():
+                model.whitelists.append(decl)
+            case ast.NodeDecl():
+                model.nodes.append(decl)
+            case ast.IntrusionDecl():
+                if model.intrusion is not None:
+                    self.once_only("the `intrusion` block", decl, model.intrusion)
+                else:
+                    model.intrusion = decl
+
+    def declare_time_unit(self, decl: ast.TimeUnitDecl) -> None:
+        unit = decl.unit.name
+        if self.model.time_unit is not None:
+            self.once_only("`time unit`", decl.unit, decl.unit)
+            return
+        if unit not in TIME_UNIT_NAMES:
+            self.report(
+                error(
+                    "RMV208",
+                    f"unknown time unit `{unit}`",
+                    decl.unit.span,
+                    label="expected " + ", ".join(TIME_UNIT_NAMES),
+                    help=did_you_mean(unit, TIME_UNIT_NAMES),
+                )
+            )
+            return
+        self.model.time_unit = unit
+
+    def declare_transducer(self, decl: ast.TransducerDecl) -> None:
+        if self.add(decl.name, Kind.TRANSDUCER, decl):
+            self.model.transducers.setdefault(decl.name.name, decl)
+        for state in decl.states:
+            self.add(state, Kind.STATE, decl, owner=decl.name.name)
+        for transition in decl.transitions:
+            if transition.output is not None:
+                self.declare_emitted(decl, transition)
+
+    def declare_emitted(self, decl: ast.TransducerDecl, transition: ast.Transition) -> None:
+        output = transition.output
+        assert output is not None
+        existing = self.model.symbols.get(output.name)
+        if existing is None:
+            self.add(output, Kind.EMITTED_EVENT, transition, owner=decl.name.name)
+        elif existing.kind is not Kind.EMITTED_EVENT:
+            self.report(
+                error(
+                    "RMV201",
+                    f"`{output.name}` is emitted here but already declared as {existing.kind.described()}",
+                    output.span,
+                    label="emitted by this transition",
+                    secondary=[Label(existing.span, f"declared as {existing.kind.described()} here")],
+                    help="an emitted event is declared by `emit`: give it a name of its own",
+                )
+            )
+            return
+        self.model.emitted.setdefault(output.name, []).append(transition)
+
+    def add(self, ident: ast.Ident, kind: Kind, decl: ast.Node, owner: str | None = None) -> bool:
+        existing = self.model.symbols.get(ident.name)
+        if existing is not None:
+            self.report(
+                error(
+                    "RMV201",
+                    f"`{ident.name}` is declared more than once",
+                    ident.span,
+                    label=f"declared again here as {kind.described()}",
+                    secondary=[Label(existing.span, f"first declared here as {existing.kind.described()}")],
+                    help="topics, variables, events, alerts, transducers, states and properties share "
+                    "one namespace: rename one of them",
+                )
+            )
+            return False
+        self.model.symbols[ident.name] = Symbol(ident.name, kind, ident.span, decl, owner)
+        return True
+
+    def once_only(self, what: str, again: ast.Node, first: ast.Node) -> None:
+        self.report(
+            error(
+                "RMV214",
+                f"{what} is declared more than once",
+                again.span,
+                label="declared again here",
+                secondary=[Label(first.span, "first declared here")],
+                help="a spec has one; remove or merge the second",
+            )
+        )
+
+    # ---- resolving ----
+
+    def resolve(
+        self, ident: ast.Ident, allowed: frozenset[Kind], wanted: str
+    ) -> Symbol | None:
+        symbol = self.model.symbols.get(ident.name)
+        if symbol is None:
+            if ident.name not in self.damaged:
+                candidates = [s.name for s in self.model.symbols.values() if s.kind in allowed]
+                self.report(
+                    error(
+                        "RMV200",
+                        f"undefined name `{ident.name}`",
+                        ident.span,
+                        label=f"no {wanted} has this name",
+                        help=did_you_mean(ident.name, candidates),
+                    )
+                )
+            return None
+        self.model.references.append(Reference(ident.name, ident.span, symbol))
+        self.used.add(id(symbol))
+        if symbol.kind not in allowed:
+            self.report(
+                error(
+                    "RMV202",
+                    f"`{ident.name}` is {symbol.kind.described()}, but {wanted} is needed here",
+                    ident.span,
+                    label=f"expected {wanted}",
+                    secondary=[Label(symbol.span, f"declared as {symbol.kind.described()} here")],
+                    help=self.kind_help(symbol, allowed),
+                )
+            )
+            return None
+        return symbol
+
+    @staticmethod
+    def kind_help(symbol: Symbol, allowed: frozenset[Kind]) -> str | None:
+        if symbol.kind is Kind.VALUE_EVENT and Kind.BOOL_EVENT in allowed:
+            return (
+                f"`{symbol.name}` is a value (`event {symbol.name} = ...`); define a boolean event "
+                f"such as `event {symbol.name}High when {symbol.name} > 10`"
+            )
+        if symbol.kind is Kind.TOPIC and Kind.VARIABLE in allowed:
+            return f"declare a variable: `var X = {symbol.name}.field`"
+        return None
+
+    # ---- checking each declaration ----
+
+    def check_decl(self, decl: ast.Decl) -> None:
+        match decl:
+            case ast.DatabaseDecl():
+                self.check_database(decl)
+            case ast.TopicDecl():
+                self.check_topic(decl)
+            case ast.VarDecl():
+                self.check_variable(decl)
+            case ast.EventDecl():
+                self.check_event(decl)
+            case ast.AlertDecl():
+                self.check_alert(decl)
+            case ast.TransducerDecl():
+                self.check_transducer(decl)
+            case ast.PropertyDecl():
+                self.check_property(decl)
+            case ast.WhitelistDecl():
+                self.check_whitelist(decl)
+            case ast.NodeDecl():
+                self.check_node(decl)
+            case ast.IntrusionDecl():
+                self.diagnostics += schemas.check_settings(schemas.INTRUSION, decl.settings, None, decl)
+                self.check_actions(decl.actions)
+
+    def check_database(self, decl: ast.DatabaseDecl) -> None:
+        self.diagnostics += schemas.check_settings(schemas.DATABASE, decl.settings, decl.name, decl)
+        retention_names: dict[str, ast.RetentionDecl] = {}
+        for retention in decl.retentions:
+            first = retention_names.setdefault(retention.name.name, retention)
+            if first is not retention:
+                self.once_only(f"retention policy `{retention.name.name}`", retention.name, first.name)
+            self.diagnostics += schemas.check_settings(
+                schemas.RETENTION, retention.settings, retention.name, retention
+            )
+        for downsample in decl.downsamples:
+            self.diagnostics += schemas.check_settings(
+                schemas.DOWNSAMPLE, downsample.settings, downsample.name, downsample
+            )
+            self.check_downsample(downsample, retention_names)
+
+    def check_downsample(
+        self, downsample: ast.DownsampleDecl, retentions: dict[str, ast.RetentionDecl]
+    ) -> None:
+        for setting in downsample.settings:
+            key, value = setting.key.name, setting.value
+            if key in ("from", "into") and isinstance(value, ast.NameValue):
+                name = value.ident.name
+                if name not in retentions:
+                    self.report(
+                        error(
+                            "RMV200",
+                            f"undefined retention policy `{name}`",
+                            value.span,
+                            label="no `retention` of the database has this name",
+                            help=did_you_mean(name, retentions)
+                            or f"declare it: `retention {name} {{ duration = 30d }}`",
+                        )
+                    )
+            if key == "measurements" and isinstance(value, ast.ListValue):
+                for item in value.items:
+                    if isinstance(item, ast.NameValue):
+                        self.resolve(item.ident, MEASUREMENT_KINDS, "a variable or an event")
+
+    def check_topic(self, decl: ast.TopicDecl) -> None:
+        self.check_ros_name(decl.path, "topic", "RMV204")
+        problem = message_type_problem([p.name for p in decl.msg_type.parts])
+        if problem:
+            self.report(
+                error(
+                    "RMV206",
+                    f"invalid message type `{decl.msg_type.text}`",
+                    decl.msg_type.span,
+                    label=problem,
+                    help="for example `carla_msgs/CarlaEgoVehicleStatus` or "
+                    "`carla_msgs/msg/CarlaEgoVehicleStatus`",
+                )
+            )
+        self.diagnostics += schemas.check_settings(schemas.QOS, decl.qos, decl.name, decl)
+
+    def check_ros_name(
+        self, literal: ast.StringLit, what: str, code: str, patterns: bool = False
+    ) -> None:
+        problem = name_problem(literal.value, what, patterns)
+        if problem:
+            self.report(
+                error(
+                    code,
+                    f"invalid ROS {what} name",
+                    literal.span,
+                    label=problem,
+                    help=f'did you mean "{suggest_name(literal.value)}"?',
+                )
+            )
+
+    def check_variable(self, decl: ast.VarDecl) -> None:
+        self.resolve(decl.source.topic, frozenset({Kind.TOPIC}), "a topic")
+        has_wildcard = any(s.index == "*" for s in decl.source.segments)
+        if decl.aggregate is None:
+            return
+        name = decl.aggregate.name
+        if name not in ARRAY_AGGREGATES:
+            self.report(
+                error(
+                    "RMV218",
+                    f"unknown array aggregate `{name}`",
+                    decl.aggregate.span,
+                    label="expected " + ", ".join(ARRAY_AGGREGATES),
+                    help=did_you_mean(name, ARRAY_AGGREGATES),
+                )
+            )
+        elif not has_wildcard:
+            self.report(
+                error(
+                    "RMV218",
+                    f"`{name}` aggregates over an array, but the path has no `[*]`",
+                    decl.source.span,
+                    label="no `[*]` in this path",
+                    help="mark the array to aggregate over, e.g. `objects[*].twist.linear.x`",
+                )
+            )
+
+    def check_event(self, decl: ast.EventDecl) -> None:
+        allowed = frozenset({Kind.VARIABLE, *EVENT_KINDS})
+        self.check_expression(decl.expr, allowed)
+        seen: dict[str, ast.Clause] = {}
+        for clause in decl.clauses:
+            first = seen.setdefault(clause.kind, clause)
+            if first is not clause:
+                self.once_only(f"the `{clause.kind}` clause of `{decl.name.name}`", clause, first)
+            self.check_clause(clause, allowed)
+
+    def check_clause(self, clause: ast.Clause, allowed: frozenset[Kind]) -> None:
+        value = clause.value
+        match clause.kind:
+            case "where":
+                self.check_expression(value, allowed)  # type: ignore[arg-type]
+            case "group":
+                assert isinstance(value, ast.GroupBy)
+                for time in (value.interval, value.offset):
+                    if time is not None:
+                        self.check_positive_time(time.time, "group-by interval", allow_zero=time is value.offset)
+            case "fill":
+                self.check_fill(value)
+            case "order":
+                assert isinstance(value, ast.NameValue)
+                if value.ident.name.lower() not in ("asc", "desc"):
+                    self.invalid_clause(value, "`order` is `asc` or `desc`", ("asc", "desc"))
+            case "limit":
+                if not (isinstance(value, ast.NumberLit) and value.value.denominator == 1 and value.value > 0):
+                    self.invalid_clause(value, "`limit` is a positive whole number", ())
+            case "resample":
+                assert isinstance(value, ast.Resample)
+                for time in (value.every, value.for_):
+                    if time is not None:
+                        self.check_positive_time(time.time, "resample interval")
+            case "range":
+                assert isinstance(value, ast.TimeLit)
+                self.check_positive_time(value.time, "range")
+
+    def check_fill(self, value: ast.Node) -> None:
+        if isinstance(value, ast.NameValue):
+            if value.ident.name not in FILL_NAMES:
+                self.invalid_clause(value, "`fill` is none, null, previous, linear or a number", FILL_NAMES)
+        elif not isinstance(value, ast.NumberLit):
+            self.invalid_clause(value, "`fill` is none, null, previous, linear or a number", FILL_NAMES)
+
+    def invalid_clause(self, value: ast.Node, expected: str, choices: Iterable[str]) -> None:
+        found = value.ident.name if isinstance(value, ast.NameValue) else ""
+        self.report(
+            error(
+                "RMV208",
+                "invalid clause value",
+                value.span,
+                label=expected,
+                help=did_you_mean(found, choices) if found else None,
+            )
+        )
+
+    def check_positive_time(self, time: fm.TimeValue, what: str, allow_zero: bool = False) -> None:
+        if time.unit is None:
+            self.report(
+                error(
+                    "RMV213",
+                    f"the {what} `{time.text}` has no unit",
+                    time.span,
+                    label="a time needs a unit here",
+                    help=f"write `{time.text}s` or `{time.text}ms`",
+                )
+            )
+        elif time.value < 0 or (time.value == 0 and not allow_zero):
+            self.report(
+                error("RMV219", f"the {what} must be positive", time.span, label=f"`{time.text}`")
+            )
+
+    def check_expression(self, expr: ast.Node, allowed: frozenset[Kind]) -> None:
+        for node in _expression_nodes(expr):
+            if isinstance(node, ast.NameRef):
+                self.resolve(node.ident, allowed, "a variable or an event")
+            elif isinstance(node, ast.Call) and node.func.name not in INFLUX_FUNCTIONS:
+                self.report(
+                    error(
+                        "RMV215",
+                        f"unknown function `{node.func.name}`",
+                        node.func.span,
+                        label="not an InfluxQL function",
+                        help=did_you_mean(node.func.name, INFLUX_FUNCTIONS)
+                        or "see `rmv explain RMV215` for the supported functions",
+                    )
+                )
+
+    def check_event_cycles(self) -> None:
+        events = self.model.events
+        dependencies = {
+            name: [
+                n.ident
+                for n in _expression_nodes(decl.expr, *(c.value for c in decl.clauses if c.kind == "where"))
+                if isinstance(n, ast.NameRef) and n.ident.name in events
+            ]
+            for name, decl in events.items()
+        }
+        state: dict[str, int] = {}  # 1: on the current path, 2: done
+        for name in dependencies:
+            self._visit_event(name, dependencies, state, [])
+
+    def _visit_event(
+        self, name: str, deps: dict[str, list[ast.Ident]], state: dict[str, int], path: list[ast.Ident]
+    ) -> None:
+        if state.get(name) == 2:
+            return
+        state[name] = 1
+        for ident in deps[name]:
+            if state.get(ident.name) == 1:
+                cycle = [*(i.name for i in path), name, ident.name]
+                start = cycle.index(ident.name)
+                self.report(
+                    error(
+                        "RMV220",
+                        "events defined in a cycle: " + " -> ".join(cycle[start:]),
+                        ident.span,
+                        label=f"`{name}` uses `{ident.name}`, which depends on `{name}`",
+                        help="an event can only use variables and events defined without it",
+                    )
+                )
+            elif state.get(ident.name) is None:
+                self._visit_event(ident.name, deps, state, [*path, ident])
+        state[name] = 2
+
+    def check_alert(self, decl: ast.AlertDecl) -> None:
+        allowed = frozenset({Kind.VARIABLE, *EVENT_KINDS})
+        seen: dict[str, ast.AlertLevel] = {}
+        for level in decl.levels:
+            first = seen.setdefault(level.severity.name, level)
+            if first is not level:
+                self.once_only(f"the `{level.severity.name}` level", level.severity, first.severity)
+            self.check_expression(level.condition, allowed)
+            if level.reset is not None:
+                self.check_expression(level.reset, allowed)
+        if not decl.levels:
+            self.report(
+                error(
+                    "RMV209",
+                    f"alert `{decl.name.name}` has no level",
+                    decl.name.span,
+                    label="an alert needs `info`, `warn` or `crit when ...`",
+                    help="add e.g. `crit when EVelocityinKMH > 80 reset when EVelocityinKMH < 70`",
+                )
+            )
+        self.diagnostics += schemas.check_settings(schemas.ALERT, decl.settings, decl.name, decl)
+        self.check_actions(decl.actions)
+
+    def check_transducer(self, decl: ast.TransducerDecl) -> None:
+        own = {s.name for s in decl.states}
+        if not decl.states:
+            self.missing(decl, "states", "states Idle, Active")
+        if decl.initial is None:
+            self.missing(decl, "initial", f"initial {decl.states[0].name if decl.states else 'Idle'}")
+        else:
+            self.check_state(decl, decl.initial, own)
+        for final in decl.finals:
+            self.check_state(decl, final, own)
+        for transition in decl.transitions:
+            self.check_state(decl, transition.source, own)
+            self.check_state(decl, transition.dest, own)
+            self.resolve(transition.input, BOOLEAN_KINDS, "a boolean event")
+
+    def missing(self, decl: ast.TransducerDecl, what: str, example: str) -> None:
+        self.report(
+            error(
+                "RMV209",
+                f"transducer `{decl.name.name}` has no `{what}`",
+                decl.name.span,
+                label=f"`{what}` is required",
+                help=f"add `{example}` to the transducer",
+            )
+        )
+
+    def check_state(self, decl: ast.TransducerDecl, ident: ast.Ident, own: set[str]) -> None:
+        if ident.name in own:
+            symbol = self.model.symbols.get(ident.name)
+            if symbol is not None and symbol.owner == decl.name.name:
+                self.model.references.append(Reference(ident.name, ident.span, symbol))
+                self.used.add(id(symbol))
+            return
+        other = self.model.state_owner(ident.name)
+        if other is not None:
+            message = f"`{ident.name}` is a state of transducer `{other}`, not of `{decl.name.name}`"
+        else:
+            message = f"`{ident.name}` is not a state of transducer `{decl.name.name}`"
+        self.report(
+            error(
+                "RMV210",
+                message,
+                ident.span,
+                label="not in this transducer's `states`",
+                help=did_you_mean(ident.name, own) or f"add `{ident.name}` to `states`",
+            )
+        )
+
+    def check_property(self, decl: ast.PropertyDecl) -> None:
+        formula = decl.formula
+        if formula is not None:
+            self.check_formula(formula)
+        self.diagnostics += schemas.check_settings(schemas.PROPERTY, decl.settings, decl.name, decl)
+        for setting in decl.settings:
+            if setting.key.name == "trigger" and isinstance(setting.value, ast.NameValue):
+                if setting.value.ident.name != "always":
+                    self.resolve(setting.value.ident, PROPOSITION_KINDS, "a state or a boolean event")
+        self.check_actions(decl.actions)
+
+    def check_formula(self, formula: fm.Formula) -> None:
+        for node in fm.walk(formula):
+            if isinstance(node, fm.Prop):
+                ident = ast.Ident(node.name, node.span)
+                self.resolve(ident, PROPOSITION_KINDS, "a state or a boolean event")
+            elif isinstance(node, fm.Temporal):
+                if node.bound is None:
+                    self.report(
+                        error(
+                            "RMV212",
+                            f"`{node.op}` needs a time bound",
+                            _keyword_span(node),
+                            label="unbounded",
+                            help=f"write e.g. `{node.op}[<=10s]`",
+                        )
+                    )
+                else:
+                    self.check_bound_time(node.bound.value)
+            elif isinstance(node, fm.Duration):
+                self.check_bound_time(node.window)
+            elif isinstance(node, fm.Number) and node.time is not None:
+                pass  # a constant with a unit is fine wherever a duration is
+
+    def check_bound_time(self, time: fm.TimeValue) -> None:
+        if time.unit is None and self.model.time_unit is None:
+            self.report(
+                error(
+                    "RMV213",
+                    f"the time `{time.text}` has no unit and the spec declares no time unit",
+                    time.span,
+                    label="seconds? milliseconds?",
+                    help=f"write `{time.text}s`, or declare `time unit s` once for the spec",
+                )
+            )
+        elif time.value <= 0:
+            self.report(
+                error(
+                    "RMV219",
+                    "a time bound must be positive",
+                    time.span,
+                    label=f"`{time.text}` is not positive",
+                )
+            )
+
+    def check_whitelist(self, decl: ast.WhitelistDecl) -> None:
+        if isinstance(decl.target, ast.Ident):
+            self.resolve(decl.target, frozenset({Kind.TOPIC}), "a topic")
+        else:
+            self.check_ros_name(decl.target, "topic", "RMV204", patterns=True)
+        for pattern in (*(decl.publishers or ()), *(decl.subscribers or ())):
+            self.check_ros_name(pattern, "node", "RMV205", patterns=True)
+        if decl.publishers is None and decl.subscribers is None:
+            self.report(
+                error(
+                    "RMV209",
+                    "whitelist names neither publishers nor subscribers",
+                    decl.target.span,
+                    label="empty whitelist",
+                    help='add e.g. `publishers: "/carla_ros_bridge"` (or `publishers: none`)',
+                )
+            )
+        self.check_actions(decl.actions)
+
+    def check_node(self, decl: ast.NodeDecl) -> None:
+        self.check_ros_name(decl.name, "node", "RMV205", patterns=True)
+        for pattern in (*(decl.publishes or ()), *(decl.subscribes or ())):
+            self.check_ros_name(pattern, "topic", "RMV204", patterns=True)
+        self.check_actions(decl.actions)
+
+    def check_whitelist_duplicates(self) -> None:
+        seen: dict[str, ast.WhitelistDecl] = {}
+        for decl in self.model.whitelists:
+            key = self.whitelist_topic(decl)
+            first = seen.setdefault(key, decl)
+            if first is not decl:
+                self.once_only(f"the whitelist of `{key}`", decl.target, first.target)
+        nodes: dict[str, ast.NodeDecl] = {}
+        for node in self.model.nodes:
+            first_node = nodes.setdefault(node.name.value, node)
+            if first_node is not node:
+                self.once_only(f"the whitelist of node `{node.name.value}`", node.name, first_node.name)
+
+    def whitelist_topic(self, decl: ast.WhitelistDecl) -> str:
+        if isinstance(decl.target, ast.Ident):
+            topic = self.model.topics.get(decl.target.name)
+            return topic.path.value if topic else decl.target.name
+        return decl.target.value
+
+    def check_actions(self, actions: Iterable[ast.Action]) -> None:
+        for action in actions:
+            self.check_action(action)
+
+    def check_action(self, action: ast.Action) -> None:
+        kind = action.kind.name
+        signature = ACTIONS.get(kind)
+        if signature is None:
+            self.report(
+                error(
+                    "RMV216",
+                    f"unknown action `{kind}`",
+                    action.kind.span,
+                    label="expected " + ", ".join(ACTIONS),
+                    help=did_you_mean(kind, ACTIONS),
+                )
+            )
+            return
+        required, optional, keywords = signature
+        positional = [a for a in action.args if a.key is None]
+        named = {a.key.name: a for a in action.args if a.key is not None}
+        for key, arg in named.items():
+            if key not in keywords:
+                self.bad_action_arg(arg, f"`{kind}` has no argument `{key}`", did_you_mean(key, keywords))
+        if len(positional) > len(required) + len(optional):
+            self.bad_action_arg(
+                positional[len(required) + len(optional)],
+                f"`{kind}` takes at most {len(required) + len(optional)} positional arguments",
+                None,
+            )
+        given = {*([*required, *optional][: len(positional)]), *named}
+        for name in required:
+            if name not in given:
+                self.report(
+                    error(
+                        "RMV217",
+                        f"`{kind}` needs its `{name}`",
+                        action.span,
+                        label=f"no `{name}` given",
+                        help=f"write e.g. `action {kind}({_ACTION_EXAMPLES[name]})`",
+                    )
+                )
+        self.check_action_values(kind, positional, named, required, optional)
+
+    def check_action_values(
+        self,
+        kind: str,
+        positional: list[ast.Arg],
+        named: dict[str, ast.Arg],
+        required: tuple[str, ...],
+        optional: tuple[str, ...],
+    ) -> None:
+        values = dict(zip([*required, *optional], positional, strict=False)) | named
+        for name, arg in values.items():
+            value = arg.value
+            if name == "level":
+                if not (isinstance(value, ast.NameValue) and value.ident.name in LOG_LEVELS):
+                    found = value.ident.name if isinstance(value, ast.NameValue) else ""
+                    self.bad_action_arg(arg, "`level` is one of " + ", ".join(LOG_LEVELS),
+                                        did_you_mean(found, LOG_LEVELS) if found else None)
+            elif name == "timeout":
+                if not isinstance(value, ast.TimeLit):
+                    self.bad_action_arg(arg, "`timeout` is a time such as `2s`", None)
+            elif not isinstance(value, ast.StringLit):
+                self.bad_action_arg(arg, f"`{name}` of `{kind}` is a string", None)
+            elif name == "topic":
+                self.check_ros_name(value, "topic", "RMV204")
+
+    def bad_action_arg(self, arg: ast.Arg, message: str, hint: str | None) -> None:
+        self.report(error("RMV217", message, arg.span, label="invalid argument", help=hint))
+
+    # ---- unused declarations ----
+
+    def report_unused(self) -> None:
+        self.check_whitelist_duplicates()
+        whitelisted = {self.whitelist_topic(w) for w in self.model.whitelists}
+        for symbol in self.model.symbols.values():
+            if id(symbol) in self.used:
+                continue
+            if symbol.kind is Kind.TOPIC:
+                decl = symbol.decl
+                assert isinstance(decl, ast.TopicDecl)
+                if decl.path.value in whitelisted:
+                    continue
+                self.unused(symbol, "no variable reads this topic and no whitelist names it")
+            elif symbol.kind is Kind.VARIABLE:
+                self.unused(symbol, "no event, alert or downsample reads this variable")
+            elif symbol.kind in (Kind.VALUE_EVENT, Kind.BOOL_EVENT):
+                self.unused(symbol, "no event, alert, transition or property uses this event")
+
+    def unused(self, symbol: Symbol, why: str) -> None:
+        self.report(
+            warning(
+                "RMV203",
+                f"{symbol.kind.value} `{symbol.name}` is never used",
+                symbol.span,
+                label=why,
+                help="remove it, or use it",
+            )
+        )
+
+
+_ACTION_EXAMPLES = {
+    "topic": '"/rmv/alerts"',
+    "url": '"http://127.0.0.1:9000/alerts"',
+    "command": '"/usr/local/bin/notify.sh"',
+    "address": '"127.0.0.1:5678"',
+}
+
+
+def _expression_nodes(*roots: ast.Node) -> Iterator[ast.Node]:
+    stack = list(roots)
+    while stack:
+        node = stack.pop()
+        yield node
+        if isinstance(node, ast.BinOp):
+            stack.append(node.right)
+            stack.append(node.left)
+        elif isinstance(node, ast.UnaryOp):
+            stack.append(node.operand)
+        elif isinstance(node, ast.Call):
+            stack.extend(reversed(node.args))
+
+
+def _keyword_span(node: fm.Temporal) -> Span:
+    span = node.span
+    if node.left is not None:
+        return Span(span.path, node.left.span.end, node.right.span.start)
+    return Span(span.path, span.start, node.right.span.start)
+
+
+_CONSEQUENTIAL = frozenset({"RMV200", "RMV209", "RMV210", "RMV213"})
+
+
+def check_names(
+    specs: list[ast.Spec],
+    sources: SourceMap,
+    damaged: set[str] | None = None,
+    damaged_ranges: dict[str, list[tuple[int, int]]] | None = None,
+) -> tuple[Model, list[Diagnostic]]:
+    return NameChecker(specs, sources, damaged or set(), damaged_ranges or {}).run()

@@ -1,0 +1,224 @@
+"""The `rmv` command: a thin layer over the checker, formatter and importers.
+
+Exit codes: 0 no errors, 1 errors found (or `fmt --check` would change a file),
+2 usage or I/O problem, with a one-line message and never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from collections.abc import Sequence
+
+from rmvdsl import __version__
+from rmvdsl.check import check
+from rmvdsl.check.loader import UsageError, read_text
+from rmvdsl.codes import CODES, explain
+from rmvdsl.diagnostics import Diagnostic, Severity
+from rmvdsl.render import render_json, render_sarif, render_text, summary
+from rmvdsl.source import SourceMap
+
+EXIT_OK, EXIT_ERRORS, EXIT_USAGE = 0, 1, 2
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.print_usage(sys.stderr)
+        self.exit(EXIT_USAGE, f"rmv: error: {message}\n")
+
+
+def _build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="rmv",
+        description="Check, format and import .rmv specifications of ROS monitors.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="""examples:
+  rmv check examples/carla/abs.rmv
+  rmv check --format json spec.rmv
+  rmv fmt --check examples/**/*.rmv
+  rmv import rostopicmon.yaml rostopicver.yaml -o spec.rmv
+  rmv explain RMV200""",
+    )
+    parser.add_argument("--version", action="version", version=f"rmv {__version__}")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+
+    check_parser = commands.add_parser(
+        "check",
+        help="check specs: syntax, names, structure",
+        description="Check .rmv specs (and the files they import) and report every problem.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="""examples:
+  rmv check examples/carla/abs.rmv
+  rmv check --strict --format sarif spec.rmv > rmv.sarif
+exit codes: 0 no errors, 1 errors (or warnings with --strict), 2 usage or I/O problem""",
+    )
+    check_parser.add_argument("files", nargs="+", metavar="FILE")
+    check_parser.add_argument("--format", choices=("text", "json", "sarif"), default="text")
+    check_parser.add_argument("--no-color", action="store_true", help="never colour the output")
+    check_parser.add_argument("--strict", action="store_true", help="warnings fail the check")
+
+    explain_parser = commands.add_parser(
+        "explain",
+        help="explain a diagnostic code",
+        description="Print the explanation of a diagnostic code.",
+        epilog="example: rmv explain RMV200",
+    )
+    explain_parser.add_argument("code", metavar="CODE")
+
+    fmt_parser = commands.add_parser(
+        "fmt",
+        help="rewrite specs in the canonical layout",
+        description="Rewrite .rmv files in the canonical layout, keeping comments.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="""examples:
+  rmv fmt spec.rmv            rewrite in place
+  rmv fmt --check spec.rmv    exit 1 if the file would change
+  rmv fmt - < spec.rmv        read standard input, write standard output""",
+    )
+    fmt_parser.add_argument("files", nargs="+", metavar="FILE")
+    fmt_parser.add_argument("--check", action="store_true", help="only report files that would change")
+    fmt_parser.add_argument("--no-color", action="store_true")
+
+    import_parser = commands.add_parser(
+        "import",
+        help="turn the thesis's YAML configurations into one .rmv spec",
+        description="Convert rostopicmon / rostopicver / rostopicintrusion YAML files into one .rmv "
+        "spec. What cannot be carried over is reported on standard error and left as comments.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="""examples:
+  rmv import config.yaml
+  rmv import rostopicmon.yaml rostopicver.yaml intrusion.yaml -o carla.rmv""",
+    )
+    import_parser.add_argument("files", nargs="+", metavar="YAML")
+    import_parser.add_argument("-o", "--output", metavar="FILE", help="write here (default: stdout)")
+    import_parser.add_argument("--name", default=None, help="the system name of the spec")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = _build_parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return EXIT_USAGE
+    try:
+        if args.command == "check":
+            return _check(args)
+        if args.command == "explain":
+            return _explain(args.code)
+        if args.command == "fmt":
+            return _fmt(args)
+        if args.command == "import":
+            return _import(args)
+    except UsageError as exc:
+        print(f"rmv: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        return 130
+    except BrokenPipeError:
+        return EXIT_OK
+    return EXIT_USAGE
+
+
+def _use_color(args: argparse.Namespace) -> bool:
+    if getattr(args, "no_color", False) or os.environ.get("NO_COLOR"):
+        return False
+    return sys.stdout.isatty()
+
+
+def _check(args: argparse.Namespace) -> int:
+    all_diagnostics: list[Diagnostic] = []
+    sources = SourceMap()
+    usage_problem = False
+    checked: list[str] = []
+    for path in args.files:
+        try:
+            result = check(path)
+        except UsageError as exc:
+            print(f"rmv: error: {exc}", file=sys.stderr)
+            usage_problem = True
+            continue
+        checked.append(path)
+        all_diagnostics.extend(result.diagnostics)
+        for source in result.model.sources:
+            sources.add(source)
+    if args.format == "json":
+        sys.stdout.write(render_json(all_diagnostics, sources))
+    elif args.format == "sarif":
+        sys.stdout.write(render_sarif(all_diagnostics, sources))
+    else:
+        sys.stdout.write(render_text(all_diagnostics, sources, _use_color(args)))
+        if checked:
+            print(summary(checked, all_diagnostics))
+    if usage_problem:
+        return EXIT_USAGE
+    failing = {Severity.ERROR, Severity.WARNING} if args.strict else {Severity.ERROR}
+    return EXIT_ERRORS if any(d.severity in failing for d in all_diagnostics) else EXIT_OK
+
+
+def _explain(code: str) -> int:
+    text = explain(code)
+    if text is None:
+        known = ", ".join(sorted(CODES))
+        print(f"rmv: error: unknown code `{code}`; known codes: {known}", file=sys.stderr)
+        return EXIT_USAGE
+    sys.stdout.write(text)
+    return EXIT_OK
+
+
+def _fmt(args: argparse.Namespace) -> int:
+    from rmvdsl.grammar.formatter import format_spec
+    from rmvdsl.grammar.parser import parse_source
+    from rmvdsl.source import SourceFile
+
+    status = EXIT_OK
+    for path in args.files:
+        text = sys.stdin.read() if path == "-" else read_text(path)
+        source = SourceFile("<stdin>" if path == "-" else path, text)
+        parsed = parse_source(source)
+        errors = [d for d in parsed.diagnostics if d.is_error]
+        if errors:
+            sources = SourceMap()
+            sources.add(source)
+            sys.stderr.write(render_text(errors, sources, _use_color(args) and sys.stderr.isatty()))
+            print(f"rmv: error: {source.path}: not formatted: fix the syntax errors first", file=sys.stderr)
+            status = EXIT_ERRORS
+            continue
+        formatted = format_spec(parsed.spec, source)
+        if path == "-":
+            sys.stdout.write(formatted)
+        elif formatted != text:
+            if args.check:
+                print(f"would reformat {path}")
+                status = EXIT_ERRORS
+            else:
+                _write(path, formatted)
+                print(f"reformatted {path}")
+    return status
+
+
+def _write(path: str, text: str) -> None:
+    try:
+        with open(path, "w", encoding="utf-8") as handle:
+            handle.write(text)
+    except OSError as exc:
+        raise UsageError(f"{path}: cannot write: {exc.strerror}") from None
+
+
+def _import(args: argparse.Namespace) -> int:
+    from rmvdsl.importers.thesis_yaml import convert_files
+
+    result = convert_files(args.files, system_name=args.name)
+    for note in result.notes:
+        print(f"rmv import: {note}", file=sys.stderr)
+    if args.output:
+        _write(args.output, result.text)
+        print(f"wrote {args.output}", file=sys.stderr)
+    else:
+        sys.stdout.write(result.text)
+    return EXIT_OK
+
+
+if __name__ == "__main__":
+    sys.exit(main())

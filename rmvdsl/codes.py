@@ -1,0 +1,280 @@
+"""The registry of diagnostic codes: one title and one explanation each.
+
+`rmv explain CODE` prints the explanation; docs/diagnostics.md is generated from
+this table (tests keep the two in step). Codes are stable: never reuse a number.
+Ranges: RMV0xx files and imports, RMV1xx syntax, RMV2xx names and structure.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Code:
+    code: str
+    title: str
+    explanation: str
+
+
+_TABLE: list[tuple[str, str, str]] = [
+    (
+        "RMV001",
+        "imported file not found",
+        """An `import "path.rmv"` names a file that does not exist. Paths are relative to
+the folder of the file that imports them.
+
+    import "common/topics.rmv"   // looked up next to this file
+
+Fix the path, or create the file.""",
+    ),
+    (
+        "RMV002",
+        "import cycle",
+        """A file imports itself, directly or through other files. Each file is read
+once; the cycle is reported at the import that closes it. Move the shared
+declarations into a third file that both import.""",
+    ),
+    (
+        "RMV003",
+        "imported file unreadable",
+        """An imported file exists but cannot be read, or is not UTF-8 text. Save it as
+UTF-8 and check its permissions.""",
+    ),
+    (
+        "RMV100",
+        "syntax error",
+        """The parser met a token it did not expect here. The message lists what would
+have been accepted. The parser recovers at the next declaration (a line that
+starts with `topic`, `var`, `event`, `alert`, `transducer`, `property`,
+`whitelist`, `node`, ...), so every broken declaration in a file is reported.
+
+    var Speed = status.velocity +   // error: expected a field name ...""",
+    ),
+    (
+        "RMV101",
+        "unexpected character",
+        """A character that cannot start any token of the language, for example `$` or
+`@`. Strings are written in double quotes; comments start with `//`.""",
+    ),
+    (
+        "RMV102",
+        "unterminated string",
+        """A string literal has no closing double quote on its line. Strings cannot span
+lines; inside a string, write `\\"` for a quote and `\\\\` for a backslash.
+Other backslashes are kept as they are, so LaTeX formulas such as
+"\\until_{<10}" need no escaping.""",
+    ),
+    (
+        "RMV103",
+        "unexpected end of file",
+        """The file ends inside a declaration, most often because a `}` or `)` is
+missing. The label points at the opening that is still open.""",
+    ),
+    (
+        "RMV104",
+        "syntax error in a LaTeX formula",
+        """The LaTeX form of an RMTLD3 property (`property P: latex "..."`) does not
+parse. The notation is rmtld3synth's: `\\lor`, `\\land`, `\\neg`, `\\rightarrow`,
+`\\until_{<10}` (or `\\until{<10}` as printed in the thesis), `\\since_{<10}`,
+`\\eventually_{<10}`, `\\always_{=5}`, `\\int^{10} p`, terms with `+` and `*`,
+and `<`, `<=`, `>`, `>=`, `=` between terms.""",
+    ),
+    (
+        "RMV105",
+        "unknown unit",
+        """A number carries a unit the language does not know. Time units are `ns`,
+`us`, `ms`, `s`, `m` (minutes), `h`, `d`, `w`; rates are written in `Hz`.
+
+    event Fast = mean(Velocity) group by time(100ms)   // ok
+    event Slow = mean(Velocity) group by time(100sec)  // error: unknown unit""",
+    ),
+    (
+        "RMV200",
+        "undefined name",
+        """A name is used but never declared (in this file or the files it imports).
+Names are case-sensitive; the help line suggests the closest declared name.""",
+    ),
+    (
+        "RMV201",
+        "duplicate declaration",
+        """Two declarations share one name. Topics, variables, events, alerts,
+transducers, states and properties share one namespace, so a state cannot be
+named like an event. The secondary label shows the first declaration.""",
+    ),
+    (
+        "RMV202",
+        "wrong kind of name",
+        """A declared name is used where another kind is required: a variable path must
+start with a topic; event expressions use variables and events; transitions take
+a boolean event as input; properties are made of transducer states and boolean
+events; a whitelist names a topic.""",
+    ),
+    (
+        "RMV203",
+        "unused declaration",
+        """(warning) A topic that no variable or whitelist uses, a variable that no event
+or alert reads, or an event that nothing reads. Remove it, or use it. With
+`--strict`, warnings fail the check.""",
+    ),
+    (
+        "RMV204",
+        "invalid ROS topic name",
+        """A topic name breaks the ROS naming rules: names are made of tokens of
+letters, digits and underscores separated by `/`, a token does not start with a
+digit, and a name does not end with `/` or contain `//`. A leading `~` (private)
+is allowed. Whitelist patterns may also use `*`.
+
+    topic status: carla_msgs/CarlaEgoVehicleStatus = "/carla/hero/vehicle_status" """,
+    ),
+    (
+        "RMV205",
+        "invalid ROS node name or pattern",
+        """A node name or node pattern in a whitelist breaks the ROS naming rules. Node
+names are like topic names; `*` matches any run of characters inside one
+pattern, which serves anonymous nodes: "/rostopic_*".""",
+    ),
+    (
+        "RMV206",
+        "invalid ROS message type",
+        """A message type must be `package/Type` (ROS 1) or `package/msg/Type` (ROS 2).
+Package names are lower case (letters, digits, underscores, starting with a
+letter); type names start with an upper-case letter.""",
+    ),
+    (
+        "RMV207",
+        "unknown setting",
+        """A block has a setting it does not know. The allowed settings of each block
+are listed in docs/language.md; the help line suggests the closest one.""",
+    ),
+    (
+        "RMV208",
+        "invalid setting value",
+        """A setting has a value of the wrong form, for example a port that is not a
+number in 1..65535, a precision that is not one of ns, u, ms, s, m, h, or a
+QoS reliability that is not `reliable` or `best_effort`.""",
+    ),
+    (
+        "RMV209",
+        "missing required element",
+        """A declaration lacks something it needs: a transducer without `states` or
+without `initial`, a database without `name`, a retention policy without a
+`duration`, a downsample without `into`.""",
+    ),
+    (
+        "RMV210",
+        "state of another transducer",
+        """A transition, `initial` or `final` names a state that is not declared in the
+`states` list of this transducer. Add it to `states`, or fix the name.""",
+    ),
+    (
+        "RMV211",
+        "credentials written in clear",
+        """A password or token is written as a literal in the spec. Specs are shared and
+versioned, so credentials are taken from the environment instead:
+
+    password = env("RMV_INFLUX_PASSWORD")""",
+    ),
+    (
+        "RMV212",
+        "temporal operator without a time bound",
+        """RMTLD3 is a bounded logic: `until`, `since`, `eventually`, `always`, `once`
+and `historically` need a bound such as `[<10s]`, `[<=10s]` or `[=10s]`, so that
+a monitor can decide them with finite memory.
+
+    HardBraking -> eventually[<=10s] Stopped""",
+    ),
+    (
+        "RMV213",
+        "time value without a unit",
+        """A time bound or duration is a bare number and the spec declares no time unit.
+Write the unit (`10s`, `100ms`), or declare one for the whole spec:
+
+    time unit s""",
+    ),
+    (
+        "RMV214",
+        "declared more than once",
+        """A declaration that may appear once per spec (`system`, `time unit`, an unnamed
+`database`, a global `intrusion` block) or once per block (a `group by`, a `fill`)
+appears twice. The secondary label shows the first one.""",
+    ),
+    (
+        "RMV215",
+        "unknown function",
+        """An event expression calls a function that InfluxQL does not have. Supported:
+aggregations (count, distinct, integral, mean, median, mode, spread, stddev,
+sum), selectors (bottom, first, last, max, min, percentile, sample, top) and
+transformations (abs, acos, asin, atan, atan2, ceil, cos, cumulative_sum,
+derivative, difference, elapsed, exp, floor, histogram, ln, log, log2, log10,
+moving_average, non_negative_derivative, non_negative_difference, pow, round,
+sin, sqrt, tan).""",
+    ),
+    (
+        "RMV216",
+        "unknown action",
+        """An `action` names an unknown kind. Actions are `log(message, level = info)`,
+`publish(topic, message)` on a ROS topic (std_msgs/String), `post(url)` (HTTP
+POST of the alert as JSON), `exec(command, args...)` and `tcp(address)`.""",
+    ),
+    (
+        "RMV217",
+        "invalid action arguments",
+        """An action has too few or too many arguments, an argument of the wrong form,
+or an unknown keyword argument. See RMV216 for each action's arguments.""",
+    ),
+    (
+        "RMV218",
+        "invalid array aggregate",
+        """A variable aggregates over an array (`max(objects.objects[*].twist.linear.x)`)
+but its path has no `[*]`, or it names an aggregate the language does not have.
+Array aggregates are `min`, `max`, `sum`, `mean`, `count`, `any`, `all`.""",
+    ),
+    (
+        "RMV219",
+        "time bound not positive",
+        """A time bound, duration window, group-by interval or rate is zero or negative.
+Bounds of temporal operators must be positive: `until[<0s]` can never hold.""",
+    ),
+    (
+        "RMV220",
+        "events defined in a cycle",
+        """An event uses itself, directly or through other events:
+
+    event A = mean(B) * 2
+    event B = mean(A) + 1     // error: A -> B -> A
+
+Each event is computed from variables and events computed before it, so the
+definitions must form no cycle.""",
+    ),
+]
+
+CODES: dict[str, Code] = {code: Code(code, title, text) for code, title, text in _TABLE}
+
+
+def explain(code: str) -> str | None:
+    entry = CODES.get(code.upper())
+    if entry is None:
+        return None
+    return f"{entry.code}: {entry.title}\n\n{entry.explanation}\n"
+
+
+def diagnostics_markdown() -> str:
+    """The text of docs/diagnostics.md."""
+    parts = [
+        "# Diagnostics\n",
+        "Every diagnostic of `rmv check` has a stable code. `rmv explain CODE` prints the",
+        "same text as this page. This page is generated from `rmvdsl/codes.py`",
+        "(`python -m rmvdsl.codes > docs/diagnostics.md`).\n",
+        "Ranges: RMV0xx files and imports, RMV1xx syntax, RMV2xx names and structure.\n",
+    ]
+    for entry in CODES.values():
+        parts.append(f"## {entry.code}: {entry.title}\n")
+        parts.append("```text")
+        parts.append(entry.explanation)
+        parts.append("```\n")
+    return "\n".join(parts)
+
+
+if __name__ == "__main__":
+    print(diagnostics_markdown(), end="")

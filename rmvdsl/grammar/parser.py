@@ -1,0 +1,491 @@
+"""Parsing .rmv text into the AST, recovering from errors.
+
+Recovery works on two levels. The scanner cuts the file into top-level
+declarations and each is parsed on its own, so one broken declaration never hides
+the next. Inside a declaration, the LALR parser is driven token by token: a
+missing `)`, `]` or `}` is inserted when that lets the parse go on, otherwise the
+offending token is skipped; a new error is reported only after three tokens were
+accepted since the previous one, so one mistake gives one message.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import re
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from importlib import resources
+from typing import Any
+
+from lark import Lark, Token
+from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken
+from lark.lexer import LexerState, LineCounter, PatternStr
+from lark.utils import TextSlice
+
+from rmvdsl.diagnostics import Diagnostic, Label, error
+from rmvdsl.grammar import ast
+from rmvdsl.grammar.builder import AstBuilder
+from rmvdsl.grammar.scanner import TOP_LEVEL_KEYWORDS, RawComment, scan
+from rmvdsl.logic.formula import Formula
+from rmvdsl.source import SourceFile, Span
+
+_SPEC_GRAMMAR_FILES = ("rmv.lark", "expr.lark", "formula.lark", "lexical.lark")
+_CLOSERS = {"RPAR": ")", "RSQB": "]", "RBRACE": "}"}
+_IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+_ACCEPTED_BEFORE_NEXT_REPORT = 3
+
+_FRIENDLY = {
+    "NAME": "a name",
+    "QUANTITY": "a number",
+    "NUMBER": "a number",
+    "STRING": "a string",
+    "$END": "the end of the file",
+    "OR": "`\\lor`",
+    "AND": "`\\land`",
+    "NOT": "`\\neg`",
+    "IMPLIES": "`\\rightarrow`",
+    "IFF": "`\\leftrightarrow`",
+    "UNTIL": "`\\until`",
+    "SINCE": "`\\since`",
+    "EVENTUALLY": "`\\eventually`",
+    "ALWAYS": "`\\always`",
+    "INT": "`\\int`",
+    "LE": "`<=`",
+    "GE": "`>=`",
+}
+
+
+def _grammar_text(names: tuple[str, ...]) -> str:
+    folder = resources.files("rmvdsl.grammar")
+    return "\n".join(folder.joinpath(name).read_text(encoding="utf-8") for name in names)
+
+
+@functools.cache
+def _spec_parser() -> tuple[Lark, AstBuilder]:
+    builder = AstBuilder()
+    parser = Lark(
+        _grammar_text(_SPEC_GRAMMAR_FILES),
+        parser="lalr",
+        lexer="contextual",
+        start=["start", "formula"],
+        transformer=builder,
+        maybe_placeholders=True,
+        cache=False,
+    )
+    return parser, builder
+
+
+@functools.cache
+def _latex_parser() -> tuple[Lark, AstBuilder]:
+    builder = AstBuilder()
+    parser = Lark(
+        _grammar_text(("latex.lark",)),
+        parser="lalr",
+        lexer="contextual",
+        transformer=builder,
+        maybe_placeholders=True,
+    )
+    return parser, builder
+
+
+def bare_spec_parser() -> Lark:
+    """lark alone on the same grammar, building its own parse tree (the benchmark's
+    baseline)."""
+    return Lark(
+        _grammar_text(_SPEC_GRAMMAR_FILES),
+        parser="lalr",
+        lexer="contextual",
+        start=["start", "formula"],
+        maybe_placeholders=True,
+    )
+
+
+@functools.cache
+def _terminal_texts(which: str) -> dict[str, str]:
+    parser = _spec_parser()[0] if which == "spec" else _latex_parser()[0]
+    texts = dict(_FRIENDLY)
+    for terminal in parser.terminals:
+        if terminal.name in texts:
+            continue
+        if isinstance(terminal.pattern, PatternStr):
+            texts[terminal.name] = f"`{terminal.pattern.value}`"
+    return texts
+
+
+def describe_expected(expected: set[str] | frozenset[str], which: str = "spec") -> str:
+    texts = _terminal_texts(which)
+    keywords = sorted(name for name in expected if name.startswith("KW_") and name != "KW_COMPLETE")
+    rest = [name for name in expected if name not in keywords]
+    words = sorted({texts.get(name, f"`{name.lower()}`") for name in rest}, key=_word_order)
+    if len(keywords) >= 5:
+        words.append("a new declaration (`topic`, `var`, `event`, ...)")
+    else:
+        words.extend(texts.get(name, name) for name in keywords)
+    if len(words) > 10:
+        words = [*words[:10], "..."]
+    if not words:
+        return "nothing more"
+    if len(words) == 1:
+        return words[0]
+    return ", ".join(words[:-1]) + " or " + words[-1]
+
+
+def _word_order(word: str) -> tuple[int, str]:
+    return (0 if word.startswith("a ") else 1, word)
+
+
+def describe_token(token: Token) -> str:
+    if token.type == "$END":
+        return "the end of the file"
+    if token.type == "STRING":
+        return f"the string {token}"
+    return f"`{token}`"
+
+
+@dataclass
+class ParsedSpec:
+    spec: ast.Spec
+    diagnostics: list[Diagnostic]
+    # Identifiers of declarations that had syntax errors: names that may have been
+    # lost, so that "undefined name" is not reported for them.
+    damaged_names: set[str] = field(default_factory=set)
+    # Offsets [start, end) of the declarations that had syntax errors.
+    damaged_ranges: list[tuple[int, int]] = field(default_factory=list)
+
+
+class _ChunkParser:
+    """Parses one declaration chunk with token-level recovery."""
+
+    def __init__(self, source: SourceFile, start: int, end: int, line: int) -> None:
+        self.source = source
+        self.start = start
+        self.end = end
+        self.line = line
+        self.diagnostics: list[Diagnostic] = []
+        self.accepted = _ACCEPTED_BEFORE_NEXT_REPORT
+
+    def parse(self) -> list[ast.Decl] | None:
+        parser, _ = _spec_parser()
+        interactive = parser.parse_interactive("", start="start")
+        counter = LineCounter("\n")
+        counter.char_pos = counter.line_start_pos = self.start
+        counter.line = self.line
+        interactive.lexer_thread.state = LexerState(
+            TextSlice(self.source.text, self.start, self.end), counter
+        )
+        last: Token | None = None
+        for token in self._tokens(interactive):
+            self._feed(interactive, token)
+            last = token
+        decls = self._finish(interactive, last)
+        if decls and len(decls) == 1 and last is not None and last.end_pos is not None:
+            # A declaration's span runs to its last token, the closing `}` included.
+            decl = decls[0]
+            end = Span(decl.span.path, decl.span.start, last.end_pos)
+            decls[0] = dataclasses.replace(decl, span=decl.span.cover(end))
+        return decls
+
+    def _tokens(self, interactive: Any) -> Iterator[Token]:
+        while True:
+            stream = interactive.lexer_thread.lex(interactive.parser_state)
+            try:
+                yield from stream
+                return
+            except UnexpectedCharacters as exc:
+                self._skip_characters(interactive, exc)
+            except UnexpectedToken as exc:
+                # The contextual lexer found a token valid elsewhere in the grammar.
+                yield exc.token
+
+    def _skip_characters(self, interactive: Any, exc: UnexpectedCharacters) -> None:
+        state = interactive.lexer_thread.state
+        position = state.line_ctr.char_pos
+        text = self.source.text
+        if text[position] == '"':
+            line_end = text.find("\n", position)
+            line_end = self.end if line_end == -1 or line_end > self.end else line_end
+            self._report(
+                error(
+                    "RMV102",
+                    "unterminated string",
+                    self.source.span(position, line_end),
+                    label="this string has no closing `\"`",
+                    help='close the string on the same line; write \\" for a quote inside it',
+                ),
+                force=True,
+            )
+            state.line_ctr.feed(text[position:line_end])
+            return
+        char = text[position]
+        self._report(
+            error(
+                "RMV101",
+                f"unexpected character `{char}`",
+                self.source.span(position, position + 1),
+                label="no token of the language starts with this character",
+                help="comments start with `//`; strings are written in double quotes",
+            ),
+            force=True,
+        )
+        state.line_ctr.feed(char)
+
+    def _feed(self, interactive: Any, token: Token) -> None:
+        try:
+            interactive.feed_token(token)
+            self.accepted += 1
+            return
+        except UnexpectedToken:
+            # LALR lookahead sets are merged across contexts; accepts() is exact.
+            expected = set(interactive.accepts())
+        closer = self._insertable_closer(interactive, token, expected)
+        self._report(self._unexpected(token, expected, closer))
+        self.accepted = 0
+        if closer is not None:
+            interactive.feed_token(Token.new_borrow_pos(closer, _CLOSERS[closer], token))
+            interactive.feed_token(token)
+
+    def _insertable_closer(self, interactive: Any, token: Token, expected: set[str]) -> str | None:
+        for closer in _CLOSERS:
+            if closer not in expected:
+                continue
+            trial = interactive.copy(deepcopy_values=False)
+            try:
+                trial.feed_token(Token.new_borrow_pos(closer, _CLOSERS[closer], token))
+                trial.feed_token(token)
+            except UnexpectedInput:
+                continue
+            return closer
+        return None
+
+    def _unexpected(self, token: Token, expected: set[str], closer: str | None) -> Diagnostic:
+        span = self.source.span(token.start_pos or 0, token.end_pos or 0)
+        hint = None
+        if closer is not None:
+            hint = f"insert `{_CLOSERS[closer]}` before {describe_token(token)}"
+        elif token.type == "NAME" and str(token) in TOP_LEVEL_KEYWORDS:
+            hint = "start each declaration on a line of its own, without indentation"
+        return error(
+            "RMV100",
+            f"expected {describe_expected(expected)}, found {describe_token(token)}",
+            span,
+            label="unexpected here",
+            help=hint,
+        )
+
+    def _finish(self, interactive: Any, last: Token | None) -> list[ast.Decl] | None:
+        reported_eof = False
+        for _ in range(64):
+            try:
+                result = interactive.feed_eof(last)
+                return list(result) if result is not None else []
+            except UnexpectedToken:
+                expected = set(interactive.accepts())
+            closer = next((c for c in _CLOSERS if c in expected), None)
+            if not reported_eof and (self.accepted > 0 or not self.diagnostics):
+                self._report_eof(expected, last, closer)
+                reported_eof = True
+            if closer is None:
+                return None
+            interactive.feed_token(Token.new_borrow_pos(closer, _CLOSERS[closer], last))
+        return None
+
+    def _report_eof(self, expected: set[str], last: Token | None, closer: str | None) -> None:
+        end = self.end
+        while end > self.start and self.source.text[end - 1].isspace():
+            end -= 1
+        position = last.end_pos if last is not None and last.end_pos is not None else end
+        opener = _last_unclosed(self.source.text, self.start, self.end)
+        secondary = []
+        if opener is not None:
+            secondary.append(Label(self.source.span(opener, opener + 1), "opened here"))
+        self._report(
+            error(
+                "RMV103",
+                f"unexpected end of declaration: expected {describe_expected(expected)}",
+                self.source.span(position, position),
+                label="the declaration ends here",
+                secondary=secondary,
+                help=f"insert `{_CLOSERS[closer]}`" if closer else None,
+            ),
+            force=True,
+        )
+
+    def _report(self, diagnostic: Diagnostic, force: bool = False) -> None:
+        if force or self.accepted >= _ACCEPTED_BEFORE_NEXT_REPORT:
+            self.diagnostics.append(diagnostic)
+        if force:
+            self.accepted = 0
+
+
+def _last_unclosed(text: str, start: int, end: int) -> int | None:
+    stack: list[int] = []
+    index = start
+    while index < end:
+        char = text[index]
+        if char == '"':
+            index += 1
+            while index < end and text[index] not in '"\n':
+                index += 2 if text[index] == "\\" else 1
+        elif char == "/" and text.startswith("//", index):
+            newline = text.find("\n", index)
+            index = end if newline == -1 else newline
+        elif char in "{([":
+            stack.append(index)
+        elif char in "})]" and stack:
+            stack.pop()
+        index += 1
+    return stack[-1] if stack else None
+
+
+def parse_source(source: SourceFile) -> ParsedSpec:
+    """Parse a whole file: every declaration, every syntax error."""
+    _, builder = _spec_parser()
+    builder.path = source.path
+    builder.diagnostics = []
+    scanned = scan(source.text)
+    items: list[ast.Decl] = []
+    diagnostics: list[Diagnostic] = []
+    damaged: set[str] = set()
+    ranges: list[tuple[int, int]] = []
+    bounds = [*scanned.chunks, (len(source.text), 0)]
+    for (start, line), (end, _) in zip(bounds, bounds[1:], strict=False):
+        chunk = _ChunkParser(source, start, end, line)
+        decls = chunk.parse()
+        if decls:
+            items.extend(decls)
+        if chunk.diagnostics or decls is None:
+            diagnostics.extend(chunk.diagnostics)
+            damaged.update(_IDENTIFIER.findall(source.text, start, end))
+            ranges.append((start, end))
+    diagnostics.extend(builder.diagnostics)
+    items = _attach_docs(items, scanned.comments, source)
+    items, latex_diagnostics = _parse_latex_bodies(items)
+    diagnostics.extend(latex_diagnostics)
+    comments = tuple(ast.Comment(c.text, source.span(c.start, c.end)) for c in scanned.comments)
+    spec = ast.Spec(source.path, tuple(items), comments, source.span(0, len(source.text)))
+    return ParsedSpec(spec, _unique(diagnostics), damaged, ranges)
+
+
+def _unique(diagnostics: list[Diagnostic]) -> list[Diagnostic]:
+    return list(dict.fromkeys(diagnostics))
+
+
+def _attach_docs(
+    items: list[ast.Decl], comments: tuple[RawComment, ...], source: SourceFile
+) -> list[ast.Decl]:
+    doc_lines: dict[int, str] = {}
+    for comment in comments:
+        if comment.own_line and comment.text.startswith("///"):
+            text = comment.text[3:]
+            doc_lines[source.position(comment.start).line] = text[1:] if text[:1] == " " else text
+    if not doc_lines:
+        return items
+    attached = []
+    for item in items:
+        line = source.position(item.span.start).line - 1
+        lines = []
+        while line in doc_lines:
+            lines.append(doc_lines[line])
+            line -= 1
+        doc = "\n".join(reversed(lines))
+        attached.append(dataclasses.replace(item, doc=doc) if doc else item)  # type: ignore[call-arg]
+    return attached
+
+
+def _parse_latex_bodies(items: list[ast.Decl]) -> tuple[list[ast.Decl], list[Diagnostic]]:
+    diagnostics: list[Diagnostic] = []
+    result: list[ast.Decl] = []
+    for item in items:
+        if isinstance(item, ast.PropertyDecl) and isinstance(item.body, ast.LatexFormula):
+            formula, found = parse_latex(item.body.source)
+            diagnostics.extend(found)
+            body = dataclasses.replace(item.body, formula=formula)
+            item = dataclasses.replace(item, body=body)
+        result.append(item)
+    return result, diagnostics
+
+
+def parse_latex(literal: ast.StringLit) -> tuple[Formula | None, list[Diagnostic]]:
+    """Parse the LaTeX notation inside a string literal; spans point into the file."""
+    parser, builder = _latex_parser()
+    path = literal.span.path
+    offsets = literal.offsets or tuple(range(literal.span.start + 1, literal.span.end - 1))
+    value = literal.value
+
+    def file_span(start: int, end: int) -> Span:
+        if not offsets:
+            return literal.span
+        first = offsets[min(start, len(offsets) - 1)] if start < len(offsets) else literal.span.end - 1
+        last = offsets[end - 1] + 1 if 0 < end <= len(offsets) else first
+        return Span(path, first, max(first, last))
+
+    builder.path = path
+    builder.diagnostics = []
+    builder._span_of = lambda token: file_span(token.start_pos or 0, token.end_pos or 0)
+    try:
+        formula = parser.parse(value)
+    except UnexpectedInput as exc:
+        return None, [*builder.diagnostics, _latex_error(exc, value, file_span)]
+    return formula, list(builder.diagnostics)
+
+
+def _latex_error(exc: UnexpectedInput, value: str, file_span: Any) -> Diagnostic:
+    if isinstance(exc, UnexpectedToken):
+        token = exc.token
+        start = token.start_pos if token.type != "$END" else len(value)
+        end = token.end_pos if token.type != "$END" else len(value)
+        found = "the end of the formula" if token.type == "$END" else f"`{token}`"
+        message = f"expected {describe_expected(set(exc.expected), 'latex')}, found {found}"
+    else:
+        start = exc.pos_in_stream or 0
+        end = start + 1
+        command = re.match(r"\\[A-Za-z]+", value[start:])
+        found = command.group(0) if command else value[start : start + 1]
+        message = f"unknown command or character `{found}`"
+        end = start + len(found)
+    return error(
+        "RMV104",
+        f"in LaTeX formula: {message}",
+        file_span(start or 0, end or 0),
+        label="here",
+        help="the notation is rmtld3synth's: see `rmv explain RMV104`",
+    )
+
+
+def parse_formula(text: str, syntax: str = "auto", path: str = "<formula>") -> tuple[
+    Formula | None, list[Diagnostic]
+]:
+    """Parse one formula given on its own (command line, tests)."""
+    if syntax == "auto":
+        syntax = "latex" if "\\" in text else "rmv"
+    if syntax == "latex":
+        literal = ast.StringLit(text, Span(path, -1, len(text) + 1), tuple(range(len(text))))
+        return parse_latex(literal)
+    parser, builder = _spec_parser()
+    builder.path = path
+    builder.diagnostics = []
+    builder._span_of = None
+    try:
+        formula = parser.parse(text, start="formula")
+    except UnexpectedToken as exc:
+        token = exc.token
+        position = token.start_pos if token.type != "$END" else len(text)
+        found = "the end of the formula" if token.type == "$END" else f"`{token}`"
+        return None, [
+            error(
+                "RMV100",
+                f"expected {describe_expected(set(exc.expected))}, found {found}",
+                Span(path, position or 0, token.end_pos or position or 0),
+            )
+        ]
+    except UnexpectedCharacters as exc:
+        position = exc.pos_in_stream or 0
+        return None, [
+            error(
+                "RMV101",
+                f"unexpected character `{text[position]}`",
+                Span(path, position, position + 1),
+            )
+        ]
+    return formula, list(builder.diagnostics)

@@ -1,0 +1,227 @@
+"""Showing diagnostics: rustc-style text, JSON and SARIF 2.1.0.
+
+Lines and columns are 1-based and count characters; `end_column` is the column
+just after the span (exclusive), as in SARIF.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Iterable
+from dataclasses import dataclass
+from typing import Any
+
+from rmvdsl import __version__
+from rmvdsl.codes import CODES
+from rmvdsl.diagnostics import Diagnostic, Severity
+from rmvdsl.source import SourceMap, Span
+
+
+@dataclass(frozen=True)
+class Region:
+    file: str
+    line: int
+    column: int
+    end_line: int
+    end_column: int
+
+
+def region(span: Span, sources: SourceMap) -> Region:
+    source = sources.get(span.path)
+    if source is None:
+        return Region(span.path, 1, 1, 1, 1)
+    start = source.position(span.start)
+    end = source.position(span.end)
+    return Region(span.path, start.line, start.column, end.line, end.column)
+
+
+class _Style:
+    def __init__(self, color: bool) -> None:
+        self.color = color
+
+    def paint(self, text: str, *codes: str) -> str:
+        if not self.color or not text:
+            return text
+        return f"\033[{';'.join(codes)}m{text}\033[0m"
+
+
+_SEVERITY_COLORS = {Severity.ERROR: "31", Severity.WARNING: "33", Severity.NOTE: "36"}
+
+
+def render_text(diagnostics: Iterable[Diagnostic], sources: SourceMap, color: bool = False) -> str:
+    style = _Style(color)
+    return "".join(_render_one(d, sources, style) + "\n" for d in diagnostics)
+
+
+def _render_one(diagnostic: Diagnostic, sources: SourceMap, style: _Style) -> str:
+    severity_color = _SEVERITY_COLORS[diagnostic.severity]
+    head = style.paint(f"{diagnostic.severity.value}[{diagnostic.code}]", "1", severity_color)
+    lines = [f"{head}{style.paint(': ' + diagnostic.message, '1')}"]
+    primary = region(diagnostic.span, sources)
+    labels = [(diagnostic.span, diagnostic.label, True)]
+    labels += [(label.span, label.message, False) for label in diagnostic.secondary]
+    width = len(str(max(region(span, sources).line for span, _, _ in labels)))
+    gutter = style.paint(" " * width + " |", "1", "34")
+    arrow = style.paint(" " * width + "-->", "1", "34")
+    lines.append(f"{arrow} {primary.file}:{primary.line}:{primary.column}")
+    shown_files = {diagnostic.span.path}
+    for span, message, is_primary in sorted(labels, key=lambda item: (item[0].path != diagnostic.span.path, item[0].start)):
+        if span.path not in shown_files:
+            where = region(span, sources)
+            lines.append(style.paint(" " * width + ":::", "1", "34") + f" {where.file}:{where.line}:{where.column}")
+            shown_files.add(span.path)
+        lines.extend(_snippet(span, message, is_primary, sources, style, width, severity_color))
+    lines.append(gutter)
+    if diagnostic.help:
+        lines.append(f"{' ' * width} {style.paint('= help:', '1', '36')} {diagnostic.help}")
+    return "\n".join(lines)
+
+
+def _snippet(
+    span: Span,
+    message: str,
+    is_primary: bool,
+    sources: SourceMap,
+    style: _Style,
+    width: int,
+    severity_color: str,
+) -> list[str]:
+    source = sources.get(span.path)
+    gutter = style.paint(" " * width + " |", "1", "34")
+    if source is None:
+        return [gutter]
+    where = region(span, sources)
+    text = source.line_text(where.line).expandtabs(1)
+    end_column = where.end_column if where.end_line == where.line else len(text) + 1
+    length = max(1, end_column - where.column)
+    mark = ("^" if is_primary else "-") * length
+    color = severity_color if is_primary else "34"
+    number = style.paint(str(where.line).rjust(width) + " |", "1", "34")
+    underline = " " * (where.column - 1) + style.paint(f"{mark} {message}".rstrip(), "1", color)
+    return [gutter, f"{number} {text}", f"{gutter} {underline}"]
+
+
+def summary(paths: list[str], diagnostics: list[Diagnostic]) -> str:
+    errors = sum(d.severity is Severity.ERROR for d in diagnostics)
+    warnings = sum(d.severity is Severity.WARNING for d in diagnostics)
+    files = paths[0] if len(paths) == 1 else f"{len(paths)} files"
+    return f"{files}: {_count(errors, 'error')}, {_count(warnings, 'warning')}"
+
+
+def _count(number: int, word: str) -> str:
+    return f"{number} {word}{'' if number == 1 else 's'}"
+
+
+def as_json_objects(diagnostics: Iterable[Diagnostic], sources: SourceMap) -> list[dict[str, Any]]:
+    objects = []
+    for diagnostic in diagnostics:
+        where = region(diagnostic.span, sources)
+        labels = [_label_json(diagnostic.span, diagnostic.label, True, sources)]
+        labels += [_label_json(label.span, label.message, False, sources) for label in diagnostic.secondary]
+        objects.append(
+            {
+                "severity": diagnostic.severity.value,
+                "code": diagnostic.code,
+                "message": diagnostic.message,
+                "file": where.file,
+                "line": where.line,
+                "column": where.column,
+                "end_line": where.end_line,
+                "end_column": where.end_column,
+                "labels": labels,
+                "help": diagnostic.help,
+            }
+        )
+    return objects
+
+
+def _label_json(span: Span, message: str, primary: bool, sources: SourceMap) -> dict[str, Any]:
+    where = region(span, sources)
+    return {
+        "message": message,
+        "primary": primary,
+        "file": where.file,
+        "line": where.line,
+        "column": where.column,
+        "end_line": where.end_line,
+        "end_column": where.end_column,
+    }
+
+
+def render_json(diagnostics: Iterable[Diagnostic], sources: SourceMap) -> str:
+    return json.dumps(as_json_objects(diagnostics, sources), indent=2) + "\n"
+
+
+_SARIF_LEVELS = {Severity.ERROR: "error", Severity.WARNING: "warning", Severity.NOTE: "note"}
+
+
+def render_sarif(diagnostics: list[Diagnostic], sources: SourceMap) -> str:
+    used = sorted({d.code for d in diagnostics})
+    rules = [
+        {
+            "id": code,
+            "name": CODES[code].title.title().replace(" ", ""),
+            "shortDescription": {"text": CODES[code].title},
+            "fullDescription": {"text": CODES[code].explanation},
+            "help": {"text": CODES[code].explanation},
+        }
+        for code in used
+    ]
+    results = []
+    for diagnostic in diagnostics:
+        text = diagnostic.message + (f"\nhelp: {diagnostic.help}" if diagnostic.help else "")
+        results.append(
+            {
+                "ruleId": diagnostic.code,
+                "ruleIndex": used.index(diagnostic.code),
+                "level": _SARIF_LEVELS[diagnostic.severity],
+                "message": {"text": text},
+                "locations": [_sarif_location(diagnostic.span, diagnostic.label, sources)],
+                "relatedLocations": [
+                    {"id": index, **_sarif_location(label.span, label.message, sources)}
+                    for index, label in enumerate(diagnostic.secondary)
+                ],
+            }
+        )
+    document = {
+        "$schema": "https://json.schemastore.org/sarif-2.1.0.json",
+        "version": "2.1.0",
+        "runs": [
+            {
+                "tool": {
+                    "driver": {
+                        "name": "rmv",
+                        "version": __version__,
+                        "rules": rules,
+                    }
+                },
+                "columnKind": "unicodeCodePoints",
+                "results": results,
+            }
+        ],
+    }
+    return json.dumps(document, indent=2) + "\n"
+
+
+def _sarif_location(span: Span, message: str, sources: SourceMap) -> dict[str, Any]:
+    where = region(span, sources)
+    location: dict[str, Any] = {
+        "physicalLocation": {
+            "artifactLocation": {"uri": _uri(where.file)},
+            "region": {
+                "startLine": where.line,
+                "startColumn": where.column,
+                "endLine": where.end_line,
+                "endColumn": max(where.end_column, where.column),
+            },
+        }
+    }
+    if message:
+        location["message"] = {"text": message}
+    return location
+
+
+def _uri(path: str) -> str:
+    relative = os.path.relpath(path) if os.path.isabs(path) else path
+    return relative.replace(os.sep, "/")
