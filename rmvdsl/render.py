@@ -66,12 +66,16 @@ def _render_one(diagnostic: Diagnostic, sources: SourceMap, style: _Style) -> st
     arrow = style.paint(" " * width + "-->", "1", "34")
     lines.append(f"{arrow} {primary.file}:{primary.line}:{primary.column}")
     shown_files = {diagnostic.span.path}
-    for span, message, is_primary in sorted(labels, key=lambda item: (item[0].path != diagnostic.span.path, item[0].start)):
-        if span.path not in shown_files:
-            where = region(span, sources)
+    by_line: dict[tuple[str, int], list[tuple[Span, str, bool]]] = {}
+    for label in labels:
+        by_line.setdefault((label[0].path, region(label[0], sources).line), []).append(label)
+    ordered = sorted(by_line, key=lambda key: (key[0] != diagnostic.span.path, key[0], key[1]))
+    for path, line in ordered:
+        if path not in shown_files:
+            where = region(by_line[(path, line)][0][0], sources)
             lines.append(style.paint(" " * width + ":::", "1", "34") + f" {where.file}:{where.line}:{where.column}")
-            shown_files.add(span.path)
-        lines.extend(_snippet(span, message, is_primary, sources, style, width, severity_color))
+            shown_files.add(path)
+        lines.extend(_snippet(by_line[(path, line)], sources, style, width, severity_color))
     lines.append(gutter)
     if diagnostic.help:
         lines.append(f"{' ' * width} {style.paint('= help:', '1', '36')} {diagnostic.help}")
@@ -79,27 +83,29 @@ def _render_one(diagnostic: Diagnostic, sources: SourceMap, style: _Style) -> st
 
 
 def _snippet(
-    span: Span,
-    message: str,
-    is_primary: bool,
+    labels: list[tuple[Span, str, bool]],
     sources: SourceMap,
     style: _Style,
     width: int,
     severity_color: str,
 ) -> list[str]:
-    source = sources.get(span.path)
+    """One source line and an underline for each label on it."""
     gutter = style.paint(" " * width + " |", "1", "34")
+    source = sources.get(labels[0][0].path)
     if source is None:
         return [gutter]
-    where = region(span, sources)
-    text = source.line_text(where.line).expandtabs(1)
-    end_column = where.end_column if where.end_line == where.line else len(text) + 1
-    length = max(1, end_column - where.column)
-    mark = ("^" if is_primary else "-") * length
-    color = severity_color if is_primary else "34"
-    number = style.paint(str(where.line).rjust(width) + " |", "1", "34")
-    underline = " " * (where.column - 1) + style.paint(f"{mark} {message}".rstrip(), "1", color)
-    return [gutter, f"{number} {text}", f"{gutter} {underline}"]
+    first = region(labels[0][0], sources)
+    text = source.line_text(first.line).expandtabs(1)
+    number = style.paint(str(first.line).rjust(width) + " |", "1", "34")
+    out = [gutter, f"{number} {text}"]
+    for span, message, is_primary in sorted(labels, key=lambda label: label[0].start):
+        where = region(span, sources)
+        end_column = where.end_column if where.end_line == where.line else len(text) + 1
+        mark = ("^" if is_primary else "-") * max(1, end_column - where.column)
+        color = severity_color if is_primary else "34"
+        underline = " " * (where.column - 1) + style.paint(f"{mark} {message}".rstrip(), "1", color)
+        out.append(f"{gutter} {underline}")
+    return out
 
 
 def summary(paths: list[str], diagnostics: list[Diagnostic]) -> str:

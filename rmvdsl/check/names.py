@@ -63,6 +63,7 @@ class NameChecker:
         self.damaged = damaged
         self.damaged_ranges = damaged_ranges
         self.used: set[int] = set()  # ids of used symbols
+        self.time_unit_decl: ast.TimeUnitDecl | None = None
 
     # ---- driver ----
 
@@ -93,14 +94,16 @@ class NameChecker:
         match decl:
             case ast.SystemDecl():
                 if model.system is not None:
-                    self.once_only("`system`", decl.name, model.system.name)
+                    self.once_only("`system`", decl.name, model.system.name, _ONE_PER_SPEC)
                 else:
                     model.system = decl
             case ast.TimeUnitDecl():
                 self.declare_time_unit(decl)
             case ast.DatabaseDecl():
                 if model.database is not None:
-                    self.once_only("`database`", decl.name or decl, model.database.name or model.database)
+                    self.once_only(
+                        "`database`", decl.name or decl, model.database.name or model.database, _ONE_PER_SPEC
+                    )
                 else:
                     model.database = decl
             case ast.TopicDecl():
@@ -122,15 +125,16 @@ class NameChecker:
                 model.nodes.append(decl)
             case ast.IntrusionDecl():
                 if model.intrusion is not None:
-                    self.once_only("the `intrusion` block", decl, model.intrusion)
+                    self.once_only("the `intrusion` block", decl, model.intrusion, _ONE_PER_SPEC)
                 else:
                     model.intrusion = decl
 
     def declare_time_unit(self, decl: ast.TimeUnitDecl) -> None:
         unit = decl.unit.name
-        if self.model.time_unit is not None:
-            self.once_only("`time unit`", decl.unit, decl.unit)
+        if self.time_unit_decl is not None:
+            self.once_only("`time unit`", decl.unit, self.time_unit_decl.unit, _ONE_PER_SPEC)
             return
+        self.time_unit_decl = decl
         if unit not in TIME_UNIT_NAMES:
             self.report(
                 error(
@@ -191,15 +195,17 @@ class NameChecker:
         self.model.symbols[ident.name] = Symbol(ident.name, kind, ident.span, decl, owner)
         return True
 
-    def once_only(self, what: str, again: ast.Node, first: ast.Node) -> None:
+    def once_only(
+        self, what: str, again: ast.Node, first: ast.Node, help: str = "keep only one"
+    ) -> None:
         self.report(
             error(
                 "RMV214",
-                f"{what} is declared more than once",
+                f"{what} is given more than once",
                 again.span,
-                label="declared again here",
-                secondary=[Label(first.span, "first declared here")],
-                help="a spec has one; remove or merge the second",
+                label="given again here",
+                secondary=[Label(first.span, "first given here")],
+                help=help,
             )
         )
 
@@ -217,7 +223,7 @@ class NameChecker:
                         "RMV200",
                         f"undefined name `{ident.name}`",
                         ident.span,
-                        label=f"no {wanted} has this name",
+                        label=f"not declared (expected {wanted})",
                         help=did_you_mean(ident.name, candidates),
                     )
                 )
@@ -743,6 +749,8 @@ class NameChecker:
 
     def report_unused(self) -> None:
         self.check_whitelist_duplicates()
+        if any(self.damaged_ranges.values()):
+            return  # uses may be in the parts that did not parse
         whitelisted = {self.whitelist_topic(w) for w in self.model.whitelists}
         for symbol in self.model.symbols.values():
             if id(symbol) in self.used:
@@ -799,6 +807,7 @@ def _keyword_span(node: fm.Temporal) -> Span:
     return Span(span.path, span.start, node.right.span.start)
 
 
+_ONE_PER_SPEC = "a spec has one (its imports included): remove or merge the second"
 _CONSEQUENTIAL = frozenset({"RMV200", "RMV209", "RMV210", "RMV213"})
 
 

@@ -21,7 +21,7 @@ from rmvdsl.source import Span
 _QUANTITY = re.compile(r"^((?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?)([A-Za-z]*)$")
 RATE_UNITS = {"Hz": Fraction(1), "kHz": Fraction(1000)}
 # InfluxDB also writes microseconds as `u`.
-TIME_UNIT_ALIASES = {"u": "us", "µs": "us", "sec": None}
+TIME_UNIT_ALIASES = {"u": "us"}
 _FORMULA_OPERATOR_TOKENS = frozenset(
     {"OR", "AND", "NOT", "IMPLIES", "IFF", "UNTIL", "SINCE", "EVENTUALLY", "ALWAYS", "INT"}
 )

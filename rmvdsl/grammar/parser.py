@@ -23,7 +23,7 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedTok
 from lark.lexer import LexerState, LineCounter, PatternStr
 from lark.utils import TextSlice
 
-from rmvdsl.diagnostics import Diagnostic, Label, error
+from rmvdsl.diagnostics import Diagnostic, Label, did_you_mean, error
 from rmvdsl.grammar import ast
 from rmvdsl.grammar.builder import AstBuilder
 from rmvdsl.grammar.scanner import TOP_LEVEL_KEYWORDS, RawComment, scan
@@ -41,6 +41,7 @@ _FRIENDLY = {
     "NUMBER": "a number",
     "STRING": "a string",
     "$END": "the end of the file",
+    "END_OF_DECLARATION": "the end of the declaration",
     "OR": "`\\lor`",
     "AND": "`\\land`",
     "NOT": "`\\neg`",
@@ -117,6 +118,11 @@ def describe_expected(expected: set[str] | frozenset[str], which: str = "spec") 
     texts = _terminal_texts(which)
     keywords = sorted(name for name in expected if name.startswith("KW_") and name != "KW_COMPLETE")
     rest = [name for name in expected if name not in keywords]
+    if which == "spec" and "$END" in rest:
+        # Each declaration is parsed alone: its end is not the file's.
+        rest.remove("$END")
+        if not keywords:
+            rest.append("END_OF_DECLARATION")
     words = sorted({texts.get(name, f"`{name.lower()}`") for name in rest}, key=_word_order)
     if len(keywords) >= 5:
         words.append("a new declaration (`topic`, `var`, `event`, ...)")
@@ -444,6 +450,10 @@ def _latex_error(exc: UnexpectedInput, value: str, file_span: Any) -> Diagnostic
         found = command.group(0) if command else value[start : start + 1]
         message = f"unknown command or character `{found}`"
         end = start + len(found)
+        suggestion = did_you_mean(found, LATEX_COMMANDS) if command else None
+        if suggestion:
+            return error("RMV104", f"in LaTeX formula: {message}", file_span(start, end),
+                         label="not a command of the notation", help=suggestion)
     return error(
         "RMV104",
         f"in LaTeX formula: {message}",
@@ -451,6 +461,13 @@ def _latex_error(exc: UnexpectedInput, value: str, file_span: Any) -> Diagnostic
         label="here",
         help="the notation is rmtld3synth's: see `rmv explain RMV104`",
     )
+
+
+LATEX_COMMANDS = (
+    "\\lor", "\\vee", "\\land", "\\wedge", "\\neg", "\\lnot", "\\not", "\\rightarrow",
+    "\\implies", "\\leftrightarrow", "\\iff", "\\until", "\\since", "\\eventually",
+    "\\always", "\\int", "\\top", "\\bot", "\\leq", "\\geq", "\\left", "\\right",
+)  # fmt: skip
 
 
 def parse_formula(text: str, syntax: str = "auto", path: str = "<formula>") -> tuple[
