@@ -15,6 +15,7 @@ from lark import Token, Transformer
 
 from rmvdsl.diagnostics import Diagnostic, Label, error
 from rmvdsl.grammar import ast
+from rmvdsl.grammar.printer import decimal
 from rmvdsl.logic import formula as fm
 from rmvdsl.source import Span
 
@@ -643,9 +644,30 @@ class AstBuilder(Transformer[Token, Any]):
         return self._number_term(c[-1], negative=True)
 
     def t_duration(self, c: list[Any]) -> fm.Duration:
-        window_token = next(x for x in c if isinstance(x, Token) and x.type in {"QUANTITY", "NUMBER"})
-        body = c[-1]
-        return fm.Duration(self.time_value(window_token), body, self.cover(c))
+        window = next(x for x in c if isinstance(x, fm.TimeValue) or (isinstance(x, Token) and x.type in {"QUANTITY", "NUMBER"}))
+        if isinstance(window, Token):
+            window = self.time_value(window)
+        return fm.Duration(window, c[-1], self.cover(c))
+
+    # ---- LaTeX duration windows written as constant arithmetic ----
+
+    def w_number(self, c: list[Any]) -> fm.TimeValue:
+        return self.time_value(c[0])
+
+    def _window(self, op: str, c: list[Any]) -> fm.TimeValue:
+        left, right = c[0], c[-1]
+        value = {"+": left.value + right.value, "-": left.value - right.value, "*": left.value * right.value}[op]
+        span = left.span.cover(right.span)
+        return fm.TimeValue(value, None, decimal(value), span)
+
+    def w_add(self, c: list[Any]) -> fm.TimeValue:
+        return self._window("+", c)
+
+    def w_sub(self, c: list[Any]) -> fm.TimeValue:
+        return self._window("-", c)
+
+    def w_mul(self, c: list[Any]) -> fm.TimeValue:
+        return self._window("*", c)
 
 
 def _is_operator(item: Any) -> bool:

@@ -224,7 +224,7 @@ def _render(lines: list[_Line], comments: tuple[ast.Comment, ...], source: Sourc
             line.anchor = anchors[-1] if anchors else 0
         anchors.append(line.anchor)
         blank_before.append(printed_from_source and _blank_line_before(source, line.anchor))
-    tail: list[str] = []
+    tail: list[tuple[str, bool]] = []
     for comment in comments:
         text = comment.text.rstrip()
         position = bisect.bisect_right(anchors, comment.span.start)
@@ -234,7 +234,7 @@ def _render(lines: list[_Line], comments: tuple[ast.Comment, ...], source: Sourc
         elif position < len(lines):
             lines[position].leading.append((text, _blank_line_before(source, comment.span.start)))
         else:
-            tail.append(text)
+            tail.append((text, _blank_line_before(source, comment.span.start)))
     out: list[str] = []
     for line, blank in zip(lines, blank_before, strict=True):
         indent = INDENT * line.depth
@@ -245,10 +245,9 @@ def _render(lines: list[_Line], comments: tuple[ast.Comment, ...], source: Sourc
         _blank(out, blank)
         trailing = "  " + "  ".join(line.trailing) if line.trailing else ""
         out.append(indent + line.text + trailing)
-    if tail:
-        if out:
-            out.append("")
-        out.extend(tail)
+    for text, blank_above in tail:
+        _blank(out, blank_above)
+        out.append(text)
     return "\n".join(out) + "\n"
 
 

@@ -52,6 +52,8 @@ _FRIENDLY = {
     "EVENTUALLY": "`\\eventually`",
     "ALWAYS": "`\\always`",
     "INT": "`\\int`",
+    "TOP": "`\\top`",
+    "BOT": "`\\bot`",
     "LE": "`<=`",
     "GE": "`>=`",
 }

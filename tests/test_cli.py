@@ -1,0 +1,190 @@
+"""The `rmv` command end to end: exit codes, formats, usage errors."""
+
+from __future__ import annotations
+
+import json
+import os
+
+import pytest
+
+from conftest import ROOT, rmv_process
+
+SUBCOMMANDS = ["check", "explain", "fmt", "import"]
+
+
+def test_version(rmv):
+    result = rmv("--version")
+    assert result.code == 0
+    assert result.out.startswith("rmv 0.")
+
+
+@pytest.mark.parametrize("command", SUBCOMMANDS)
+def test_every_subcommand_has_help_with_examples(rmv, command):
+    result = rmv(command, "--help")
+    assert result.code == 0
+    assert "example" in result.out
+
+
+def test_no_command_prints_help_and_usage_code(rmv):
+    result = rmv()
+    assert result.code == 2
+    assert "check" in result.out
+
+
+def test_check_clean_example_prints_one_line(rmv):
+    result = rmv("check", "examples/carla/abs.rmv")
+    assert result.code == 0
+    assert result.out.splitlines() == ["examples/carla/abs.rmv: 0 errors, 0 warnings"]
+
+
+def test_check_reports_errors_with_exit_1(rmv):
+    result = rmv("check", "--no-color", "examples/errors/undefined.rmv")
+    assert result.code == 1
+    assert "examples/errors/undefined.rmv:9:22" in result.out
+    assert "did you mean `BrakePedal`?" in result.out
+
+
+def test_warnings_pass_unless_strict(rmv, tmp_path):
+    spec = tmp_path / "warn.rmv"
+    spec.write_text('topic s: std_msgs/Float64 = "/speed"\nvar Unused = s.data\n', encoding="utf-8")
+    assert rmv("check", str(spec)).code == 0
+    strict = rmv("check", "--strict", str(spec))
+    assert strict.code == 1
+    assert "RMV203" in strict.out
+
+
+def test_json_format(rmv):
+    result = rmv("check", "--format", "json", "examples/errors/undefined.rmv")
+    assert result.code == 1
+    diagnostics = json.loads(result.out)
+    keys = {"severity", "code", "message", "file", "line", "column", "end_line", "end_column",
+            "labels", "help"}  # fmt: skip
+    assert all(set(d) == keys for d in diagnostics)
+    brake = next(d for d in diagnostics if "BrakePedl" in d["message"])
+    assert (brake["line"], brake["column"], brake["end_line"], brake["end_column"]) == (9, 22, 9, 31)
+    assert brake["severity"] == "error" and brake["code"] == "RMV200"
+    assert brake["help"] == "did you mean `BrakePedal`?"
+    assert brake["labels"][0]["primary"] is True
+
+
+def test_json_labels_carry_secondary_locations(rmv):
+    diagnostics = json.loads(rmv("check", "--format", "json", "examples/errors/duplicate.rmv").out)
+    velocity = next(d for d in diagnostics if "`Velocity`" in d["message"])
+    assert [(label["line"], label["primary"]) for label in velocity["labels"]] == [(10, True), (9, False)]
+
+
+def test_sarif_format(rmv):
+    result = rmv("check", "--format", "sarif", "examples/errors/undefined.rmv")
+    document = json.loads(result.out)
+    assert document["version"] == "2.1.0"
+    run = document["runs"][0]
+    assert run["tool"]["driver"]["name"] == "rmv"
+    rule_ids = [rule["id"] for rule in run["tool"]["driver"]["rules"]]
+    assert rule_ids == sorted(set(rule_ids))
+    result0 = run["results"][0]
+    assert result0["ruleId"] in rule_ids
+    assert rule_ids[result0["ruleIndex"]] == result0["ruleId"]
+    region = result0["locations"][0]["physicalLocation"]["region"]
+    assert {"startLine", "startColumn", "endLine", "endColumn"} <= set(region)
+    assert {r["level"] for r in run["results"]} == {"error", "warning"}
+
+
+def test_color_only_on_request_of_a_terminal(rmv):
+    result = rmv("check", "examples/errors/undefined.rmv")
+    assert "\033[" not in result.out  # captured output is not a terminal
+
+
+@pytest.mark.parametrize(
+    ("setup", "message"),
+    [
+        ("missing", "no such file"),
+        ("directory", "is a directory"),
+        ("latin1", "not UTF-8"),
+    ],
+)
+def test_unreadable_input_is_exit_2_with_one_line(tmp_path, setup, message):
+    target = tmp_path / "spec.rmv"
+    if setup == "directory":
+        target.mkdir()
+    elif setup == "latin1":
+        target.write_bytes(b"// caf\xe9\n")
+    result = rmv_process(["check", str(target)])
+    assert result.code == 2
+    assert result.err.count("\n") == 1 and message in result.err
+    assert "Traceback" not in result.err + result.out
+
+
+def test_unknown_option_is_usage_error(rmv):
+    result = rmv("check", "--colour", "examples/carla/abs.rmv")
+    assert result.code == 2
+    assert "unrecognized arguments" in result.err
+
+
+def test_explain(rmv):
+    result = rmv("explain", "RMV200")
+    assert result.code == 0
+    assert result.out.startswith("RMV200: undefined name")
+    assert rmv("explain", "rmv212").code == 0
+    unknown = rmv("explain", "RMV999")
+    assert unknown.code == 2 and "unknown code" in unknown.err
+
+
+def test_multiple_files_summary(rmv):
+    result = rmv("check", "examples/carla/abs.rmv", "examples/gazebo/prius_platoon.rmv")
+    assert result.code == 0
+    assert result.out.strip() == "2 files: 0 errors, 0 warnings"
+
+
+def test_one_missing_file_among_several_is_exit_2(rmv):
+    result = rmv("check", "examples/carla/abs.rmv", "examples/nothere.rmv")
+    assert result.code == 2
+    assert "no such file" in result.err
+
+
+def test_fmt_check_and_rewrite(rmv, tmp_path):
+    spec = tmp_path / "messy.rmv"
+    spec.write_text(
+        'topic  s :std_msgs/Float64="/speed"   // the speed\nvar   V=s.data\n'
+        "event E = mean(V) group by time(1s)  fill  none\nalert A{warn when E>3}\n",
+        encoding="utf-8",
+    )
+    check = rmv("fmt", "--check", str(spec))
+    assert check.code == 1 and "would reformat" in check.out
+    assert rmv("fmt", str(spec)).code == 0
+    assert spec.read_text(encoding="utf-8") == (
+        'topic s: std_msgs/Float64 = "/speed"  // the speed\n'
+        "var V = s.data\n"
+        "event E = mean(V)\n"
+        "    group by time(1s)\n"
+        "    fill none\n"
+        "alert A {\n"
+        "    warn when E > 3\n"
+        "}\n"
+    )
+    assert rmv("fmt", "--check", str(spec)).code == 0
+
+
+def test_fmt_refuses_syntax_errors(rmv):
+    result = rmv("fmt", "--check", "examples/errors/syntax.rmv")
+    assert result.code == 1
+    assert "fix the syntax errors first" in result.err
+
+
+def test_fmt_stdin_to_stdout():
+    result = rmv_process(["fmt", "-"], stdin="var  X =t.a\ntopic t: a/B = \"/t\"\n")
+    assert result.code == 0
+    assert result.out == 'var X = t.a\ntopic t: a/B = "/t"\n'
+
+
+def test_console_script_is_installed():
+    # `pip install .` provides the `rmv` command itself.
+    import shutil
+
+    path = shutil.which("rmv")
+    if path is None:
+        pytest.skip("rmvdsl is not installed in this environment")
+    import subprocess
+
+    completed = subprocess.run([path, "--version"], capture_output=True, text=True, cwd=ROOT,
+                               env={**os.environ}, timeout=60)  # fmt: skip
+    assert completed.returncode == 0 and completed.stdout.startswith("rmv ")

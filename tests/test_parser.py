@@ -1,0 +1,170 @@
+"""Parsing: the tree, its spans, error recovery and the words of syntax errors."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from conftest import EXAMPLES
+from rmvdsl.grammar import ast
+from rmvdsl.grammar.parser import parse_source
+from rmvdsl.logic import formula as fm
+from rmvdsl.source import SourceFile
+
+
+def parse(text: str) -> tuple[ast.Spec, list]:
+    result = parse_source(SourceFile("t.rmv", text))
+    return result.spec, result.diagnostics
+
+
+def test_every_name_span_covers_its_text():
+    source = SourceFile("abs.rmv", (EXAMPLES / "carla" / "abs.rmv").read_text(encoding="utf-8"))
+    spec = parse_source(source).spec
+    idents = [n for n in ast.walk(spec) if isinstance(n, ast.Ident)]
+    assert len(idents) > 150
+    for ident in idents:
+        assert source.text[ident.span.start : ident.span.end] == ident.name
+    for decl in spec.items:
+        assert source.text[decl.span.start :].split()[0] in {
+            "system", "time", "database", "topic", "var", "event", "alert", "transducer",
+            "property", "whitelist", "node", "intrusion",
+        }  # fmt: skip
+
+
+def test_declaration_span_includes_closing_brace():
+    text = "transducer T {\n    states A\n    initial A\n}\n"
+    spec, _ = parse(text)
+    assert text[spec.items[0].span.start : spec.items[0].span.end].endswith("}")
+
+
+def test_formula_spans_point_into_the_latex_string():
+    text = 'property P: latex "\\int^{10} HardBraking < 4"\n'
+    spec, diagnostics = parse(text)
+    assert diagnostics == []
+    prop = next(n for n in fm.walk(spec.items[0].formula) if isinstance(n, fm.Prop))
+    assert text[prop.span.start : prop.span.end] == "HardBraking"
+
+
+def test_latex_escapes_map_spans_exactly():
+    # `\\` in the .rmv string is one backslash of the formula.
+    text = 'property P: latex "a \\\\lor Braking"\n'
+    spec, diagnostics = parse(text)
+    assert diagnostics == []
+    prop = fm.propositions(spec.items[0].formula)[1]
+    assert text[prop.span.start : prop.span.end] == "Braking"
+
+
+def test_doc_comments_attach_to_the_next_declaration():
+    spec, _ = parse("/// The speed.\n/// In m/s.\nvar V = t.v\n\n/// Detached.\n\ntopic t: a/B = \"/t\"\n")
+    assert spec.items[0].doc == "The speed.\nIn m/s."
+    assert spec.items[1].doc == ""
+
+
+def test_both_message_type_forms():
+    spec, diagnostics = parse('topic a: pkg/Type = "/a"\ntopic b: pkg/msg/Type = "/b"\n')
+    assert diagnostics == []
+    assert [t.msg_type.text for t in spec.items] == ["pkg/Type", "pkg/msg/Type"]
+
+
+def test_field_paths_with_indices_and_aggregates():
+    spec, diagnostics = parse("var A = o.objects[3].pose.position.x\nvar B = max(o.objects[*].twist.linear.x)\n")
+    assert diagnostics == []
+    first, second = spec.items
+    assert first.source.text == "objects[3].pose.position.x"
+    assert second.aggregate.name == "max" and second.source.segments[0].index == "*"
+
+
+def test_event_clauses():
+    spec, diagnostics = parse(
+        "event E = derivative(mean(V), 1s) * 3.6 where V > 10 and not V = 3\n"
+        "    group by time(100ms, 10ms), \"car\" fill linear order desc limit 1\n"
+        "    resample every 1m for 2m range 1s\n"
+    )
+    assert diagnostics == []
+    event = spec.items[0]
+    assert [c.kind for c in event.clauses] == ["where", "group", "fill", "order", "limit", "resample", "range"]
+    group = event.clause("group").value
+    assert group.interval.time.text == "100ms" and group.offset.time.text == "10ms"
+    assert event.clause("resample").value.for_.time.text == "2m"
+
+
+def test_operator_precedence_in_expressions():
+    spec, _ = parse("event E when a + b * c > 2 or not d < 1 and e = 1\n")
+    expr = spec.items[0].expr
+    assert expr.op == "or"
+    assert expr.left.op == ">" and expr.left.left.op == "+" and expr.left.left.right.op == "*"
+    assert expr.right.op == "and" and expr.right.left.op == "not"
+
+
+def test_formula_precedence():
+    spec, _ = parse("property P: a -> b until[<10s] c and not d or eventually[=5s] e\n")
+    f = spec.items[0].formula
+    assert isinstance(f, fm.Binary) and f.op == "->"
+    assert f.right.op == "or"
+    assert f.right.left.op == "and" and f.right.left.left.op == "until"
+
+
+def test_infix_and_latex_build_the_same_tree():
+    spec, diagnostics = parse(
+        "property A: (H -> (L or H) until[<10] S) and duration[10](H) < 4\n"
+        'property B: latex "(H \\rightarrow ((L \\lor H) \\until{<10} S)) \\land \\int^{10} H < 4"\n'
+    )
+    assert diagnostics == []
+    assert spec.items[0].formula == spec.items[1].formula
+
+
+def test_recovery_reports_one_error_per_broken_declaration():
+    text = (EXAMPLES / "errors" / "syntax.rmv").read_text(encoding="utf-8")
+    spec, diagnostics = parse(text)
+    assert [d.code for d in diagnostics] == ["RMV100", "RMV103", "RMV101", "RMV102", "RMV103"]
+    # Declarations after the errors are still there.
+    assert any(isinstance(i, ast.PropertyDecl) for i in spec.items)
+
+
+def test_missing_closer_is_inserted_and_parse_goes_on():
+    spec, diagnostics = parse("event E = mean(V * 2 group by time(1s)\n")
+    assert len(diagnostics) == 1 and "insert `)`" in diagnostics[0].help
+    assert spec.items[0].clause("group") is not None
+
+
+def test_missing_brace_at_end_keeps_the_declaration():
+    spec, diagnostics = parse("transducer T {\n    states A, B\n    initial A\n    A -> B on E\n")
+    assert [d.code for d in diagnostics] == ["RMV103"]
+    assert spec.items[0].transitions[0].dest.name == "B"
+
+
+def test_unindented_keyword_ends_an_unclosed_block():
+    spec, diagnostics = parse("alert A {\n    warn when X > 1\nvar X = t.x\n")
+    assert [type(i).__name__ for i in spec.items] == ["AlertDecl", "VarDecl"]
+    assert [d.code for d in diagnostics] == ["RMV103"]
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "var = t.x\n",
+        "event E when\n",
+        "topic t: a = \"/t\"\n",
+        "property P: a until[<] b\n",
+        "transducer T { states A,, B }\n",
+        "alert A { info when }\n",
+        "whitelist t { publishers: }\n",
+    ],
+)
+def test_expected_tokens_are_words_not_terminal_names(text):
+    _, diagnostics = parse(text)
+    assert diagnostics
+    for diagnostic in diagnostics:
+        assert not re.search(r"__ANON|\bLPAR\b|\bRPAR\b|\bNAME\b|\bQUANTITY\b|\$END|KW_", diagnostic.message)
+
+
+def test_keywords_are_names_where_a_name_is_expected():
+    spec, diagnostics = parse('topic topic: std_msgs/String = "/t"\nvar event = topic.data\n')
+    assert diagnostics == []
+    assert spec.items[1].name.name == "event"
+
+
+def test_strings_keep_backslashes_but_unescape_quotes():
+    spec, _ = parse('alert A { warn when x > 1 message "say \\"hi\\" \\\\ \\n" }\n')
+    assert spec.items[0].message.value == 'say "hi" \\ \\n'
