@@ -77,21 +77,25 @@ exit codes: 0 no errors, 1 errors (or warnings with --strict), 2 usage or I/O pr
   rmv fmt - < spec.rmv        read standard input, write standard output""",
     )
     fmt_parser.add_argument("files", nargs="+", metavar="FILE")
-    fmt_parser.add_argument("--check", action="store_true", help="only report files that would change")
+    fmt_parser.add_argument(
+        "--check", action="store_true", help="only report files that would change"
+    )
     fmt_parser.add_argument("--no-color", action="store_true")
 
     import_parser = commands.add_parser(
         "import",
         help="turn the thesis's YAML configurations into one .rmv spec",
-        description="Convert rostopicmon / rostopicver / rostopicintrusion YAML files into one .rmv "
-        "spec. What cannot be carried over is reported on standard error and left as comments.",
+        description="Convert rostopicmon / rostopicver / rostopicintrusion YAML files into one "
+        ".rmv spec. What cannot be carried over is reported on standard error.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="""examples:
   rmv import config.yaml
   rmv import rostopicmon.yaml rostopicver.yaml intrusion.yaml -o carla.rmv""",
     )
     import_parser.add_argument("files", nargs="+", metavar="YAML")
-    import_parser.add_argument("-o", "--output", metavar="FILE", help="write here (default: stdout)")
+    import_parser.add_argument(
+        "-o", "--output", metavar="FILE", help="write here (default: stdout)"
+    )
     import_parser.add_argument("--name", default=None, help="the system name of the spec")
     return parser
 
@@ -182,7 +186,10 @@ def _fmt(args: argparse.Namespace) -> int:
             sources = SourceMap()
             sources.add(source)
             sys.stderr.write(render_text(errors, sources, _use_color(args) and sys.stderr.isatty()))
-            print(f"rmv: error: {source.path}: not formatted: fix the syntax errors first", file=sys.stderr)
+            print(
+                f"rmv: error: {source.path}: not formatted: fix the syntax errors first",
+                file=sys.stderr,
+            )
             status = EXIT_ERRORS
             continue
         formatted = format_spec(parsed.spec, source)

@@ -73,7 +73,10 @@ def _render_one(diagnostic: Diagnostic, sources: SourceMap, style: _Style) -> st
     for path, line in ordered:
         if path not in shown_files:
             where = region(by_line[(path, line)][0][0], sources)
-            lines.append(style.paint(" " * width + ":::", "1", "34") + f" {where.file}:{where.line}:{where.column}")
+            lines.append(
+                style.paint(" " * width + ":::", "1", "34")
+                + f" {where.file}:{where.line}:{where.column}"
+            )
             shown_files.add(path)
         lines.extend(_snippet(by_line[(path, line)], sources, style, width, severity_color))
     lines.append(gutter)
@@ -124,7 +127,9 @@ def as_json_objects(diagnostics: Iterable[Diagnostic], sources: SourceMap) -> li
     for diagnostic in diagnostics:
         where = region(diagnostic.span, sources)
         labels = [_label_json(diagnostic.span, diagnostic.label, True, sources)]
-        labels += [_label_json(label.span, label.message, False, sources) for label in diagnostic.secondary]
+        labels += [
+            _label_json(label.span, label.message, False, sources) for label in diagnostic.secondary
+        ]
         objects.append(
             {
                 "severity": diagnostic.severity.value,

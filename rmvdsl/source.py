@@ -8,6 +8,7 @@ so that building the AST stays cheap.
 from __future__ import annotations
 
 import bisect
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 
@@ -92,5 +93,5 @@ class SourceMap:
     def get(self, path: str) -> SourceFile | None:
         return self._files.get(path)
 
-    def __iter__(self):  # type: ignore[no-untyped-def]
+    def __iter__(self) -> Iterator[SourceFile]:
         return iter(self._files.values())

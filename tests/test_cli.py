@@ -6,7 +6,6 @@ import json
 import os
 
 import pytest
-
 from conftest import ROOT, rmv_process
 
 SUBCOMMANDS = ["check", "explain", "fmt", "import"]
@@ -57,11 +56,26 @@ def test_json_format(rmv):
     result = rmv("check", "--format", "json", "examples/errors/undefined.rmv")
     assert result.code == 1
     diagnostics = json.loads(result.out)
-    keys = {"severity", "code", "message", "file", "line", "column", "end_line", "end_column",
-            "labels", "help"}  # fmt: skip
+    keys = {
+        "severity",
+        "code",
+        "message",
+        "file",
+        "line",
+        "column",
+        "end_line",
+        "end_column",
+        "labels",
+        "help",
+    }
     assert all(set(d) == keys for d in diagnostics)
     brake = next(d for d in diagnostics if "BrakePedl" in d["message"])
-    assert (brake["line"], brake["column"], brake["end_line"], brake["end_column"]) == (9, 22, 9, 31)
+    assert (brake["line"], brake["column"], brake["end_line"], brake["end_column"]) == (
+        9,
+        22,
+        9,
+        31,
+    )
     assert brake["severity"] == "error" and brake["code"] == "RMV200"
     assert brake["help"] == "did you mean `BrakePedal`?"
     assert brake["labels"][0]["primary"] is True
@@ -70,7 +84,10 @@ def test_json_format(rmv):
 def test_json_labels_carry_secondary_locations(rmv):
     diagnostics = json.loads(rmv("check", "--format", "json", "examples/errors/duplicate.rmv").out)
     velocity = next(d for d in diagnostics if "`Velocity`" in d["message"])
-    assert [(label["line"], label["primary"]) for label in velocity["labels"]] == [(10, True), (9, False)]
+    assert [(label["line"], label["primary"]) for label in velocity["labels"]] == [
+        (10, True),
+        (9, False),
+    ]
 
 
 def test_sarif_format(rmv):
@@ -171,7 +188,7 @@ def test_fmt_refuses_syntax_errors(rmv):
 
 
 def test_fmt_stdin_to_stdout():
-    result = rmv_process(["fmt", "-"], stdin="var  X =t.a\ntopic t: a/B = \"/t\"\n")
+    result = rmv_process(["fmt", "-"], stdin='var  X =t.a\ntopic t: a/B = "/t"\n')
     assert result.code == 0
     assert result.out == 'var X = t.a\ntopic t: a/B = "/t"\n'
 
@@ -185,6 +202,12 @@ def test_console_script_is_installed():
         pytest.skip("rmvdsl is not installed in this environment")
     import subprocess
 
-    completed = subprocess.run([path, "--version"], capture_output=True, text=True, cwd=ROOT,
-                               env={**os.environ}, timeout=60)  # fmt: skip
+    completed = subprocess.run(
+        [path, "--version"],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        env={**os.environ},
+        timeout=60,
+    )
     assert completed.returncode == 0 and completed.stdout.startswith("rmv ")

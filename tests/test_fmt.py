@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import pytest
-
 from conftest import EXAMPLES
+
 from rmvdsl.grammar.formatter import format_spec
 from rmvdsl.grammar.parser import parse_source
 from rmvdsl.source import SourceFile
@@ -13,7 +13,12 @@ PARSEABLE = sorted(
     p
     for p in EXAMPLES.rglob("*.rmv")
     if p.name != "latin1.rmv"
-    and not any(d.is_error for d in parse_source(SourceFile(str(p), p.read_bytes().decode("utf-8", "replace"))).diagnostics)
+    and not any(
+        d.is_error
+        for d in parse_source(
+            SourceFile(str(p), p.read_bytes().decode("utf-8", "replace"))
+        ).diagnostics
+    )
 )
 
 

@@ -10,7 +10,6 @@ import os
 import re
 
 import pytest
-
 from conftest import EXAMPLES, ROOT
 
 ERROR_SPECS = sorted(
@@ -40,7 +39,9 @@ def test_every_code_has_a_golden_case():
     assert set(CODES) - seen == set()
 
 
-@pytest.mark.parametrize("spec", ["carla/abs.rmv", "gazebo/prius_platoon.rmv", "gazebo/network.rmv"])
+@pytest.mark.parametrize(
+    "spec", ["carla/abs.rmv", "gazebo/prius_platoon.rmv", "gazebo/network.rmv"]
+)
 def test_good_examples_check_clean(spec, rmv):
     result = rmv("check", "--strict", f"examples/{spec}")
     assert result.code == 0, result.out

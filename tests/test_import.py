@@ -5,6 +5,7 @@ from __future__ import annotations
 import shutil
 
 from conftest import FIXTURES, rmv_process
+
 from rmvdsl.check import check
 from rmvdsl.importers.thesis_yaml import convert_files
 
@@ -27,7 +28,7 @@ def test_figure_3_13_converts_to_a_clean_spec(tmp_path):
     assert [level.severity.name for level in alert.levels] == ["info", "warn", "crit"]
     assert [a.kind.name for a in alert.actions] == ["post", "exec"]
     assert 'password = env("RMV_INFLUX_PASSWORD")' in result.text
-    assert "rmvcps\"" not in result.text.split("password")[1].split("\n")[0]
+    assert 'rmvcps"' not in result.text.split("password")[1].split("\n")[0]
     assert any("password is not copied" in note for note in result.notes)
     assert any(":30:5:" in note and "event_resample" in note for note in result.notes)
 
@@ -43,12 +44,17 @@ def test_thesis_ver_config_keeps_its_window_and_reports_open_names():
 
 
 def test_intrusion_whitelists(tmp_path):
-    result = convert_files([str(THESIS / "rostopicmon.yaml"), str(THESIS / "rostopicintrusion.yaml")])
+    result = convert_files(
+        [str(THESIS / "rostopicmon.yaml"), str(THESIS / "rostopicintrusion.yaml")]
+    )
     spec = tmp_path / "all.rmv"
     spec.write_text(result.text, encoding="utf-8")
     checked = check(str(spec))
     assert checked.errors == []
-    whitelists = {w.target.name if hasattr(w.target, "name") else w.target.value: w for w in checked.model.whitelists}
+    whitelists = {
+        w.target.name if hasattr(w.target, "name") else w.target.value: w
+        for w in checked.model.whitelists
+    }
     status = whitelists["carl_info"]  # the topic declared by the monitoring config
     assert [p.value for p in status.subscribers] == ["/rostopicmon", "/rostopic_*"]
     assert whitelists["/clock"].subscribers is None
@@ -58,10 +64,10 @@ def test_intrusion_whitelists(tmp_path):
 def test_anchors_and_aliases(tmp_path):
     config = tmp_path / "aliases.yaml"
     config.write_text(
-        "topics:\n  - name: &status \"status\"\n    topic: \"/carla/hero/vehicle_status\"\n"
-        "variables:\n  - name: \"Velocity\"\n    topic: *status\n    topic_var_path: \"velocity\"\n"
-        "events:\n  - &speed\n    event_name: \"Speed\"\n    event_select: \"mean(\\\"Velocity\\\")\"\n"
-        "    event_groupby: \"time(1s)\"\n  - <<: *speed\n    event_name: \"Speed2\"\n",
+        'topics:\n  - name: &status "status"\n    topic: "/carla/hero/vehicle_status"\n'
+        'variables:\n  - name: "Velocity"\n    topic: *status\n    topic_var_path: "velocity"\n'
+        'events:\n  - &speed\n    event_name: "Speed"\n    event_select: "mean(\\"Velocity\\")"\n'
+        '    event_groupby: "time(1s)"\n  - <<: *speed\n    event_name: "Speed2"\n',
         encoding="utf-8",
     )
     result = convert_files([str(config)])
@@ -110,7 +116,9 @@ def test_missing_tickscript_is_a_note(tmp_path):
 
 def test_cli_writes_output_file(tmp_path):
     out = tmp_path / "carla.rmv"
-    result = rmv_process(["import", str(THESIS / "rostopicmon.yaml"), "-o", str(out), "--name", "carla"])
+    result = rmv_process(
+        ["import", str(THESIS / "rostopicmon.yaml"), "-o", str(out), "--name", "carla"]
+    )
     assert result.code == 0
     assert out.read_text(encoding="utf-8").splitlines()[1] == "system carla"
     assert f"wrote {out}" in result.err

@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
-
 from conftest import ROOT
+
 from rmvdsl.grammar.parser import parse_formula
 from rmvdsl.grammar.printer import formula as print_formula
 from rmvdsl.logic import formula as fm

@@ -5,8 +5,8 @@ from __future__ import annotations
 import re
 
 import pytest
-
 from conftest import EXAMPLES
+
 from rmvdsl.grammar import ast
 from rmvdsl.grammar.parser import parse_source
 from rmvdsl.logic import formula as fm
@@ -27,9 +27,19 @@ def test_every_name_span_covers_its_text():
         assert source.text[ident.span.start : ident.span.end] == ident.name
     for decl in spec.items:
         assert source.text[decl.span.start :].split()[0] in {
-            "system", "time", "database", "topic", "var", "event", "alert", "transducer",
-            "property", "whitelist", "node", "intrusion",
-        }  # fmt: skip
+            "system",
+            "time",
+            "database",
+            "topic",
+            "var",
+            "event",
+            "alert",
+            "transducer",
+            "property",
+            "whitelist",
+            "node",
+            "intrusion",
+        }
 
 
 def test_declaration_span_includes_closing_brace():
@@ -56,7 +66,9 @@ def test_latex_escapes_map_spans_exactly():
 
 
 def test_doc_comments_attach_to_the_next_declaration():
-    spec, _ = parse("/// The speed.\n/// In m/s.\nvar V = t.v\n\n/// Detached.\n\ntopic t: a/B = \"/t\"\n")
+    spec, _ = parse(
+        '/// The speed.\n/// In m/s.\nvar V = t.v\n\n/// Detached.\n\ntopic t: a/B = "/t"\n'
+    )
     assert spec.items[0].doc == "The speed.\nIn m/s."
     assert spec.items[1].doc == ""
 
@@ -68,7 +80,9 @@ def test_both_message_type_forms():
 
 
 def test_field_paths_with_indices_and_aggregates():
-    spec, diagnostics = parse("var A = o.objects[3].pose.position.x\nvar B = max(o.objects[*].twist.linear.x)\n")
+    spec, diagnostics = parse(
+        "var A = o.objects[3].pose.position.x\nvar B = max(o.objects[*].twist.linear.x)\n"
+    )
     assert diagnostics == []
     first, second = spec.items
     assert first.source.text == "objects[3].pose.position.x"
@@ -78,12 +92,20 @@ def test_field_paths_with_indices_and_aggregates():
 def test_event_clauses():
     spec, diagnostics = parse(
         "event E = derivative(mean(V), 1s) * 3.6 where V > 10 and not V = 3\n"
-        "    group by time(100ms, 10ms), \"car\" fill linear order desc limit 1\n"
+        '    group by time(100ms, 10ms), "car" fill linear order desc limit 1\n'
         "    resample every 1m for 2m range 1s\n"
     )
     assert diagnostics == []
     event = spec.items[0]
-    assert [c.kind for c in event.clauses] == ["where", "group", "fill", "order", "limit", "resample", "range"]
+    assert [c.kind for c in event.clauses] == [
+        "where",
+        "group",
+        "fill",
+        "order",
+        "limit",
+        "resample",
+        "range",
+    ]
     group = event.clause("group").value
     assert group.interval.time.text == "100ms" and group.offset.time.text == "10ms"
     assert event.clause("resample").value.for_.time.text == "2m"
@@ -108,7 +130,8 @@ def test_formula_precedence():
 def test_infix_and_latex_build_the_same_tree():
     spec, diagnostics = parse(
         "property A: (H -> (L or H) until[<10] S) and duration[10](H) < 4\n"
-        'property B: latex "(H \\rightarrow ((L \\lor H) \\until{<10} S)) \\land \\int^{10} H < 4"\n'
+        'property B: latex "(H \\rightarrow ((L \\lor H) \\until{<10} S))'
+        ' \\land \\int^{10} H < 4"\n'
     )
     assert diagnostics == []
     assert spec.items[0].formula == spec.items[1].formula
@@ -145,7 +168,7 @@ def test_unindented_keyword_ends_an_unclosed_block():
     [
         "var = t.x\n",
         "event E when\n",
-        "topic t: a = \"/t\"\n",
+        'topic t: a = "/t"\n',
         "property P: a until[<] b\n",
         "transducer T { states A,, B }\n",
         "alert A { info when }\n",
@@ -156,7 +179,9 @@ def test_expected_tokens_are_words_not_terminal_names(text):
     _, diagnostics = parse(text)
     assert diagnostics
     for diagnostic in diagnostics:
-        assert not re.search(r"__ANON|\bLPAR\b|\bRPAR\b|\bNAME\b|\bQUANTITY\b|\$END|KW_", diagnostic.message)
+        assert not re.search(
+            r"__ANON|\bLPAR\b|\bRPAR\b|\bNAME\b|\bQUANTITY\b|\$END|KW_", diagnostic.message
+        )
 
 
 def test_keywords_are_names_where_a_name_is_expected():

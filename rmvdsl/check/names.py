@@ -29,12 +29,34 @@ INFLUX_FUNCTIONS = frozenset(
     {
         *schemas.AGGREGATES,
         *schemas.SELECTORS,
-        "abs", "acos", "asin", "atan", "atan2", "ceil", "cos", "cumulative_sum", "derivative",
-        "difference", "elapsed", "exp", "floor", "histogram", "ln", "log", "log2", "log10",
-        "moving_average", "non_negative_derivative", "non_negative_difference", "pow", "round",
-        "sin", "sqrt", "tan",
+        "abs",
+        "acos",
+        "asin",
+        "atan",
+        "atan2",
+        "ceil",
+        "cos",
+        "cumulative_sum",
+        "derivative",
+        "difference",
+        "elapsed",
+        "exp",
+        "floor",
+        "histogram",
+        "ln",
+        "log",
+        "log2",
+        "log10",
+        "moving_average",
+        "non_negative_derivative",
+        "non_negative_difference",
+        "pow",
+        "round",
+        "sin",
+        "sqrt",
+        "tan",
     }
-)  # fmt: skip
+)
 ARRAY_AGGREGATES = ("min", "max", "sum", "mean", "count", "any", "all")
 TIME_UNIT_NAMES = ("ns", "us", "ms", "s", "m", "h")
 FILL_NAMES = ("none", "null", "previous", "linear")
@@ -85,7 +107,9 @@ class NameChecker:
         self.diagnostics.append(diagnostic)
 
     def in_damaged(self, span: Span) -> bool:
-        return any(start <= span.start < end for start, end in self.damaged_ranges.get(span.path, ()))
+        return any(
+            start <= span.start < end for start, end in self.damaged_ranges.get(span.path, ())
+        )
 
     # ---- declaring ----
 
@@ -102,23 +126,34 @@ class NameChecker:
             case ast.DatabaseDecl():
                 if model.database is not None:
                     self.once_only(
-                        "`database`", decl.name or decl, model.database.name or model.database, _ONE_PER_SPEC
+                        "`database`",
+                        decl.name or decl,
+                        model.database.name or model.database,
+                        _ONE_PER_SPEC,
                     )
                 else:
                     model.database = decl
             case ast.TopicDecl():
-                self.add(decl.name, Kind.TOPIC, decl) and model.topics.setdefault(decl.name.name, decl)
+                self.add(decl.name, Kind.TOPIC, decl) and model.topics.setdefault(
+                    decl.name.name, decl
+                )
             case ast.VarDecl():
-                self.add(decl.name, Kind.VARIABLE, decl) and model.variables.setdefault(decl.name.name, decl)
+                self.add(decl.name, Kind.VARIABLE, decl) and model.variables.setdefault(
+                    decl.name.name, decl
+                )
             case ast.EventDecl():
                 kind = Kind.BOOL_EVENT if decl.boolean else Kind.VALUE_EVENT
                 self.add(decl.name, kind, decl) and model.events.setdefault(decl.name.name, decl)
             case ast.AlertDecl():
-                self.add(decl.name, Kind.ALERT, decl) and model.alerts.setdefault(decl.name.name, decl)
+                self.add(decl.name, Kind.ALERT, decl) and model.alerts.setdefault(
+                    decl.name.name, decl
+                )
             case ast.TransducerDecl():
                 self.declare_transducer(decl)
             case ast.PropertyDecl():
-                self.add(decl.name, Kind.PROPERTY, decl) and model.properties.setdefault(decl.name.name, decl)
+                self.add(decl.name, Kind.PROPERTY, decl) and model.properties.setdefault(
+                    decl.name.name, decl
+                )
             case ast.WhitelistDecl():
                 model.whitelists.append(decl)
             case ast.NodeDecl():
@@ -167,10 +202,13 @@ class NameChecker:
             self.report(
                 error(
                     "RMV201",
-                    f"`{output.name}` is emitted here but already declared as {existing.kind.described()}",
+                    f"`{output.name}` is emitted here but already declared as "
+                    f"{existing.kind.described()}",
                     output.span,
                     label="emitted by this transition",
-                    secondary=[Label(existing.span, f"declared as {existing.kind.described()} here")],
+                    secondary=[
+                        Label(existing.span, f"declared as {existing.kind.described()} here")
+                    ],
                     help="an emitted event is declared by `emit`: give it a name of its own",
                 )
             )
@@ -186,9 +224,11 @@ class NameChecker:
                     f"`{ident.name}` is declared more than once",
                     ident.span,
                     label=f"declared again here as {kind.described()}",
-                    secondary=[Label(existing.span, f"first declared here as {existing.kind.described()}")],
-                    help="topics, variables, events, alerts, transducers, states and properties share "
-                    "one namespace: rename one of them",
+                    secondary=[
+                        Label(existing.span, f"first declared here as {existing.kind.described()}")
+                    ],
+                    help="topics, variables, events, alerts, transducers, states and properties "
+                    "share one namespace: rename one of them",
                 )
             )
             return False
@@ -211,9 +251,7 @@ class NameChecker:
 
     # ---- resolving ----
 
-    def resolve(
-        self, ident: ast.Ident, allowed: frozenset[Kind], wanted: str
-    ) -> Symbol | None:
+    def resolve(self, ident: ast.Ident, allowed: frozenset[Kind], wanted: str) -> Symbol | None:
         symbol = self.model.symbols.get(ident.name)
         if symbol is None:
             if ident.name not in self.damaged:
@@ -278,7 +316,9 @@ class NameChecker:
             case ast.NodeDecl():
                 self.check_node(decl)
             case ast.IntrusionDecl():
-                self.diagnostics += schemas.check_settings(schemas.INTRUSION, decl.settings, None, decl)
+                self.diagnostics += schemas.check_settings(
+                    schemas.INTRUSION, decl.settings, None, decl
+                )
                 self.check_actions(decl.actions)
 
     def check_database(self, decl: ast.DatabaseDecl) -> None:
@@ -287,7 +327,9 @@ class NameChecker:
         for retention in decl.retentions:
             first = retention_names.setdefault(retention.name.name, retention)
             if first is not retention:
-                self.once_only(f"retention policy `{retention.name.name}`", retention.name, first.name)
+                self.once_only(
+                    f"retention policy `{retention.name.name}`", retention.name, first.name
+                )
             self.diagnostics += schemas.check_settings(
                 schemas.RETENTION, retention.settings, retention.name, retention
             )
@@ -392,12 +434,14 @@ class NameChecker:
         value = clause.value
         match clause.kind:
             case "where":
-                self.check_expression(value, allowed)  # type: ignore[arg-type]
+                self.check_expression(value, allowed)
             case "group":
                 assert isinstance(value, ast.GroupBy)
                 for time in (value.interval, value.offset):
                     if time is not None:
-                        self.check_positive_time(time.time, "group-by interval", allow_zero=time is value.offset)
+                        self.check_positive_time(
+                            time.time, "group-by interval", allow_zero=time is value.offset
+                        )
             case "fill":
                 self.check_fill(value)
             case "order":
@@ -405,7 +449,11 @@ class NameChecker:
                 if value.ident.name.lower() not in ("asc", "desc"):
                     self.invalid_clause(value, "`order` is `asc` or `desc`", ("asc", "desc"))
             case "limit":
-                if not (isinstance(value, ast.NumberLit) and value.value.denominator == 1 and value.value > 0):
+                if not (
+                    isinstance(value, ast.NumberLit)
+                    and value.value.denominator == 1
+                    and value.value > 0
+                ):
                     self.invalid_clause(value, "`limit` is a positive whole number", ())
             case "resample":
                 assert isinstance(value, ast.Resample)
@@ -419,9 +467,13 @@ class NameChecker:
     def check_fill(self, value: ast.Node) -> None:
         if isinstance(value, ast.NameValue):
             if value.ident.name not in FILL_NAMES:
-                self.invalid_clause(value, "`fill` is none, null, previous, linear or a number", FILL_NAMES)
+                self.invalid_clause(
+                    value, "`fill` is none, null, previous, linear or a number", FILL_NAMES
+                )
         elif not isinstance(value, ast.NumberLit):
-            self.invalid_clause(value, "`fill` is none, null, previous, linear or a number", FILL_NAMES)
+            self.invalid_clause(
+                value, "`fill` is none, null, previous, linear or a number", FILL_NAMES
+            )
 
     def invalid_clause(self, value: ast.Node, expected: str, choices: Iterable[str]) -> None:
         found = value.ident.name if isinstance(value, ast.NameValue) else ""
@@ -472,7 +524,9 @@ class NameChecker:
         dependencies = {
             name: [
                 n.ident
-                for n in _expression_nodes(decl.expr, *(c.value for c in decl.clauses if c.kind == "where"))
+                for n in _expression_nodes(
+                    decl.expr, *(c.value for c in decl.clauses if c.kind == "where")
+                )
                 if isinstance(n, ast.NameRef) and n.ident.name in events
             ]
             for name, decl in events.items()
@@ -482,7 +536,11 @@ class NameChecker:
             self._visit_event(name, dependencies, state, [])
 
     def _visit_event(
-        self, name: str, deps: dict[str, list[ast.Ident]], state: dict[str, int], path: list[ast.Ident]
+        self,
+        name: str,
+        deps: dict[str, list[ast.Ident]],
+        state: dict[str, int],
+        path: list[ast.Ident],
     ) -> None:
         if state.get(name) == 2:
             return
@@ -532,7 +590,9 @@ class NameChecker:
         if not decl.states:
             self.missing(decl, "states", "states Idle, Active")
         if decl.initial is None:
-            self.missing(decl, "initial", f"initial {decl.states[0].name if decl.states else 'Idle'}")
+            self.missing(
+                decl, "initial", f"initial {decl.states[0].name if decl.states else 'Idle'}"
+            )
         else:
             self.check_state(decl, decl.initial, own)
         for final in decl.finals:
@@ -562,7 +622,9 @@ class NameChecker:
             return
         other = self.model.state_owner(ident.name)
         if other is not None:
-            message = f"`{ident.name}` is a state of transducer `{other}`, not of `{decl.name.name}`"
+            message = (
+                f"`{ident.name}` is a state of transducer `{other}`, not of `{decl.name.name}`"
+            )
         else:
             message = f"`{ident.name}` is not a state of transducer `{decl.name.name}`"
         self.report(
@@ -581,9 +643,10 @@ class NameChecker:
             self.check_formula(formula)
         self.diagnostics += schemas.check_settings(schemas.PROPERTY, decl.settings, decl.name, decl)
         for setting in decl.settings:
-            if setting.key.name == "trigger" and isinstance(setting.value, ast.NameValue):
-                if setting.value.ident.name != "always":
-                    self.resolve(setting.value.ident, PROPOSITION_KINDS, "a state or a boolean event")
+            value = setting.value
+            is_trigger = setting.key.name == "trigger" and isinstance(value, ast.NameValue)
+            if is_trigger and value.ident.name != "always":  # type: ignore[union-attr]
+                self.resolve(value.ident, PROPOSITION_KINDS, "a state or a boolean event")  # type: ignore[union-attr]
         self.check_actions(decl.actions)
 
     def check_formula(self, formula: fm.Formula) -> None:
@@ -666,7 +729,9 @@ class NameChecker:
         for node in self.model.nodes:
             first_node = nodes.setdefault(node.name.value, node)
             if first_node is not node:
-                self.once_only(f"the whitelist of node `{node.name.value}`", node.name, first_node.name)
+                self.once_only(
+                    f"the whitelist of node `{node.name.value}`", node.name, first_node.name
+                )
 
     def whitelist_topic(self, decl: ast.WhitelistDecl) -> str:
         if isinstance(decl.target, ast.Ident):
@@ -697,7 +762,9 @@ class NameChecker:
         named = {a.key.name: a for a in action.args if a.key is not None}
         for key, arg in named.items():
             if key not in keywords:
-                self.bad_action_arg(arg, f"`{kind}` has no argument `{key}`", did_you_mean(key, keywords))
+                self.bad_action_arg(
+                    arg, f"`{kind}` has no argument `{key}`", did_you_mean(key, keywords)
+                )
         if len(positional) > len(required) + len(optional):
             self.bad_action_arg(
                 positional[len(required) + len(optional)],
@@ -732,8 +799,11 @@ class NameChecker:
             if name == "level":
                 if not (isinstance(value, ast.NameValue) and value.ident.name in LOG_LEVELS):
                     found = value.ident.name if isinstance(value, ast.NameValue) else ""
-                    self.bad_action_arg(arg, "`level` is one of " + ", ".join(LOG_LEVELS),
-                                        did_you_mean(found, LOG_LEVELS) if found else None)
+                    self.bad_action_arg(
+                        arg,
+                        "`level` is one of " + ", ".join(LOG_LEVELS),
+                        did_you_mean(found, LOG_LEVELS) if found else None,
+                    )
             elif name == "timeout":
                 if not isinstance(value, ast.TimeLit):
                     self.bad_action_arg(arg, "`timeout` is a time such as `2s`", None)

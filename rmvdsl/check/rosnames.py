@@ -62,7 +62,7 @@ def message_type_problem(parts: list[str]) -> str | None:
     if not _PACKAGE.match(package):
         return f"the package name `{package}` must be lower case letters, digits and `_`"
     if not _TYPE.match(type_name):
-        return f"the type name `{type_name}` must start with a letter and hold only letters, digits and `_`"
+        return f"the type name `{type_name}` must be a letter then letters, digits or `_`"
     return None
 
 

@@ -25,13 +25,13 @@ def _string(value: ast.Value) -> str | None:
 
 
 def _secret(value: ast.Value) -> str | None:
-    return None if isinstance(value, ast.EnvRef) else "expected env(\"VARIABLE\")"
+    return None if isinstance(value, ast.EnvRef) else 'expected env("VARIABLE")'
 
 
 def _string_or_env(value: ast.Value) -> str | None:
     if isinstance(value, ast.StringLit | ast.EnvRef):
         return None
-    return "expected a string or env(\"VARIABLE\")"
+    return 'expected a string or env("VARIABLE")'
 
 
 def _bool(value: ast.Value) -> str | None:

@@ -27,20 +27,16 @@ class Node:
                 yield from (v for v in value if isinstance(v, Node))
 
 
-def _span() -> Span:
-    return field(default=NO_SPAN, compare=False)  # type: ignore[return-value]
-
-
 @dataclass(frozen=True)
 class Ident(Node):
     name: str
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
 class StringLit(Node):
     value: str
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
     # Offset in the file of each character of `value` (escapes make them differ).
     offsets: tuple[int, ...] = field(default=(), compare=False, repr=False)
 
@@ -49,44 +45,44 @@ class StringLit(Node):
 class NumberLit(Node):
     value: Fraction
     text: str
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
 class TimeLit(Node):
     time: TimeValue
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
 class RateLit(Node):
     hertz: Fraction
     text: str
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
 class BoolLit(Node):
     value: bool
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
 class NameValue(Node):
     ident: Ident
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
 class EnvRef(Node):
     variable: StringLit
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
 class ListValue(Node):
     items: tuple[Value, ...]
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 Value = StringLit | NumberLit | TimeLit | RateLit | BoolLit | NameValue | EnvRef | ListValue
@@ -96,7 +92,7 @@ Value = StringLit | NumberLit | TimeLit | RateLit | BoolLit | NameValue | EnvRef
 class Setting(Node):
     key: Ident
     value: Value
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 # ---- expressions (events and alerts) ----
@@ -107,27 +103,27 @@ class BinOp(Node):
     op: str
     left: Expr
     right: Expr
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
 class UnaryOp(Node):
     op: str
     operand: Expr
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
 class Call(Node):
     func: Ident
     args: tuple[Expr, ...]
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
 class NameRef(Node):
     ident: Ident
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 Expr = BinOp | UnaryOp | Call | NameRef | NumberLit | StringLit | TimeLit | BoolLit
@@ -146,35 +142,35 @@ class SystemDecl(Decl):
     name: Ident
     title: StringLit | None
     doc: str = field(default="", compare=False)
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
 class ImportDecl(Decl):
     path: StringLit
     doc: str = field(default="", compare=False)
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
 class TimeUnitDecl(Decl):
     unit: Ident
     doc: str = field(default="", compare=False)
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
 class RetentionDecl(Node):
     name: Ident
     settings: tuple[Setting, ...]
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
 class DownsampleDecl(Node):
     name: Ident
     settings: tuple[Setting, ...]
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
@@ -184,13 +180,13 @@ class DatabaseDecl(Decl):
     retentions: tuple[RetentionDecl, ...]
     downsamples: tuple[DownsampleDecl, ...]
     doc: str = field(default="", compare=False)
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
 class MsgType(Node):
     parts: tuple[Ident, ...]
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
     @property
     def text(self) -> str:
@@ -204,7 +200,7 @@ class TopicDecl(Decl):
     path: StringLit
     qos: tuple[Setting, ...]
     doc: str = field(default="", compare=False)
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
@@ -213,14 +209,14 @@ class Segment(Node):
 
     field_name: Ident
     index: int | str | None
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
 class FieldRef(Node):
     topic: Ident
     segments: tuple[Segment, ...]
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
     @property
     def text(self) -> str:
@@ -237,7 +233,7 @@ class VarDecl(Decl):
     source: FieldRef
     aggregate: Ident | None
     doc: str = field(default="", compare=False)
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
@@ -245,14 +241,14 @@ class GroupBy(Node):
     interval: TimeLit | None
     offset: TimeLit | None
     tags: tuple[StringLit | Ident, ...]
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
 class Resample(Node):
     every: TimeLit | None
     for_: TimeLit | None
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
@@ -261,7 +257,7 @@ class Clause(Node):
 
     kind: str
     value: Node
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
@@ -274,7 +270,7 @@ class EventDecl(Decl):
     expr: Expr
     clauses: tuple[Clause, ...]
     doc: str = field(default="", compare=False)
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
     def clause(self, kind: str) -> Clause | None:
         return next((c for c in self.clauses if c.kind == kind), None)
@@ -286,14 +282,14 @@ class Arg(Node):
 
     key: Ident | None
     value: Value
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
 class Action(Node):
     kind: Ident
     args: tuple[Arg, ...]
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
@@ -301,7 +297,7 @@ class AlertLevel(Node):
     severity: Ident
     condition: Expr
     reset: Expr | None
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
@@ -312,7 +308,7 @@ class AlertDecl(Decl):
     settings: tuple[Setting, ...]
     actions: tuple[Action, ...]
     doc: str = field(default="", compare=False)
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
@@ -321,7 +317,7 @@ class Transition(Node):
     dest: Ident
     input: Ident
     output: Ident | None
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
@@ -333,7 +329,7 @@ class TransducerDecl(Decl):
     complete: bool
     transitions: tuple[Transition, ...]
     doc: str = field(default="", compare=False)
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
@@ -343,13 +339,13 @@ class LatexFormula(Node):
 
     source: StringLit
     formula: Formula | None = field(default=None, compare=False)
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
 class InfixFormula(Node):
     formula: Formula
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
@@ -359,7 +355,7 @@ class PropertyDecl(Decl):
     settings: tuple[Setting, ...]
     actions: tuple[Action, ...]
     doc: str = field(default="", compare=False)
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
     @property
     def formula(self) -> Formula | None:
@@ -376,7 +372,7 @@ class WhitelistDecl(Decl):
     subscribers: tuple[StringLit, ...] | None
     actions: tuple[Action, ...]
     doc: str = field(default="", compare=False)
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
@@ -388,7 +384,7 @@ class NodeDecl(Decl):
     subscribes: tuple[StringLit, ...] | None
     actions: tuple[Action, ...]
     doc: str = field(default="", compare=False)
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
@@ -398,7 +394,7 @@ class IntrusionDecl(Decl):
     settings: tuple[Setting, ...]
     actions: tuple[Action, ...]
     doc: str = field(default="", compare=False)
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 @dataclass(frozen=True)
@@ -414,7 +410,7 @@ class Spec(Node):
     path: str
     items: tuple[Decl, ...]
     comments: tuple[Comment, ...] = field(default=(), compare=False)
-    span: Span = _span()
+    span: Span = field(default=NO_SPAN, compare=False)
 
 
 def walk(node: Node) -> Iterator[Node]:

@@ -470,7 +470,7 @@ class AstBuilder(Transformer[Token, Any]):
         target: ast.Ident | ast.StringLit = (
             self.string(target_token) if target_token.type == "STRING" else self.ident(target_token)
         )
-        lists = dict(m for m in c[2:] if isinstance(m, tuple))
+        lists: dict[str, tuple[ast.StringLit, ...]] = dict(m for m in c[2:] if isinstance(m, tuple))
         return ast.WhitelistDecl(
             target,
             lists.get("publishers"),
@@ -480,7 +480,7 @@ class AstBuilder(Transformer[Token, Any]):
         )
 
     def node_decl(self, c: list[Any]) -> ast.NodeDecl:
-        lists = dict(m for m in c[2:] if isinstance(m, tuple))
+        lists: dict[str, tuple[ast.StringLit, ...]] = dict(m for m in c[2:] if isinstance(m, tuple))
         return ast.NodeDecl(
             self.string(c[1]),
             lists.get("publishes"),
@@ -525,8 +525,7 @@ class AstBuilder(Transformer[Token, Any]):
         return [
             x
             for x in c
-            if x is not None
-            and not (isinstance(x, Token) and x.type in _FORMULA_OPERATOR_TOKENS)
+            if x is not None and not (isinstance(x, Token) and x.type in _FORMULA_OPERATOR_TOKENS)
         ]
 
     def f_binary_op(self, op: str, c: list[Any]) -> fm.Binary:
@@ -644,7 +643,12 @@ class AstBuilder(Transformer[Token, Any]):
         return self._number_term(c[-1], negative=True)
 
     def t_duration(self, c: list[Any]) -> fm.Duration:
-        window = next(x for x in c if isinstance(x, fm.TimeValue) or (isinstance(x, Token) and x.type in {"QUANTITY", "NUMBER"}))
+        window = next(
+            x
+            for x in c
+            if isinstance(x, fm.TimeValue)
+            or (isinstance(x, Token) and x.type in {"QUANTITY", "NUMBER"})
+        )
         if isinstance(window, Token):
             window = self.time_value(window)
         return fm.Duration(window, c[-1], self.cover(c))
@@ -656,7 +660,11 @@ class AstBuilder(Transformer[Token, Any]):
 
     def _window(self, op: str, c: list[Any]) -> fm.TimeValue:
         left, right = c[0], c[-1]
-        value = {"+": left.value + right.value, "-": left.value - right.value, "*": left.value * right.value}[op]
+        value = {
+            "+": left.value + right.value,
+            "-": left.value - right.value,
+            "*": left.value * right.value,
+        }[op]
         span = left.span.cover(right.span)
         return fm.TimeValue(value, None, decimal(value), span)
 

@@ -82,7 +82,11 @@ def _print_decl(decl: ast.Decl, out: _Printer) -> None:
             else:
                 out.emit(head, 0, start)
         case ast.VarDecl():
-            source = f"{decl.source.topic.name}.{decl.source.text}" if decl.source.segments else decl.source.topic.name
+            source = (
+                f"{decl.source.topic.name}.{decl.source.text}"
+                if decl.source.segments
+                else decl.source.topic.name
+            )
             if decl.aggregate is not None:
                 source = f"{decl.aggregate.name}({source})"
             out.emit(f"var {decl.name.name} = {source}", 0, start)
@@ -95,12 +99,22 @@ def _print_decl(decl: ast.Decl, out: _Printer) -> None:
         case ast.PropertyDecl():
             _print_property(decl, out)
         case ast.WhitelistDecl():
-            target = decl.target.name if isinstance(decl.target, ast.Ident) else p.quote(decl.target.value)
-            members = _pattern_members(("publishers", decl.publishers), ("subscribers", decl.subscribers))
+            target = (
+                decl.target.name
+                if isinstance(decl.target, ast.Ident)
+                else p.quote(decl.target.value)
+            )
+            members = _pattern_members(
+                ("publishers", decl.publishers), ("subscribers", decl.subscribers)
+            )
             out.block(f"whitelist {target}", start, end, members + _actions(decl.actions))
         case ast.NodeDecl():
-            members = _pattern_members(("publishes", decl.publishes), ("subscribes", decl.subscribes))
-            out.block(f"node {p.quote(decl.name.value)}", start, end, members + _actions(decl.actions))
+            members = _pattern_members(
+                ("publishes", decl.publishes), ("subscribes", decl.subscribes)
+            )
+            out.block(
+                f"node {p.quote(decl.name.value)}", start, end, members + _actions(decl.actions)
+            )
         case ast.IntrusionDecl():
             out.block("intrusion", start, end, _settings(decl.settings) + _actions(decl.actions))
 
@@ -185,11 +199,15 @@ def _print_alert(decl: ast.AlertDecl, out: _Printer) -> None:
 def _print_transducer(decl: ast.TransducerDecl, out: _Printer) -> None:
     members: list[tuple[str, int]] = []
     if decl.states:
-        members.append(("states " + ", ".join(s.name for s in decl.states), decl.states[0].span.start))
+        members.append(
+            ("states " + ", ".join(s.name for s in decl.states), decl.states[0].span.start)
+        )
     if decl.initial is not None:
         members.append((f"initial {decl.initial.name}", decl.initial.span.start))
     if decl.finals:
-        members.append(("final " + ", ".join(s.name for s in decl.finals), decl.finals[0].span.start))
+        members.append(
+            ("final " + ", ".join(s.name for s in decl.finals), decl.finals[0].span.start)
+        )
     if decl.complete:
         members.append(("complete", -1))
     for transition in decl.transitions:
@@ -228,7 +246,9 @@ def _render(lines: list[_Line], comments: tuple[ast.Comment, ...], source: Sourc
     for comment in comments:
         text = comment.text.rstrip()
         position = bisect.bisect_right(anchors, comment.span.start)
-        own_line = not source.text[source.line_start(source.position(comment.span.start).line) : comment.span.start].strip()
+        own_line = not source.text[
+            source.line_start(source.position(comment.span.start).line) : comment.span.start
+        ].strip()
         if not own_line and position > 0:
             lines[position - 1].trailing.append(text)
         elif position < len(lines):

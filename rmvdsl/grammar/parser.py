@@ -12,11 +12,12 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import itertools
 import re
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from importlib import resources
-from typing import Any
+from typing import Any, cast
 
 from lark import Lark, Token
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken
@@ -191,7 +192,7 @@ class _ChunkParser:
             # A declaration's span runs to its last token, the closing `}` included.
             decl = decls[0]
             end = Span(decl.span.path, decl.span.start, last.end_pos)
-            decls[0] = dataclasses.replace(decl, span=decl.span.cover(end))
+            decls[0] = dataclasses.replace(decl, span=decl.span.cover(end))  # type: ignore[call-arg]
         return decls
 
     def _tokens(self, interactive: Any) -> Iterator[Token]:
@@ -218,7 +219,7 @@ class _ChunkParser:
                     "RMV102",
                     "unterminated string",
                     self.source.span(position, line_end),
-                    label="this string has no closing `\"`",
+                    label='this string has no closing `"`',
                     help='close the string on the same line; write \\" for a quote inside it',
                 ),
                 force=True,
@@ -293,7 +294,7 @@ class _ChunkParser:
             if not reported_eof and (self.accepted > 0 or not self.diagnostics):
                 self._report_eof(expected, last, closer)
                 reported_eof = True
-            if closer is None:
+            if closer is None or last is None:
                 return None
             interactive.feed_token(Token.new_borrow_pos(closer, _CLOSERS[closer], last))
         return None
@@ -357,7 +358,7 @@ def parse_source(source: SourceFile) -> ParsedSpec:
     damaged: set[str] = set()
     ranges: list[tuple[int, int]] = []
     bounds = [*scanned.chunks, (len(source.text), 0)]
-    for (start, line), (end, _) in zip(bounds, bounds[1:], strict=False):
+    for (start, line), (end, _) in itertools.pairwise(bounds):
         chunk = _ChunkParser(source, start, end, line)
         decls = chunk.parse()
         if decls:
@@ -424,7 +425,9 @@ def parse_latex(literal: ast.StringLit) -> tuple[Formula | None, list[Diagnostic
     def file_span(start: int, end: int) -> Span:
         if not offsets:
             return literal.span
-        first = offsets[min(start, len(offsets) - 1)] if start < len(offsets) else literal.span.end - 1
+        first = (
+            offsets[min(start, len(offsets) - 1)] if start < len(offsets) else literal.span.end - 1
+        )
         last = offsets[end - 1] + 1 if 0 < end <= len(offsets) else first
         return Span(path, first, max(first, last))
 
@@ -435,7 +438,7 @@ def parse_latex(literal: ast.StringLit) -> tuple[Formula | None, list[Diagnostic
         formula = parser.parse(value)
     except UnexpectedInput as exc:
         return None, [*builder.diagnostics, _latex_error(exc, value, file_span)]
-    return formula, list(builder.diagnostics)
+    return cast(Formula, formula), list(builder.diagnostics)
 
 
 def _latex_error(exc: UnexpectedInput, value: str, file_span: Any) -> Diagnostic:
@@ -454,8 +457,13 @@ def _latex_error(exc: UnexpectedInput, value: str, file_span: Any) -> Diagnostic
         end = start + len(found)
         suggestion = did_you_mean(found, LATEX_COMMANDS) if command else None
         if suggestion:
-            return error("RMV104", f"in LaTeX formula: {message}", file_span(start, end),
-                         label="not a command of the notation", help=suggestion)
+            return error(
+                "RMV104",
+                f"in LaTeX formula: {message}",
+                file_span(start, end),
+                label="not a command of the notation",
+                help=suggestion,
+            )
     return error(
         "RMV104",
         f"in LaTeX formula: {message}",
@@ -466,15 +474,34 @@ def _latex_error(exc: UnexpectedInput, value: str, file_span: Any) -> Diagnostic
 
 
 LATEX_COMMANDS = (
-    "\\lor", "\\vee", "\\land", "\\wedge", "\\neg", "\\lnot", "\\not", "\\rightarrow",
-    "\\implies", "\\leftrightarrow", "\\iff", "\\until", "\\since", "\\eventually",
-    "\\always", "\\int", "\\top", "\\bot", "\\leq", "\\geq", "\\left", "\\right",
-)  # fmt: skip
+    "\\lor",
+    "\\vee",
+    "\\land",
+    "\\wedge",
+    "\\neg",
+    "\\lnot",
+    "\\not",
+    "\\rightarrow",
+    "\\implies",
+    "\\leftrightarrow",
+    "\\iff",
+    "\\until",
+    "\\since",
+    "\\eventually",
+    "\\always",
+    "\\int",
+    "\\top",
+    "\\bot",
+    "\\leq",
+    "\\geq",
+    "\\left",
+    "\\right",
+)
 
 
-def parse_formula(text: str, syntax: str = "auto", path: str = "<formula>") -> tuple[
-    Formula | None, list[Diagnostic]
-]:
+def parse_formula(
+    text: str, syntax: str = "auto", path: str = "<formula>"
+) -> tuple[Formula | None, list[Diagnostic]]:
     """Parse one formula given on its own (command line, tests)."""
     if syntax == "auto":
         syntax = "latex" if "\\" in text else "rmv"
@@ -507,4 +534,4 @@ def parse_formula(text: str, syntax: str = "auto", path: str = "<formula>") -> t
                 Span(path, position, position + 1),
             )
         ]
-    return formula, list(builder.diagnostics)
+    return cast(Formula, formula), list(builder.diagnostics)

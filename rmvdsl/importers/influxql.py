@@ -20,7 +20,9 @@ def influx_expression(text: str) -> str:
         elif single is not None:
             out.append(quote(single))
         elif word is not None:
-            out.append(word.lower() if word.upper() in ("AND", "OR", "NOT", "TRUE", "FALSE") else word)
+            out.append(
+                word.lower() if word.upper() in ("AND", "OR", "NOT", "TRUE", "FALSE") else word
+            )
         else:
             out.append(other if other is not None else space)
     return "".join(out).strip()

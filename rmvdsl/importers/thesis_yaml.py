@@ -52,7 +52,7 @@ _NOW_RANGE = re.compile(
 )
 
 
-class Located(dict):  # type: ignore[type-arg]
+class Located(dict[str, Any]):
     """A YAML mapping that remembers where it and each of its keys stand."""
 
     path: str = ""
@@ -61,7 +61,9 @@ class Located(dict):  # type: ignore[type-arg]
     key_marks: dict[str, tuple[int, int]]
 
     def where(self, key: str | None = None) -> str:
-        line, column = self.key_marks.get(key, (self.line, self.column)) if key else (self.line, self.column)
+        line, column = (
+            self.key_marks.get(key, (self.line, self.column)) if key else (self.line, self.column)
+        )
         return f"{self.path}:{line}:{column}"
 
 
@@ -70,11 +72,13 @@ def _loader_for(path: str) -> type[yaml.SafeLoader]:
         pass
 
     def construct_mapping(loader: yaml.SafeLoader, node: yaml.MappingNode) -> Located:
-        mapping = Located(loader.construct_mapping(node, deep=True))
+        raw = loader.construct_mapping(node, deep=True)
+        mapping = Located({str(key): value for key, value in raw.items()})
         mapping.path = path
         mapping.line, mapping.column = node.start_mark.line + 1, node.start_mark.column + 1
         mapping.key_marks = {
-            str(key.value): (key.start_mark.line + 1, key.start_mark.column + 1) for key, _ in node.value
+            str(key.value): (key.start_mark.line + 1, key.start_mark.column + 1)
+            for key, _ in node.value
         }
         return mapping
 
@@ -85,7 +89,7 @@ def _loader_for(path: str) -> type[yaml.SafeLoader]:
 def load_yaml(path: str) -> Any:
     text = read_text(path)
     try:
-        return yaml.load(text, Loader=_loader_for(path))  # noqa: S506 - a SafeLoader subclass
+        return yaml.load(text, Loader=_loader_for(path))
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         where = f"{path}:{mark.line + 1}:{mark.column + 1}" if mark else path
@@ -140,7 +144,9 @@ class _Spec:
 def convert_files(paths: Iterable[str], system_name: str | None = None) -> ImportResult:
     spec = _Spec()
     documents = [(path, load_yaml(path)) for path in paths]
-    name = system_name or _identifier(os.path.splitext(os.path.basename(documents[0][0]))[0], "imported")
+    name = system_name or _identifier(
+        os.path.splitext(os.path.basename(documents[0][0]))[0], "imported"
+    )
     sources = ", ".join(os.path.basename(p) for p, _ in documents)
     spec.header.append(f"/// Imported by `rmv import` from {sources}.")
     spec.header.append(f"system {name}")
@@ -148,8 +154,10 @@ def convert_files(paths: Iterable[str], system_name: str | None = None) -> Impor
     spec.header.append("// rmtld3synth formulas count time in seconds.")
     spec.header.append("time unit s")
     for path, document in documents:
-        if not isinstance(document, dict):
-            raise UsageError(f"{path}: expected a YAML mapping at the top, found {type(document).__name__}")
+        if not isinstance(document, Located):
+            raise UsageError(
+                f"{path}: expected a YAML mapping at the top, found {type(document).__name__}"
+            )
         _convert_document(path, document, spec)
     text = _canonical(spec.text(), spec)
     _report_open_names(text, spec)
@@ -163,8 +171,12 @@ def _report_open_names(text: str, spec: _Spec) -> None:
     result = check("<import>", text)
     undefined = sorted({d.message.split("`")[1] for d in result.errors if d.code == "RMV200"})
     if undefined:
-        spec.note("<output>", "used but not defined in these files: " + ", ".join(undefined)
-                  + "; declare them (boolean events or transducer states) before `rmv check` passes")
+        spec.note(
+            "<output>",
+            "used but not defined in these files: "
+            + ", ".join(undefined)
+            + "; declare them (boolean events or transducer states) before `rmv check` passes",
+        )
 
 
 def _canonical(text: str, spec: _Spec) -> str:
@@ -180,8 +192,19 @@ def _canonical(text: str, spec: _Spec) -> str:
 
 
 def _convert_document(path: str, document: Located, spec: _Spec) -> None:
-    known = {"database", "topics", "variables", "events", "monitors", "states", "initial",
-             "transitions", "whitelist", "whitelists", "nodes"}  # fmt: skip
+    known = {
+        "database",
+        "topics",
+        "variables",
+        "events",
+        "monitors",
+        "states",
+        "initial",
+        "transitions",
+        "whitelist",
+        "whitelists",
+        "nodes",
+    }
     for key in document:
         if key not in known:
             spec.note(document.where(key), f"unknown section `{key}`, not carried over")
@@ -206,8 +229,11 @@ def _convert_document(path: str, document: Located, spec: _Spec) -> None:
         elif generator in ("rmtld3synth", "rtmld3synth"):
             _rmtld3_monitor(monitor, spec)
         else:
-            spec.note(monitor.where("monitor_gen"), f"monitor generator `{generator}` is unknown; "
-                      "expected `kapacitor` or `rmtld3synth`: monitor not carried over")
+            spec.note(
+                monitor.where("monitor_gen"),
+                f"monitor generator `{generator}` is unknown; "
+                "expected `kapacitor` or `rmtld3synth`: monitor not carried over",
+            )
 
 
 def _entries(value: Any, spec: _Spec, parent: Located, key: str) -> list[Located]:
@@ -265,7 +291,9 @@ def _database(document: Located, spec: _Spec) -> None:
         if key == "ip":
             lines.append(f"    host = {quote(text)}")
         elif key == "port":
-            lines.append(f"    port = {text}" if text.isdigit() else f"    // port {text!r} is not a number")
+            lines.append(
+                f"    port = {text}" if text.isdigit() else f"    // port {text!r} is not a number"
+            )
         elif key == "db_name":
             lines.append(f"    name = {quote(text)}")
         elif key == "epoch":
@@ -294,12 +322,19 @@ def _topics(topics: Any, spec: _Spec) -> None:
         if not path:
             spec.note(entry.where(), "a topic without `topic:` (its ROS name) is skipped")
             continue
-        name = _claim(spec, _identifier(yaml_name or path.rsplit("/", 1)[-1], "topic"), entry.where("name"))
-        msg_type = str(entry.get("type") or entry.get("msg_type") or "").strip() or KNOWN_TOPIC_TYPES.get(path)
+        name = _claim(
+            spec, _identifier(yaml_name or path.rsplit("/", 1)[-1], "topic"), entry.where("name")
+        )
+        msg_type = str(
+            entry.get("type") or entry.get("msg_type") or ""
+        ).strip() or KNOWN_TOPIC_TYPES.get(path)
         if not msg_type:
             msg_type = UNKNOWN_TYPE
-            spec.note(entry.where(), f"topic `{path}` has no message type in the YAML: "
-                      f"replace `{UNKNOWN_TYPE}` in the spec with its type")
+            spec.note(
+                entry.where(),
+                f"topic `{path}` has no message type in the YAML: "
+                f"replace `{UNKNOWN_TYPE}` in the spec with its type",
+            )
         spec.topics.append(f"topic {name}: {msg_type} = {quote(path)}")
         spec.topic_names[yaml_name or name] = name
         spec.topic_paths[path] = name
@@ -313,12 +348,18 @@ def _variables(variables: Any, spec: _Spec) -> None:
         topic_ref = str(entry.get("topic") or "").strip()
         topic = spec.topic_names.get(topic_ref) or spec.topic_paths.get(topic_ref)
         if topic is None:
-            spec.note(entry.where("topic"), f"variable `{entry.get('name')}` names the unknown topic "
-                      f"`{topic_ref}`: not carried over")
+            spec.note(
+                entry.where("topic"),
+                f"variable `{entry.get('name')}` names the unknown topic "
+                f"`{topic_ref}`: not carried over",
+            )
             continue
         field_path = _field_path(str(entry.get("topic_var_path") or ""))
         if not field_path:
-            spec.note(where, f"variable `{entry.get('name')}` has no valid `topic_var_path`: not carried over")
+            spec.note(
+                where,
+                f"variable `{entry.get('name')}` has no valid `topic_var_path`: not carried over",
+            )
             continue
         name = _claim(spec, _identifier(str(entry.get("name") or field_path), "variable"), where)
         spec.variables.append(f"var {name} = {topic}.{field_path}")
@@ -351,8 +392,10 @@ def _events(events: Any, spec: _Spec) -> None:
         lines += _event_clauses(entry, spec)
         candidate = "\n".join(lines)
         if not _parses(candidate):
-            spec.note(entry.where("event_select"), f"event `{name}`: `{select}` is not an expression "
-                      "rmvdsl reads: not carried over")
+            spec.note(
+                entry.where("event_select"),
+                f"event `{name}`: `{select}` is not an expression rmvdsl reads: not carried over",
+            )
             continue
         spec.events.append(candidate)
 
@@ -371,8 +414,11 @@ def _event_clauses(entry: Located, spec: _Spec) -> list[str]:
         if match:
             clauses.append(f"    range {match.group(1)}")
         else:
-            spec.note(entry.where("event_range"), f"range `{range_text}` is not of the form "
-                      "`time >= now() - D AND time < now()`: not carried over")
+            spec.note(
+                entry.where("event_range"),
+                f"range `{range_text}` is not of the form "
+                "`time >= now() - D AND time < now()`: not carried over",
+            )
     group = str(entry.get("event_groupby") or "").strip()
     if group:
         clauses.append(f"    group by {influx_expression(group)}")
@@ -396,8 +442,10 @@ def _resample(text: str, entry: Located, spec: _Spec) -> str:
             parts.append(f"{keyword.lower()} {value}")
     if parts:
         return " ".join(parts)
-    spec.note(entry.where("event_resample"), f"`event_resample: {text}` has no FOR/EVERY: "
-              f"read as `every {text}`")
+    spec.note(
+        entry.where("event_resample"),
+        f"`event_resample: {text}` has no FOR/EVERY: read as `every {text}`",
+    )
     return f"every {text}"
 
 
@@ -416,7 +464,10 @@ def _kapacitor_monitor(path: str, monitor: Located, spec: _Spec) -> None:
     try:
         script = read_text(tick_path)
     except UsageError as exc:
-        spec.note(monitor.where("monitor_specification"), f"monitor `{name}`: {exc}; its alert is not carried over")
+        spec.note(
+            monitor.where("monitor_specification"),
+            f"monitor `{name}`: {exc}; its alert is not carried over",
+        )
         return
     alert, notes = convert_tickscript(script, _claim(spec, name, monitor.where()))
     for note in notes:
@@ -429,8 +480,11 @@ def _kapacitor_monitor(path: str, monitor: Located, spec: _Spec) -> None:
 
 
 def _transducer(path: str, document: Located, spec: _Spec) -> None:
-    name = _claim(spec, _identifier(os.path.splitext(os.path.basename(path))[0].title().replace("_", ""), "States"),
-                  document.where("states"))
+    name = _claim(
+        spec,
+        _identifier(os.path.splitext(os.path.basename(path))[0].title().replace("_", ""), "States"),
+        document.where("states"),
+    )
     states = [_identifier(str(s), "state") for s in document.get("states") or [] if s is not None]
     initial = document.get("initial")
     if isinstance(initial, list):
@@ -444,9 +498,12 @@ def _transducer(path: str, document: Located, spec: _Spec) -> None:
         source, dest = entry.get("source"), entry.get("dest")
         event = entry.get("inputtapeEvent")
         if not (source and dest and event):
-            spec.note(entry.where(), "a transition needs `source`, `dest` and `inputtapeEvent`: skipped")
+            spec.note(
+                entry.where(), "a transition needs `source`, `dest` and `inputtapeEvent`: skipped"
+            )
             continue
-        text = f"    {_identifier(str(source), 's')} -> {_identifier(str(dest), 's')} on {_identifier(str(event), 'e')}"
+        source_state, dest_state = _identifier(str(source), "s"), _identifier(str(dest), "s")
+        text = f"    {source_state} -> {dest_state} on {_identifier(str(event), 'e')}"
         output = entry.get("outputtapeEvent")
         if output:
             text += f" emit {_identifier(str(output), 'e')}"
@@ -457,7 +514,11 @@ def _transducer(path: str, document: Located, spec: _Spec) -> None:
 
 
 def _rmtld3_monitor(monitor: Located, spec: _Spec) -> None:
-    name = _claim(spec, _identifier(str(monitor.get("monitor_name") or "property"), "property"), monitor.where())
+    name = _claim(
+        spec,
+        _identifier(str(monitor.get("monitor_name") or "property"), "property"),
+        monitor.where(),
+    )
     expression = " ".join(str(monitor.get("expression_string") or "").split())
     if not expression:
         spec.note(monitor.where(), f"monitor `{name}` has no `expression_string`: not carried over")
@@ -465,7 +526,11 @@ def _rmtld3_monitor(monitor: Located, spec: _Spec) -> None:
     members = []
     rate = str(monitor.get("monitor_rate") or "").strip()
     if rate:
-        members.append(f"    rate = {rate}Hz" if re.match(r"^\d+(\.\d+)?$", rate) else f"    // rate {rate!r} not read")
+        members.append(
+            f"    rate = {rate}Hz"
+            if re.match(r"^\d+(\.\d+)?$", rate)
+            else f"    // rate {rate!r} not read"
+        )
     trigger = str(monitor.get("monitor_trigger") or "").strip()
     if trigger and trigger.lower() != "true":
         members.append(f"    trigger = {_identifier(trigger, 'always')}")
@@ -477,7 +542,9 @@ def _rmtld3_monitor(monitor: Located, spec: _Spec) -> None:
         if match:
             members.append(f"    window = {match.group(1)}")
         else:
-            spec.note(monitor.where("monitor_range"), f"range `{window}` not read: not carried over")
+            spec.note(
+                monitor.where("monitor_range"), f"range `{window}` not read: not carried over"
+            )
     block = " {\n" + "\n".join(members) + "\n}" if members else ""
     spec.properties.append(f"property {name}: latex {quote(expression)}{block}")
 
@@ -519,7 +586,10 @@ def _whitelists(entries: Any, spec: _Spec) -> None:
             if line:
                 lines.append(line)
         if len(lines) == 1:
-            spec.note(entry.where(), f"whitelist of `{topic}` has neither publishers nor subscribers: skipped")
+            spec.note(
+                entry.where(),
+                f"whitelist of `{topic}` has neither publishers nor subscribers: skipped",
+            )
             continue
         lines.append("}")
         spec.whitelists.append("\n".join(lines))

@@ -106,7 +106,9 @@ def convert_tickscript(script: str, name: str) -> tuple[str | None, list[str]]:
 def _handler(method: str, arguments: str, notes: list[str]) -> str:
     parts = [p for p in (_string_argument(a) for a in _split(arguments)) if p is not None]
     if method == "log":
-        notes.append(f"`.log({arguments.strip()})` writes a file in Kapacitor; it becomes `action log`")
+        notes.append(
+            f"`.log({arguments.strip()})` writes a file in Kapacitor; it becomes `action log`"
+        )
         return "    action log"
     if not parts:
         notes.append(f"`.{method}({arguments.strip()})` has no string argument: not carried over")

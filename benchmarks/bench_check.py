@@ -1,0 +1,140 @@
+"""Parse and name-check cost against lark's bare parse of the same text.
+
+Generates a large valid spec (at scale 1: 1,000 topics, 5,000 variables, 2,000
+events, 100 transducers of 20 states, 500 properties), then times in one run:
+
+- bare:   lark alone (same grammar, LALR, builds its own parse tree);
+- parse:  rmvdsl's parser (per-declaration recovery, AST with spans);
+- names:  the name check alone, on the parsed specs;
+- check:  parse + name check, what `rmv check` does.
+
+Machines here are shared and noisy, so the figures are ratios to `bare` in the
+same run, each the best of --repeat runs. Targets (issue 2): names <= 3x bare,
+and the check of the 10x spec <= 12x the check of the 1x spec.
+
+    python benchmarks/bench_check.py            # scales 1 and 10
+    python benchmarks/bench_check.py --scale 1 --repeat 3 --json out.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import json
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from rmvdsl.check import check
+from rmvdsl.check.loader import load
+from rmvdsl.check.names import check_names
+from rmvdsl.grammar.parser import bare_spec_parser
+
+
+def generate(scale: int = 1) -> str:
+    topics, variables, events = 1000 * scale, 5000 * scale, 2000 * scale
+    transducers, states, properties = 100 * scale, 20, 500 * scale
+    lines = ["system large", "time unit s", ""]
+    for t in range(topics):
+        lines.append(f'topic T{t}: pkg_msgs/Msg{t % 50} = "/robot{t % 10}/sensor{t}"')
+    for v in range(variables):
+        lines.append(f"var V{v} = T{v % topics}.field{v % 7}.value")
+    value_events = events // 2
+    for e in range(value_events):
+        lines.append(f"event E{e} = mean(V{e}) * 3.6 + max(V{e + value_events})")
+        lines.append("    group by time(100ms)")
+        lines.append("    fill previous")
+    for b in range(events - value_events):
+        lines.append(f"event B{b} when V{2 * value_events + b} > 0.8 and E{b % value_events} < 5")
+    for v in range(events + value_events, variables):
+        lines.append(f"alert A{v} {{ warn when V{v} > 10 reset when V{v} < 5 }}")
+    bool_events = events - value_events
+    for d in range(transducers):
+        names = [f"S{d}_{s}" for s in range(states)]
+        lines.append(f"transducer D{d} {{")
+        lines.append("    states " + ", ".join(names))
+        lines.append(f"    initial {names[0]}")
+        for s in range(states):
+            lines.append(
+                f"    {names[s]} -> {names[(s + 1) % states]} on B{(d * states + s) % bool_events}"
+            )
+        lines.append("}")
+    for p in range(properties):
+        d = p % transducers
+        a, b = f"S{d}_{p % states}", f"S{d}_{(p + 1) % states}"
+        lines.append(
+            f"property P{p}: ({a} -> eventually[<=10s] {b}) and duration[10s]({a}) < 4s"
+            " { rate = 10Hz }"
+        )
+    for t in range(topics):
+        lines.append(
+            f'whitelist T{t} {{ publishers: "/driver{t % 10}"'
+            ' subscribers: "/rmv_monitor", "/rviz*" }'
+        )
+    return "\n".join(lines) + "\n"
+
+
+def best_of(repeat: int, action: Callable[[], object]) -> float:
+    times = []
+    for _ in range(repeat):
+        gc.collect()
+        start = time.perf_counter()
+        action()
+        times.append(time.perf_counter() - start)
+    return min(times)
+
+
+def measure(scale: int, repeat: int) -> dict[str, float]:
+    text = generate(scale)
+    bare = bare_spec_parser()
+    loaded = load("large.rmv", text)
+    assert not loaded.diagnostics, loaded.diagnostics[:3]
+    result = check("large.rmv", text)
+    assert not result.diagnostics, result.diagnostics[:3]
+    figures = {
+        "lines": text.count("\n"),
+        "bytes": len(text),
+        "bare": best_of(repeat, lambda: bare.parse(text, start="start")),
+        "parse": best_of(repeat, lambda: load("large.rmv", text)),
+        "names": best_of(repeat, lambda: check_names(loaded.specs, loaded.sources)),
+        "check": best_of(repeat, lambda: check("large.rmv", text)),
+    }
+    return figures
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--scale", type=int, action="append", help="spec sizes (default: 1 and 10)")
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
+    args = parser.parse_args()
+    scales = args.scale or [1, 10]
+    results = {
+        scale: measure(scale, args.repeat if scale == 1 else max(1, args.repeat - 1))
+        for scale in scales
+    }
+    print(
+        f"{'scale':>5} {'lines':>8} {'bare s':>8} {'parse s':>8} {'names s':>8} {'check s':>8} "
+        f"{'parse/bare':>10} {'names/bare':>10} {'check/bare':>10}"
+    )
+    for scale, f in results.items():
+        print(
+            f"{scale:>5} {f['lines']:>8} {f['bare']:>8.3f} {f['parse']:>8.3f} {f['names']:>8.3f} "
+            f"{f['check']:>8.3f} {f['parse'] / f['bare']:>10.2f} {f['names'] / f['bare']:>10.2f} "
+            f"{f['check'] / f['bare']:>10.2f}"
+        )
+    if 1 in results and 10 in results:
+        growth = results[10]["check"] / results[1]["check"]
+        print(f"check time of the 10x spec / the 1x spec: {growth:.2f} (target <= 12)")
+    if args.json:
+        Path(args.json).write_text(json.dumps(results, indent=2), encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,30 @@
+"""The code stays ruff- and mypy-clean (both are dev dependencies)."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+
+import pytest
+from conftest import ROOT
+
+PATHS = ["rmvdsl", "tests", "benchmarks"]
+
+
+def run(*command: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=300)
+
+
+@pytest.mark.skipif(shutil.which("ruff") is None, reason="ruff is not installed")
+def test_ruff_check_and_format():
+    check = run("ruff", "check", *PATHS)
+    assert check.returncode == 0, check.stdout
+    formatted = run("ruff", "format", "--check", *PATHS)
+    assert formatted.returncode == 0, formatted.stdout
+
+
+def test_mypy():
+    pytest.importorskip("mypy")
+    result = run(sys.executable, "-m", "mypy")
+    assert result.returncode == 0, result.stdout
