@@ -19,7 +19,7 @@ from rmvdsl.diagnostics import Diagnostic, Severity
 from rmvdsl.render import render_json, render_sarif, render_text, summary
 from rmvdsl.source import SourceMap
 
-EXIT_OK, EXIT_ERRORS, EXIT_USAGE = 0, 1, 2
+EXIT_OK, EXIT_ERRORS, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 70
 
 
 class _Parser(argparse.ArgumentParser):
@@ -122,6 +122,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 130
     except BrokenPipeError:
         return EXIT_OK
+    except Exception as exc:  # a bug in rmv: say so in one line, never a traceback
+        if os.environ.get("RMV_DEBUG"):
+            raise
+        print(
+            f"rmv: internal error: {type(exc).__name__}: {exc} "
+            "(please report it; RMV_DEBUG=1 shows where)",
+            file=sys.stderr,
+        )
+        return EXIT_INTERNAL
     return EXIT_USAGE
 
 

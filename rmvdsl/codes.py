@@ -2,7 +2,8 @@
 
 `rmv explain CODE` prints the explanation; docs/diagnostics.md is generated from
 this table (tests keep the two in step). Codes are stable: never reuse a number.
-Ranges: RMV0xx files and imports, RMV1xx syntax, RMV2xx names and structure.
+Ranges: RMV0xx files and imports, RMV1xx syntax, RMV2xx names and structure,
+RMV3xx types.
 """
 
 from __future__ import annotations
@@ -247,6 +248,160 @@ Bounds of temporal operators must be positive: `until[<0s]` can never hold.""",
 Each event is computed from variables and events computed before it, so the
 definitions must form no cycle.""",
     ),
+    (
+        "RMV300",
+        "unknown message type",
+        """A topic's message type is not among the definitions rmvdsl knows: the
+standard packages of the target ROS distribution (from the `rosbags` package) and
+the .msg files on the search path. The help line names the closest known type.
+
+Custom messages: put their folder on the path, in the spec or on the command line:
+
+    messages "msg"                  // <pkg>/msg/*.msg below ./msg
+    rmv check --messages ~/ws/src spec.rmv
+
+A sourced ROS workspace (AMENT_PREFIX_PATH, ROS_PACKAGE_PATH) is searched too.""",
+    ),
+    (
+        "RMV301",
+        "no such field",
+        """A variable's path names a field its message does not have. The error points
+at that segment, with the closest real field. ROS 1 and ROS 2 differ here: ROS 1
+time has `secs`/`nsecs` and its Header a `seq`; ROS 2 time has `sec`/`nanosec` and
+no `seq`. Choose the distribution with `ros noetic` (or humble, jazzy, ...).""",
+    ),
+    (
+        "RMV302",
+        "wrong indexing",
+        """An array field must say which element: `objects[0]`, or `objects[*]` for every
+element (then aggregate: `max(objects.objects[*].twist.linear.x)`). A field that is
+not an array cannot be indexed, and a fixed-size array has indices 0..N-1.""",
+    ),
+    (
+        "RMV303",
+        "a whole message is not a value",
+        """A variable must end at a value (a number, bool, string or time), not at a
+message. Pick one of the message's fields: `odometry.pose.pose.position.x`, not
+`odometry.pose`.""",
+    ),
+    (
+        "RMV304",
+        "message definition does not parse",
+        """A .msg file on the search path has a line rmvdsl cannot read. Each line is
+`TYPE NAME`, `TYPE NAME DEFAULT` or `TYPE NAME=VALUE` (a constant), where TYPE is a
+primitive (`bool`, `int8`..`uint64`, `float32`, `float64`, `string`, `time`,
+`duration`), a message (`Point`, `geometry_msgs/Point`) and may end in `[]`, `[N]`
+or `[<=N]`; `#` starts a comment.""",
+    ),
+    (
+        "RMV305",
+        "unknown ROS distribution",
+        """`ros` names a distribution rmvdsl has no message definitions for. Known: noetic
+(and melodic, kinetic, read with noetic's definitions), dashing, eloquent, foxy,
+galactic, humble, iron, jazzy, kilted. Without `ros`, rmvdsl uses jazzy.""",
+    ),
+    (
+        "RMV306",
+        "message folder not found",
+        """A `messages "path"` declaration (or `--messages`) names a folder that does not
+exist. Paths in a spec are relative to the spec's folder.""",
+    ),
+    (
+        "RMV307",
+        "invalid rmv.toml",
+        """The rmv.toml beside the spec cannot be read. It may hold:
+
+    ros = "humble"
+    messages = ["msg", "../other_ws/src"]
+
+(optionally under a `[rmv]` table); folders are relative to the file.""",
+    ),
+    (
+        "RMV310",
+        "operand of the wrong type",
+        """An operator got an operand it cannot use: arithmetic on a string or a bool,
+bitwise operators on a float, `-` on a string. A bool field becomes 0 or 1 only
+where declared: `var HandBrakeOn = number(status.control.hand_brake)`.""",
+    ),
+    (
+        "RMV311",
+        "incomparable values",
+        """The two sides of a comparison cannot be compared: a string with a number, a
+bool with a number, or strings and bools with `<` or `>` (they have only `=` and
+`!=`; strings also `=~` and `!~` against a regular expression).""",
+    ),
+    (
+        "RMV312",
+        "not a condition",
+        """A boolean event's condition, a `where` clause, an alert level, a reset, and
+the operands of `and`, `or` and `not` must be true or false. A number is not:
+compare it (`BrakePedal > 0.8`).""",
+    ),
+    (
+        "RMV313",
+        "function argument of the wrong type",
+        """A function got an argument it cannot use: `mean`, `derivative` and the other
+numeric functions need numbers (`count`, `first`, `last`, `distinct`, `mode` take
+anything); `top`, `bottom`, `moving_average` and `sample` need a positive whole
+count as second argument; `any`/`all` need bools; `number(...)` one bool.""",
+    ),
+    (
+        "RMV314",
+        "wrong number of arguments",
+        """A function is called with too few or too many arguments: `mean(x)`,
+`derivative(x)` or `derivative(x, 1s)`, `moving_average(x, 5)`, `pow(x, 2)`.""",
+    ),
+    (
+        "RMV315",
+        "mixed time units",
+        """Two values with different time units are compared or added: a derivative (a
+value per second) with the value itself, or in a property a duration with a plain
+number. Constants adapt; otherwise convert:
+
+    event Braking when derivative(mean(Velocity), 1s) < -5      // ok: a constant
+    event Wrong when derivative(mean(Velocity), 1s) < Velocity  // RMV315
+    property P: duration[10s](A) < 4s                           // ok
+    property Q: duration[10s](A) < 4                            // RMV315 without `time unit`""",
+    ),
+    (
+        "RMV316",
+        "a time was expected",
+        """A place that takes a time got something else, for example the unit argument
+of `derivative(x, 1s)`, or a rate (`10Hz`) where a period is needed.""",
+    ),
+    (
+        "RMV317",
+        "reset on another measurement",
+        """An alert's reset condition must watch the measurement its condition watches
+(Kapacitor resets the level that the same stream raised):
+
+    warn when Speed > 70 reset when Speed < 60        // ok
+    warn when Speed > 70 reset when Throttle < 0.1    // RMV317""",
+    ),
+    (
+        "RMV318",
+        "window shorter than the horizon",
+        """A property's `window` (the history its monitor keeps; the thesis's
+`monitor_range`) is shorter than its horizon: how far the formula looks ahead and
+back. Formula 3.1 needs 10 time units, so the thesis's 4 s range cannot decide it:
+
+    property ABSCheck: (H -> (A or H) until[<10s] S) and duration[10s](H) < 4s {
+        window = 4s      // RMV318: the horizon is 10s
+    }""",
+    ),
+    (
+        "RMV319",
+        "invalid regular expression",
+        """The right side of `=~` or `!~` must be a regular expression written as a
+string, and it must compile.""",
+    ),
+    (
+        "RMV320",
+        "array used as a value",
+        """A variable ends at an array (or goes through `[*]`) without reducing it to one
+value. Aggregate it, `var Fastest = max(objects.objects[*].twist.linear.x)`, or
+pick an element, `objects.objects[0].twist.linear.x`.""",
+    ),
 ]
 
 CODES: dict[str, Code] = {code: Code(code, title, text) for code, title, text in _TABLE}
@@ -266,7 +421,8 @@ def diagnostics_markdown() -> str:
         "Every diagnostic of `rmv check` has a stable code. `rmv explain CODE` prints the",
         "same text as this page. This page is generated from `rmvdsl/codes.py`",
         "(`python -m rmvdsl.codes > docs/diagnostics.md`).\n",
-        "Ranges: RMV0xx files and imports, RMV1xx syntax, RMV2xx names and structure.\n",
+        "Ranges: RMV0xx files and imports, RMV1xx syntax, RMV2xx names and structure,",
+        "RMV3xx types.\n",
     ]
     for entry in CODES.values():
         parts.append(f"## {entry.code}: {entry.title}\n")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+import shutil
 
 from conftest import ROOT
 
@@ -91,6 +92,7 @@ def test_readme_tour_checks_clean_and_its_mistake_reads_as_shown(rmv, tmp_path):
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     tour = re.search(r"```rmv\n(.*?)```", readme, re.DOTALL).group(1)
     shown = re.search(r"```text\n(warning\[RMV203\].*?)```", readme, re.DOTALL).group(1)
+    shutil.copytree(ROOT / "examples" / "carla" / "msg", tmp_path / "msg")
     spec = tmp_path / "spec.rmv"
     spec.write_text(tour, encoding="utf-8")
     assert rmv("check", "--strict", str(spec)).code == 0

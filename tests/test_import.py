@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import shutil
 
-from conftest import FIXTURES, rmv_process
+from conftest import EXAMPLES, FIXTURES, rmv_process
 
 from rmvdsl.check import check
 from rmvdsl.importers.thesis_yaml import convert_files
@@ -12,11 +12,14 @@ from rmvdsl.importers.thesis_yaml import convert_files
 THESIS = FIXTURES / "thesis"
 
 
+CARLA_MSGS = (str(EXAMPLES / "carla" / "msg"),)
+
+
 def test_figure_3_13_converts_to_a_clean_spec(tmp_path):
     result = convert_files([str(THESIS / "rostopicmon.yaml")])
     spec = tmp_path / "mon.rmv"
     spec.write_text(result.text, encoding="utf-8")
-    checked = check(str(spec))
+    checked = check(str(spec), messages=CARLA_MSGS)
     assert checked.errors == []
     model = checked.model
     assert model.topics["carl_info"].msg_type.text == "carla_msgs/CarlaEgoVehicleStatus"
@@ -49,7 +52,7 @@ def test_intrusion_whitelists(tmp_path):
     )
     spec = tmp_path / "all.rmv"
     spec.write_text(result.text, encoding="utf-8")
-    checked = check(str(spec))
+    checked = check(str(spec), messages=CARLA_MSGS)
     assert checked.errors == []
     whitelists = {
         w.target.name if hasattr(w.target, "name") else w.target.value: w
@@ -121,4 +124,15 @@ def test_cli_writes_output_file(tmp_path):
     )
     assert result.code == 0
     assert out.read_text(encoding="utf-8").splitlines()[1] == "system carla"
+    assert "ros noetic" in out.read_text(encoding="utf-8")
     assert f"wrote {out}" in result.err
+
+
+def test_thesis_horizon_is_reported_after_import(tmp_path):
+    # Issue 3: the thesis's ABSCheck keeps 4 s of data for a formula that needs 10.
+    result = convert_files([str(THESIS / "rostopicmon.yaml"), str(THESIS / "rostopicver.yaml")])
+    spec = tmp_path / "thesis.rmv"
+    spec.write_text(result.text, encoding="utf-8")
+    horizon = [d for d in check(str(spec), messages=CARLA_MSGS).errors if d.code == "RMV318"]
+    assert len(horizon) == 1
+    assert horizon[0].message == "the window of `ABSCheck` (4s) is shorter than its horizon (10s)"

@@ -1,24 +1,38 @@
 """The checker: a staged pipeline from files to one resolved model.
 
 Stages, each with its own diagnostics: load (parse the file and its imports),
-names (declare, resolve, check structure). Later stages (types, analyses) read the
-model the earlier ones built.
+names (declare, resolve, check structure), types (message definitions, field
+paths, expressions, units, horizons). Each stage reads what the earlier ones built;
+the result is one model that every later analysis and target reads.
 """
 
 from __future__ import annotations
 
+import os
+import re
+import sys
 from dataclasses import dataclass
 
 from rmvdsl.check.loader import UsageError, load
 from rmvdsl.check.model import Model
 from rmvdsl.check.names import check_names
-from rmvdsl.diagnostics import Diagnostic, Severity, sort_key
+from rmvdsl.check.types import TypeConfig, TypeInfo, check_types
+from rmvdsl.diagnostics import Diagnostic, Severity, error, sort_key
+from rmvdsl.source import SourceFile
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
+
+CONFIG_FILE = "rmv.toml"
 
 
 @dataclass
 class CheckResult:
     model: Model
     diagnostics: list[Diagnostic]
+    types: TypeInfo | None = None
 
     @property
     def errors(self) -> list[Diagnostic]:
@@ -29,16 +43,86 @@ class CheckResult:
         return [d for d in self.diagnostics if d.severity is Severity.WARNING]
 
 
-def check(path: str, text: str | None = None) -> CheckResult:
+def check(
+    path: str,
+    text: str | None = None,
+    ros: str | None = None,
+    messages: tuple[str, ...] = (),
+    use_environment: bool = True,
+) -> CheckResult:
     """Check the spec at `path` (its text may be given, as the editor does).
 
+    `ros` and `messages` come from the command line and win over the spec's own
+    `ros` and `messages` declarations, which win over an rmv.toml beside the spec.
     Raises UsageError only when the root file itself cannot be read."""
     loaded = load(path, text)
     model, name_diagnostics = check_names(
         loaded.specs, loaded.sources, loaded.damaged_names, loaded.damaged_ranges
     )
-    diagnostics = sorted([*loaded.diagnostics, *name_diagnostics], key=sort_key)
-    return CheckResult(model, diagnostics)
+    folder = os.path.dirname(os.path.abspath(path))
+    file_config, config_diagnostics = read_config(folder, model)
+    config = TypeConfig(
+        ros=ros or (None if model.ros else file_config.ros),
+        messages=(*messages, *file_config.messages),
+        use_environment=use_environment,
+    )
+    types, type_diagnostics = check_types(model, config, folder)
+    diagnostics = sorted(
+        [*loaded.diagnostics, *name_diagnostics, *config_diagnostics, *type_diagnostics],
+        key=sort_key,
+    )
+    return CheckResult(model, diagnostics, types)
+
+
+def read_config(folder: str, model: Model) -> tuple[TypeConfig, list[Diagnostic]]:
+    """The `ros` and `messages` of an rmv.toml in the spec's folder, if any."""
+    path = os.path.join(folder, CONFIG_FILE)
+    if not os.path.isfile(path):
+        return TypeConfig(), []
+    try:
+        with open(path, encoding="utf-8") as handle:
+            text = handle.read()
+    except (OSError, UnicodeDecodeError) as exc:
+        source = model.sources.add(SourceFile(path, ""))
+        return TypeConfig(), [
+            error("RMV307", f"cannot read {CONFIG_FILE}: {exc}", source.span(0, 0))
+        ]
+    source = model.sources.add(SourceFile(path, text))
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        match = re.search(r"line (\d+), column (\d+)", str(exc))
+        line, column = (int(match.group(1)), int(match.group(2))) if match else (1, 1)
+        start = source.offset(line, column)
+        return TypeConfig(), [
+            error(
+                "RMV307",
+                f"{CONFIG_FILE} is not valid TOML: {str(exc).split(' (at')[0]}",
+                source.span(start, start + 1),
+                label="here",
+            )
+        ]
+    section = data.get("rmv", data)
+    ros = section.get("ros")
+    folders = section.get("messages", [])
+    problems = []
+    if ros is not None and not isinstance(ros, str):
+        problems.append(
+            error("RMV307", f"`ros` in {CONFIG_FILE} must be a string", source.span(0, 0))
+        )
+        ros = None
+    if isinstance(folders, str):
+        folders = [folders]
+    if not isinstance(folders, list) or not all(isinstance(f, str) for f in folders):
+        problems.append(
+            error(
+                "RMV307",
+                f"`messages` in {CONFIG_FILE} must be a list of folders",
+                source.span(0, 0),
+            )
+        )
+        folders = []
+    return TypeConfig(ros=ros, messages=tuple(os.path.join(folder, f) for f in folders)), problems
 
 
 __all__ = ["CheckResult", "UsageError", "check"]

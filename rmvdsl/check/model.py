@@ -76,6 +76,11 @@ class Model:
     whitelists: list[ast.WhitelistDecl] = field(default_factory=list)
     nodes: list[ast.NodeDecl] = field(default_factory=list)
     intrusion: ast.IntrusionDecl | None = None
+    ros: ast.RosDecl | None = None
+    # Offsets of declarations with syntax errors, by file: later stages say
+    # nothing about them (their trees may be partial).
+    damaged_ranges: dict[str, list[tuple[int, int]]] = field(default_factory=dict)
+    messages: list[ast.MessagesDecl] = field(default_factory=list)
     symbols: dict[str, Symbol] = field(default_factory=dict)
     references: list[Reference] = field(default_factory=list)
 
@@ -85,6 +90,10 @@ class Model:
 
     def declarations(self) -> list[ast.Decl]:
         return [item for spec in self.specs for item in spec.items]
+
+    def in_damaged(self, span: Span) -> bool:
+        ranges = self.damaged_ranges.get(span.path, ())
+        return any(start <= span.start < end for start, end in ranges)
 
     def uses_of(self, symbol: Symbol) -> list[Reference]:
         return [r for r in self.references if r.symbol is symbol]

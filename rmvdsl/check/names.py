@@ -80,7 +80,7 @@ class NameChecker:
         damaged: set[str],
         damaged_ranges: dict[str, list[tuple[int, int]]],
     ) -> None:
-        self.model = Model(sources, specs)
+        self.model = Model(sources, specs, damaged_ranges=damaged_ranges)
         self.diagnostics: list[Diagnostic] = []
         self.damaged = damaged
         self.damaged_ranges = damaged_ranges
@@ -107,9 +107,7 @@ class NameChecker:
         self.diagnostics.append(diagnostic)
 
     def in_damaged(self, span: Span) -> bool:
-        return any(
-            start <= span.start < end for start, end in self.damaged_ranges.get(span.path, ())
-        )
+        return self.model.in_damaged(span)
 
     # ---- declaring ----
 
@@ -123,6 +121,13 @@ class NameChecker:
                     model.system = decl
             case ast.TimeUnitDecl():
                 self.declare_time_unit(decl)
+            case ast.RosDecl():
+                if model.ros is not None:
+                    self.once_only("`ros`", decl.distro, model.ros.distro, _ONE_PER_SPEC)
+                else:
+                    model.ros = decl
+            case ast.MessagesDecl():
+                model.messages.append(decl)
             case ast.DatabaseDecl():
                 if model.database is not None:
                     self.once_only(

@@ -160,6 +160,22 @@ class TimeUnitDecl(Decl):
 
 
 @dataclass(frozen=True)
+class RosDecl(Decl):
+    distro: Ident
+    doc: str = field(default="", compare=False)
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True)
+class MessagesDecl(Decl):
+    """A folder of .msg files, relative to the spec's folder."""
+
+    path: StringLit
+    doc: str = field(default="", compare=False)
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True)
 class RetentionDecl(Node):
     name: Ident
     settings: tuple[Setting, ...]

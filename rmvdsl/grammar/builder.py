@@ -172,6 +172,12 @@ class AstBuilder(Transformer[Token, Any]):
     def time_unit_decl(self, c: list[Any]) -> ast.TimeUnitDecl:
         return ast.TimeUnitDecl(self.ident(c[1]), span=self.cover(c))
 
+    def ros_decl(self, c: list[Any]) -> ast.RosDecl:
+        return ast.RosDecl(self.ident(c[1]), span=self.cover(c))
+
+    def messages_decl(self, c: list[Any]) -> ast.MessagesDecl:
+        return ast.MessagesDecl(self.string(c[1]), span=self.cover(c))
+
     def database_decl(self, c: list[Any]) -> ast.DatabaseDecl:
         members = c[2:]
         return ast.DatabaseDecl(

@@ -73,6 +73,10 @@ def _print_decl(decl: ast.Decl, out: _Printer) -> None:
             out.emit(f"import {p.quote(decl.path.value)}", 0, start)
         case ast.TimeUnitDecl():
             out.emit(f"time unit {decl.unit.name}", 0, start)
+        case ast.RosDecl():
+            out.emit(f"ros {decl.distro.name}", 0, start)
+        case ast.MessagesDecl():
+            out.emit(f"messages {p.quote(decl.path.value)}", 0, start)
         case ast.DatabaseDecl():
             _print_database(decl, out)
         case ast.TopicDecl():

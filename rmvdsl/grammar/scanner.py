@@ -25,6 +25,8 @@ TOP_LEVEL_KEYWORDS = frozenset(
         "whitelist",
         "node",
         "intrusion",
+        "ros",
+        "messages",
     }
 )
 

@@ -153,6 +153,9 @@ def convert_files(paths: Iterable[str], system_name: str | None = None) -> Impor
     spec.header.append("")
     spec.header.append("// rmtld3synth formulas count time in seconds.")
     spec.header.append("time unit s")
+    spec.header.append("")
+    spec.header.append("// The thesis's nodes ran on ROS 1.")
+    spec.header.append("ros noetic")
     for path, document in documents:
         if not isinstance(document, Located):
             raise UsageError(
