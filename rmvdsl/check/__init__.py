@@ -59,7 +59,8 @@ def check(
     model, name_diagnostics = check_names(
         loaded.specs, loaded.sources, loaded.damaged_names, loaded.damaged_ranges
     )
-    folder = os.path.dirname(os.path.abspath(path))
+    # Paths stay as the user wrote them (relative stays relative) in diagnostics.
+    folder = os.path.dirname(path) or "."
     file_config, config_diagnostics = read_config(folder, model)
     config = TypeConfig(
         ros=ros or (None if model.ros else file_config.ros),
