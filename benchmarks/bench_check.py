@@ -6,11 +6,12 @@ events, 100 transducers of 20 states, 500 properties), then times in one run:
 - bare:   lark alone (same grammar, LALR, builds its own parse tree);
 - parse:  rmvdsl's parser (per-declaration recovery, AST with spans);
 - names:  the name check alone, on the parsed specs;
-- check:  parse + name check, what `rmv check` does.
+- types:  the type check alone (message definitions, paths, expressions, horizons);
+- check:  parse + name check + type check, what `rmv check` does.
 
 Machines here are shared and noisy, so the figures are ratios to `bare` in the
-same run, each the best of --repeat runs. Targets (issue 2): names <= 3x bare,
-and the check of the 10x spec <= 12x the check of the 1x spec.
+same run, each the best of --repeat runs. Targets: names <= 3x bare, the check of
+the 10x spec <= 12x the check of the 1x spec (issue 2), types <= 3x names (issue 3).
 
     python benchmarks/bench_check.py            # scales 1 and 10
     python benchmarks/bench_check.py --scale 1 --repeat 3 --json out.json
@@ -21,7 +22,9 @@ from __future__ import annotations
 import argparse
 import gc
 import json
+import os
 import sys
+import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -31,13 +34,14 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from rmvdsl.check import check
 from rmvdsl.check.loader import load
 from rmvdsl.check.names import check_names
+from rmvdsl.check.types import TypeConfig, check_types
 from rmvdsl.grammar.parser import bare_spec_parser
 
 
 def generate(scale: int = 1) -> str:
     topics, variables, events = 1000 * scale, 5000 * scale, 2000 * scale
     transducers, states, properties = 100 * scale, 20, 500 * scale
-    lines = ["system large", "time unit s", ""]
+    lines = ["system large", "time unit s", 'messages "msg"', ""]
     for t in range(topics):
         lines.append(f'topic T{t}: pkg_msgs/Msg{t % 50} = "/robot{t % 10}/sensor{t}"')
     for v in range(variables):
@@ -77,6 +81,18 @@ def generate(scale: int = 1) -> str:
     return "\n".join(lines) + "\n"
 
 
+def write_messages(folder: str) -> None:
+    """The 50 message types of the generated spec, each with fields field0..field6."""
+    package = os.path.join(folder, "msg", "pkg_msgs", "msg")
+    os.makedirs(package, exist_ok=True)
+    with open(os.path.join(package, "Value.msg"), "w", encoding="utf-8") as handle:
+        handle.write("float64 value\nstring unit\n")
+    for index in range(50):
+        with open(os.path.join(package, f"Msg{index}.msg"), "w", encoding="utf-8") as handle:
+            handle.write("Header header\n")
+            handle.writelines(f"Value field{f}\n" for f in range(7))
+
+
 def best_of(repeat: int, action: Callable[[], object]) -> float:
     times = []
     for _ in range(repeat):
@@ -87,22 +103,29 @@ def best_of(repeat: int, action: Callable[[], object]) -> float:
     return min(times)
 
 
-def measure(scale: int, repeat: int) -> dict[str, float]:
+def measure(scale: int, repeat: int, folder: str) -> dict[str, float]:
     text = generate(scale)
+    path = os.path.join(folder, "large.rmv")
     bare = bare_spec_parser()
-    loaded = load("large.rmv", text)
+    loaded = load(path, text)
     assert not loaded.diagnostics, loaded.diagnostics[:3]
-    result = check("large.rmv", text)
+    result = check(path, text, use_environment=False)
     assert not result.diagnostics, result.diagnostics[:3]
-    figures = {
+
+    def types() -> None:
+        model, _ = check_names(loaded.specs, loaded.sources)
+        check_types(model, TypeConfig(use_environment=False), folder)
+
+    return {
         "lines": text.count("\n"),
         "bytes": len(text),
         "bare": best_of(repeat, lambda: bare.parse(text, start="start")),
-        "parse": best_of(repeat, lambda: load("large.rmv", text)),
+        "parse": best_of(repeat, lambda: load(path, text)),
         "names": best_of(repeat, lambda: check_names(loaded.specs, loaded.sources)),
-        "check": best_of(repeat, lambda: check("large.rmv", text)),
+        # the type stage needs a model: its time is (names + types) - names
+        "types": best_of(repeat, types),
+        "check": best_of(repeat, lambda: check(path, text, use_environment=False)),
     }
-    return figures
 
 
 def main() -> int:
@@ -114,20 +137,21 @@ def main() -> int:
     parser.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
     args = parser.parse_args()
     scales = args.scale or [1, 10]
+    folder = tempfile.mkdtemp(prefix="rmv-bench-")
+    write_messages(folder)
     results = {
-        scale: measure(scale, args.repeat if scale == 1 else max(1, args.repeat - 1))
+        scale: measure(scale, args.repeat if scale == 1 else max(1, args.repeat - 1), folder)
         for scale in scales
     }
-    print(
-        f"{'scale':>5} {'lines':>8} {'bare s':>8} {'parse s':>8} {'names s':>8} {'check s':>8} "
-        f"{'parse/bare':>10} {'names/bare':>10} {'check/bare':>10}"
-    )
+    for figures in results.values():
+        figures["types"] = max(0.0, figures["types"] - figures["names"])
+    columns = ("bare", "parse", "names", "types", "check")
+    ratios = f" {'parse/bare':>10} {'names/bare':>10} {'check/bare':>10} {'types/names':>11}"
+    print(f"{'scale':>5} {'lines':>8} " + " ".join(f"{c + ' s':>8}" for c in columns) + ratios)
     for scale, f in results.items():
-        print(
-            f"{scale:>5} {f['lines']:>8} {f['bare']:>8.3f} {f['parse']:>8.3f} {f['names']:>8.3f} "
-            f"{f['check']:>8.3f} {f['parse'] / f['bare']:>10.2f} {f['names'] / f['bare']:>10.2f} "
-            f"{f['check'] / f['bare']:>10.2f}"
-        )
+        print(f"{scale:>5} {f['lines']:>8} " + " ".join(f"{f[c]:>8.3f}" for c in columns)
+              + f" {f['parse'] / f['bare']:>10.2f} {f['names'] / f['bare']:>10.2f}"
+              f" {f['check'] / f['bare']:>10.2f} {f['types'] / f['names']:>11.2f}")  # fmt: skip
     if 1 in results and 10 in results:
         growth = results[10]["check"] / results[1]["check"]
         print(f"check time of the 10x spec / the 1x spec: {growth:.2f} (target <= 12)")

@@ -51,12 +51,26 @@ def _build_parser() -> argparse.ArgumentParser:
         epilog="""examples:
   rmv check examples/carla/abs.rmv
   rmv check --strict --format sarif spec.rmv > rmv.sarif
+  rmv check --ros humble --messages ~/ws/src spec.rmv
 exit codes: 0 no errors, 1 errors (or warnings with --strict), 2 usage or I/O problem""",
     )
     check_parser.add_argument("files", nargs="+", metavar="FILE")
     check_parser.add_argument("--format", choices=("text", "json", "sarif"), default="text")
     check_parser.add_argument("--no-color", action="store_true", help="never colour the output")
     check_parser.add_argument("--strict", action="store_true", help="warnings fail the check")
+    check_parser.add_argument(
+        "--ros",
+        metavar="DISTRO",
+        help="the ROS distribution whose messages apply (noetic, humble, jazzy, ...); "
+        "wins over the spec's `ros`",
+    )
+    check_parser.add_argument(
+        "--messages",
+        metavar="DIR",
+        action="append",
+        default=[],
+        help="a folder of .msg files (<pkg>/msg/*.msg below it); may be repeated",
+    )
 
     explain_parser = commands.add_parser(
         "explain",
@@ -141,13 +155,17 @@ def _use_color(args: argparse.Namespace) -> bool:
 
 
 def _check(args: argparse.Namespace) -> int:
+    from rmvdsl.check.msgtypes import DISTROS
+
+    if args.ros is not None and args.ros not in DISTROS:
+        raise UsageError(f"unknown ROS distribution `{args.ros}`; known: {', '.join(DISTROS)}")
     all_diagnostics: list[Diagnostic] = []
     sources = SourceMap()
     usage_problem = False
     checked: list[str] = []
     for path in args.files:
         try:
-            result = check(path)
+            result = check(path, ros=args.ros, messages=tuple(args.messages))
         except UsageError as exc:
             print(f"rmv: error: {exc}", file=sys.stderr)
             usage_problem = True

@@ -404,14 +404,16 @@ class NameChecker:
         if decl.aggregate is None:
             return
         name = decl.aggregate.name
+        if name == "number":
+            return  # a bool as 0 or 1; the types stage checks it is one bool
         if name not in ARRAY_AGGREGATES:
             self.report(
                 error(
                     "RMV218",
                     f"unknown array aggregate `{name}`",
                     decl.aggregate.span,
-                    label="expected " + ", ".join(ARRAY_AGGREGATES),
-                    help=did_you_mean(name, ARRAY_AGGREGATES),
+                    label="expected " + ", ".join(ARRAY_AGGREGATES) + ", or `number`",
+                    help=did_you_mean(name, (*ARRAY_AGGREGATES, "number")),
                 )
             )
         elif not has_wildcard:
