@@ -5,10 +5,10 @@ from __future__ import annotations
 from fractions import Fraction
 
 import pytest
+from conftest import EXAMPLES
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from conftest import EXAMPLES
 from rmvdsl.check import check
 from rmvdsl.check.msgtypes import parse_msg
 from rmvdsl.grammar import ast
@@ -103,7 +103,8 @@ def test_configuration_precedence(tmp_path):
 
 def test_msg_parser_reads_every_form():
     text = (
-        "# comment\nHeader header\nfloat64[] values  # trailing\nuint8[4] fixed\nint32[<=3] bounded\n"
+        "# comment\nHeader header\nfloat64[] values  # trailing\nuint8[4] fixed\n"
+        "int32[<=3] bounded\n"
         'string<=10 name\nstring greeting "hello"\nuint8 MODE=2\nstring TEXT=a # not a comment\n'
         "geometry_msgs/Point point\nPoint local\n"
     )
