@@ -38,6 +38,7 @@ def _build_parser() -> argparse.ArgumentParser:
   rmv check --format json spec.rmv
   rmv fmt --check examples/**/*.rmv
   rmv import rostopicmon.yaml rostopicver.yaml -o spec.rmv
+  rmv eval --formula 'a until[<10] b' --trace run.jsonl --all
   rmv explain RMV200""",
     )
     parser.add_argument("--version", action="version", version=f"rmv {__version__}")
@@ -96,6 +97,33 @@ exit codes: 0 no errors, 1 errors (or warnings with --strict), 2 usage or I/O pr
     )
     fmt_parser.add_argument("--no-color", action="store_true")
 
+    eval_parser = commands.add_parser(
+        "eval",
+        help="evaluate an RMTLD3 formula over a trace file",
+        description="Evaluate a formula (the .rmv infix form or rmtld3synth's LaTeX form) over "
+        "a trace of state changes, with the online monitor. Prints true, false or unknown.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="""examples:
+  rmv eval --formula 'HardBraking -> eventually[<=10s] Stopped' --trace run.jsonl
+  rmv eval --formula '\\int^{10} HardBraking < 4' --trace run.jsonl --at 2.5
+  rmv eval --formula 'a until[<5] b' --trace run.csv --all --format json
+  rmv eval --term --formula 'duration[22](p1)' --trace run.jsonl --at 2
+trace lines (JSONL): {"t": 0, "state": "A"}, {"t": 1, "props": ["a", "b"]}, {"t": 9, "end": true}""",
+    )
+    eval_parser.add_argument(
+        "--formula", required=True, help="the formula (quote it for the shell)"
+    )
+    eval_parser.add_argument("--trace", required=True, metavar="FILE", help="JSONL or CSV")
+    eval_parser.add_argument("--syntax", choices=("auto", "rmv", "latex"), default="auto")
+    when = eval_parser.add_mutually_exclusive_group()
+    when.add_argument("--at", metavar="T", default="0", help="the evaluation time (default 0)")
+    when.add_argument("--all", action="store_true", help="the verdict at every time: segments")
+    eval_parser.add_argument(
+        "--term", action="store_true", help="the formula is a term: print its value"
+    )
+    eval_parser.add_argument("--format", choices=("text", "json"), default="text")
+    eval_parser.add_argument("--no-color", action="store_true")
+
     import_parser = commands.add_parser(
         "import",
         help="turn the thesis's YAML configurations into one .rmv spec",
@@ -129,6 +157,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _fmt(args)
         if args.command == "import":
             return _import(args)
+        if args.command == "eval":
+            return _eval(args)
     except UsageError as exc:
         print(f"rmv: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
@@ -230,6 +260,63 @@ def _fmt(args: argparse.Namespace) -> int:
                 _write(path, formatted)
                 print(f"reformatted {path}")
     return status
+
+
+def _eval(args: argparse.Namespace) -> int:
+    from fractions import Fraction
+
+    from rmvdsl.logic import evaluate as ev
+    from rmvdsl.logic.traces import TraceError, read_trace
+    from rmvdsl.source import SourceFile
+
+    try:
+        at = Fraction(args.at)
+    except (ValueError, ZeroDivisionError):
+        raise UsageError(f"--at {args.at}: not a number") from None
+    node, diagnostics = ev.parse(args.formula, args.syntax, args.term)
+    try:
+        trace = read_trace(args.trace, read_text(args.trace))
+    except TraceError as exc:
+        raise UsageError(str(exc)) from None
+    compiled = None
+    if node is not None:
+        compiled, diagnostics = ev.compile_or_diagnose(node, trace)
+    if compiled is None:
+        sources = SourceMap()
+        sources.add(SourceFile("<formula>", args.formula))
+        sys.stderr.write(
+            render_text(diagnostics, sources, _use_color(args) and sys.stderr.isatty())
+        )
+        return EXIT_ERRORS
+    for note in trace.notes:
+        print(f"rmv eval: {note}", file=sys.stderr)
+    if args.term:
+        low, high = ev.term_at(compiled, trace, at)
+        value = (
+            ev.number(low)
+            if low == high
+            else f"unknown (between {ev.number(low)} and {ev.number(high)})"
+        )
+        if args.format == "json":
+            sys.stdout.write(ev.as_json({"t": float(at), "low": float(low), "high": float(high)}))
+        else:
+            print(value)
+        return EXIT_OK
+    result = ev.run(compiled, trace)
+    if args.all:
+        if args.format == "json":
+            payload = {"segments": [ev.segment_json(s) for s in result.segments]}
+            sys.stdout.write(ev.as_json(payload))
+        else:
+            for segment in result.segments:
+                print(ev.segment_text(segment))
+        return EXIT_OK
+    verdict = ev.verdict_at(result.segments, at)
+    if args.format == "json":
+        sys.stdout.write(ev.as_json({"t": float(at), "verdict": verdict}))
+    else:
+        print(verdict)
+    return EXIT_OK
 
 
 def _write(path: str, text: str) -> None:

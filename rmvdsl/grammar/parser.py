@@ -72,7 +72,7 @@ def _spec_parser() -> tuple[Lark, AstBuilder]:
         _grammar_text(_SPEC_GRAMMAR_FILES),
         parser="lalr",
         lexer="contextual",
-        start=["start", "formula"],
+        start=["start", "formula", "term"],
         transformer=builder,
         maybe_placeholders=True,
         cache=False,
@@ -87,6 +87,7 @@ def _latex_parser() -> tuple[Lark, AstBuilder]:
         _grammar_text(("latex.lark",)),
         parser="lalr",
         lexer="contextual",
+        start=["start", "term"],
         transformer=builder,
         maybe_placeholders=True,
     )
@@ -100,7 +101,7 @@ def bare_spec_parser() -> Lark:
         _grammar_text(_SPEC_GRAMMAR_FILES),
         parser="lalr",
         lexer="contextual",
-        start=["start", "formula"],
+        start=["start", "formula", "term"],
         maybe_placeholders=True,
     )
 
@@ -415,7 +416,7 @@ def _parse_latex_bodies(items: list[ast.Decl]) -> tuple[list[ast.Decl], list[Dia
     return result, diagnostics
 
 
-def parse_latex(literal: ast.StringLit) -> tuple[Formula | None, list[Diagnostic]]:
+def parse_latex(literal: ast.StringLit, start: str = "start") -> tuple[Any, list[Diagnostic]]:
     """Parse the LaTeX notation inside a string literal; spans point into the file."""
     parser, builder = _latex_parser()
     path = literal.span.path
@@ -435,7 +436,7 @@ def parse_latex(literal: ast.StringLit) -> tuple[Formula | None, list[Diagnostic
     builder.diagnostics = []
     builder._span_of = lambda token: file_span(token.start_pos or 0, token.end_pos or 0)
     try:
-        formula = parser.parse(value)
+        formula = parser.parse(value, start=start)
     except UnexpectedInput as exc:
         return None, [*builder.diagnostics, _latex_error(exc, value, file_span)]
     return cast(Formula, formula), list(builder.diagnostics)
@@ -500,20 +501,20 @@ LATEX_COMMANDS = (
 
 
 def parse_formula(
-    text: str, syntax: str = "auto", path: str = "<formula>"
-) -> tuple[Formula | None, list[Diagnostic]]:
-    """Parse one formula given on its own (command line, tests)."""
+    text: str, syntax: str = "auto", path: str = "<formula>", kind: str = "formula"
+) -> tuple[Any, list[Diagnostic]]:
+    """Parse one formula (or, with kind="term", one term) given on its own."""
     if syntax == "auto":
         syntax = "latex" if "\\" in text else "rmv"
     if syntax == "latex":
         literal = ast.StringLit(text, Span(path, -1, len(text) + 1), tuple(range(len(text))))
-        return parse_latex(literal)
+        return parse_latex(literal, "start" if kind == "formula" else "term")
     parser, builder = _spec_parser()
     builder.path = path
     builder.diagnostics = []
     builder._span_of = None
     try:
-        formula = parser.parse(text, start="formula")
+        formula = parser.parse(text, start=kind)
     except UnexpectedToken as exc:
         token = exc.token
         position = token.start_pos if token.type != "$END" else len(text)

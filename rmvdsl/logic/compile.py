@@ -1,0 +1,107 @@
+"""From the formula tree to the runtime's nested tuples.
+
+Times become numbers in the trace's unit (seconds unless said otherwise): `10s` is
+10, `100ms` is 1/10, and a bare number is taken in the given default unit.
+`eventually`, `always`, `once`, `historically`, `->` and `<->` are rewritten with
+until, since, not, and, or, as docs/semantics.md defines them.
+"""
+
+from __future__ import annotations
+
+from fractions import Fraction
+from typing import Any
+
+from rmvdsl.logic import formula as fm
+
+
+class CompileError(Exception):
+    def __init__(self, message: str, node: Any) -> None:
+        super().__init__(message)
+        self.node = node
+
+
+def compile_formula(
+    formula: fm.Formula | fm.Term, unit: Fraction = Fraction(1), default_unit: str | None = "s"
+) -> Any:
+    """A formula (or a term) as runtime tuples. `unit`: one trace time unit in
+    seconds; `default_unit`: the unit of bare numbers."""
+    compiler = _Compiler(unit, default_unit)
+    if isinstance(formula, fm.Term):
+        return compiler.term(formula)
+    return compiler.formula(formula)
+
+
+class _Compiler:
+    def __init__(self, unit: Fraction, default_unit: str | None) -> None:
+        self.unit = unit
+        self.default_unit = default_unit
+
+    def time(self, value: fm.TimeValue, node: Any) -> Fraction:
+        seconds = value.seconds(self.default_unit)
+        if seconds is None:
+            raise CompileError(f"the time `{value.text}` has no unit", node)
+        return seconds / self.unit
+
+    def formula(self, node: fm.Formula) -> Any:
+        match node:
+            case fm.Prop():
+                return ("prop", node.name)
+            case fm.Const():
+                return ("const", node.value)
+            case fm.Not():
+                return ("not", self.formula(node.operand))
+            case fm.Binary():
+                left, right = self.formula(node.left), self.formula(node.right)
+                if node.op in ("and", "or"):
+                    return (node.op, left, right)
+                implies = ("or", ("not", left), right)
+                if node.op == "->":
+                    return implies
+                return ("and", implies, ("or", ("not", right), left))
+            case fm.Temporal():
+                return self.temporal(node)
+            case fm.Compare():
+                return ("cmp", node.op, self.term(node.left), self.term(node.right))
+        raise CompileError(f"not a formula: {node!r}", node)
+
+    def temporal(self, node: fm.Temporal) -> Any:
+        if node.bound is None:
+            raise CompileError(f"`{node.op}` needs a time bound", node)
+        bound = self.time(node.bound.value, node)
+        if bound < 0:
+            raise CompileError("a time bound must not be negative", node)
+        op = node.bound.op
+        body = self.formula(node.right)
+        true = ("const", True)
+        match node.op:
+            case "until" | "since":
+                assert node.left is not None
+                return (node.op, op, bound, self.formula(node.left), body)
+            case "eventually":
+                return ("until", op, bound, true, body)
+            case "once":
+                return ("since", op, bound, true, body)
+            case "always":
+                return ("not", ("until", op, bound, true, ("not", body)))
+            case "historically":
+                return ("not", ("since", op, bound, true, ("not", body)))
+        raise CompileError(f"unknown temporal operator {node.op}", node)
+
+    def term(self, node: fm.Term) -> Any:
+        match node:
+            case fm.Number():
+                if node.time is not None:
+                    return ("num", self.time(node.time, node) * (1 if node.value >= 0 else -1))
+                return ("num", node.value)
+            case fm.Duration():
+                return ("dur", self.time(node.window, node), self.formula(node.body))
+            case fm.Arith():
+                left, right = self.term(node.left), self.term(node.right)
+                kind = {"+": "add", "-": "sub", "*": "mul"}[node.op]
+                if kind == "mul" and left[0] != "num" and right[0] != "num":
+                    raise CompileError(
+                        "a product of two durations is not linear: one side must be a constant",
+                        node,
+                    )
+                return (kind, left, right)
+        raise CompileError(f"not a term: {node!r}", node)

@@ -1,0 +1,95 @@
+"""`rmv eval`: one formula over one trace file, with the online monitor."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from fractions import Fraction
+from typing import Any
+
+from rmvdsl.diagnostics import Diagnostic, error
+from rmvdsl.grammar.parser import parse_formula
+from rmvdsl.grammar.printer import decimal
+from rmvdsl.logic.compile import CompileError, compile_formula
+from rmvdsl.logic.formula import Formula, Term
+from rmvdsl.logic.traces import TraceFile
+from rmvdsl.runtime.rmtld3 import Monitor, Segment, merge
+
+
+@dataclass
+class Evaluation:
+    segments: list[Segment] = field(default_factory=list)
+    memory: int = 0
+    horizon: Fraction = Fraction(0)
+
+
+def parse(text: str, syntax: str, term: bool) -> tuple[Formula | Term | None, list[Diagnostic]]:
+    return parse_formula(text, syntax, "<formula>", "term" if term else "formula")
+
+
+def compile_or_diagnose(node: Any, trace: TraceFile) -> tuple[Any, list[Diagnostic]]:
+    try:
+        return compile_formula(node, trace.unit_seconds, trace.unit), []
+    except CompileError as exc:
+        span = getattr(exc.node, "span", None)
+        code = "RMV212" if "needs a time bound" in str(exc) else "RMV219"
+        return None, [error(code, str(exc), span, label="here")]  # type: ignore[arg-type]
+
+
+def run(formula: Any, trace: TraceFile) -> Evaluation:
+    monitor = Monitor(formula)
+    monitor.feed(zip(trace.times, trace.states, strict=True))
+    assert trace.end is not None
+    monitor.end(trace.end)
+    return Evaluation(merge(monitor.verdicts()), monitor.memory(), monitor.horizon)
+
+
+def verdict_at(segments: list[Segment], t: Fraction) -> str:
+    for a, b, a_closed, b_closed, value in segments:
+        if (a < t or (a == t and a_closed)) and (t < b or (t == b and b_closed)):
+            return value
+    return "unknown"
+
+
+def term_at(term: Any, trace: TraceFile, t: Fraction) -> tuple[Fraction, Fraction]:
+    """The value of a term at t (exact): an interval where the trace does not
+    decide it."""
+    from rmvdsl.logic.reference import Reference, Trace
+
+    assert trace.end is not None
+    return Reference(Trace(trace.times, trace.states, trace.end)).term(term, t)
+
+
+def number(value: Fraction) -> str:
+    return decimal(value) if value.denominator in _DECIMAL_DENOMINATORS(value) else str(value)
+
+
+def _DECIMAL_DENOMINATORS(value: Fraction) -> set[int]:
+    denominator = value.denominator
+    while denominator % 2 == 0:
+        denominator //= 2
+    while denominator % 5 == 0:
+        denominator //= 5
+    return {value.denominator} if denominator == 1 else set()
+
+
+def segment_text(segment: Segment) -> str:
+    a, b, a_closed, b_closed, value = segment
+    if a == b:
+        return f"{number(a)}  {value}"
+    return f"{'[' if a_closed else '('}{number(a)}, {number(b)}{']' if b_closed else ')'}  {value}"
+
+
+def segment_json(segment: Segment) -> dict[str, Any]:
+    a, b, a_closed, b_closed, value = segment
+    return {
+        "from": float(a) if a.denominator != 1 else int(a),
+        "to": float(b) if b.denominator != 1 else int(b),
+        "from_closed": a_closed,
+        "to_closed": b_closed,
+        "verdict": value,
+    }
+
+
+def as_json(payload: dict[str, Any]) -> str:
+    return json.dumps(payload, indent=2) + "\n"

@@ -1,0 +1,250 @@
+"""The reference evaluator: the definitions of docs/semantics.md, written down
+directly, for small traces. The tests use it as the oracle for the online monitor.
+
+A value at time t is computed by recursion on the formula. Quantifiers over a time
+window range over finitely many candidates: every point where a subformula can
+change value inside the window, and one point inside each open interval between
+two such points (a subformula is constant there). Arithmetic is exact (Fraction).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from fractions import Fraction
+from typing import Any
+
+FALSE, UNKNOWN, TRUE = 0, 1, 2
+
+
+@dataclass
+class Trace:
+    """State i holds on [times[i], times[i+1]); the last until `end`. Time starts at
+    times[0]; nothing is known from `end` on."""
+
+    times: list[Fraction]
+    states: list[frozenset[str]]
+    end: Fraction
+
+    @property
+    def start(self) -> Fraction:
+        return self.times[0]
+
+    def prop(self, name: str, t: Fraction) -> int:
+        if t >= self.end:
+            return UNKNOWN
+        if t < self.start:
+            return FALSE
+        low, high = 0, len(self.times) - 1
+        while low < high:  # the last change at or before t
+            middle = (low + high + 1) // 2
+            if self.times[middle] <= t:
+                low = middle
+            else:
+                high = middle - 1
+        return TRUE if name in self.states[low] else FALSE
+
+
+@dataclass
+class Reference:
+    trace: Trace
+    _values: dict[tuple[int, Fraction], int] = field(default_factory=dict)
+    _points: dict[int, list[Fraction]] = field(default_factory=dict)
+
+    # ---- where a formula can change value ----
+
+    def points(self, f: Any) -> list[Fraction]:
+        key = id(f)
+        if key not in self._points:
+            self._points[key] = sorted(self._compute_points(f))
+        return self._points[key]
+
+    def _compute_points(self, f: Any) -> set[Fraction]:
+        kind = f[0]
+        if kind == "prop":
+            return {*self.trace.times, self.trace.end}
+        if kind == "const":
+            return set()
+        if kind == "not":
+            return set(self.points(f[1]))
+        if kind in ("and", "or"):
+            return set(self.points(f[1])) | set(self.points(f[2]))
+        if kind in ("until", "since"):
+            shift = -f[2] if kind == "until" else f[2]
+            children = set(self.points(f[3])) | set(self.points(f[4]))
+            extra = {self.trace.start + f[2]} if kind == "since" else set()
+            return children | {p + shift for p in children} | extra
+        return self._compare_points(f)
+
+    def _term_points(self, term: Any) -> set[Fraction]:
+        if term[0] == "num":
+            return set()
+        if term[0] == "dur":
+            body = set(self.points(term[2]))
+            return body | {p - term[1] for p in body}
+        return self._term_points(term[1]) | self._term_points(term[2])
+
+    def _compare_points(self, f: Any) -> set[Fraction]:
+        pieces = sorted(self._term_points(f[2]) | self._term_points(f[3]) | {self.trace.start})
+        pieces.append(pieces[-1] + 1)
+        found = set(pieces[:-1])
+        for a, b in zip(pieces, pieces[1:], strict=False):
+            (la, ha), (lb, hb) = self.term(f[2], a), self.term(f[3], a)
+            (la2, ha2), (lb2, hb2) = self.term(f[2], b), self.term(f[3], b)
+            for at_a, at_b in ((ha - lb, ha2 - lb2), (la - hb, la2 - hb2)):
+                if (at_a < 0 < at_b) or (at_b < 0 < at_a):
+                    found.add(a + (b - a) * Fraction(-at_a) / (at_b - at_a))
+        return found
+
+    def candidates(
+        self, f_list: list[Any], low: Fraction, high: Fraction
+    ) -> list[tuple[Fraction, bool]]:
+        """Points in [low, high] where any of the formulas can change, with one
+        point inside each open gap: (time, is_a_breakpoint)."""
+        inside = {low, high}
+        for f in f_list:
+            inside.update(p for p in self.points(f) if low < p < high)
+        ordered = sorted(inside)
+        out = []
+        for a, b in zip(ordered, ordered[1:], strict=False):
+            out.append((a, True))
+            out.append(((a + b) / 2, False))
+        out.append((ordered[-1], True))
+        return out
+
+    # ---- values ----
+
+    def value(self, f: Any, t: Fraction) -> int:
+        key = (id(f), t)
+        if key not in self._values:
+            self._values[key] = self._compute(f, t)
+        return self._values[key]
+
+    def _compute(self, f: Any, t: Fraction) -> int:
+        kind = f[0]
+        if kind == "prop":
+            return self.trace.prop(f[1], t)
+        if kind == "const":
+            return TRUE if f[1] else FALSE
+        if kind == "not":
+            return 2 - self.value(f[1], t)
+        if kind == "and":
+            return min(self.value(f[1], t), self.value(f[2], t))
+        if kind == "or":
+            return max(self.value(f[1], t), self.value(f[2], t))
+        if kind == "until":
+            return self._until(f, t)
+        if kind == "since":
+            return self._since(f, t)
+        return self._compare(f, t)
+
+    def _until(self, f: Any, t: Fraction) -> int:
+        _, op, bound, phi, psi = f
+        end = t + bound
+        best = FALSE
+        samples = self.candidates([phi, psi], t, end)
+        for index, (s, is_point) in enumerate(samples):
+            in_window = (
+                (op == "=" and s == end) or (op == "<" and s < end) or (op == "<=" and s <= end)
+            )
+            if not in_window:
+                continue
+            # phi over [t, s): every earlier sample, and the open part (., s) if s is inside a gap
+            before = [self.value(phi, x) for x, _ in samples[:index]]
+            if not is_point:
+                before.append(self.value(phi, s))
+            best = max(best, min([self.value(psi, s), *before]))
+        return best
+
+    def _since(self, f: Any, t: Fraction) -> int:
+        _, op, bound, phi, psi = f
+        begin = t - bound
+        low = max(begin, self.trace.start)
+        if low > t:
+            return FALSE
+        best = FALSE
+        samples = self.candidates([phi, psi], low, t)
+        for index, (s, is_point) in enumerate(samples):
+            if op == "=":
+                in_window = s == begin
+            elif s == begin:
+                in_window = op == "<="
+            else:
+                in_window = True
+            if not in_window:
+                continue
+            after = [self.value(phi, x) for x, _ in samples[index + 1 :]]
+            if not is_point:
+                after.append(self.value(phi, s))
+            best = max(best, min([self.value(psi, s), *after]))
+        return best
+
+    def _compare(self, f: Any, t: Fraction) -> int:
+        _, op, a, b = f
+        left, right = self.term(a, t), self.term(b, t)
+
+        def less(x: tuple[Fraction, Fraction], y: tuple[Fraction, Fraction]) -> int:
+            return TRUE if x[1] < y[0] else FALSE if x[0] >= y[1] else UNKNOWN
+
+        if op == "<":
+            return less(left, right)
+        if op == ">":
+            return less(right, left)
+        if op == "<=":
+            return 2 - less(right, left)
+        if op == ">=":
+            return 2 - less(left, right)
+        equal = min(2 - less(left, right), 2 - less(right, left))
+        return equal if op == "==" else 2 - equal
+
+    def term(self, term: Any, t: Fraction) -> tuple[Fraction, Fraction]:
+        kind = term[0]
+        if kind == "num":
+            return Fraction(term[1]), Fraction(term[1])
+        if kind == "dur":
+            window, body = term[1], term[2]
+            surely = possibly = Fraction(0)
+            samples = self.candidates([body], t, t + window)
+            for index in range(1, len(samples), 2):  # the gaps: (previous point, next point)
+                a, b = samples[index - 1][0], samples[index + 1][0]
+                value = self.value(body, samples[index][0])
+                if value == TRUE:
+                    surely += b - a
+                if value != FALSE:
+                    possibly += b - a
+            return surely, possibly
+        left, right = self.term(term[1], t), self.term(term[2], t)
+        if kind == "add":
+            return left[0] + right[0], left[1] + right[1]
+        if kind == "sub":
+            return left[0] - right[1], left[1] - right[0]
+        products = [x * y for x in left for y in right]
+        return min(products), max(products)
+
+    # ---- the whole signal ----
+
+    def segments(self, f: Any) -> list[tuple[Fraction, Fraction, bool, bool, str]]:
+        """The value at every time point of [start, end), as maximal segments."""
+        names = {FALSE: "false", UNKNOWN: "unknown", TRUE: "true"}
+        start, end = self.trace.start, self.trace.end
+        out: list[tuple[Fraction, Fraction, bool, bool, str]] = []
+        samples = self.candidates([f], start, end)
+        for index, (s, is_point) in enumerate(samples):
+            if s >= end:
+                break
+            name = names[self.value(f, s)]
+            if is_point:
+                a = b = s
+                a_closed = b_closed = True
+            else:
+                a, b = samples[index - 1][0], samples[index + 1][0]
+                a_closed = b_closed = False
+            if out and out[-1][4] == name and out[-1][1] == a and (out[-1][3] or a_closed):
+                out[-1] = (out[-1][0], b, out[-1][2], b_closed, name)
+            else:
+                out.append((a, b, a_closed, b_closed, name))
+        return out
+
+
+def evaluate(formula: Any, trace: Trace, t: Fraction) -> str:
+    names = {FALSE: "false", UNKNOWN: "unknown", TRUE: "true"}
+    return names[Reference(trace).value(formula, Fraction(t))]

@@ -1,0 +1,673 @@
+"""An online monitor for RMTLD3, exact in dense time (docs/semantics.md).
+
+This module uses the Python standard library only: generated ROS nodes embed it.
+Formulas come as nested tuples (`rmvdsl.logic.compile` makes them):
+
+    ("prop", name)  ("const", bool)  ("not", f)  ("and", f, g)  ("or", f, g)
+    ("until", op, T, f, g)  ("since", op, T, f, g)        op: "<", "<=", "="
+    ("cmp", op, a, b)   op: "<", "<=", ">", ">=", "==", "!="
+    terms: ("num", v)  ("dur", T, f)  ("add", a, b)  ("sub", a, b)  ("mul", a, b)
+
+Truth values are 0 (false), 1 (unknown), 2 (true): `and` is min, `or` is max,
+`not` is 2 - v. Each subformula's value over time is a Signal: breakpoints, each
+with its value at the point and on the open interval up to the next one (bounded
+operators make isolated points: `always[<1] a` over a on [0, 1) holds at 0 only).
+The last interval runs forever (for atoms: unknown after the newest input).
+
+When input extends the trace, a node recomputes only from `newest input - its
+future horizon` on: earlier values cannot change, and by monotonicity a true or
+false value never changes at all. Memory is the breakpoints inside the horizon.
+Times are int, Fraction or float; with int or Fraction everything is exact.
+"""
+
+from __future__ import annotations
+
+import bisect
+import heapq
+from collections.abc import Iterable, Iterator
+from fractions import Fraction
+from typing import Any
+
+FALSE, UNKNOWN, TRUE = 0, 1, 2
+NAMES = {FALSE: "false", UNKNOWN: "unknown", TRUE: "true"}
+_INFINITY = float("inf")
+
+
+def _mid(a: Any, b: Any) -> Any:
+    if isinstance(a, int) and isinstance(b, int):
+        return Fraction(a + b, 2)
+    return (a + b) / 2
+
+
+def _divide(x: Any, y: Any) -> Any:
+    if isinstance(x, int) and isinstance(y, int):
+        return Fraction(x, y)
+    return x / y
+
+
+class Signal:
+    """A three-valued function on [starts[0], infinity): `points[i]` at
+    `starts[i]`, `opens[i]` on (starts[i], starts[i+1])."""
+
+    __slots__ = ("opens", "points", "starts")
+
+    def __init__(self, start: Any, value: int) -> None:
+        self.starts: list[Any] = [start]
+        self.points: list[int] = [value]
+        self.opens: list[int] = [value]
+
+    def index(self, t: Any) -> int:
+        index = bisect.bisect_right(self.starts, t) - 1
+        return index if index > 0 else 0
+
+    def at(self, t: Any) -> int:
+        i = self.index(t)
+        return self.points[i] if self.starts[i] == t else self.opens[i]
+
+    def right_of(self, t: Any) -> int:
+        """The value just after t."""
+        return self.opens[self.index(t)]
+
+    def cut(self, t: Any) -> None:
+        """Forget the signal from t on (the caller appends from t)."""
+        index = bisect.bisect_left(self.starts, t)
+        if index == 0:
+            self.starts[0] = t
+            index = 1
+        del self.starts[index:]
+        del self.points[index:]
+        del self.opens[index:]
+
+    def append(self, t: Any, point: int, after: int) -> None:
+        if t == self.starts[-1]:
+            self.points[-1], self.opens[-1] = point, after
+            if len(self.starts) > 1 and self.opens[-2] == point == after:
+                self.starts.pop()
+                self.points.pop()
+                self.opens.pop()
+            return
+        if self.opens[-1] == point == after:
+            return
+        self.starts.append(t)
+        self.points.append(point)
+        self.opens.append(after)
+
+    def drop_before(self, t: Any) -> None:
+        index = bisect.bisect_right(self.starts, t) - 1
+        if index > 0:
+            del self.starts[:index]
+            del self.points[:index]
+            del self.opens[:index]
+
+    def between(self, low: Any, high: Any) -> list[Any]:
+        """The breakpoints in (low, high)."""
+        return self.starts[
+            bisect.bisect_right(self.starts, low) : bisect.bisect_left(self.starts, high)
+        ]
+
+    def infimum(self, low: Any, high: Any, low_closed: bool, high_closed: bool) -> int:
+        """inf over the interval from low to high (each end open or closed)."""
+        if high < low or (high == low and not (low_closed and high_closed)):
+            return TRUE
+        if high == low:
+            return self.at(low)
+        i = self.index(low)
+        value = self.opens[i]
+        if low_closed:
+            value = min(value, self.at(low))
+        j = self.index(high)
+        for k in range(i + 1, j + 1):
+            if self.starts[k] < high:
+                value = min(value, self.points[k], self.opens[k])
+        if high_closed:
+            value = min(value, self.at(high))
+        return value
+
+
+class Node:
+    future: Any = 0  # how far the subformula looks ahead of the time it is evaluated at
+    past: Any = 0
+
+    def __init__(self) -> None:
+        self.signal = Signal(0, UNKNOWN)
+
+    def reset(self, start: Any) -> None:
+        self.signal = Signal(start, UNKNOWN)
+
+    def update(self, start: Any) -> None:
+        """Recompute the signal on [start, infinity) from the children's."""
+
+    def children(self) -> list[Node]:
+        return []
+
+
+class Const(Node):
+    def __init__(self, value: int) -> None:
+        super().__init__()
+        self.value = value
+
+    def reset(self, start: Any) -> None:
+        self.signal = Signal(start, self.value)
+
+
+class Prop(Node):
+    """Written by the monitor from the input."""
+
+
+class Not(Node):
+    def __init__(self, child: Node) -> None:
+        super().__init__()
+        self.child = child
+        self.future, self.past = child.future, child.past
+
+    def children(self) -> list[Node]:
+        return [self.child]
+
+    def update(self, start: Any) -> None:
+        source, signal = self.child.signal, self.signal
+        signal.cut(start)
+        i = source.index(start)
+        signal.append(start, 2 - source.at(start), 2 - source.opens[i])
+        for k in range(i + 1, len(source.starts)):
+            signal.append(source.starts[k], 2 - source.points[k], 2 - source.opens[k])
+
+
+class Binary(Node):
+    def __init__(self, op: str, left: Node, right: Node) -> None:
+        super().__init__()
+        self.combine = min if op == "and" else max
+        self.left, self.right = left, right
+        self.future = max(left.future, right.future)
+        self.past = max(left.past, right.past)
+
+    def children(self) -> list[Node]:
+        return [self.left, self.right]
+
+    def update(self, start: Any) -> None:
+        a, b, signal, combine = self.left.signal, self.right.signal, self.signal, self.combine
+        signal.cut(start)
+        signal.append(
+            start, combine(a.at(start), b.at(start)), combine(a.right_of(start), b.right_of(start))
+        )
+        for t in sorted(set(a.between(start, _INFINITY)) | set(b.between(start, _INFINITY))):
+            signal.append(t, combine(a.at(t), b.at(t)), combine(a.right_of(t), b.right_of(t)))
+
+
+class Evaluated(Node):
+    """A node whose value is computed pointwise, at every point where it can change
+    and at one point of each open interval between (exact for these signals)."""
+
+    def breakpoints(self, start: Any) -> set[Any]:
+        raise NotImplementedError
+
+    def value_at(self, t: Any) -> int:
+        raise NotImplementedError
+
+    def update(self, start: Any) -> None:
+        points = sorted(p for p in self.breakpoints(start) if p > start)
+        signal = self.signal
+        signal.cut(start)
+        ends = [*points, (points[-1] if points else start) + self.future + self.past + 1]
+        previous = start
+        for point in ends:
+            after = self.value_at(_mid(previous, point))
+            signal.append(previous, self.value_at(previous), after)
+            previous = point
+
+
+class Temporal(Evaluated):
+    """Until (future) and since (past), bounded by `< T`, `<= T` or `= T`."""
+
+    origin: Any = 0  # time starts here: since never looks before it
+
+    def __init__(self, kind: str, op: str, bound: Any, left: Node, right: Node) -> None:
+        super().__init__()
+        self.kind, self.op, self.bound = kind, op, bound
+        self.left, self.right = left, right
+        future = max(left.future, right.future)
+        past = max(left.past, right.past)
+        if kind == "until":
+            self.future, self.past = future + bound, past
+        else:
+            self.future, self.past = future, past + bound
+
+    def children(self) -> list[Node]:
+        return [self.left, self.right]
+
+    def breakpoints(self, start: Any) -> set[Any]:
+        shift = -self.bound if self.kind == "until" else self.bound
+        found = set()
+        for child in (self.left.signal, self.right.signal):
+            for point in child.between(start - self.bound - 1, _INFINITY):
+                found.add(point)
+                found.add(point + shift)
+        if self.kind == "since":
+            found.add(self.origin + self.bound)
+        return found
+
+    def value_at(self, t: Any) -> int:
+        return self._until(t) if self.kind == "until" else self._since(t)
+
+    def _until(self, t: Any) -> int:
+        """sup over t' in the window of min(psi(t'), inf of phi over [t, t'))."""
+        phi, psi, op = self.left.signal, self.right.signal, self.op
+        end = t + self.bound
+        if op == "=":
+            return min(psi.at(end), phi.infimum(t, end, True, False))
+        best = FALSE
+        prefix = TRUE  # inf of phi over [t, cursor)
+        cursor = t
+        for point in [*sorted(set(psi.between(t, end)) | set(phi.between(t, end))), end]:
+            best = max(best, min(psi.at(cursor), prefix))  # t' = cursor
+            prefix = min(prefix, phi.at(cursor))
+            if cursor < point:  # t' in (cursor, point): phi also holds on (cursor, t')
+                inside = phi.right_of(cursor)
+                prefix = min(prefix, inside)
+                best = max(best, min(psi.right_of(cursor), prefix))
+            if best == TRUE:
+                return TRUE
+            cursor = point
+        if op == "<=" or end == t:
+            best = max(best, min(psi.at(end), prefix)) if op == "<=" else best
+        return best
+
+    def _since(self, t: Any) -> int:
+        """sup over t' in the window, from the origin on, of
+        min(psi(t'), inf of phi over (t', t])."""
+        phi, psi, op = self.left.signal, self.right.signal, self.op
+        begin = t - self.bound
+        if op == "=":
+            if begin < self.origin:
+                return FALSE
+            return min(psi.at(begin), phi.infimum(begin, t, False, True))
+        low, low_closed = (begin, op == "<=") if begin > self.origin else (self.origin, True)
+        if low > t or (low == t and not low_closed):
+            return FALSE
+        best = FALSE
+        suffix = TRUE  # inf of phi over (cursor, t]
+        cursor = t
+        for point in [
+            *sorted(set(psi.between(low, t)) | set(phi.between(low, t)), reverse=True),
+            low,
+        ]:
+            if cursor > low or low_closed:
+                best = max(best, min(psi.at(cursor), suffix))  # t' = cursor
+            suffix = min(suffix, phi.at(cursor))
+            if point < cursor:  # t' in (point, cursor)
+                suffix = min(suffix, phi.right_of(point))
+                best = max(best, min(psi.right_of(point), suffix))
+            if best == TRUE:
+                return TRUE
+            cursor = point
+        if low_closed and low < t:
+            best = max(best, min(psi.at(low), suffix))
+        return best
+
+
+class Compare(Evaluated):
+    """A comparison of terms: constants, durations, sums, and products by a
+    constant. A duration is an interval [surely, possibly]; between breakpoints
+    terms are linear in t, so the comparison changes only at breakpoints and where
+    two linear pieces cross, both computed exactly."""
+
+    def __init__(self, op: str, left: Any, right: Any) -> None:
+        super().__init__()
+        self.op, self.left, self.right = op, left, right
+        self.bodies = _term_nodes(left) + _term_nodes(right)
+        self.future = max([window + body.future for window, body in self.bodies] or [0])
+        self.past = max([body.past for _, body in self.bodies] or [0])
+
+    def children(self) -> list[Node]:
+        return [body for _, body in self.bodies]
+
+    def breakpoints(self, start: Any) -> set[Any]:
+        found = set()
+        for window, body in self.bodies:
+            for point in body.signal.between(start - window - 1, _INFINITY):
+                found.add(point)
+                found.add(point - window)
+        ordered = sorted(p for p in found if p > start)
+        ends = [start, *ordered, (ordered[-1] if ordered else start) + self.future + 1]
+        for a, b in zip(ends, ends[1:], strict=False):
+            found.update(self._crossings(a, b))
+        return found
+
+    def _crossings(self, a: Any, b: Any) -> list[Any]:
+        (la, ha), (lb, hb) = _term(self.left, a), _term(self.right, a)
+        (la2, ha2), (lb2, hb2) = _term(self.left, b), _term(self.right, b)
+        found = []
+        for f_a, f_b in ((ha - lb, ha2 - lb2), (la - hb, la2 - hb2)):
+            if (f_a < 0 < f_b) or (f_b < 0 < f_a):
+                found.append(a + _divide((b - a) * (0 - f_a), f_b - f_a))
+        return found
+
+    def value_at(self, t: Any) -> int:
+        left, right, op = _term(self.left, t), _term(self.right, t), self.op
+        if op == "<":
+            return _less(left, right)
+        if op == ">":
+            return _less(right, left)
+        if op == "<=":
+            return 2 - _less(right, left)
+        if op == ">=":
+            return 2 - _less(left, right)
+        equal = min(2 - _less(left, right), 2 - _less(right, left))
+        return equal if op == "==" else 2 - equal
+
+
+def _less(a: tuple[Any, Any], b: tuple[Any, Any]) -> int:
+    if a[1] < b[0]:
+        return TRUE
+    if a[0] >= b[1]:
+        return FALSE
+    return UNKNOWN
+
+
+def _term_nodes(term: Any) -> list[tuple[Any, Node]]:
+    if term[0] == "dur":
+        return [(term[1], term[2])]
+    if term[0] == "num":
+        return []
+    return _term_nodes(term[1]) + _term_nodes(term[2])
+
+
+def _term(term: Any, t: Any) -> tuple[Any, Any]:
+    kind = term[0]
+    if kind == "num":
+        return term[1], term[1]
+    if kind == "dur":
+        return duration(term[2].signal, t, t + term[1])
+    left, right = _term(term[1], t), _term(term[2], t)
+    if kind == "add":
+        return left[0] + right[0], left[1] + right[1]
+    if kind == "sub":
+        return left[0] - right[1], left[1] - right[0]
+    products = [x * y for x in left for y in right]
+    return min(products), max(products)
+
+
+def duration(signal: Signal, low: Any, high: Any) -> tuple[Any, Any]:
+    """How long the signal is true in [low, high): surely, possibly."""
+    surely = possibly = 0
+    starts, opens = signal.starts, signal.opens
+    i = signal.index(low)
+    cursor = low
+    while cursor < high:
+        end = starts[i + 1] if i + 1 < len(starts) and starts[i + 1] < high else high
+        if opens[i] == TRUE:
+            surely += end - cursor
+            possibly += end - cursor
+        elif opens[i] == UNKNOWN:
+            possibly += end - cursor
+        cursor = end
+        i += 1
+    return surely, possibly
+
+
+def build(formula: Any, props: dict[str, Prop]) -> Node:
+    kind = formula[0]
+    if kind == "prop":
+        return props.setdefault(formula[1], Prop())
+    if kind == "const":
+        return Const(TRUE if formula[1] else FALSE)
+    if kind == "not":
+        return Not(build(formula[1], props))
+    if kind in ("and", "or"):
+        return Binary(kind, build(formula[1], props), build(formula[2], props))
+    if kind in ("until", "since"):
+        left, right = build(formula[3], props), build(formula[4], props)
+        return Temporal(kind, formula[1], formula[2], left, right)
+    if kind == "cmp":
+        return Compare(formula[1], _build_term(formula[2], props), _build_term(formula[3], props))
+    raise ValueError(f"unknown formula node {kind!r}")
+
+
+def _build_term(term: Any, props: dict[str, Prop]) -> Any:
+    kind = term[0]
+    if kind == "num":
+        return term
+    if kind == "dur":
+        return ("dur", term[1], build(term[2], props))
+    if kind == "mul" and term[1][0] != "num" and term[2][0] != "num":
+        raise ValueError("a product of two durations is not linear: one side must be a constant")
+    return (kind, _build_term(term[1], props), _build_term(term[2], props))
+
+
+def _order(root: Node) -> list[Node]:
+    """Children before parents, each node once."""
+    order: list[Node] = []
+    seen: set[int] = set()
+    stack: list[tuple[Node, bool]] = [(root, False)]
+    while stack:
+        node, expanded = stack.pop()
+        if expanded:
+            order.append(node)
+            continue
+        if id(node) in seen:
+            continue
+        seen.add(id(node))
+        stack.append((node, True))
+        stack.extend((child, False) for child in reversed(node.children()))
+    return order
+
+
+Segment = tuple[Any, Any, bool, bool, str]  # start, end, start closed, end closed, value
+
+
+class Monitor:
+    """Feed samples in time order; read verdict segments as they are decided.
+
+        monitor = Monitor(("until", "<", 10, ("prop", "A"), ("prop", "B")))
+        monitor.step(0, {"A"}); monitor.step(3, {"B"}); monitor.end(12)
+        list(monitor.verdicts())   # [(0, 12, True, False, 'true')]
+
+    A sample (t, state) says which propositions hold from t on. The input is known
+    up to the newest sample (or the end given to `end`). `lateness`: samples may
+    arrive this much out of order and are re-ordered; a later one is counted in
+    `late`, and the input it would have changed becomes unknown.
+    """
+
+    def __init__(self, formula: Any, lateness: Any = 0) -> None:
+        self.props: dict[str, Prop] = {}
+        self.root = build(formula, self.props)
+        self.order = _order(self.root)
+        self.horizon = self.root.future + self.root.past
+        self.lateness = lateness
+        self.start: Any = None
+        self.known: Any = None  # the input is known on [start, known)
+        self.written: Any = None  # the atoms' signals are written up to here
+        self.state: frozenset[str] = frozenset()
+        self.emitted: Any = None  # verdicts are out up to here
+        self.emitted_point = False  # and for the point `emitted` itself
+        self.pending: list[tuple[Any, int, frozenset[str]]] = []
+        self.count = 0
+        self.newest: Any = None
+        self.late: list[Any] = []
+        self.revised = 0
+        self._out: list[Segment] = []
+
+    # ---- input ----
+
+    def step(self, t: Any, state: Iterable[str]) -> None:
+        """The propositions that hold from time t on."""
+        state = state if isinstance(state, frozenset) else frozenset(state)
+        if self.lateness:
+            self._hold(t, state)
+        else:
+            self._advance(t, state)
+
+    def feed(self, samples: Iterable[tuple[Any, Iterable[str]]]) -> None:
+        """Many samples. One that repeats the current state only moves the known end
+        of the input: the fast path of a periodic sampler."""
+        if self.lateness:
+            for t, state in samples:
+                self.step(t, state)
+            return
+        current = self.state
+        for t, state in samples:
+            if state == current and self.start is not None and t >= self.known:
+                self.known = t
+                continue
+            self._advance(t, state if isinstance(state, frozenset) else frozenset(state))
+            current = self.state
+
+    def end(self, t: Any) -> None:
+        """The input ends at t: the last state held until t; nothing is known after."""
+        while self.pending:
+            when, _, held = heapq.heappop(self.pending)
+            self._advance(when, held)
+        if self.start is None:
+            return
+        if t > self.known:
+            self.known = t
+        self._recompute()
+        self._emit(final=True)
+
+    def _hold(self, t: Any, state: frozenset[str]) -> None:
+        self.count += 1
+        heapq.heappush(self.pending, (t, self.count, state))
+        self.newest = t if self.newest is None or t > self.newest else self.newest
+        while self.pending and self.pending[0][0] <= self.newest - self.lateness:
+            when, _, held = heapq.heappop(self.pending)
+            self._advance(when, held)
+
+    def _advance(self, t: Any, state: frozenset[str]) -> None:
+        if self.start is None:
+            self._begin(t, state)
+        elif t < self.known:
+            self._late_sample(t)
+        elif state == self.state:
+            self.known = t
+        else:
+            self.known = t
+            self._recompute()
+            self.state = state
+            self._emit(final=False)
+
+    def _begin(self, t: Any, state: frozenset[str]) -> None:
+        self.start = self.known = self.written = self.emitted = t
+        self.state = state
+        for node in self.order:
+            node.reset(t)
+            if isinstance(node, Temporal):
+                node.origin = t
+
+    def _recompute(self) -> None:
+        """Write the input on [written, known), then update every node from where
+        that input can change it."""
+        begin = self.written
+        for name, prop in self.props.items():
+            value = TRUE if name in self.state else FALSE
+            signal = prop.signal
+            signal.cut(begin)
+            signal.append(begin, value, value)
+            signal.append(self.known, UNKNOWN, UNKNOWN)
+        self.written = self.known
+        self._update_nodes(begin)
+        keep = self.known - self.horizon - 1
+        for node in self.order:
+            node.signal.drop_before(min(keep, self.emitted) if node is self.root else keep)
+
+    def _update_nodes(self, changed: Any) -> None:
+        for node in self.order:
+            if isinstance(node, Evaluated | Not | Binary):
+                begin = changed - node.future
+                node.update(begin if begin > self.start else self.start)
+
+    def _late_sample(self, t: Any) -> None:
+        self.late.append(t)
+        oldest = min((p.signal.starts[0] for p in self.props.values()), default=self.start)
+        if t < oldest:
+            return  # older than the history kept: counted, not re-evaluated
+        for prop in self.props.values():
+            signal = prop.signal
+            following = next((s for s in signal.starts if s > t), self.known)
+            following = min(following, self.known)
+            tail = [
+                (s, p, o)
+                for s, p, o in zip(signal.starts, signal.points, signal.opens, strict=True)
+                if s >= following
+            ]
+            signal.cut(t)
+            signal.append(t, UNKNOWN, UNKNOWN)
+            for s, p, o in tail:
+                signal.append(s, p, o)
+        self._update_nodes(t)
+        since = t - self.root.future
+        if since < self.emitted:
+            self._revise(since if since > self.start else self.start)
+
+    def _revise(self, since: Any) -> None:
+        """What a late sample made uncertain is re-emitted as unknown."""
+        for segment in self._segments(since, self.emitted):
+            if segment[4] == "unknown":
+                self._out.append((*segment[:4], "unknown (revised: late input)"))
+                self.revised += 1
+
+    # ---- output ----
+
+    def _segments(self, low: Any, high: Any, low_done: bool = False) -> list[Segment]:
+        """The root signal from low to high (open) as maximal segments; the point
+        low itself is left out when `low_done`."""
+        signal = self.root.signal
+        out: list[Segment] = []
+
+        def add(a: Any, b: Any, a_closed: bool, b_closed: bool, value: int) -> None:
+            name = NAMES[value]
+            if out and out[-1][4] == name and out[-1][1] == a and (out[-1][3] or a_closed):
+                out[-1] = (out[-1][0], b, out[-1][2], b_closed, name)
+            elif a < b or (a_closed and b_closed):
+                out.append((a, b, a_closed, b_closed, name))
+
+        i = signal.index(low)
+        for k in range(i, len(signal.starts)):
+            point = signal.starts[k]
+            if point >= high:
+                break
+            if point >= low and not (point == low and low_done):
+                add(point, point, True, True, signal.points[k])
+            end = signal.starts[k + 1] if k + 1 < len(signal.starts) else high
+            end = end if end < high else high
+            if point < low:
+                add(low, end, not low_done, False, signal.opens[k])
+            else:
+                add(point, end, False, False, signal.opens[k])
+        return out
+
+    def _emit(self, final: bool) -> None:
+        for segment in self._segments(self.emitted, self.known, self.emitted_point):
+            if segment[4] == "unknown" and not final:
+                return
+            self._out.append(segment)
+            self.emitted, self.emitted_point = segment[1], segment[3]
+
+    def verdicts(self) -> Iterator[Segment]:
+        """Verdict segments decided since the last call, in time order."""
+        out, self._out = self._out, []
+        return iter(out)
+
+    def verdict_at(self, t: Any) -> str:
+        """The verdict at time t, as far as the input so far decides it."""
+        if self.start is None or t < self.root.signal.starts[0]:
+            return "unknown"
+        return NAMES[self.root.signal.at(t)]
+
+    def memory(self) -> int:
+        """Breakpoints held over all nodes: bounded by the horizon, not the trace."""
+        return sum(len(node.signal.starts) for node in self.order) + len(self.pending)
+
+
+def merge(segments: Iterable[Segment]) -> list[Segment]:
+    """Join adjacent segments of the same value."""
+    out: list[Segment] = []
+    for segment in segments:
+        if (
+            out
+            and out[-1][4] == segment[4]
+            and out[-1][1] == segment[0]
+            and (out[-1][3] or segment[2])
+        ):
+            out[-1] = (out[-1][0], segment[1], out[-1][2], segment[3], segment[4])
+        else:
+            out.append(segment)
+    return out
