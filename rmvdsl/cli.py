@@ -108,7 +108,8 @@ exit codes: 0 no errors, 1 errors (or warnings with --strict), 2 usage or I/O pr
   rmv eval --formula '\\int^{10} HardBraking < 4' --trace run.jsonl --at 2.5
   rmv eval --formula 'a until[<5] b' --trace run.csv --all --format json
   rmv eval --term --formula 'duration[22](p1)' --trace run.jsonl --at 2
-trace lines (JSONL): {"t": 0, "state": "A"}, {"t": 1, "props": ["a", "b"]}, {"t": 9, "end": true}""",
+trace lines (JSONL):
+  {"t": 0, "state": "A"}  {"t": 1, "props": ["a", "b"]}  {"t": 9, "end": true}""",
     )
     eval_parser.add_argument(
         "--formula", required=True, help="the formula (quote it for the shell)"

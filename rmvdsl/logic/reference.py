@@ -9,6 +9,7 @@ two such points (a subformula is constant there). Arithmetic is exact (Fraction)
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
@@ -87,7 +88,7 @@ class Reference:
         pieces = sorted(self._term_points(f[2]) | self._term_points(f[3]) | {self.trace.start})
         pieces.append(pieces[-1] + 1)
         found = set(pieces[:-1])
-        for a, b in zip(pieces, pieces[1:], strict=False):
+        for a, b in itertools.pairwise(pieces):
             (la, ha), (lb, hb) = self.term(f[2], a), self.term(f[3], a)
             (la2, ha2), (lb2, hb2) = self.term(f[2], b), self.term(f[3], b)
             for at_a, at_b in ((ha - lb, ha2 - lb2), (la - hb, la2 - hb2)):
@@ -105,7 +106,7 @@ class Reference:
             inside.update(p for p in self.points(f) if low < p < high)
         ordered = sorted(inside)
         out = []
-        for a, b in zip(ordered, ordered[1:], strict=False):
+        for a, b in itertools.pairwise(ordered):
             out.append((a, True))
             out.append(((a + b) / 2, False))
         out.append((ordered[-1], True))

@@ -20,6 +20,7 @@ import io
 import json
 import math
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from decimal import Decimal, InvalidOperation
 from fractions import Fraction
@@ -127,7 +128,7 @@ def _read_jsonl(path: str, text: str) -> TraceFile:
             raise TraceError(path, number, exc.colno, f"not JSON: {exc.msg}") from None
         if not isinstance(record, dict):
             raise TraceError(path, number, 1, "each line must be a JSON object")
-        column = lambda key: raw.find(f'"{key}"') + 1 or 1  # noqa: E731
+        column = _columns(raw)
         if set(record) == {"unit"}:
             _unit(trace, str(record["unit"]), path, number, column("unit"))
             continue
@@ -150,17 +151,28 @@ def _read_jsonl(path: str, text: str) -> TraceFile:
     return trace
 
 
-def _state(record: dict[str, object], path: str, line: int, column: object) -> frozenset[str]:
+def _columns(raw: str) -> Callable[[str], int]:
+    """Where a key stands on its line (1 when it does not)."""
+
+    def column(key: str) -> int:
+        return raw.find(f'"{key}"') + 1 or 1
+
+    return column
+
+
+def _state(
+    record: dict[str, object], path: str, line: int, column: Callable[[str], int]
+) -> frozenset[str]:
     if ("state" in record) == ("props" in record):
         raise TraceError(path, line, 1, 'a sample has either "state" or "props"')
     if "state" in record:
         value = record["state"]
         if not isinstance(value, str):
-            raise TraceError(path, line, column("state"), '"state" is a string')  # type: ignore[operator]
+            raise TraceError(path, line, column("state"), '"state" is a string')
         return frozenset({value})
     value = record["props"]
     if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-        raise TraceError(path, line, column("props"), '"props" is a list of strings')  # type: ignore[operator]
+        raise TraceError(path, line, column("props"), '"props" is a list of strings')
     return frozenset(value)
 
 

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import bisect
 import heapq
+import itertools
 from collections.abc import Iterable, Iterator
 from fractions import Fraction
 from typing import Any
@@ -34,15 +35,23 @@ _INFINITY = float("inf")
 
 
 def _mid(a: Any, b: Any) -> Any:
-    if isinstance(a, int) and isinstance(b, int):
-        return Fraction(a + b, 2)
+    if type(a) is int and type(b) is int:
+        total = a + b
+        return total >> 1 if not total & 1 else Fraction(total, 2)
     return (a + b) / 2
 
 
 def _divide(x: Any, y: Any) -> Any:
-    if isinstance(x, int) and isinstance(y, int):
+    if type(x) is int and type(y) is int:
         return Fraction(x, y)
     return x / y
+
+
+def _plain(value: Any) -> Any:
+    """A whole Fraction as an int: the same number, compared much faster."""
+    if type(value) is Fraction and value.denominator == 1:
+        return value.numerator
+    return value
 
 
 class Signal:
@@ -257,7 +266,7 @@ class Temporal(Evaluated):
         best = FALSE
         prefix = TRUE  # inf of phi over [t, cursor)
         cursor = t
-        for point in [*sorted(set(psi.between(t, end)) | set(phi.between(t, end))), end]:
+        for point in [*sorted(psi.between(t, end) + phi.between(t, end)), end]:
             best = max(best, min(psi.at(cursor), prefix))  # t' = cursor
             prefix = min(prefix, phi.at(cursor))
             if cursor < point:  # t' in (cursor, point): phi also holds on (cursor, t')
@@ -287,7 +296,7 @@ class Temporal(Evaluated):
         suffix = TRUE  # inf of phi over (cursor, t]
         cursor = t
         for point in [
-            *sorted(set(psi.between(low, t)) | set(phi.between(low, t)), reverse=True),
+            *sorted(psi.between(low, t) + phi.between(low, t), reverse=True),
             low,
         ]:
             if cursor > low or low_closed:
@@ -328,7 +337,7 @@ class Compare(Evaluated):
                 found.add(point - window)
         ordered = sorted(p for p in found if p > start)
         ends = [start, *ordered, (ordered[-1] if ordered else start) + self.future + 1]
-        for a, b in zip(ends, ends[1:], strict=False):
+        for a, b in itertools.pairwise(ends):
             found.update(self._crossings(a, b))
         return found
 
@@ -416,7 +425,7 @@ def build(formula: Any, props: dict[str, Prop]) -> Node:
         return Binary(kind, build(formula[1], props), build(formula[2], props))
     if kind in ("until", "since"):
         left, right = build(formula[3], props), build(formula[4], props)
-        return Temporal(kind, formula[1], formula[2], left, right)
+        return Temporal(kind, formula[1], _plain(formula[2]), left, right)
     if kind == "cmp":
         return Compare(formula[1], _build_term(formula[2], props), _build_term(formula[3], props))
     raise ValueError(f"unknown formula node {kind!r}")
@@ -425,9 +434,9 @@ def build(formula: Any, props: dict[str, Prop]) -> Node:
 def _build_term(term: Any, props: dict[str, Prop]) -> Any:
     kind = term[0]
     if kind == "num":
-        return term
+        return ("num", _plain(term[1]))
     if kind == "dur":
-        return ("dur", term[1], build(term[2], props))
+        return ("dur", _plain(term[1]), build(term[2], props))
     if kind == "mul" and term[1][0] != "num" and term[2][0] != "num":
         raise ValueError("a product of two durations is not linear: one side must be a constant")
     return (kind, _build_term(term[1], props), _build_term(term[2], props))
@@ -476,6 +485,8 @@ class Monitor:
         self.start: Any = None
         self.known: Any = None  # the input is known on [start, known)
         self.written: Any = None  # the atoms' signals are written up to here
+        self.written_state: frozenset[str] = frozenset()  # the state at `written`
+        self.changes: list[tuple[Any, frozenset[str]]] = []  # since `written`
         self.state: frozenset[str] = frozenset()
         self.emitted: Any = None  # verdicts are out up to here
         self.emitted_point = False  # and for the point `emitted` itself
@@ -503,13 +514,21 @@ class Monitor:
             for t, state in samples:
                 self.step(t, state)
             return
-        current = self.state
-        for t, state in samples:
-            if state == current and self.start is not None and t >= self.known:
-                self.known = t
+        iterator = iter(samples)
+        if self.start is None:
+            for t, state in iterator:
+                self._advance(t, frozenset(state))
+                break
+        current, known, advance = self.state, self.known, self._advance
+        for t, state in iterator:
+            # The same object (a sampler reusing its state) is the cheapest test.
+            if (state is current or state == current) and t >= known:
+                known = t
                 continue
-            self._advance(t, state if isinstance(state, frozenset) else frozenset(state))
-            current = self.state
+            self.known = known
+            advance(t, state if isinstance(state, frozenset) else frozenset(state))
+            current, known = self.state, self.known
+        self.known = known
 
     def end(self, t: Any) -> None:
         """The input ends at t: the last state held until t; nothing is known after."""
@@ -540,13 +559,20 @@ class Monitor:
             self.known = t
         else:
             self.known = t
-            self._recompute()
+            self.changes.append((t, state))
             self.state = state
+            if t - self.written > self.horizon:
+                self._flush()  # keeps what is held within about twice the horizon
+
+    def _flush(self) -> None:
+        """Compute everything the input so far decides."""
+        if self.start is not None and (self.changes or self.known > self.written):
+            self._recompute()
             self._emit(final=False)
 
     def _begin(self, t: Any, state: frozenset[str]) -> None:
         self.start = self.known = self.written = self.emitted = t
-        self.state = state
+        self.state = self.written_state = state
         for node in self.order:
             node.reset(t)
             if isinstance(node, Temporal):
@@ -557,12 +583,16 @@ class Monitor:
         that input can change it."""
         begin = self.written
         for name, prop in self.props.items():
-            value = TRUE if name in self.state else FALSE
+            value = TRUE if name in self.written_state else FALSE
             signal = prop.signal
             signal.cut(begin)
             signal.append(begin, value, value)
+            for when, state in self.changes:
+                value = TRUE if name in state else FALSE
+                signal.append(when, value, value)
             signal.append(self.known, UNKNOWN, UNKNOWN)
-        self.written = self.known
+        self.written, self.written_state = self.known, self.state
+        self.changes.clear()
         self._update_nodes(begin)
         keep = self.known - self.horizon - 1
         for node in self.order:
@@ -575,6 +605,7 @@ class Monitor:
                 node.update(begin if begin > self.start else self.start)
 
     def _late_sample(self, t: Any) -> None:
+        self._flush()
         self.late.append(t)
         oldest = min((p.signal.starts[0] for p in self.props.values()), default=self.start)
         if t < oldest:
@@ -643,11 +674,13 @@ class Monitor:
 
     def verdicts(self) -> Iterator[Segment]:
         """Verdict segments decided since the last call, in time order."""
+        self._flush()
         out, self._out = self._out, []
         return iter(out)
 
     def verdict_at(self, t: Any) -> str:
         """The verdict at time t, as far as the input so far decides it."""
+        self._flush()
         if self.start is None or t < self.root.signal.starts[0]:
             return "unknown"
         return NAMES[self.root.signal.at(t)]
