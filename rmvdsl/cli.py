@@ -306,7 +306,11 @@ def _eval(args: argparse.Namespace) -> int:
     result = ev.run(compiled, trace)
     if args.all:
         if args.format == "json":
-            payload = {"segments": [ev.segment_json(s) for s in result.segments]}
+            payload = {
+                "segments": [ev.segment_json(s) for s in result.segments],
+                "horizon": float(result.horizon),
+                "memory": {"held": result.memory, "bound": result.bound()},
+            }
             sys.stdout.write(ev.as_json(payload))
         else:
             for segment in result.segments:

@@ -19,8 +19,16 @@ from rmvdsl.runtime.rmtld3 import Monitor, Segment, merge
 @dataclass
 class Evaluation:
     segments: list[Segment] = field(default_factory=list)
-    memory: int = 0
-    horizon: Fraction = Fraction(0)
+    memory: int = 0  # breakpoints held at the end
+    horizon: Fraction = Fraction(0)  # ahead plus back, in trace units
+    nodes: int = 0
+
+    def bound(self) -> str:
+        """The static memory bound (docs/semantics.md)."""
+        return (
+            f"at most {self.nodes} subformulas x (2 x (horizon {number(self.horizon)} + 1)"
+            " x state changes per time unit + 3) breakpoints"
+        )
 
 
 def parse(text: str, syntax: str, term: bool) -> tuple[Formula | Term | None, list[Diagnostic]]:
@@ -41,7 +49,9 @@ def run(formula: Any, trace: TraceFile) -> Evaluation:
     monitor.feed(zip(trace.times, trace.states, strict=True))
     assert trace.end is not None
     monitor.end(trace.end)
-    return Evaluation(merge(monitor.verdicts()), monitor.memory(), monitor.horizon)
+    return Evaluation(
+        merge(monitor.verdicts()), monitor.memory(), Fraction(monitor.horizon), len(monitor.order)
+    )
 
 
 def verdict_at(segments: list[Segment], t: Fraction) -> str:
