@@ -39,6 +39,7 @@ def _build_parser() -> argparse.ArgumentParser:
   rmv fmt --check examples/**/*.rmv
   rmv import rostopicmon.yaml rostopicver.yaml -o spec.rmv
   rmv eval --formula 'a until[<10] b' --trace run.jsonl --all
+  rmv graph examples/carla/abs.rmv --format svg -o braking.svg
   rmv explain RMV200""",
     )
     parser.add_argument("--version", action="version", version=f"rmv {__version__}")
@@ -125,6 +126,23 @@ trace lines (JSONL):
     eval_parser.add_argument("--format", choices=("text", "json"), default="text")
     eval_parser.add_argument("--no-color", action="store_true")
 
+    graph_parser = commands.add_parser(
+        "graph",
+        help="draw a transducer, problems highlighted",
+        description="Draw the transducers of a spec (DOT, Mermaid or SVG), with unreachable "
+        "states, states with no way out and conflicting transitions highlighted.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="""examples:
+  rmv graph examples/carla/abs.rmv --transducer Braking --format svg -o braking.svg
+  rmv graph spec.rmv | dot -Tpng > transducers.png
+  rmv graph spec.rmv --format mermaid""",
+    )
+    graph_parser.add_argument("spec", metavar="SPEC")
+    graph_parser.add_argument("--transducer", metavar="NAME", help="only this one (default: all)")
+    graph_parser.add_argument("--format", choices=("dot", "mermaid", "svg"), default="dot")
+    graph_parser.add_argument("-o", "--output", metavar="FILE", help="write here (default: stdout)")
+    graph_parser.add_argument("--no-color", action="store_true")
+
     import_parser = commands.add_parser(
         "import",
         help="turn the thesis's YAML configurations into one .rmv spec",
@@ -160,6 +178,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _import(args)
         if args.command == "eval":
             return _eval(args)
+        if args.command == "graph":
+            return _graph(args)
     except UsageError as exc:
         print(f"rmv: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
@@ -321,6 +341,33 @@ def _eval(args: argparse.Namespace) -> int:
         sys.stdout.write(ev.as_json({"t": float(at), "verdict": verdict}))
     else:
         print(verdict)
+    return EXIT_OK
+
+
+def _graph(args: argparse.Namespace) -> int:
+    from rmvdsl.check.analysis import TransducerFacts
+    from rmvdsl.diagnostics import did_you_mean
+    from rmvdsl.graph import RENDERERS
+
+    result = check(args.spec)
+    transducers = result.model.transducers
+    if args.transducer is not None and args.transducer not in transducers:
+        hint = did_you_mean(args.transducer, transducers) or "transducers: " + ", ".join(
+            transducers
+        )
+        raise UsageError(f"{args.spec} has no transducer `{args.transducer}` ({hint})")
+    if not transducers:
+        raise UsageError(f"{args.spec} declares no transducer")
+    if result.errors:
+        sys.stderr.write(render_text(result.errors, result.model.sources, False))
+    chosen = [transducers[args.transducer]] if args.transducer else list(transducers.values())
+    facts = result.analysis.transducers if result.analysis else {}
+    render = RENDERERS[args.format]
+    text = "\n".join(render(decl, facts.get(decl.name.name, TransducerFacts())) for decl in chosen)
+    if args.output:
+        _write(args.output, text)
+    else:
+        sys.stdout.write(text)
     return EXIT_OK
 
 

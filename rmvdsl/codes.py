@@ -3,7 +3,7 @@
 `rmv explain CODE` prints the explanation; docs/diagnostics.md is generated from
 this table (tests keep the two in step). Codes are stable: never reuse a number.
 Ranges: RMV0xx files and imports, RMV1xx syntax, RMV2xx names and structure,
-RMV3xx types.
+RMV3xx types, RMV5xx analyses.
 """
 
 from __future__ import annotations
@@ -402,6 +402,55 @@ string, and it must compile.""",
 value. Aggregate it, `var Fastest = max(objects.objects[*].twist.linear.x)`, or
 pick an element, `objects.objects[0].twist.linear.x`.""",
     ),
+    (
+        "RMV500",
+        "unreachable state",
+        """No sequence of transitions leads from the transducer's initial state to this
+state: the monitor can never be in it, and a property about it is vacuous. Add a
+transition into it, or remove it.""",
+    ),
+    (
+        "RMV501",
+        "state with no way out",
+        """(warning) No transition leaves this state, and it is not declared final: once
+there, the transducer stays forever. If that is meant, say so: `final Stopped`.""",
+    ),
+    (
+        "RMV502",
+        "input that never holds",
+        """(warning) A transition's input can never hold: a boolean event whose condition
+is unsatisfiable (`Velocity > 5 and Velocity < 1`), or an event emitted only by
+transitions out of unreachable states. The transition is never taken.""",
+    ),
+    (
+        "RMV503",
+        "output nothing uses",
+        """(warning) A transition emits an event that no transition, property or alert
+reads. Use it, or drop the `emit`.""",
+    ),
+    (
+        "RMV504",
+        "transducer nothing observes",
+        """(warning) No property, alert or event mentions any state or output of this
+transducer: it estimates states that nobody checks.""",
+    ),
+    (
+        "RMV505",
+        "non-deterministic transitions",
+        """Two transitions leave the same state on inputs that can hold at the same time,
+towards different states: which one the monitor takes is not defined. z3 decides
+whether the two events' conditions can hold together and the message gives values
+that make them (`BrakePedal = 0.9`). Make the conditions exclusive:
+
+    event HardBrake when BrakePedal > 0.8
+    event SoftBrake when BrakePedal > 0.3 and not HardBrake""",
+    ),
+    (
+        "RMV506",
+        "incomplete state",
+        """(warning, only for transducers marked `complete`) In some state, for some
+values of the variables no transition's input holds. The message gives such values.""",
+    ),
 ]
 
 CODES: dict[str, Code] = {code: Code(code, title, text) for code, title, text in _TABLE}
@@ -422,7 +471,7 @@ def diagnostics_markdown() -> str:
         "same text as this page. This page is generated from `rmvdsl/codes.py`",
         "(`python -m rmvdsl.codes > docs/diagnostics.md`).\n",
         "Ranges: RMV0xx files and imports, RMV1xx syntax, RMV2xx names and structure,",
-        "RMV3xx types.\n",
+        "RMV3xx types, RMV5xx analyses.\n",
     ]
     for entry in CODES.values():
         parts.append(f"## {entry.code}: {entry.title}\n")

@@ -2,8 +2,9 @@
 
 Stages, each with its own diagnostics: load (parse the file and its imports),
 names (declare, resolve, check structure), types (message definitions, field
-paths, expressions, units, horizons). Each stage reads what the earlier ones built;
-the result is one model that every later analysis and target reads.
+paths, expressions, units, horizons), analyses (transducers, with networkx and
+z3). Each stage reads what the earlier ones built; the result is one model that
+every later analysis and target reads.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ import re
 import sys
 from dataclasses import dataclass
 
+from rmvdsl.check.analysis import AnalysisResult, analyze
 from rmvdsl.check.loader import UsageError, load
 from rmvdsl.check.model import Model
 from rmvdsl.check.names import check_names
@@ -33,6 +35,7 @@ class CheckResult:
     model: Model
     diagnostics: list[Diagnostic]
     types: TypeInfo | None = None
+    analysis: AnalysisResult | None = None
 
     @property
     def errors(self) -> list[Diagnostic]:
@@ -68,11 +71,12 @@ def check(
         use_environment=use_environment,
     )
     types, type_diagnostics = check_types(model, config, folder)
+    analysis, analysis_diagnostics = analyze(model, types)
+    stages = [loaded.diagnostics, name_diagnostics, config_diagnostics, type_diagnostics]
     diagnostics = sorted(
-        [*loaded.diagnostics, *name_diagnostics, *config_diagnostics, *type_diagnostics],
-        key=sort_key,
+        [d for stage in [*stages, analysis_diagnostics] for d in stage], key=sort_key
     )
-    return CheckResult(model, diagnostics, types)
+    return CheckResult(model, diagnostics, types, analysis)
 
 
 def read_config(folder: str, model: Model) -> tuple[TypeConfig, list[Diagnostic]]:

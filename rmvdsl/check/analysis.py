@@ -1,0 +1,477 @@
+"""Analyses (stage 4): the transducers, with networkx and z3.
+
+- reachability from the initial state, dead ends, inputs nothing produces, outputs
+  nothing consumes, transducers nothing observes (networkx);
+- non-determinism: two transitions leaving one state on inputs that can hold at the
+  same time, with the values that make them (z3); with `complete`, the inputs under
+  which a state has no transition.
+
+Boolean events are conditions over variables: z3 reads them as formulas over real,
+integer, bool and string variables (a variable's ROS type gives its sort and, for
+unsigned integers, its range). What z3 cannot model exactly — a function of a
+variable (`mean(V)`), a value event — becomes a free variable of its own, so an
+answer "can hold together" is a possibility for the spec, never an invention.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from fractions import Fraction
+from typing import Any
+
+import networkx as nx
+import z3
+
+from rmvdsl.check.model import Kind, Model
+from rmvdsl.check.types import TypeInfo, VType
+from rmvdsl.diagnostics import Diagnostic, Label, error, warning
+from rmvdsl.grammar import ast
+from rmvdsl.grammar.printer import decimal, expression
+from rmvdsl.logic import formula as fm
+
+SOLVER_TIMEOUT_MS = 2000
+UNSIGNED = {"uint8", "uint16", "uint32", "uint64", "byte", "char"}
+
+
+@dataclass
+class TransducerFacts:
+    """What the analyses found, for `rmv graph` and the editor."""
+
+    unreachable: set[str] = field(default_factory=set)
+    dead_ends: set[str] = field(default_factory=set)
+    conflicts: list[tuple[ast.Transition, ast.Transition, str]] = field(default_factory=list)
+
+
+@dataclass
+class AnalysisResult:
+    transducers: dict[str, TransducerFacts] = field(default_factory=dict)
+
+
+class Conditions:
+    """Boolean events as z3 formulas."""
+
+    def __init__(self, model: Model, types: TypeInfo | None) -> None:
+        self.model = model
+        self.types = types
+        self.symbols: dict[str, Any] = {}
+        self.domains: list[Any] = []
+        self._inlining: set[str] = set()
+
+    def of_event(self, name: str) -> Any:
+        """The condition under which the input `name` holds."""
+        decl = self.model.events.get(name)
+        if decl is None or not decl.boolean or name in self._inlining:
+            return self.free_bool(f"event {name}")
+        self._inlining.add(name)
+        try:
+            condition = self.as_bool(self.expr(decl.expr))
+            where = decl.clause("where")
+            if where is not None:
+                condition = z3.And(condition, self.as_bool(self.expr(where.value)))
+            return condition
+        except (z3.Z3Exception, TypeError, AttributeError):
+            # Sorts that do not fit (the types stage reports why): no claim at all.
+            return self.free_bool(f"event {name}")
+        finally:
+            self._inlining.discard(name)
+
+    def free_bool(self, key: str) -> Any:
+        if key not in self.symbols:
+            self.symbols[key] = z3.Bool(key)
+        return self.symbols[key]
+
+    def free_real(self, key: str) -> Any:
+        if key not in self.symbols:
+            self.symbols[key] = z3.Real(key)
+        return self.symbols[key]
+
+    def variable(self, name: str) -> Any:
+        if name in self.symbols:
+            return self.symbols[name]
+        vtype = self.types.variables.get(name) if self.types else None
+        symbol = self._symbol(name, vtype)
+        self.symbols[name] = symbol
+        return symbol
+
+    def _symbol(self, name: str, vtype: VType | None) -> Any:
+        if vtype is None:
+            return z3.Real(name)
+        if vtype.kind == "bool":
+            return z3.Bool(name)
+        if vtype.kind == "string":
+            return z3.String(name)
+        if vtype.kind == "int":
+            symbol = z3.Int(name)
+            if vtype.ros in UNSIGNED:
+                self.domains.append(symbol >= 0)
+            return symbol
+        return z3.Real(name)
+
+    def expr(self, node: ast.Node) -> Any:
+        match node:
+            case ast.NumberLit():
+                return z3.RealVal(str(node.value))
+            case ast.BoolLit():
+                return z3.BoolVal(node.value)
+            case ast.StringLit():
+                return z3.StringVal(node.value)
+            case ast.TimeLit():
+                seconds = node.time.seconds() or Fraction(0)
+                return z3.RealVal(str(seconds))
+            case ast.NameRef():
+                return self.name(node.ident.name)
+            case ast.UnaryOp():
+                operand = self.expr(node.operand)
+                return (
+                    z3.Not(self.as_bool(operand)) if node.op == "not" else -self.as_number(operand)
+                )
+            case ast.BinOp():
+                return self.binary(node)
+        # a function of the data (an aggregate, a derivative): a value of its own
+        return self.free_real(expression(node))
+
+    def name(self, name: str) -> Any:
+        symbol = self.model.symbols.get(name)
+        if symbol is None:
+            return self.free_real(name)
+        if symbol.kind is Kind.VARIABLE:
+            return self.variable(name)
+        if symbol.kind is Kind.BOOL_EVENT:
+            return self.of_event(name)
+        if symbol.kind is Kind.EMITTED_EVENT:
+            return self.free_bool(f"event {name}")
+        return self.free_real(name)  # a value event: its value
+
+    def binary(self, node: ast.BinOp) -> Any:
+        left, right = self.expr(node.left), self.expr(node.right)
+        op = node.op
+        if op in ("and", "or"):
+            return (z3.And if op == "and" else z3.Or)(self.as_bool(left), self.as_bool(right))
+        if op in ("=~", "!~", "%", "&", "|", "^"):
+            return (
+                self.free_bool(expression(node))
+                if op in ("=~", "!~")
+                else self.free_real(expression(node))
+            )
+        try:
+            left, right = self.coerce(left, right)
+            return {
+                "=": lambda: left == right,
+                "!=": lambda: left != right,
+                "<": lambda: left < right,
+                "<=": lambda: left <= right,
+                ">": lambda: left > right,
+                ">=": lambda: left >= right,
+                "+": lambda: left + right,
+                "-": lambda: left - right,
+                "*": lambda: left * right,
+                "/": lambda: left / right,
+            }[op]()
+        except (z3.Z3Exception, TypeError):
+            return (
+                self.free_bool(expression(node))
+                if op in ("=", "!=", "<", "<=", ">", ">=")
+                else (self.free_real(expression(node)))
+            )
+
+    @staticmethod
+    def coerce(left: Any, right: Any) -> tuple[Any, Any]:
+        if z3.is_int(left) and z3.is_real(right):
+            return z3.ToReal(left), right
+        if z3.is_real(left) and z3.is_int(right):
+            return left, z3.ToReal(right)
+        return left, right
+
+    def as_bool(self, value: Any) -> Any:
+        return value if z3.is_bool(value) else value != 0
+
+    def as_number(self, value: Any) -> Any:
+        return z3.If(value, 1, 0) if z3.is_bool(value) else value
+
+
+def solve(constraints: Iterable[Any], domains: list[Any]) -> tuple[str, Any]:
+    solver = z3.Solver()
+    solver.set("timeout", SOLVER_TIMEOUT_MS)
+    solver.add(*domains, *constraints)
+    answer = solver.check()
+    if answer == z3.sat:
+        return "sat", solver.model()
+    return ("unsat" if answer == z3.unsat else "unknown"), None
+
+
+def witness(model: Any, symbols: dict[str, Any]) -> str:
+    """`BrakePedal = 0.9, Velocity = 6` from a z3 model."""
+    parts = []
+    for name, symbol in sorted(symbols.items()):
+        if name.startswith("event "):
+            continue
+        value = model.eval(symbol, model_completion=False)
+        if value.eq(symbol):
+            continue
+        parts.append(f"{name} = {_value_text(value)}")
+    return ", ".join(parts) or "any values"
+
+
+def _value_text(value: Any) -> str:
+    if z3.is_rational_value(value):
+        return decimal(Fraction(value.numerator_as_long(), value.denominator_as_long()))
+    if z3.is_algebraic_value(value):
+        return value.approx(6).as_decimal(6)
+    if z3.is_string_value(value):
+        return f'"{value.as_string()}"'
+    return str(value)
+
+
+class Analyzer:
+    def __init__(self, model: Model, types: TypeInfo | None) -> None:
+        self.model = model
+        self.types = types
+        self.diagnostics: list[Diagnostic] = []
+        self.result = AnalysisResult()
+        self.conditions = Conditions(model, types)
+
+    def report(self, diagnostic: Diagnostic) -> None:
+        if not self.model.in_damaged(diagnostic.span):
+            self.diagnostics.append(diagnostic)
+
+    def run(self) -> tuple[AnalysisResult, list[Diagnostic]]:
+        graphs = {name: self.graph(decl) for name, decl in self.model.transducers.items()}
+        for name, decl in self.model.transducers.items():
+            facts = TransducerFacts()
+            self.result.transducers[name] = facts
+            self.reachability(decl, graphs[name], facts)
+            self.determinism(decl, facts)
+            if decl.complete:
+                self.completeness(decl)
+        self.unproduced_inputs()
+        self.unconsumed_outputs()
+        self.unobserved_transducers()
+        return self.result, self.diagnostics
+
+    @staticmethod
+    def graph(decl: ast.TransducerDecl) -> nx.MultiDiGraph:
+        graph = nx.MultiDiGraph()
+        graph.add_nodes_from(s.name for s in decl.states)
+        for transition in decl.transitions:
+            graph.add_edge(transition.source.name, transition.dest.name, transition=transition)
+        return graph
+
+    def reachability(
+        self, decl: ast.TransducerDecl, graph: nx.MultiDiGraph, facts: TransducerFacts
+    ) -> None:
+        if decl.initial is None or decl.initial.name not in graph:
+            return
+        reachable = nx.descendants(graph, decl.initial.name) | {decl.initial.name}
+        finals = {f.name for f in decl.finals}
+        for state in decl.states:
+            if state.name not in reachable:
+                facts.unreachable.add(state.name)
+                self.report(
+                    error(
+                        "RMV500",
+                        f"state `{state.name}` of `{decl.name.name}` cannot be reached",
+                        state.span,
+                        label=f"no path from `{decl.initial.name}` leads here",
+                        secondary=[Label(decl.initial.span, "the initial state")],
+                        help=f"add a transition into `{state.name}`, or remove it",
+                    )
+                )
+                continue
+            leaving = {d for _, d in graph.out_edges(state.name) if d != state.name}
+            if not leaving and state.name not in finals:
+                facts.dead_ends.add(state.name)
+                self.report(
+                    warning(
+                        "RMV501",
+                        f"state `{state.name}` of `{decl.name.name}` has no way out",
+                        state.span,
+                        label="no transition leaves this state",
+                        help=f"add a transition out of it, or declare it `final {state.name}`",
+                    )
+                )
+
+    def determinism(self, decl: ast.TransducerDecl, facts: TransducerFacts) -> None:
+        by_source: dict[str, list[ast.Transition]] = {}
+        silent = self.never_emitted()
+        for transition in decl.transitions:
+            if transition.input.name in silent:
+                continue  # never taken (RMV502): no choice to make
+            by_source.setdefault(transition.source.name, []).append(transition)
+        for transitions in by_source.values():
+            for index, first in enumerate(transitions):
+                for second in transitions[index + 1 :]:
+                    if first.dest.name == second.dest.name and first.output == second.output:
+                        continue  # both lead to the same place: no choice to make
+                    self.conflict(decl, first, second, facts)
+
+    def conflict(
+        self,
+        decl: ast.TransducerDecl,
+        first: ast.Transition,
+        second: ast.Transition,
+        facts: TransducerFacts,
+    ) -> None:
+        if first.input.name == second.input.name:
+            values = f"whenever `{first.input.name}` holds"
+        else:
+            both = (
+                self.conditions.of_event(first.input.name),
+                self.conditions.of_event(second.input.name),
+            )
+            answer, found = solve(both, self.conditions.domains)
+            if answer != "sat":
+                return  # unsat: they exclude each other; unknown: no claim either way
+            values = f"for example when {witness(found, self.conditions.symbols)}"
+        facts.conflicts.append((first, second, values))
+        self.report(
+            error(
+                "RMV505",
+                f"`{decl.name.name}` is not deterministic in `{first.source.name}`: "
+                f"`{first.input.name}` and `{second.input.name}` can hold at the same time",
+                second.span,
+                label=f"goes to `{second.dest.name}` on `{second.input.name}`",
+                secondary=[
+                    Label(first.span, f"goes to `{first.dest.name}` on `{first.input.name}`")
+                ],
+                help=f"{values}; make the conditions exclusive, e.g. add `and not "
+                f"{first.input.name}` to the condition of `{second.input.name}`",
+            )
+        )
+
+    def completeness(self, decl: ast.TransducerDecl) -> None:
+        for state in decl.states:
+            inputs = [t.input.name for t in decl.transitions if t.source.name == state.name]
+            if state.name in {f.name for f in decl.finals}:
+                continue
+            none = (
+                z3.Not(z3.Or(*[self.conditions.of_event(i) for i in inputs]))
+                if inputs
+                else z3.BoolVal(True)
+            )
+            answer, found = solve([none], self.conditions.domains)
+            if answer != "sat":
+                continue
+            values = witness(found, self.conditions.symbols) if inputs else "any values"
+            self.report(
+                warning(
+                    "RMV506",
+                    f"`{decl.name.name}` is marked complete, but `{state.name}` has no transition "
+                    f"when {values}",
+                    state.span,
+                    label="no input applies here then",
+                    help="add a transition for those inputs, or drop `complete`",
+                )
+            )
+
+    def never_emitted(self) -> set[str]:
+        """Emitted events whose every emitting transition leaves an unreachable state."""
+        silent = set()
+        for name, transitions in self.model.emitted.items():
+            owner = self.model.symbols[name].owner or ""
+            facts = self.result.transducers.get(owner)
+            if facts is not None and all(t.source.name in facts.unreachable for t in transitions):
+                silent.add(name)
+        return silent
+
+    def unproduced_inputs(self) -> None:
+        silent = self.never_emitted()
+        reachable_emitters = {name: name not in silent for name in self.model.emitted}
+        for decl in self.model.transducers.values():
+            for transition in decl.transitions:
+                name = transition.input.name
+                reason = self.never_holds(name, reachable_emitters)
+                if reason is None:
+                    continue
+                self.report(
+                    warning(
+                        "RMV502",
+                        f"the input `{name}` of `{transition.source.name} -> "
+                        f"{transition.dest.name}` never holds: {reason}",
+                        transition.input.span,
+                        label="this transition can never be taken",
+                        help="fix the event's condition, or the transition",
+                    )
+                )
+
+    def never_holds(self, name: str, reachable_emitters: dict[str, bool]) -> str | None:
+        if name in reachable_emitters:
+            return (
+                None
+                if reachable_emitters[name]
+                else "every transition emitting it starts in an unreachable state"
+            )
+        decl = self.model.events.get(name)
+        if decl is None or not decl.boolean:
+            return None
+        answer, _ = solve([self.conditions.of_event(name)], self.conditions.domains)
+        return "its condition is unsatisfiable" if answer == "unsat" else None
+
+    def unconsumed_outputs(self) -> None:
+        used = self.used_names()
+        for name, transitions in self.model.emitted.items():
+            if name in used:
+                continue
+            first = transitions[0]
+            assert first.output is not None
+            self.report(
+                warning(
+                    "RMV503",
+                    f"the output `{name}` is emitted but nothing uses it",
+                    first.output.span,
+                    label="no transition, property or alert reads this event",
+                    help="use it as an input or in a property, or remove `emit`",
+                )
+            )
+
+    def used_names(self) -> set[str]:
+        used = {t.input.name for d in self.model.transducers.values() for t in d.transitions}
+        for prop in self.model.properties.values():
+            if prop.formula is not None:
+                used |= {p.name for p in fm.propositions(prop.formula)}
+            used |= {
+                s.value.ident.name for s in prop.settings if isinstance(s.value, ast.NameValue)
+            }
+        for alert in self.model.alerts.values():
+            for level in alert.levels:
+                used |= _names(level.condition) | (_names(level.reset) if level.reset else set())
+        for event in self.model.events.values():
+            used |= _names(event.expr)
+        return used
+
+    def unobserved_transducers(self) -> None:
+        if any(prop.formula is None for prop in self.model.properties.values()):
+            return  # a property that does not parse may be the one looking
+        used = self.used_names() - {
+            t.input.name for d in self.model.transducers.values() for t in d.transitions
+        }
+        for decl in self.model.transducers.values():
+            states = {s.name for s in decl.states}
+            outputs = {t.output.name for t in decl.transitions if t.output is not None}
+            if (states | outputs) & used:
+                continue
+            self.report(
+                warning(
+                    "RMV504",
+                    f"no property or alert looks at transducer `{decl.name.name}`",
+                    decl.name.span,
+                    label="its states and outputs are never used",
+                    help="write a property over its states, e.g. `property P: always[<=10s] "
+                    f"not {decl.states[0].name if decl.states else 'S'}`",
+                )
+            )
+
+
+def _names(node: ast.Node) -> set[str]:
+    found = set()
+    stack = [node]
+    while stack:
+        current = stack.pop()
+        if isinstance(current, ast.NameRef):
+            found.add(current.ident.name)
+        stack.extend(current.children())
+    return found
+
+
+def analyze(model: Model, types: TypeInfo | None) -> tuple[AnalysisResult, list[Diagnostic]]:
+    return Analyzer(model, types).run()

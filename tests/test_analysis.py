@@ -1,0 +1,108 @@
+"""Transducer analyses (networkx, z3) and `rmv graph`."""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+
+from conftest import EXAMPLES
+
+from rmvdsl.check import check
+
+CARLA_MSGS = str(EXAMPLES / "carla" / "msg")
+STATUS = 'topic s: carla_msgs/CarlaEgoVehicleStatus = "/carla/hero/vehicle_status"\n'
+
+
+def analyzed(tmp_path, body: str):
+    path = tmp_path / "spec.rmv"
+    path.write_text(STATUS + body, encoding="utf-8")
+    return check(str(path), ros="noetic", messages=(CARLA_MSGS,))
+
+
+def codes(result) -> list[str]:
+    return [d.code for d in result.diagnostics]
+
+
+def test_non_determinism_comes_with_values(tmp_path):
+    result = analyzed(
+        tmp_path,
+        "var B = s.control.brake\nevent Hard when B > 0.8\nevent Soft when B > 0.3\n"
+        "transducer T { states I, H, S initial I\n"
+        "I -> H on Hard I -> S on Soft H -> I on Soft S -> I on Hard }\n"
+        "property P: always[<=1s] not H\n",
+    )
+    conflicts = [d for d in result.diagnostics if d.code == "RMV505"]
+    assert len(conflicts) == 1
+    value = float(conflicts[0].help.split("B = ")[1].split(";")[0])
+    assert value > 0.8  # the values really make both conditions hold
+
+
+def test_exclusive_conditions_are_deterministic(tmp_path):
+    result = analyzed(
+        tmp_path,
+        "var B = s.control.brake\nevent Hard when B > 0.8\nevent Soft when B > 0.3 and not Hard\n"
+        "transducer T { states I, H, S initial I\n"
+        "I -> H on Hard I -> S on Soft H -> I on Soft S -> I on Hard }\n"
+        "property P: always[<=1s] not H\n",
+    )
+    assert codes(result) == []
+
+
+def test_unsigned_fields_are_never_negative(tmp_path):
+    # `gear` is int32 (can be negative); the header's seq is uint32 (cannot).
+    result = analyzed(
+        tmp_path,
+        "var Seq = s.header.seq\nvar Gear = s.control.gear\n"
+        "event Never when Seq < 0\nevent Reverse when Gear < 0\n"
+        "transducer T { states A, B initial A A -> B on Never B -> A on Reverse }\n"
+        "property P: always[<=1s] not B\n",
+    )
+    never = [d for d in result.diagnostics if d.code == "RMV502"]
+    assert [d.message.split("`")[1] for d in never] == ["Never"]
+
+
+def test_same_input_to_different_states_is_a_conflict(tmp_path):
+    result = analyzed(
+        tmp_path,
+        "var V = s.velocity\nevent E when V > 1\nevent F when V < 1\n"
+        "transducer T { states A, B, C initial A\n"
+        "A -> B on E A -> C on E B -> A on F C -> A on F }\n"
+        "property P: always[<=1s] not B\n",
+    )
+    conflict = next(d for d in result.diagnostics if d.code == "RMV505")
+    assert "whenever `E` holds" in conflict.help
+
+
+def test_the_good_examples_pass_every_analysis():
+    for name in ("carla/abs.rmv", "gazebo/prius_platoon.rmv"):
+        result = check(str(EXAMPLES / name))
+        assert result.diagnostics == [], name
+        facts = result.analysis.transducers
+        assert all(
+            not f.unreachable and not f.dead_ends and not f.conflicts for f in facts.values()
+        )
+
+
+def test_graph_formats(rmv, tmp_path):
+    spec = "examples/errors/analysis.rmv"
+    dot = rmv("graph", spec, "--transducer", "Braking")
+    assert dot.code == 0
+    assert '"Limbo" [style=dashed, color=red' in dot.out
+    assert '"Idle" -> "Soft" [label="SoftBrake", color=red' in dot.out
+    assert '"Parked" [color=orange' in dot.out
+    mermaid = rmv("graph", spec, "--format", "mermaid").out
+    assert "[*] --> Idle" in mermaid and "class Limbo unreachable" in mermaid
+    out = tmp_path / "braking.svg"
+    assert (
+        rmv("graph", spec, "--transducer", "Braking", "--format", "svg", "-o", str(out)).code == 0
+    )
+    root = ET.fromstring(out.read_text(encoding="utf-8"))
+    namespace = {"svg": "http://www.w3.org/2000/svg"}
+    states = root.findall(".//svg:g[@class='state']", namespace)
+    transitions = root.findall(".//svg:g[@class='transition']", namespace)
+    assert len(states) == 5 and len(transitions) == 6
+    assert "unreachable" in "".join(root.itertext())
+
+
+def test_graph_of_an_unknown_transducer(rmv):
+    result = rmv("graph", "examples/carla/abs.rmv", "--transducer", "Brakin")
+    assert result.code == 2 and "did you mean `Braking`?" in result.err
