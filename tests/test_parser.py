@@ -9,6 +9,7 @@ from conftest import EXAMPLES
 
 from rmvdsl.grammar import ast
 from rmvdsl.grammar.parser import parse_source
+from rmvdsl.grammar.scanner import TOP_LEVEL_KEYWORDS
 from rmvdsl.logic import formula as fm
 from rmvdsl.source import SourceFile
 
@@ -26,22 +27,7 @@ def test_every_name_span_covers_its_text():
     for ident in idents:
         assert source.text[ident.span.start : ident.span.end] == ident.name
     for decl in spec.items:
-        assert source.text[decl.span.start :].split()[0] in {
-            "system",
-            "time",
-            "database",
-            "topic",
-            "var",
-            "event",
-            "alert",
-            "transducer",
-            "property",
-            "whitelist",
-            "node",
-            "intrusion",
-            "ros",
-            "messages",
-        }
+        assert source.text[decl.span.start :].split()[0] in TOP_LEVEL_KEYWORDS
 
 
 def test_declaration_span_includes_closing_brace():

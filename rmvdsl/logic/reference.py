@@ -14,6 +14,8 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
+from rmvdsl.runtime.rmtld3 import compare
+
 FALSE, UNKNOWN, TRUE = 0, 1, 2
 
 
@@ -181,21 +183,9 @@ class Reference:
 
     def _compare(self, f: Any, t: Fraction) -> int:
         _, op, a, b = f
-        left, right = self.term(a, t), self.term(b, t)
-
-        def less(x: tuple[Fraction, Fraction], y: tuple[Fraction, Fraction]) -> int:
-            return TRUE if x[1] < y[0] else FALSE if x[0] >= y[1] else UNKNOWN
-
-        if op == "<":
-            return less(left, right)
-        if op == ">":
-            return less(right, left)
-        if op == "<=":
-            return 2 - less(right, left)
-        if op == ">=":
-            return 2 - less(left, right)
-        equal = min(2 - less(left, right), 2 - less(right, left))
-        return equal if op == "==" else 2 - equal
+        # The comparison of two intervals is shared with the monitor: it is the
+        # definition itself (docs/semantics.md), small enough to read at a glance.
+        return compare(op, self.term(a, t), self.term(b, t))
 
     def term(self, term: Any, t: Fraction) -> tuple[Fraction, Fraction]:
         kind = term[0]

@@ -351,17 +351,21 @@ class Compare(Evaluated):
         return found
 
     def value_at(self, t: Any) -> int:
-        left, right, op = _term(self.left, t), _term(self.right, t), self.op
-        if op == "<":
-            return _less(left, right)
-        if op == ">":
-            return _less(right, left)
-        if op == "<=":
-            return 2 - _less(right, left)
-        if op == ">=":
-            return 2 - _less(left, right)
-        equal = min(2 - _less(left, right), 2 - _less(right, left))
-        return equal if op == "==" else 2 - equal
+        return compare(self.op, _term(self.left, t), _term(self.right, t))
+
+
+def compare(op: str, left: tuple[Any, Any], right: tuple[Any, Any]) -> int:
+    """A comparison of two interval-valued terms, three-valued (docs/semantics.md)."""
+    if op == "<":
+        return _less(left, right)
+    if op == ">":
+        return _less(right, left)
+    if op == "<=":
+        return 2 - _less(right, left)
+    if op == ">=":
+        return 2 - _less(left, right)
+    equal = min(2 - _less(left, right), 2 - _less(right, left))
+    return equal if op == "==" else 2 - equal
 
 
 def _less(a: tuple[Any, Any], b: tuple[Any, Any]) -> int:
