@@ -210,6 +210,9 @@ def _check(args: argparse.Namespace) -> int:
 
     if args.ros is not None and args.ros not in DISTROS:
         raise UsageError(f"unknown ROS distribution `{args.ros}`; known: {', '.join(DISTROS)}")
+    for folder in args.messages:
+        if not os.path.isdir(folder):
+            raise UsageError(f"--messages {folder}: no such folder")
     all_diagnostics: list[Diagnostic] = []
     sources = SourceMap()
     usage_problem = False

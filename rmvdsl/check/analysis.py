@@ -230,6 +230,7 @@ class Analyzer:
         self.diagnostics: list[Diagnostic] = []
         self.result = AnalysisResult()
         self.conditions = Conditions(model, types)
+        self._never: dict[str, str | None] = {}
 
     def report(self, diagnostic: Diagnostic) -> None:
         if not self.model.in_damaged(diagnostic.span):
@@ -395,6 +396,11 @@ class Analyzer:
                 )
 
     def never_holds(self, name: str, reachable_emitters: dict[str, bool]) -> str | None:
+        if name not in self._never:
+            self._never[name] = self._never_holds(name, reachable_emitters)
+        return self._never[name]
+
+    def _never_holds(self, name: str, reachable_emitters: dict[str, bool]) -> str | None:
         if name in reachable_emitters:
             return (
                 None
