@@ -34,14 +34,24 @@ NAMES = {FALSE: "false", UNKNOWN: "unknown", TRUE: "true"}
 _INFINITY = float("inf")
 
 
+_EXACT_HALVES = 2**52  # below this, n + 0.5 is exact as a float
+
+
 def _mid(a: Any, b: Any) -> Any:
+    """A point strictly between a and b, exactly. Midpoints only serve to read a
+    value inside an open interval; for integer times a half-integer float is exact
+    and compares with ints much faster than a Fraction."""
     if type(a) is int and type(b) is int:
         total = a + b
-        return total >> 1 if not total & 1 else Fraction(total, 2)
+        if not total & 1:
+            return total >> 1
+        return total / 2 if -_EXACT_HALVES < total < _EXACT_HALVES else Fraction(total, 2)
     return (a + b) / 2
 
 
 def _divide(x: Any, y: Any) -> Any:
+    if type(x) is float or type(y) is float:
+        return Fraction(x) / Fraction(y)  # exact: halves are exact floats
     if type(x) is int and type(y) is int:
         return Fraction(x, y)
     return x / y
