@@ -96,6 +96,7 @@ class NameChecker:
         for decl in decls:
             self.check_decl(decl)
         self.check_event_cycles()
+        self.check_whitelist_duplicates()
         self.report_unused()
         return self.model, self.diagnostics
 
@@ -825,7 +826,6 @@ class NameChecker:
     # ---- unused declarations ----
 
     def report_unused(self) -> None:
-        self.check_whitelist_duplicates()
         if any(self.damaged_ranges.values()):
             return  # uses may be in the parts that did not parse
         whitelisted = {self.whitelist_topic(w) for w in self.model.whitelists}
