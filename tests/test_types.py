@@ -214,3 +214,35 @@ def test_each_mutation_is_reported_with_its_code_and_span(mutation):
     assert found, (code, [d.message for d in result.diagnostics])
     assert any(d.span.start == start for d in found), (code, start, [d.span for d in found])
     assert {d.code for d in result.errors} <= {code, "RMV203"}
+
+
+def test_idl_definitions_are_read(tmp_path):
+    folder = tmp_path / "m" / "my_msgs" / "msg"
+    folder.mkdir(parents=True)
+    (folder / "Speed.idl").write_text(
+        "module my_msgs { module msg {\n"
+        "struct Speed { double value; sequence<float> history; };\n}; };\n",
+        encoding="utf-8",
+    )
+    (folder / "Broken.idl").write_text("module my_msgs { struct { oops }; };\n", encoding="utf-8")
+    spec = (
+        'messages "m"\ntopic t: my_msgs/msg/Speed = "/speed"\nvar V = t.value\n'
+        "var H = max(t.history[*])\nalert A { warn when V > H }\n"
+    )
+    result = check_text(spec, tmp_path, ros="humble")
+    assert [(d.code, d.span.path.endswith("Broken.idl")) for d in result.diagnostics] == [
+        ("RMV304", True)
+    ]
+    assert result.types.variables["V"].ros == "float64"
+
+
+def test_a_rate_where_a_time_is_needed(tmp_path):
+    spec = (
+        STATUS
+        + "var V = s.velocity\nevent E = mean(V)\n    group by time(10Hz)\n"
+        + "alert A { warn when E > 1 }\n"
+    )
+    result = check_text(spec, tmp_path, ros="noetic", messages=(CARLA_MSGS,))
+    rate = next(d for d in result.errors if d.code == "RMV316")
+    assert rate.message == "`10Hz` is a rate, but a time is needed here"
+    assert rate.help == "a period of 10Hz is 0.1s"

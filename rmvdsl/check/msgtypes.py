@@ -171,7 +171,7 @@ def _msg_files(folder: str) -> Iterator[tuple[str, str]]:
         entries = sorted(os.listdir(folder))
     except OSError:
         return
-    direct = [entry for entry in entries if entry.endswith(".msg")]
+    direct = [entry for entry in entries if entry.endswith((".msg", ".idl"))]
     if direct:
         owner = os.path.dirname(folder) if os.path.basename(folder) == "msg" else folder
         package = os.path.basename(owner)
@@ -316,7 +316,48 @@ class TypeRegistry:
             name = f"{package}/msg/{os.path.splitext(os.path.basename(path))[0]}"
             if name in self.custom or name in self.broken:
                 continue  # the first folder on the path wins, as in ROS
-            self._add_file(name, path)
+            if path.endswith(".idl"):
+                self._add_idl(name, path)
+            else:
+                self._add_file(name, path)
+
+    def _add_idl(self, name: str, path: str) -> None:
+        """A ROS 2 .idl file, read by rosbags; its errors come with an offset."""
+        from rosbags.typesys import get_types_from_idl
+        from rosbags.typesys.base import Nodetype
+
+        try:
+            with open(path, encoding="utf-8") as handle:
+                text = handle.read()
+        except (OSError, UnicodeDecodeError) as exc:
+            source = self.sources.add(SourceFile(path, ""))
+            self.diagnostics.append(
+                error("RMV304", f"cannot read message definition {name}: {exc}", source.span(0, 0))
+            )
+            return
+        source = self.sources.add(SourceFile(path, text))
+        try:
+            types = get_types_from_idl(text)
+        except Exception as exc:  # rosbags raises its TypesysError, with the offset in it
+            lines = str(exc).splitlines()
+            offset = int(lines[2]) if len(lines) > 2 and lines[2].strip().isdigit() else 0
+            self.broken.add(name)
+            self.diagnostics.append(
+                error(
+                    "RMV304",
+                    f"in message definition {name}: the IDL does not parse",
+                    source.span(offset, min(offset + 1, len(text))),
+                    label="cannot read from here",
+                )
+            )
+            return
+        ros1 = self.ros_version == 1
+        for type_name, (consts, fields) in types.items():
+            converted = {
+                f: _rosbags_type(kind, detail, Nodetype, ros1) for f, (kind, detail) in fields
+            }
+            constants = {c: (str(t), repr(v)) for c, t, v in consts}
+            self.custom.setdefault(type_name, MessageDef(type_name, converted, constants, path))
 
     def _add_file(self, name: str, path: str) -> None:
         try:

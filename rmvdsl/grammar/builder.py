@@ -132,7 +132,18 @@ class AstBuilder(Transformer[Token, Any]):
     def time_value(self, token: Token) -> fm.TimeValue:
         value, unit, text = self.split_quantity(token)
         normalized: str | None = TIME_UNIT_ALIASES.get(unit, unit) if unit else None
-        if unit and normalized not in fm.TIME_UNITS:
+        if unit in RATE_UNITS:
+            self.diagnostics.append(
+                error(
+                    "RMV316",
+                    f"`{text}` is a rate, but a time is needed here",
+                    self.span(token),
+                    label="a rate, not a period",
+                    help=f"a period of {text} is {decimal(1 / value)}s" if value else None,
+                )
+            )
+            normalized = unit
+        elif unit and normalized not in fm.TIME_UNITS:
             # Reported here; the unknown unit is kept so no check calls it "missing".
             self.unknown_unit(token, unit, "a time unit")
             normalized = unit
