@@ -124,6 +124,21 @@ class Signal:
             bisect.bisect_right(self.starts, low) : bisect.bisect_left(self.starts, high)
         ]
 
+    def supremum(self, low: Any, high: Any, low_closed: bool, high_closed: bool) -> int:
+        """sup over the interval from low to high (each end open or closed)."""
+        if high == low:
+            return self.at(low)
+        i = self.index(low)
+        j = bisect.bisect_left(self.starts, high) - 1  # the last breakpoint before high
+        value = max(self.opens[i : j + 1]) if j >= i else self.opens[i]
+        if j > i:
+            value = max(value, max(self.points[i + 1 : j + 1]))
+        if low_closed:
+            value = max(value, self.at(low))
+        if high_closed:
+            value = max(value, self.at(high))
+        return value
+
     def infimum(self, low: Any, high: Any, low_closed: bool, high_closed: bool) -> int:
         """inf over the interval from low to high (each end open or closed)."""
         if high < low or (high == low and not (low_closed and high_closed)):
@@ -249,6 +264,9 @@ class Temporal(Evaluated):
             self.future, self.past = future + bound, past
         else:
             self.future, self.past = future, past + bound
+        # `eventually` and `once` (true on the left): the value is the sup of psi
+        # over the window, read from the segment lists in one slice.
+        self.plain = isinstance(left, Const) and left.value == TRUE
 
     def children(self) -> list[Node]:
         return [self.left, self.right]
@@ -265,7 +283,27 @@ class Temporal(Evaluated):
         return found
 
     def value_at(self, t: Any) -> int:
+        if self.plain:
+            return self._sup(t)
         return self._until(t) if self.kind == "until" else self._since(t)
+
+    def _sup(self, t: Any) -> int:
+        """sup of psi over the window: `eventually` (until) or `once` (since)."""
+        psi, op, bound = self.right.signal, self.op, self.bound
+        if self.kind == "until":
+            if op == "=":
+                return psi.at(t + bound)
+            if op == "<" and bound <= 0:
+                return FALSE
+            return psi.supremum(t, t + bound, True, op == "<=")
+        begin = t - bound
+        if op == "=":
+            return FALSE if begin < self.origin else psi.at(begin)
+        if begin < self.origin:
+            return psi.supremum(self.origin, t, True, True)
+        if begin == t and op == "<":
+            return FALSE
+        return psi.supremum(begin, t, op == "<=", True)
 
     def _until(self, t: Any) -> int:
         """sup over t' in the window of min(psi(t'), inf of phi over [t, t'))."""
