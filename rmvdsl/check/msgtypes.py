@@ -326,16 +326,10 @@ class TypeRegistry:
         from rosbags.typesys import get_types_from_idl
         from rosbags.typesys.base import Nodetype
 
-        try:
-            with open(path, encoding="utf-8") as handle:
-                text = handle.read()
-        except (OSError, UnicodeDecodeError) as exc:
-            source = self.sources.add(SourceFile(path, ""))
-            self.diagnostics.append(
-                error("RMV304", f"cannot read message definition {name}: {exc}", source.span(0, 0))
-            )
+        source = self._read(name, path)
+        if source is None:
             return
-        source = self.sources.add(SourceFile(path, text))
+        text = source.text
         try:
             types = get_types_from_idl(text)
         except Exception as exc:  # rosbags raises its TypesysError, with the offset in it
@@ -359,7 +353,7 @@ class TypeRegistry:
             constants = {c: (str(t), repr(v)) for c, t, v in consts}
             self.custom.setdefault(type_name, MessageDef(type_name, converted, constants, path))
 
-    def _add_file(self, name: str, path: str) -> None:
+    def _read(self, name: str, path: str) -> SourceFile | None:
         try:
             with open(path, encoding="utf-8") as handle:
                 text = handle.read()
@@ -368,8 +362,14 @@ class TypeRegistry:
             self.diagnostics.append(
                 error("RMV304", f"cannot read message definition {name}: {exc}", source.span(0, 0))
             )
+            self.broken.add(name)
+            return None
+        return self.sources.add(SourceFile(path, text))
+
+    def _add_file(self, name: str, path: str) -> None:
+        source = self._read(name, path)
+        if source is None:
             return
-        source = self.sources.add(SourceFile(path, text))
         definition, problems = parse_msg(source, name)
         self.diagnostics.extend(problems)
         if definition is None:

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
-from rmvdsl.runtime.rmtld3 import compare
+from rmvdsl.runtime.rmtld3 import arithmetic, compare
 
 FALSE, UNKNOWN, TRUE = 0, 1, 2
 
@@ -203,13 +203,7 @@ class Reference:
                 if value != FALSE:
                     possibly += b - a
             return surely, possibly
-        left, right = self.term(term[1], t), self.term(term[2], t)
-        if kind == "add":
-            return left[0] + right[0], left[1] + right[1]
-        if kind == "sub":
-            return left[0] - right[1], left[1] - right[0]
-        products = [x * y for x in left for y in right]
-        return min(products), max(products)
+        return arithmetic(kind, self.term(term[1], t), self.term(term[2], t))
 
     # ---- the whole signal ----
 

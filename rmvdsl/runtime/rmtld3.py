@@ -438,7 +438,11 @@ def _term(term: Any, t: Any) -> tuple[Any, Any]:
         return term[1], term[1]
     if kind == "dur":
         return duration(term[2].signal, t, t + term[1])
-    left, right = _term(term[1], t), _term(term[2], t)
+    return arithmetic(kind, _term(term[1], t), _term(term[2], t))
+
+
+def arithmetic(kind: str, left: tuple[Any, Any], right: tuple[Any, Any]) -> tuple[Any, Any]:
+    """`add`, `sub` or `mul` of two intervals (docs/semantics.md)."""
     if kind == "add":
         return left[0] + right[0], left[1] + right[1]
     if kind == "sub":
