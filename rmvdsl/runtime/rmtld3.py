@@ -25,6 +25,7 @@ from __future__ import annotations
 import bisect
 import heapq
 import itertools
+from abc import ABC, abstractmethod
 from collections.abc import Iterable, Iterator
 from fractions import Fraction
 from typing import Any
@@ -227,15 +228,17 @@ class Binary(Node):
             signal.append(t, combine(a.at(t), b.at(t)), combine(a.right_of(t), b.right_of(t)))
 
 
-class Evaluated(Node):
+class Evaluated(Node, ABC):
     """A node whose value is computed pointwise, at every point where it can change
     and at one point of each open interval between (exact for these signals)."""
 
+    @abstractmethod
     def breakpoints(self, start: Any) -> set[Any]:
-        raise NotImplementedError
+        """Every time after `start` where the value may change."""
 
+    @abstractmethod
     def value_at(self, t: Any) -> int:
-        raise NotImplementedError
+        """The value at time t, read from the children's signals."""
 
     def update(self, start: Any) -> None:
         points = sorted(p for p in self.breakpoints(start) if p > start)
