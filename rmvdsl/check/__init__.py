@@ -13,14 +13,17 @@ import os
 import re
 import sys
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-from rmvdsl.check.analysis import AnalysisResult, analyze
 from rmvdsl.check.loader import UsageError, load
 from rmvdsl.check.model import Model
 from rmvdsl.check.names import check_names
 from rmvdsl.check.types import TypeConfig, TypeInfo, check_types
 from rmvdsl.diagnostics import Diagnostic, Severity, error, sort_key
 from rmvdsl.source import SourceFile
+
+if TYPE_CHECKING:
+    from rmvdsl.check.analysis import AnalysisResult
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -71,6 +74,9 @@ def check(
         use_environment=use_environment,
     )
     types, type_diagnostics = check_types(model, config, folder)
+    # networkx and z3 load only when a check runs, not for `rmv --version` or `fmt`.
+    from rmvdsl.check.analysis import analyze
+
     analysis, analysis_diagnostics = analyze(model, types)
     stages = [loaded.diagnostics, name_diagnostics, config_diagnostics, type_diagnostics]
     diagnostics = sorted(
