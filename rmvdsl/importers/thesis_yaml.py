@@ -169,10 +169,12 @@ def convert_files(paths: Iterable[str], system_name: str | None = None) -> Impor
 
 def _report_open_names(text: str, spec: _Spec) -> None:
     """Names the YAML files use but do not define (the thesis's examples do)."""
-    from rmvdsl.check import check
+    from rmvdsl.check.loader import load
+    from rmvdsl.check.names import check_names
 
-    result = check("<import>", text)
-    undefined = sorted({d.message.split("`")[1] for d in result.errors if d.code == "RMV200"})
+    loaded = load("<import>", text)
+    _, diagnostics = check_names(loaded.specs, loaded.sources, loaded.damaged_names)
+    undefined = sorted({text[d.span.start : d.span.end] for d in diagnostics if d.code == "RMV200"})
     if undefined:
         spec.note(
             "<output>",
