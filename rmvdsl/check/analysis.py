@@ -246,8 +246,9 @@ class Analyzer:
             if decl.complete:
                 self.completeness(decl)
         self.unproduced_inputs()
-        self.unconsumed_outputs()
-        self.unobserved_transducers()
+        used = self.used_names()
+        self.unconsumed_outputs(used)
+        self.unobserved_transducers(used)
         return self.result, self.diagnostics
 
     @staticmethod
@@ -413,8 +414,7 @@ class Analyzer:
         answer, _ = solve([self.conditions.of_event(name)], self.conditions.domains)
         return "its condition is unsatisfiable" if answer == "unsat" else None
 
-    def unconsumed_outputs(self) -> None:
-        used = self.used_names()
+    def unconsumed_outputs(self, used: set[str]) -> None:
         for name, transitions in self.model.emitted.items():
             if name in used:
                 continue
@@ -445,16 +445,15 @@ class Analyzer:
             used |= _names(event.expr)
         return used
 
-    def unobserved_transducers(self) -> None:
+    def unobserved_transducers(self, used: set[str]) -> None:
         if any(prop.formula is None for prop in self.model.properties.values()):
             return  # a property that does not parse may be the one looking
-        used = self.used_names() - {
-            t.input.name for d in self.model.transducers.values() for t in d.transitions
-        }
+        inputs = {t.input.name for d in self.model.transducers.values() for t in d.transitions}
+        observed = used - inputs
         for decl in self.model.transducers.values():
             states = {s.name for s in decl.states}
             outputs = {t.output.name for t in decl.transitions if t.output is not None}
-            if (states | outputs) & used:
+            if (states | outputs) & observed:
                 continue
             self.report(
                 warning(
