@@ -440,9 +440,11 @@ class Analyzer:
             }
         for alert in self.model.alerts.values():
             for level in alert.levels:
-                used |= _names(level.condition) | (_names(level.reset) if level.reset else set())
+                used |= ast.names_in(level.condition) | (
+                    ast.names_in(level.reset) if level.reset else set()
+                )
         for event in self.model.events.values():
-            used |= _names(event.expr)
+            used |= ast.names_in(event.expr)
         return used
 
     def unobserved_transducers(self, used: set[str]) -> None:
@@ -465,17 +467,6 @@ class Analyzer:
                     f"not {decl.states[0].name if decl.states else 'S'}`",
                 )
             )
-
-
-def _names(node: ast.Node) -> set[str]:
-    found = set()
-    stack = [node]
-    while stack:
-        current = stack.pop()
-        if isinstance(current, ast.NameRef):
-            found.add(current.ident.name)
-        stack.extend(current.children())
-    return found
 
 
 def analyze(model: Model, types: TypeInfo | None) -> tuple[AnalysisResult, list[Diagnostic]]:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass, field
 
-from rmvdsl.diagnostics import Diagnostic, Label, closest, error
+from rmvdsl.diagnostics import Diagnostic, closest, error
 from rmvdsl.grammar import ast
 from rmvdsl.grammar.parser import parse_source
 from rmvdsl.source import SourceFile, SourceMap
@@ -115,4 +115,4 @@ def _import_help(importer: str, wanted: str) -> str:
     return f"paths are relative to the importing file's folder, {folder}"
 
 
-__all__ = ["Label", "Loaded", "UsageError", "load", "read_text"]
+__all__ = ["Loaded", "UsageError", "load", "read_text"]

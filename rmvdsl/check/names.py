@@ -6,7 +6,7 @@ The result is the resolved `Model` and the diagnostics of this stage.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable
 
 from rmvdsl.check import settings as schemas
 from rmvdsl.check.model import (
@@ -512,7 +512,7 @@ class NameChecker:
             )
 
     def check_expression(self, expr: ast.Node, allowed: frozenset[Kind]) -> None:
-        for node in _expression_nodes(expr):
+        for node in ast.walk(expr):
             if isinstance(node, ast.NameRef):
                 self.resolve(node.ident, allowed, "a variable or an event")
             elif isinstance(node, ast.Call) and node.func.name not in INFLUX_FUNCTIONS:
@@ -532,9 +532,7 @@ class NameChecker:
         dependencies = {
             name: [
                 n.ident
-                for n in _expression_nodes(
-                    decl.expr, *(c.value for c in decl.clauses if c.kind == "where")
-                )
+                for n in ast.walk(decl.expr, *(c.value for c in decl.clauses if c.kind == "where"))
                 if isinstance(n, ast.NameRef) and n.ident.name in events
             ]
             for name, decl in events.items()
@@ -861,20 +859,6 @@ _ACTION_EXAMPLES = {
     "command": '"/usr/local/bin/notify.sh"',
     "address": '"127.0.0.1:5678"',
 }
-
-
-def _expression_nodes(*roots: ast.Node) -> Iterator[ast.Node]:
-    stack = list(roots)
-    while stack:
-        node = stack.pop()
-        yield node
-        if isinstance(node, ast.BinOp):
-            stack.append(node.right)
-            stack.append(node.left)
-        elif isinstance(node, ast.UnaryOp):
-            stack.append(node.operand)
-        elif isinstance(node, ast.Call):
-            stack.extend(reversed(node.args))
 
 
 def _keyword_span(node: fm.Temporal) -> Span:

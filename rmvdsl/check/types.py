@@ -738,8 +738,8 @@ class TypeChecker:
             if level.reset is None:
                 continue
             self.condition(level.reset, f"the `{level.severity.name}` reset condition")
-            measured = measurements(level.condition)
-            reset = measurements(level.reset)
+            measured = ast.names_in(level.condition)
+            reset = ast.names_in(level.reset)
             foreign = sorted(reset - measured)
             if foreign or not reset:
                 self.report(
@@ -886,22 +886,6 @@ def previous_name(node: ast.Node) -> str:
     if isinstance(node, ast.Ident):
         return node.name
     return "?"
-
-
-def measurements(expr: ast.Node) -> set[str]:
-    found: set[str] = set()
-    for node in _walk(expr):
-        if isinstance(node, ast.NameRef):
-            found.add(node.ident.name)
-    return found
-
-
-def _walk(expr: ast.Node) -> Iterator[ast.Node]:
-    stack = [expr]
-    while stack:
-        node = stack.pop()
-        yield node
-        stack.extend(node.children())
 
 
 def check_types(

@@ -429,9 +429,15 @@ class Spec(Node):
     span: Span = field(default=NO_SPAN, compare=False)
 
 
-def walk(node: Node) -> Iterator[Node]:
-    stack = [node]
+def walk(*roots: Node) -> Iterator[Node]:
+    """Every node below the roots, parents first, left to right."""
+    stack = list(reversed(roots))
     while stack:
         current = stack.pop()
         yield current
         stack.extend(reversed(list(current.children())))
+
+
+def names_in(node: Node) -> set[str]:
+    """The names an expression reads."""
+    return {n.ident.name for n in walk(node) if isinstance(n, NameRef)}
