@@ -103,3 +103,11 @@ def test_readme_tour_checks_clean_and_its_mistake_reads_as_shown(rmv, tmp_path):
     result = rmv("check", "--no-color", "spec.rmv")
     assert result.code == 1
     assert result.out == shown
+
+
+def test_language_reference_mentions_every_keyword_of_the_grammar():
+    from rmvdsl.grammar.parser import keywords
+
+    text = (ROOT / "docs" / "language.md").read_text(encoding="utf-8")
+    missing = sorted(k for k in keywords() if not re.search(rf"\b{k}\b", text))
+    assert missing == []

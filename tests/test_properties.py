@@ -11,64 +11,11 @@ from hypothesis import strategies as st
 
 from rmvdsl.check import check
 from rmvdsl.grammar.formatter import format_spec
-from rmvdsl.grammar.parser import parse_source
+from rmvdsl.grammar.parser import keywords, parse_source
 from rmvdsl.source import SourceFile
 
 NAMES = st.from_regex(r"[A-Z][a-z]{0,5}[0-9]?", fullmatch=True)
-LOWER = st.from_regex(r"[a-z][a-z_]{0,6}", fullmatch=True).filter(
-    lambda s: (
-        s
-        not in {
-            "and",
-            "or",
-            "not",
-            "true",
-            "false",
-            "when",
-            "where",
-            "group",
-            "fill",
-            "order",
-            "limit",
-            "resample",
-            "range",
-            "reset",
-            "info",
-            "warn",
-            "crit",
-            "message",
-            "action",
-            "states",
-            "initial",
-            "final",
-            "complete",
-            "on",
-            "emit",
-            "until",
-            "since",
-            "eventually",
-            "always",
-            "once",
-            "historically",
-            "duration",
-            "latex",
-            "qos",
-            "retention",
-            "downsample",
-            "publishers",
-            "subscribers",
-            "publishes",
-            "subscribes",
-            "none",
-            "env",
-            "time",
-            "unit",
-            "every",
-            "for",
-            "by",
-        }
-    )
-)
+LOWER = st.from_regex(r"[a-z][a-z_]{0,6}", fullmatch=True).filter(lambda s: s not in keywords())
 NUMBERS = st.sampled_from(["0", "1", "2.5", "10", "0.8", "3.6", "1e3", "100"])
 TIMES = st.sampled_from(["1s", "10s", "100ms", "2m", "1h", "5us", "0.5s", "30d"])
 SPACE = st.sampled_from([" ", "  ", "\t", " \n    "])

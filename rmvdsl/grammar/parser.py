@@ -121,6 +121,16 @@ def _terminal_texts(which: str) -> dict[str, str]:
     return texts
 
 
+def keywords() -> frozenset[str]:
+    """Every word the grammar reserves somewhere (the editor will complete them)."""
+    parser, _ = _spec_parser()
+    return frozenset(
+        terminal.pattern.value
+        for terminal in parser.terminals
+        if isinstance(terminal.pattern, PatternStr) and terminal.pattern.value.isidentifier()
+    )
+
+
 def describe_expected(expected: set[str] | frozenset[str], which: str = "spec") -> str:
     texts = _terminal_texts(which)
     keywords = sorted(name for name in expected if name.startswith("KW_") and name != "KW_COMPLETE")
