@@ -31,6 +31,8 @@ else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
 CONFIG_FILE = "rmv.toml"
+# Name diagnostics that a syntax error in the same declaration can cause.
+CONSEQUENTIAL = frozenset({"RMV200", "RMV209", "RMV210", "RMV213"})
 
 
 @dataclass
@@ -78,10 +80,13 @@ def check(
     from rmvdsl.check.analysis import analyze
 
     analysis, analysis_diagnostics = analyze(model, types)
-    stages = [loaded.diagnostics, name_diagnostics, config_diagnostics, type_diagnostics]
-    diagnostics = sorted(
-        [d for stage in [*stages, analysis_diagnostics] for d in stage], key=sort_key
-    )
+    # Inside a declaration with syntax errors parts may be missing: what follows from
+    # a missing part is not reported, the syntax error is.
+    names = [
+        d for d in name_diagnostics if not (d.code in CONSEQUENTIAL and model.in_damaged(d.span))
+    ]
+    later = [d for d in [*type_diagnostics, *analysis_diagnostics] if not model.in_damaged(d.span)]
+    diagnostics = sorted([*loaded.diagnostics, *config_diagnostics, *names, *later], key=sort_key)
     return CheckResult(model, diagnostics, types, analysis)
 
 

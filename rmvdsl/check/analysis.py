@@ -233,8 +233,7 @@ class Analyzer:
         self._never: dict[str, str | None] = {}
 
     def report(self, diagnostic: Diagnostic) -> None:
-        if not self.model.in_damaged(diagnostic.span):
-            self.diagnostics.append(diagnostic)
+        self.diagnostics.append(diagnostic)
 
     def run(self) -> tuple[AnalysisResult, list[Diagnostic]]:
         graphs = {name: self.graph(decl) for name, decl in self.model.transducers.items()}

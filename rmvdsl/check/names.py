@@ -101,14 +101,7 @@ class NameChecker:
         return self.model, self.diagnostics
 
     def report(self, diagnostic: Diagnostic) -> None:
-        # Inside a declaration with syntax errors, parts may be missing: what
-        # follows from a missing part is not reported, the syntax error is.
-        if diagnostic.code in _CONSEQUENTIAL and self.in_damaged(diagnostic.span):
-            return
         self.diagnostics.append(diagnostic)
-
-    def in_damaged(self, span: Span) -> bool:
-        return self.model.in_damaged(span)
 
     # ---- declaring ----
 
@@ -869,7 +862,6 @@ def _keyword_span(node: fm.Temporal) -> Span:
 
 
 _ONE_PER_SPEC = "a spec has one (its imports included): remove or merge the second"
-_CONSEQUENTIAL = frozenset({"RMV200", "RMV209", "RMV210", "RMV213"})
 
 
 def check_names(

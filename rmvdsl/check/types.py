@@ -164,8 +164,7 @@ class TypeChecker:
         self._event_stack: set[str] = set()
 
     def report(self, diagnostic: Diagnostic) -> None:
-        if not self.model.in_damaged(diagnostic.span):
-            self.diagnostics.append(diagnostic)
+        self.diagnostics.append(diagnostic)
 
     # ---- configuration ----
 
