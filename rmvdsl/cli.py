@@ -10,14 +10,19 @@ import argparse
 import os
 import sys
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 from rmvdsl import __version__
 from rmvdsl.check import check
 from rmvdsl.check.loader import UsageError, read_text
 from rmvdsl.codes import CODES, explain
-from rmvdsl.diagnostics import Diagnostic, Severity
+from rmvdsl.diagnostics import Diagnostic, Severity, error
 from rmvdsl.render import render_json, render_sarif, render_text, summary
 from rmvdsl.source import SourceMap
+
+if TYPE_CHECKING:
+    from rmvdsl.check.properties import PropertyReport
+    from rmvdsl.logic.sat import Answer, Limits
 
 EXIT_OK, EXIT_ERRORS, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 70
 
@@ -60,6 +65,19 @@ exit codes: 0 no errors, 1 errors (or warnings with --strict), 2 usage or I/O pr
     check_parser.add_argument("--format", choices=("text", "json", "sarif"), default="text")
     check_parser.add_argument("--no-color", action="store_true", help="never colour the output")
     check_parser.add_argument("--strict", action="store_true", help="warnings fail the check")
+    check_parser.add_argument(
+        "--timeout",
+        type=float,
+        metavar="SECONDS",
+        help="time limit of each solver call on the properties (default 5, or "
+        "`solver_timeout` in rmv.toml)",
+    )
+    check_parser.add_argument(
+        "--witnesses",
+        metavar="DIR",
+        help="write, for each property, a trace where it holds and one where it fails "
+        "(JSONL, replayable with `rmv eval`)",
+    )
     check_parser.add_argument(
         "--ros",
         metavar="DISTRO",
@@ -126,6 +144,31 @@ trace lines (JSONL):
     eval_parser.add_argument("--format", choices=("text", "json"), default="text")
     eval_parser.add_argument("--no-color", action="store_true")
 
+    sat_parser = commands.add_parser(
+        "sat",
+        help="is a formula satisfiable? valid? (with witness traces)",
+        description="Decide whether a formula can hold (satisfiable) and whether it always "
+        "holds (valid), in dense time, with z3. Each answer is yes, no or unknown; yes and "
+        "no are exact, and come with a trace where one exists (a witness that makes the "
+        "formula true, a counterexample that makes it false), replayed through the "
+        "reference evaluator before it is shown. unknown says why: the search for a trace "
+        "with a few changes found none and no proof was found, or the time limit was hit. "
+        "Bare numbers are seconds.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="""examples:
+  rmv sat --formula 'eventually[<10] p and always[<10] not p'
+  rmv sat --syntax latex --formula '\\always_{<20}(a \\lor b) \\until_{<20} r'
+  rmv sat --formula 'a until[<5] b' --format json
+exit codes: 0 answered (whatever the answer), 1 the formula has errors, 2 usage problem""",
+    )
+    sat_parser.add_argument("--formula", required=True, help="the formula (quote it)")
+    sat_parser.add_argument("--syntax", choices=("auto", "rmv", "latex"), default="auto")
+    sat_parser.add_argument("--format", choices=("text", "json"), default="text")
+    sat_parser.add_argument(
+        "--timeout", type=float, default=5.0, metavar="SECONDS", help="per solver call (5)"
+    )
+    sat_parser.add_argument("--no-color", action="store_true")
+
     graph_parser = commands.add_parser(
         "graph",
         help="draw a transducer, problems highlighted",
@@ -180,6 +223,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _eval(args)
         if args.command == "graph":
             return _graph(args)
+        if args.command == "sat":
+            return _sat(args)
     except UsageError as exc:
         print(f"rmv: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
@@ -213,19 +258,24 @@ def _check(args: argparse.Namespace) -> int:
     for folder in args.messages:
         if not os.path.isdir(folder):
             raise UsageError(f"--messages {folder}: no such folder")
+    timeout = None if args.timeout is None else _limits(args.timeout).timeout
     all_diagnostics: list[Diagnostic] = []
     sources = SourceMap()
     usage_problem = False
     checked: list[str] = []
     for path in args.files:
         try:
-            result = check(path, ros=args.ros, messages=tuple(args.messages))
+            result = check(
+                path, ros=args.ros, messages=tuple(args.messages), solver_timeout=timeout
+            )
         except UsageError as exc:
             print(f"rmv: error: {exc}", file=sys.stderr)
             usage_problem = True
             continue
         checked.append(path)
         all_diagnostics.extend(result.diagnostics)
+        if args.witnesses and result.properties is not None:
+            _write_witnesses(args.witnesses, result.properties)
         for source in result.model.sources:
             sources.add(source)
     if args.format == "json":
@@ -345,6 +395,89 @@ def _eval(args: argparse.Namespace) -> int:
     else:
         print(verdict)
     return EXIT_OK
+
+
+def _limits(timeout: float) -> Limits:
+    from rmvdsl.logic.sat import Limits
+
+    if not 0 < timeout <= 3600:
+        raise UsageError(f"--timeout {timeout}: give seconds, more than 0 and at most 3600")
+    return Limits(timeout=timeout)
+
+
+def _write_witnesses(folder: str, report: PropertyReport) -> None:
+    try:
+        os.makedirs(folder, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"--witnesses {folder}: {exc.strerror or exc}") from None
+    for name, facts in report.facts.items():
+        found = [
+            ("holds", "true", facts.satisfiable),
+            ("fails", "false", facts.valid),
+        ]
+        for suffix, verdict, answer in found:
+            if answer is None or answer.witness is None:
+                continue
+            if (suffix == "holds") != (answer.value == "yes"):
+                continue
+            path = os.path.join(folder, f"{name}.{suffix}.jsonl")
+            _write(path, answer.witness.jsonl())
+            at = answer.witness.as_json()["at"]
+            print(f"rmv: {path}: `{name}` is {verdict} at t = {at}", file=sys.stderr)
+
+
+def _sat(args: argparse.Namespace) -> int:
+    from rmvdsl.logic import evaluate as ev
+    from rmvdsl.logic.compile import CompileError, compile_formula
+    from rmvdsl.logic.sat import NO, YES, satisfiable, valid
+    from rmvdsl.source import SourceFile
+
+    limits = _limits(args.timeout)
+    node, diagnostics = ev.parse(args.formula, args.syntax, False)
+    compiled = None
+    if node is not None:
+        try:
+            compiled = compile_formula(node)
+        except CompileError as exc:
+            span = getattr(exc.node, "span", None)
+            code = "RMV212" if "needs a time bound" in str(exc) else "RMV219"
+            diagnostics = [error(code, str(exc), span, label="here")]  # type: ignore[arg-type]
+    if compiled is None:
+        sources = SourceMap()
+        sources.add(SourceFile("<formula>", args.formula))
+        sys.stderr.write(
+            render_text(diagnostics, sources, _use_color(args) and sys.stderr.isatty())
+        )
+        return EXIT_ERRORS
+    sat = satisfiable([compiled], limits=limits)
+    validity = valid(compiled, limits=limits)
+    if args.format == "json":
+        payload = {
+            "sat": sat.value,
+            "valid": validity.value,
+            "exact": sat.exact and validity.exact,
+            "witness": sat.witness.as_json() if sat.value == YES and sat.witness else None,
+            "counterexample": (
+                validity.witness.as_json() if validity.value == NO and validity.witness else None
+            ),
+        }
+        sys.stdout.write(ev.as_json(payload))
+        return EXIT_OK
+    print(f"satisfiable: {_answer_text(sat)}")
+    if sat.value == YES and sat.witness:
+        print("  witness (the formula is true):")
+        print("\n".join("    " + line for line in sat.witness.timeline()))
+    print(f"valid: {_answer_text(validity)}")
+    if validity.value == NO and validity.witness:
+        print("  counterexample (the formula is false):")
+        print("\n".join("    " + line for line in validity.witness.timeline()))
+    return EXIT_OK
+
+
+def _answer_text(answer: Answer) -> str:
+    if answer.value == "unknown":
+        return f"unknown (bounded: {answer.note})"
+    return f"{answer.value} (exact)"
 
 
 def _graph(args: argparse.Namespace) -> int:

@@ -451,6 +451,66 @@ that make them (`BrakePedal = 0.9`). Make the conditions exclusive:
         """(warning, only for transducers marked `complete`) In some state, for some
 values of the variables no transition's input holds. The message gives such values.""",
     ),
+    (
+        "RMV510",
+        "property that can never hold",
+        """No trace makes the property true, at any time: its monitor reports a violation on
+every run, whatever the system does. `eventually[<10s] p and always[<10s] not p` is
+an example. The answer is exact: z3 refuted the formula over all functions of time,
+not only over a bounded family of traces (docs/verification.md). Check the bounds
+and the connectives; `rmv sat --formula '...'` answers the same question for a
+piece of the formula.""",
+    ),
+    (
+        "RMV511",
+        "property impossible for this system",
+        """The formula is satisfiable in pure logic (the note shows a trace), but not on
+the traces this spec can produce: a transducer is in exactly one of its states at
+a time, starts in its initial state and changes only along its transitions; events
+whose conditions exclude each other never hold together. So the monitor reports a
+violation on every run. Typical cause: a property that needs two states of one
+transducer at once (`eventually[<5s] (Stopped and HardBraking)`), or a state the
+initial state cannot reach in time.""",
+    ),
+    (
+        "RMV512",
+        "property that can never fail",
+        """(warning) The property holds on every trace (of this system, when its states
+constrain it): its monitor can never fire, which gives false assurance. The answer
+is exact: z3 refuted the negation. `p or not p` is the plain case;
+`always[<10s] a -> a` another (what holds for 10 s holds now).""",
+    ),
+    (
+        "RMV513",
+        "vacuous implication",
+        """(warning) In `A -> B`, A can never hold (at any time, on any trace of this
+system), so the implication is true whatever B says: the part of the property it
+was meant to check checks nothing. Check A's states, events and bounds.""",
+    ),
+    (
+        "RMV514",
+        "conflicting properties",
+        """Each property can hold alone, but no trace makes all of them hold at one time:
+on every run at least one of their monitors fires. The message names a smallest
+conflicting subset (z3 unsat core, minimised: drop any member and the rest can
+hold together), each member labelled in the source. Weaken one of them.""",
+    ),
+    (
+        "RMV515",
+        "redundant property",
+        """(note) The property is implied by the ones named: whenever they hold, it
+holds, so its monitor fires only when one of theirs does. Keep it if it carries
+its own alert or actions; otherwise it can go. Checked only for specs with at most
+24 properties (one solver question per property).""",
+    ),
+    (
+        "RMV516",
+        "property not decided",
+        """(note) The solver's time limit was reached before it could decide whether the
+property can hold (or fail). Nothing is claimed. Raise the limit with
+`rmv check --timeout SECONDS` (default 5 s per solver call), or split the
+property.""",
+    ),
 ]
 
 CODES: dict[str, Code] = {code: Code(code, title, text) for code, title, text in _TABLE}

@@ -6,6 +6,7 @@ secondary labels ("first declared here") and an optional `help` with a concrete 
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -40,6 +41,10 @@ class Diagnostic:
     def __post_init__(self) -> None:
         if self.code not in CODES:
             raise ValueError(f"unregistered diagnostic code {self.code}")
+
+    def with_notes(self, notes: Iterable[str]) -> Diagnostic:
+        """The same diagnostic with lines of explanation after it (a witness trace)."""
+        return dataclasses.replace(self, notes=tuple(notes))
 
     @property
     def is_error(self) -> bool:

@@ -82,6 +82,10 @@ def _render_one(diagnostic: Diagnostic, sources: SourceMap, style: _Style) -> st
     lines.append(gutter)
     if diagnostic.help:
         lines.append(f"{' ' * width} {style.paint('= help:', '1', '36')} {diagnostic.help}")
+    if diagnostic.notes:
+        head, *rest = diagnostic.notes
+        lines.append(f"{' ' * width} {style.paint('= note:', '1')} {head}")
+        lines.extend(f"{' ' * (width + 9)}{line}" for line in rest)
     return "\n".join(lines)
 
 

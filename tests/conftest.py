@@ -3,6 +3,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -12,6 +13,10 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "examples"
 FIXTURES = Path(__file__).resolve().parent / "fixtures"
+
+# The solver's answer cache: one per test session (shared with the processes the
+# tests start), never the user's.
+os.environ["RMV_CACHE_DIR"] = tempfile.mkdtemp(prefix="rmv-cache-")
 
 
 @dataclass

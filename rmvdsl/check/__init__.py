@@ -24,6 +24,8 @@ from rmvdsl.source import SourceFile
 
 if TYPE_CHECKING:
     from rmvdsl.check.analysis import AnalysisResult
+    from rmvdsl.check.properties import PropertyReport
+    from rmvdsl.logic.sat import Limits
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -41,6 +43,7 @@ class CheckResult:
     diagnostics: list[Diagnostic]
     types: TypeInfo | None = None
     analysis: AnalysisResult | None = None
+    properties: PropertyReport | None = None
 
     @property
     def errors(self) -> list[Diagnostic]:
@@ -57,11 +60,14 @@ def check(
     ros: str | None = None,
     messages: tuple[str, ...] = (),
     use_environment: bool = True,
+    solver_timeout: float | None = None,
 ) -> CheckResult:
     """Check the spec at `path` (its text may be given, as the editor does).
 
     `ros` and `messages` come from the command line and win over the spec's own
     `ros` and `messages` declarations, which win over an rmv.toml beside the spec.
+    `solver_timeout` (seconds per solver call on the properties) wins over the
+    `solver_timeout` of rmv.toml (docs/verification.md).
     Raises UsageError only when the root file itself cannot be read."""
     loaded = load(path, text)
     model, name_diagnostics = check_names(
@@ -70,6 +76,7 @@ def check(
     # Paths stay as the user wrote them (relative stays relative) in diagnostics.
     folder = os.path.dirname(path) or "."
     file_config, config_diagnostics = read_config(folder, model)
+    limits = file_config.limits(solver_timeout)
     config = TypeConfig(
         ros=ros or (None if model.ros else file_config.ros),
         messages=(*messages, *file_config.messages),
@@ -86,21 +93,55 @@ def check(
         d for d in name_diagnostics if not (d.code in CONSEQUENTIAL and model.in_damaged(d.span))
     ]
     later = [d for d in [*type_diagnostics, *analysis_diagnostics] if not model.in_damaged(d.span)]
-    diagnostics = sorted([*loaded.diagnostics, *config_diagnostics, *names, *later], key=sort_key)
-    return CheckResult(model, diagnostics, types, analysis)
+    earlier = [*loaded.diagnostics, *config_diagnostics, *names, *later]
+    from rmvdsl.check.properties import analyze_properties
+
+    report = analyze_properties(model, types, broken_declarations(model, earlier), limits)
+    diagnostics = sorted([*earlier, *report.diagnostics], key=sort_key)
+    return CheckResult(model, diagnostics, types, analysis, report)
 
 
-def read_config(folder: str, model: Model) -> tuple[TypeConfig, list[Diagnostic]]:
-    """The `ros` and `messages` of an rmv.toml in the spec's folder, if any."""
+def broken_declarations(model: Model, diagnostics: list[Diagnostic]) -> set[str]:
+    """Properties and transducers with an error inside (or a syntax error)."""
+    errors = [d.span for d in diagnostics if d.severity is Severity.ERROR]
+    out = set()
+    for name, decl in [*model.properties.items(), *model.transducers.items()]:
+        span = decl.span
+        if model.in_damaged(span) or any(
+            e.path == span.path and span.start <= e.start < span.end for e in errors
+        ):
+            out.add(name)
+    return out
+
+
+@dataclass(frozen=True)
+class FileConfig:
+    """What an rmv.toml beside the spec says."""
+
+    ros: str | None = None
+    messages: tuple[str, ...] = ()
+    solver_timeout: float | None = None  # seconds per solver call
+    solver_effort: int | None = None  # z3's resource limit: the same on every machine
+
+    def limits(self, timeout: float | None) -> Limits:
+        from rmvdsl.logic.sat import Limits
+
+        return Limits(
+            timeout=timeout or self.solver_timeout or Limits.timeout, effort=self.solver_effort
+        )
+
+
+def read_config(folder: str, model: Model) -> tuple[FileConfig, list[Diagnostic]]:
+    """The settings of an rmv.toml in the spec's folder, if any."""
     path = os.path.join(folder, CONFIG_FILE)
     if not os.path.isfile(path):
-        return TypeConfig(), []
+        return FileConfig(), []
     try:
         with open(path, encoding="utf-8") as handle:
             text = handle.read()
     except (OSError, UnicodeDecodeError) as exc:
         source = model.sources.add(SourceFile(path, ""))
-        return TypeConfig(), [
+        return FileConfig(), [
             error("RMV307", f"cannot read {CONFIG_FILE}: {exc}", source.span(0, 0))
         ]
     source = model.sources.add(SourceFile(path, text))
@@ -110,7 +151,7 @@ def read_config(folder: str, model: Model) -> tuple[TypeConfig, list[Diagnostic]
         match = re.search(r"line (\d+), column (\d+)", str(exc))
         line, column = (int(match.group(1)), int(match.group(2))) if match else (1, 1)
         start = source.offset(line, column)
-        return TypeConfig(), [
+        return FileConfig(), [
             error(
                 "RMV307",
                 f"{CONFIG_FILE} is not valid TOML: {str(exc).split(' (at')[0]}",
@@ -138,7 +179,32 @@ def read_config(folder: str, model: Model) -> tuple[TypeConfig, list[Diagnostic]
             )
         )
         folders = []
-    return TypeConfig(ros=ros, messages=tuple(os.path.join(folder, f) for f in folders)), problems
+    timeout = section.get("solver_timeout")
+    if timeout is not None and (
+        isinstance(timeout, bool) or not isinstance(timeout, int | float) or not 0 < timeout <= 3600
+    ):
+        problems.append(
+            error(
+                "RMV307",
+                f"`solver_timeout` in {CONFIG_FILE} must be a number of seconds in (0, 3600]",
+                source.span(0, 0),
+            )
+        )
+        timeout = None
+    effort = section.get("solver_effort")
+    if effort is not None and (
+        isinstance(effort, bool) or not isinstance(effort, int) or effort < 1
+    ):
+        problems.append(
+            error(
+                "RMV307",
+                f"`solver_effort` in {CONFIG_FILE} must be a positive whole number",
+                source.span(0, 0),
+            )
+        )
+        effort = None
+    messages = tuple(os.path.join(folder, f) for f in folders)
+    return FileConfig(ros, messages, timeout, effort), problems
 
 
 __all__ = ["CheckResult", "UsageError", "check"]

@@ -1,0 +1,320 @@
+"""Analyses (stage 4, continued): the properties, with `rmvdsl.logic.sat`.
+
+For each property: can it hold at all (in pure logic, and on the traces this
+system can make)? Can it fail? Does an implication in it have an antecedent that
+never holds? For all properties together: can they hold at once (if not, a
+smallest conflicting subset)? Is one implied by the others?
+
+Only exact answers become warnings or errors. An undecided question is a note
+when the solver's time limit cut it short; a bounded search that found nothing
+claims nothing.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field
+from fractions import Fraction
+from typing import Any
+
+from rmvdsl.check.analysis import Conditions, solve
+from rmvdsl.check.model import Kind, Model
+from rmvdsl.check.types import TypeInfo
+from rmvdsl.diagnostics import Diagnostic, Label, Severity, error, warning
+from rmvdsl.grammar import ast
+from rmvdsl.grammar.printer import formula as show_formula
+from rmvdsl.logic import formula as fm
+from rmvdsl.logic.compile import CompileError, compile_formula
+from rmvdsl.logic.sat import NO, UNKNOWN, YES, Answer, Cache, Limits, Witness, satisfiable, valid
+from rmvdsl.logic.sat import conflict as smallest_conflict
+from rmvdsl.logic.system import Machine, System
+
+# Redundancy costs one question per property over all the others: past this many
+# properties it is skipped (and said so in a note).
+REDUNDANCY_LIMIT = 24
+
+
+@dataclass
+class PropertyFacts:
+    """What the analyses found about one property, for the editor and `--witnesses`."""
+
+    formula: Any
+    satisfiable: Answer | None = None
+    valid: Answer | None = None
+
+
+@dataclass
+class PropertyReport:
+    facts: dict[str, PropertyFacts] = field(default_factory=dict)
+    diagnostics: list[Diagnostic] = field(default_factory=list)
+
+
+def analyze_properties(
+    model: Model,
+    types: TypeInfo | None,
+    skip: set[str],
+    limits: Limits | None = None,
+    cache: Cache | None = None,
+) -> PropertyReport:
+    """`skip`: properties and transducers that earlier stages found wrong (they may
+    not mean what they say): such properties are not analysed, such transducers
+    constrain nothing."""
+    return _PropertyAnalyzer(model, types, skip, limits or Limits(), cache).run()
+
+
+def system_of(model: Model, conditions: Conditions, names: set[str], skip: set[str]) -> System:
+    """The transducers, and the boolean events among `names` that can never hold,
+    or never together."""
+    machines = []
+    unreachable: set[str] = set()
+    for name, decl in model.transducers.items():
+        if name in skip:
+            continue
+        states = tuple(s.name for s in decl.states)
+        if len(set(states)) != len(states):
+            continue  # the names stage reported it
+        moves = frozenset(
+            (t.source.name, t.dest.name) for t in decl.transitions if t.source.name != t.dest.name
+        )
+        initial = decl.initial.name if decl.initial is not None else None
+        machines.append(Machine(name, states, initial, moves))
+        if initial is not None:
+            # States the initial state cannot reach never hold (the refutation
+            # does not follow transitions, so it is told).
+            reachable = {initial}
+            frontier = [initial]
+            while frontier:
+                here = frontier.pop()
+                for source, target in moves:
+                    if source == here and target not in reachable:
+                        reachable.add(target)
+                        frontier.append(target)
+            unreachable.update(set(states) - reachable)
+    events = sorted(
+        n for n in names if (s := model.symbols.get(n)) is not None and s.kind is Kind.BOOL_EVENT
+    )
+    never = {e for e in events if solve([conditions.of_event(e)], conditions.domains)[0] == "unsat"}
+    exclusive = {
+        (a, b)
+        for a, b in itertools.combinations([e for e in events if e not in never], 2)
+        if solve([conditions.of_event(a), conditions.of_event(b)], conditions.domains)[0] == "unsat"
+    }
+    return System(tuple(machines), frozenset(exclusive), frozenset(never | unreachable))
+
+
+class _PropertyAnalyzer:
+    def __init__(
+        self,
+        model: Model,
+        types: TypeInfo | None,
+        skip: set[str],
+        limits: Limits,
+        cache: Cache | None,
+    ) -> None:
+        self.model = model
+        self.limits = limits
+        self.cache = cache
+        self.report = PropertyReport()
+        self.compiled: dict[str, Any] = {}
+        for name, decl in model.properties.items():
+            if name in skip or decl.formula is None:
+                continue
+            try:
+                self.compiled[name] = self.compile(decl.formula)
+            except CompileError:
+                continue  # the types stage reported it
+        names = {n for f in self.compiled.values() for n in _names(f)}
+        self.system = system_of(model, Conditions(model, types), names, skip)
+
+    def compile(self, node: fm.Formula | fm.Term) -> Any:
+        return compile_formula(node, Fraction(1), self.model.time_unit or "s")
+
+    def add(self, diagnostic: Diagnostic) -> None:
+        self.report.diagnostics.append(diagnostic)
+
+    def run(self) -> PropertyReport:
+        consistent_candidates = []
+        for name, f in self.compiled.items():
+            facts = PropertyFacts(f)
+            self.report.facts[name] = facts
+            if self.single(name, f, facts):
+                consistent_candidates.append(name)
+        if len(consistent_candidates) > 1 and self.together(consistent_candidates):
+            self.redundancy(consistent_candidates)
+        return self.report
+
+    # ---- one property ----
+
+    def single(self, name: str, f: Any, facts: PropertyFacts) -> bool:
+        """The questions on one property; True when it can hold and can fail."""
+        decl = self.model.properties[name]
+        where = decl.name.span
+        facts.satisfiable = answer = satisfiable([f], self.system, self.limits, self.cache)
+        if answer.value == NO:
+            pure = satisfiable([f], None, self.limits, self.cache)
+            if pure.value == YES and pure.witness is not None:
+                self.add(self.impossible(decl, pure.witness))
+            elif pure.value == NO:
+                self.add(
+                    error(
+                        "RMV510",
+                        f"property `{name}` can never hold: its monitor reports a violation "
+                        "on every run",
+                        where,
+                        label="no trace makes this true",
+                        help="check the bounds and the connectives; `rmv sat --formula` "
+                        "answers the same question for a piece of it",
+                    )
+                )
+            return False
+        if answer.value == UNKNOWN:
+            if answer.timed_out:
+                self.add(self.undecided(decl, "can hold", answer))
+            return False
+        facts.valid = validity = valid(f, self.system, self.limits, self.cache)
+        vacuous = self.vacuity(decl)
+        if validity.value == YES and vacuous:
+            return False  # the vacuous implication says why
+        if validity.value == YES:
+            scope = ""
+            if self.system.relevant(set(_names(f))):
+                pure = valid(f, None, self.limits, self.cache)
+                scope = "" if pure.value == YES else " of this system"
+            self.add(
+                warning(
+                    "RMV512",
+                    f"property `{name}` holds on every trace{scope}: its monitor can never fire",
+                    where,
+                    label="true whatever happens",
+                    help="a monitor that cannot fire gives false assurance: "
+                    "strengthen the formula, or drop it",
+                )
+            )
+            return False
+        if validity.value == UNKNOWN and validity.timed_out:
+            self.add(self.undecided(decl, "can fail", validity))
+        return True
+
+    def impossible(self, decl: ast.PropertyDecl, pure: Witness) -> Diagnostic:
+        machines = [m.name for m in self.system.relevant(set(pure.names))]
+        because = (
+            "the transducer"
+            + ("s " if len(machines) > 1 else " ")
+            + ", ".join(f"`{m}`" for m in machines)
+            if machines
+            else "the events' conditions"
+        )
+        return error(
+            "RMV511",
+            f"property `{decl.name.name}` can never hold on this system: it needs traces "
+            f"that {because} cannot make",
+            decl.name.span,
+            label="satisfiable in pure logic, impossible here",
+            help="a transducer is in one state at a time, starts in its initial state and "
+            "moves only along its transitions; check the states the property names",
+        ).with_notes(("without the spec's constraints it holds on:", *pure.timeline()))
+
+    def undecided(self, decl: ast.PropertyDecl, question: str, answer: Answer) -> Diagnostic:
+        return Diagnostic(
+            "RMV516",
+            Severity.NOTE,
+            f"could not decide whether property `{decl.name.name}` {question}: {answer.note}",
+            decl.name.span,
+            label="undecided",
+            help="raise the limit: `rmv check --timeout SECONDS`, or `solver_timeout` "
+            "and `solver_effort` in rmv.toml",
+        )
+
+    def vacuity(self, decl: ast.PropertyDecl) -> bool:
+        """Report implications whose antecedent never holds; True if there are any."""
+        assert decl.formula is not None
+        found = False
+        for node in fm.walk(decl.formula):
+            if not (isinstance(node, fm.Binary) and node.op == "->"):
+                continue
+            try:
+                antecedent = self.compile(node.left)
+            except CompileError:
+                continue
+            answer = satisfiable([antecedent], self.system, self.limits, self.cache)
+            if answer.value != NO:
+                continue
+            found = True
+            self.add(
+                warning(
+                    "RMV513",
+                    f"in property `{decl.name.name}`, `{show_formula(node.left)}` can never "
+                    "hold: the implication is vacuously true",
+                    node.left.span,
+                    label="never holds",
+                    help="the implication says nothing; check the antecedent's states and bounds",
+                )
+            )
+        return found
+
+    # ---- all properties ----
+
+    def together(self, names: list[str]) -> bool:
+        formulas = [self.compiled[n] for n in names]
+        answer = satisfiable(formulas, self.system, self.limits, self.cache)
+        if answer.value != NO:
+            return answer.value == YES
+        core = smallest_conflict(formulas, self.system, self.limits, answer.core)
+        members = [names[i] for i in core] or names
+        first, *others = members
+        self.add(
+            error(
+                "RMV514",
+                f"properties {', '.join(f'`{m}`' for m in members)} cannot hold together: "
+                "on every run one of their monitors reports a violation",
+                self.model.properties[first].name.span,
+                label="conflicts with the others",
+                secondary=[
+                    Label(self.model.properties[m].name.span, "member of the conflict")
+                    for m in others
+                ],
+                help="each can hold alone; weaken one of them, or check their bounds",
+            )
+        )
+        return False
+
+    def redundancy(self, names: list[str]) -> None:
+        if len(names) > REDUNDANCY_LIMIT:
+            return
+        # Latest first, and a redundant property no longer counts for the others:
+        # of two equivalent properties, the later one is reported, once.
+        kept = list(names)
+        for name in reversed(names):
+            others = [n for n in kept if n != name]
+            formulas = [self.compiled[n] for n in others] + [("not", self.compiled[name])]
+            answer = satisfiable(formulas, self.system, self.limits, self.cache)
+            if answer.value != NO:
+                continue
+            kept.remove(name)
+            implied_by = [others[i] for i in answer.core if i < len(others)] or others
+            decl = self.model.properties[name]
+            self.add(
+                Diagnostic(
+                    "RMV515",
+                    Severity.NOTE,
+                    f"property `{name}` is implied by "
+                    + ", ".join(f"`{n}`" for n in implied_by)
+                    + ": its monitor fires only when theirs do",
+                    decl.name.span,
+                    label="redundant",
+                    secondary=tuple(
+                        Label(self.model.properties[n].name.span, "implies it") for n in implied_by
+                    ),
+                    help="keep it if a separate alert is wanted; otherwise drop it",
+                )
+            )
+
+
+def _names(f: Any) -> set[str]:
+    if f[0] == "prop":
+        return {f[1]}
+    out: set[str] = set()
+    for child in f[1:]:
+        if isinstance(child, tuple):
+            out |= _names(child)
+    return out

@@ -1,0 +1,562 @@
+"""The bounded witness search: traces of k segments with symbolic change times.
+
+A trace of k segments has change times 0 = t_0 < t_1 < ... < t_(k-1) (z3 reals)
+and a set of propositions per segment (z3 booleans); the last segment runs
+forever. Every subformula is piecewise constant with breakpoints at the change
+times shifted by the bounds of the operators above it (docs/semantics.md), so its
+value anywhere is decided by its value at those points and just right of them.
+The encoding is that construction of the reference evaluator, lifted to symbolic
+points: `value(f, e, plus)` is f at the time e (plus=False) or on (e, e + epsilon)
+(plus=True), where a time is a change time (or 0, or the evaluation time) plus a
+constant. Bounds are constants in the formulas, so a bound of 1000 costs no more
+than a bound of 5: nothing is unrolled per time unit.
+
+Found traces are only candidates: the caller replays each through the reference
+evaluator before it is believed.
+"""
+
+from __future__ import annotations
+
+from fractions import Fraction
+from typing import Any
+
+import z3
+
+# A time: (base, offset). base 0 is time 0, base i >= 1 the change time t_i,
+# base -1 the evaluation time, base -2 - j the j-th crossing point (below).
+Time = tuple[int, Fraction]
+ZERO: Time = (0, Fraction(0))
+EVAL = -1
+
+Bool = Any  # a z3 BoolRef, or a Python bool once folded
+
+
+def _and(*items: Bool) -> Bool:
+    rest = []
+    for item in items:
+        if item is False:
+            return False
+        if item is not True:
+            rest.append(item)
+    if not rest:
+        return True
+    return rest[0] if len(rest) == 1 else z3.And(*rest)
+
+
+def _or(*items: Bool) -> Bool:
+    rest = []
+    for item in items:
+        if item is True:
+            return True
+        if item is not False:
+            rest.append(item)
+    if not rest:
+        return False
+    return rest[0] if len(rest) == 1 else z3.Or(*rest)
+
+
+def _not(item: Bool) -> Bool:
+    if isinstance(item, bool):
+        return not item
+    return z3.Not(item)
+
+
+def as_z3(item: Bool) -> Any:
+    return z3.BoolVal(item) if isinstance(item, bool) else item
+
+
+def propositional(f: Any) -> bool:
+    if f[0] in ("prop", "const"):
+        return True
+    if f[0] == "not":
+        return propositional(f[1])
+    if f[0] in ("and", "or"):
+        return propositional(f[1]) and propositional(f[2])
+    return False
+
+
+def has_past(f: Any) -> bool:
+    if f[0] == "since":
+        return True
+    if f[0] in ("prop", "const", "num"):
+        return False
+    if f[0] == "dur":
+        return has_past(f[2])
+    if f[0] == "cmp":
+        return has_past(f[2]) or has_past(f[3])
+    return any(has_past(child) for child in f[1:] if isinstance(child, tuple))
+
+
+class BoundedTrace:
+    """The symbolic trace and the encoding of formulas over it."""
+
+    def __init__(self, segments: int, names: list[str], evaluation_free: bool) -> None:
+        self.k = segments
+        self.names = names
+        self.changes = [z3.RealVal(0)] + [z3.Real(f"t{i}") for i in range(1, segments)]
+        self.holds = [{n: z3.Bool(f"s{i}_{n}") for n in names} for i in range(segments)]
+        self.evaluation = z3.Real("tau") if evaluation_free else None
+        self.structure: list[Any] = [
+            self.changes[i] < self.changes[i + 1] for i in range(segments - 1)
+        ]
+        if self.evaluation is not None:
+            self.structure.append(self.evaluation >= 0)
+        # Where two duration terms cross: z3 reals defined by `definitions`.
+        self.crossings: list[Any] = []
+        self.definitions: list[Any] = []
+        self._values: dict[tuple[int, Time, bool], Bool] = {}
+        self._points: dict[int, frozenset[Time]] = {}
+        self._keep: list[Any] = []  # nodes whose id() keys the caches
+
+    # ---- times ----
+
+    def z3_time(self, time: Time) -> Any:
+        base, offset = time
+        if base >= 0:
+            symbol = self.changes[base]
+        elif base == EVAL:
+            symbol = self.evaluation
+        else:
+            symbol = self.crossings[-base - 2]
+        if offset == 0:
+            return symbol
+        return symbol + z3.RealVal(str(offset))
+
+    def less(self, a: Time, b: Time) -> Bool:
+        if a[0] == b[0]:
+            return a[1] < b[1]
+        if a[0] >= 0 and b[0] >= 0:  # change times are ordered
+            if a[0] < b[0] and a[1] <= b[1]:
+                return True
+            if a[0] > b[0] and a[1] >= b[1]:
+                return False
+        return self.z3_time(a) < self.z3_time(b)
+
+    def less_equal(self, a: Time, b: Time) -> Bool:
+        return _not(self.less(b, a))
+
+    def equal(self, a: Time, b: Time) -> Bool:
+        if a[0] == b[0]:
+            return a[1] == b[1]
+        return _and(self.less_equal(a, b), self.less_equal(b, a))
+
+    # ---- where a formula can change ----
+
+    def points(self, f: Any) -> frozenset[Time]:
+        key = id(f)
+        if key not in self._points:
+            self._keep.append(f)
+            self._points[key] = frozenset(self._compute_points(f))
+        return self._points[key]
+
+    def _compute_points(self, f: Any) -> set[Time]:
+        kind = f[0]
+        if kind == "prop":
+            return {(i, Fraction(0)) for i in range(self.k)}
+        if kind == "const":
+            return set()
+        if kind == "not":
+            return set(self.points(f[1]))
+        if kind in ("and", "or"):
+            return set(self.points(f[1])) | set(self.points(f[2]))
+        if kind in ("until", "since"):
+            shift = -f[2] if kind == "until" else f[2]
+            children = set(self.points(f[3])) | set(self.points(f[4]))
+            extra = {(0, Fraction(f[2]))} if kind == "since" else set()
+            return children | {(b, o + shift) for b, o in children} | extra
+        pieces = self._term_points(f[2]) | self._term_points(f[3])
+        return pieces | self.crossing_points(f, pieces)
+
+    def crossing_points(self, f: Any, pieces: set[Time]) -> set[Time]:
+        """A comparison of durations also changes where the two sides cross: at most
+        once between two consecutive breakpoints of the terms, where the difference
+        is linear. One crossing point per breakpoint (the breakpoint itself when
+        the sides do not cross before the next one)."""
+        _, _, left, right = f
+        rates = _rates(("sub", left, right))
+        out = set()
+        ordered = sorted(pieces)
+        for p in ordered:
+            here = self.z3_time(p)
+            gap = self.term(left, p) - self.term(right, p)
+            rate = self.slope(left, p) - self.slope(right, p)
+            cross = here
+            for r in sorted(rates - {Fraction(0)}):
+                cross = z3.If(rate == z3.RealVal(str(r)), here - gap / z3.RealVal(str(r)), cross)
+            ahead = z3.BoolVal(True)
+            for q in ordered:
+                later = self.less(p, q)
+                if later is not False:
+                    ahead = z3.And(ahead, z3.Implies(as_z3(later), cross < self.z3_time(q)))
+            symbol = z3.Real(f"x{len(self.crossings)}")
+            self.crossings.append(symbol)
+            self.definitions.append(symbol == z3.If(z3.And(cross > here, ahead), cross, here))
+            out.add((-1 - len(self.crossings), Fraction(0)))
+        return out
+
+    def _term_points(self, term: Any) -> set[Time]:
+        if term[0] == "num":
+            return set()
+        if term[0] == "dur":
+            body = self.points(term[2])
+            return set(body) | {(b, o - term[1]) for b, o in body}
+        return self._term_points(term[1]) | self._term_points(term[2])
+
+    # ---- values ----
+
+    def value(self, f: Any, at: Time, plus: bool = False) -> Bool:
+        key = (id(f), at, plus)
+        if key not in self._values:
+            self._keep.append(f)
+            self._values[key] = self._compute(f, at, plus)
+        return self._values[key]
+
+    def _compute(self, f: Any, at: Time, plus: bool) -> Bool:
+        kind = f[0]
+        if kind == "prop":
+            return self.prop(f[1], at)
+        if kind == "const":
+            return bool(f[1])
+        if kind == "not":
+            return _not(self.value(f[1], at, plus))
+        if kind == "and":
+            return _and(self.value(f[1], at, plus), self.value(f[2], at, plus))
+        if kind == "or":
+            return _or(self.value(f[1], at, plus), self.value(f[2], at, plus))
+        if kind == "until":
+            return self.until_plus(f, at) if plus else self.until(f, at)
+        if kind == "since":
+            return self.since_plus(f, at) if plus else self.since(f, at)
+        return self.compare(f, at, plus)
+
+    def segment(self, i: int, at: Time) -> Bool:
+        """Whether `at` lies in segment i, [t_i, t_(i+1))."""
+        start = (i, Fraction(0))
+        inside = self.less_equal(start, at)
+        if i + 1 < self.k:
+            inside = _and(inside, self.less(at, (i + 1, Fraction(0))))
+        return inside
+
+    def prop(self, name: str, at: Time) -> Bool:
+        # Segments are closed on the left: a proposition's value just right of a
+        # time is its value at that time.
+        return _or(*(_and(self.segment(i, at), self.holds[i][name]) for i in range(self.k)))
+
+    def holds_on(
+        self, phi: Any, low: Time, high: Time, low_closed: bool, high_closed: bool
+    ) -> Bool:
+        """phi at every time between low and high (each end included or not)."""
+        parts = [self.value(phi, low, True)]
+        if low_closed:
+            parts.append(self.value(phi, low))
+        if high_closed:
+            parts.append(self.value(phi, high))
+        for p in self.points(phi):
+            between = _and(self.less(low, p), self.less(p, high))
+            if between is False:
+                continue
+            parts.append(_or(_not(between), _and(self.value(phi, p), self.value(phi, p, True))))
+        return _and(*parts)
+
+    def shifted(self, at: Time, delta: Fraction) -> Time:
+        return (at[0], at[1] + delta)
+
+    def until(self, f: Any, at: Time) -> Bool:
+        _, op, bound, phi, psi = f
+        end = self.shifted(at, Fraction(bound))
+        if op == "<" and bound == 0:
+            return False
+        if bound == 0:
+            return self.value(psi, at)
+        if op == "=":
+            return _and(self.value(psi, end), self.holds_on(phi, at, end, True, False))
+        options = [
+            self.value(psi, at),
+            _and(self.value(psi, at, True), self.value(phi, at), self.value(phi, at, True)),
+        ]
+        for c in self.points(phi) | self.points(psi):
+            after = self.less(at, c)
+            if after is False:
+                continue
+            before_end = self.less(c, end) if op == "<" else self.less_equal(c, end)
+            upto = self.holds_on(phi, at, c, True, False)
+            options.append(_and(after, before_end, self.value(psi, c), upto))
+            inside = _and(after, self.less(c, end))
+            options.append(
+                _and(
+                    inside,
+                    self.value(psi, c, True),
+                    upto,
+                    self.value(phi, c),
+                    self.value(phi, c, True),
+                )
+            )
+        if op == "<=":
+            options.append(_and(self.value(psi, end), self.holds_on(phi, at, end, True, False)))
+        return _or(*options)
+
+    def until_plus(self, f: Any, at: Time) -> Bool:
+        """The value on (at, at + epsilon)."""
+        _, op, bound, phi, psi = f
+        end = self.shifted(at, Fraction(bound))
+        if op == "<" and bound == 0:
+            return False
+        if bound == 0:
+            return self.value(psi, at, True)
+        if op == "=":
+            return _and(
+                self.value(psi, end, True),
+                self.holds_on(phi, at, end, False, True),
+                self.value(phi, end, True),
+            )
+        options = [
+            self.value(psi, at, True),
+            # the window's end: its point and just right of it
+            _and(self.value(psi, end), self.holds_on(phi, at, end, False, False)),
+            _and(
+                self.value(psi, end, True),
+                self.holds_on(phi, at, end, False, True),
+                self.value(phi, end, True),
+            ),
+        ]
+        for c in self.points(phi) | self.points(psi):
+            inside = _and(self.less(at, c), self.less_equal(c, end))
+            if inside is False:
+                continue
+            upto = self.holds_on(phi, at, c, False, False)
+            options.append(_and(inside, self.value(psi, c), upto))
+            options.append(
+                _and(
+                    inside,
+                    self.value(psi, c, True),
+                    upto,
+                    self.value(phi, c),
+                    self.value(phi, c, True),
+                )
+            )
+        return _or(*options)
+
+    def since(self, f: Any, at: Time) -> Bool:
+        _, op, bound, phi, psi = f
+        begin = self.shifted(at, -Fraction(bound))
+        started = self.less_equal(ZERO, at)
+        if op == "<" and bound == 0:
+            return False
+        if bound == 0:
+            return _and(started, self.value(psi, at))
+        if op == "=":
+            return _and(
+                started,
+                self.less_equal(ZERO, begin),
+                self.value(psi, begin),
+                self.holds_on(phi, begin, at, False, True),
+            )
+        options = [_and(started, self.value(psi, at))]
+        candidates = self.points(phi) | self.points(psi) | {ZERO, begin}
+        for c in candidates:
+            after_start = self.less_equal(ZERO, c)
+            before = self.less(c, at)
+            if after_start is False or before is False:
+                continue
+            in_window = self.less(begin, c) if op == "<" else self.less_equal(begin, c)
+            upto = self.holds_on(phi, c, at, False, True)
+            options.append(_and(after_start, before, in_window, self.value(psi, c), upto))
+            options.append(
+                _and(
+                    after_start,
+                    before,
+                    self.less_equal(begin, c),
+                    self.value(psi, c, True),
+                    upto,
+                )
+            )
+        return _or(*options)
+
+    def since_plus(self, f: Any, at: Time) -> Bool:
+        _, op, bound, phi, psi = f
+        begin = self.shifted(at, -Fraction(bound))
+        started = self.less_equal(ZERO, at)
+        if op == "<" and bound == 0:
+            return False
+        now = self.value(phi, at, True)
+        if op == "=" or bound == 0:
+            if bound == 0:
+                return _and(started, self.value(psi, at, True))
+            return _and(
+                self.less_equal(ZERO, begin),
+                self.value(psi, begin, True),
+                self.holds_on(phi, begin, at, False, True),
+                now,
+            )
+        options = [_and(started, self.value(psi, at, True))]
+        candidates = self.points(phi) | self.points(psi) | {ZERO, begin}
+        for c in candidates:
+            after_start = self.less_equal(ZERO, c)
+            if after_start is False:
+                continue
+            at_most_now = self.less_equal(c, at)
+            if at_most_now is not False:
+                upto = _or(
+                    self.equal(c, at), self.holds_on(phi, c, at, False, True)
+                )  # (c, at] is empty when c is now
+                options.append(
+                    _and(
+                        after_start, at_most_now, self.less(begin, c), self.value(psi, c), upto, now
+                    )
+                )
+            before = self.less(c, at)
+            if before is not False:
+                options.append(
+                    _and(
+                        after_start,
+                        before,
+                        self.less_equal(begin, c),
+                        self.value(psi, c, True),
+                        self.holds_on(phi, c, at, False, True),
+                        now,
+                    )
+                )
+        return _or(*options)
+
+    # ---- durations ----
+
+    def compare(self, f: Any, at: Time, plus: bool) -> Bool:
+        _, op, left, right = f
+        x, y = self.term(left, at), self.term(right, at)
+        if op in (">", ">="):
+            op, x, y, left, right = {">": "<", ">=": "<="}[op], y, x, right, left
+        if not plus:
+            relation = {"<": x < y, "<=": x <= y, "==": x == y, "!=": x != y}[op]
+            return relation
+        # Just right of `at`: the values, then which way they move.
+        dx, dy = self.slope(left, at), self.slope(right, at)
+        if op == "<":
+            return z3.Or(x < y, z3.And(x == y, dx < dy))
+        if op == "<=":
+            return z3.Or(x < y, z3.And(x == y, dx <= dy))
+        equal = z3.And(x == y, dx == dy)
+        return equal if op == "==" else z3.Not(equal)
+
+    def term(self, term: Any, at: Time) -> Any:
+        kind = term[0]
+        if kind == "num":
+            return z3.RealVal(str(Fraction(term[1])))
+        if kind == "dur":
+            return self.measure(term[2], at, self.shifted(at, Fraction(term[1])))
+        left, right = self.term(term[1], at), self.term(term[2], at)
+        return {"add": left + right, "sub": left - right, "mul": left * right}[kind]
+
+    def slope(self, term: Any, at: Time) -> Any:
+        """The derivative from the right: a duration grows where its body holds at
+        the window's end and shrinks where it held at the start."""
+        kind = term[0]
+        if kind == "num":
+            return z3.RealVal(0)
+        if kind == "dur":
+            end = self.shifted(at, Fraction(term[1]))
+            return z3.If(as_z3(self.value(term[2], end, True)), 1, 0) - z3.If(
+                as_z3(self.value(term[2], at, True)), 1, 0
+            )
+        left, right = self.slope(term[1], at), self.slope(term[2], at)
+        if kind == "add":
+            return left + right
+        if kind == "sub":
+            return left - right
+        # a product has a constant side (the compiler refuses two durations)
+        if term[1][0] == "num":
+            return self.term(term[1], at) * right
+        return left * self.term(term[2], at)
+
+    def measure(self, body: Any, low: Time, high: Time) -> Any:
+        """How long body holds in [low, high)."""
+        a, b = self.z3_time(low), self.z3_time(high)
+        if propositional(body):
+            total = z3.RealVal(0)
+            for i in range(self.k):
+                start = self.changes[i]
+                stop = self.changes[i + 1] if i + 1 < self.k else b
+                overlap = _min(stop, b) - _max(start, a)
+                held = as_z3(self._segment_value(body, i))
+                total = total + z3.If(z3.And(held, overlap > 0), overlap, 0)
+            return total
+        # Temporal body: sum over the pieces between its breakpoints.
+        points = sorted(self.points(body))
+        total = z3.RealVal(0)
+        starts = [low, *points]
+        for index, q in enumerate(starts):
+            inside = True if index == 0 else _and(self.less(low, q), self.less(q, high))
+            if inside is False:
+                continue
+            first = _and(*(_not(self.equal(q, other)) for other in starts[1:index]))
+            following = b
+            for p in points:
+                after = as_z3(self.less(q, p))
+                following = z3.If(
+                    z3.And(after, self.z3_time(p) < following), self.z3_time(p), following
+                )
+            held = as_z3(_and(inside, first, self.value(body, q, True)))
+            total = total + z3.If(held, following - self.z3_time(q), 0)
+        return total
+
+    def _segment_value(self, f: Any, i: int) -> Bool:
+        kind = f[0]
+        if kind == "prop":
+            return self.holds[i][f[1]]
+        if kind == "const":
+            return bool(f[1])
+        if kind == "not":
+            return _not(self._segment_value(f[1], i))
+        parts = (self._segment_value(f[1], i), self._segment_value(f[2], i))
+        return _and(*parts) if kind == "and" else _or(*parts)
+
+    # ---- reading a model ----
+
+    def read(self, model: Any) -> tuple[list[Fraction], list[frozenset[str]], Fraction]:
+        times = [_fraction(model.eval(t, model_completion=True)) for t in self.changes]
+        states = [
+            frozenset(
+                n
+                for n in self.names
+                if z3.is_true(model.eval(self.holds[i][n], model_completion=True))
+            )
+            for i in range(self.k)
+        ]
+        at = (
+            _fraction(model.eval(self.evaluation, model_completion=True))
+            if self.evaluation is not None
+            else Fraction(0)
+        )
+        return times, states, at
+
+
+def _rates(term: Any) -> set[Fraction]:
+    """The slopes a term can have: a duration grows by 1, 0 or -1 per time unit."""
+    kind = term[0]
+    if kind == "num":
+        return {Fraction(0)}
+    if kind == "dur":
+        return {Fraction(-1), Fraction(0), Fraction(1)}
+    left, right = _rates(term[1]), _rates(term[2])
+    if kind == "add":
+        return {a + b for a in left for b in right}
+    if kind == "sub":
+        return {a - b for a in left for b in right}
+    factor = Fraction(term[1][1]) if term[1][0] == "num" else Fraction(term[2][1])
+    rates = right if term[1][0] == "num" else left
+    return {factor * r for r in rates}
+
+
+def _min(a: Any, b: Any) -> Any:
+    return z3.If(a < b, a, b)
+
+
+def _max(a: Any, b: Any) -> Any:
+    return z3.If(a > b, a, b)
+
+
+def _fraction(value: Any) -> Fraction:
+    if z3.is_rational_value(value):
+        return Fraction(value.numerator_as_long(), value.denominator_as_long())
+    if z3.is_algebraic_value(value):  # pragma: no cover - linear problems give rationals
+        return Fraction(value.approx(20).as_fraction())
+    return Fraction(0)

@@ -1,0 +1,463 @@
+"""Satisfiability and validity of RMTLD3 formulas in dense time (docs/verification.md).
+
+A set of formulas is satisfiable when some complete trace makes all of them true
+at one time (time 0 when no formula looks into the past or the system constrains
+the start; any time otherwise). Two searches answer it, each sound on its side:
+
+- a witness search over traces with k segments and symbolic change times
+  (`rmvdsl.logic.bounded`), k = 1, 2, 4, 8: a trace found is replayed through the
+  reference evaluator, and only a trace that replays is an answer ("yes", exact);
+- a refutation in first-order logic over all functions of time
+  (`rmvdsl.logic.abstract`): unsatisfiable there means no trace at all ("no", exact).
+
+When neither succeeds the answer is "unknown", and says whether the witness search
+was exhausted ("no witness with at most N changes", a bounded answer) or a time
+limit cut it short. Answers are cached by formula.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import os
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from fractions import Fraction
+from typing import Any
+
+import z3
+
+from rmvdsl.logic.abstract import refute
+from rmvdsl.logic.bounded import BoundedTrace, has_past
+from rmvdsl.logic.reference import TRUE, Reference, Trace
+from rmvdsl.logic.system import System
+
+# Bump when an encoding changes: cached answers carry it in their key.
+ENCODING_VERSION = "1"
+YES, NO, UNKNOWN = "yes", "no", "unknown"
+
+
+@dataclass(frozen=True)
+class Limits:
+    timeout: float = 5.0  # seconds, for each solver call
+    segments: tuple[int, ...] = (1, 2, 4, 8)
+    effort: int | None = None  # z3's rlimit per call: deterministic, unlike time
+
+    def key(self) -> str:
+        return f"{self.timeout}:{self.segments}:{self.effort}"
+
+    def configure(self, solver: Any) -> None:
+        solver.set("timeout", max(1, int(self.timeout * 1000)))
+        if self.effort is not None:
+            solver.set("rlimit", self.effort)
+
+
+@dataclass(frozen=True)
+class Witness:
+    """A trace (state i on [times[i], times[i+1]), the last until `end`) and the
+    time `at` where the formulas have the value claimed."""
+
+    times: tuple[Fraction, ...]
+    states: tuple[frozenset[str], ...]
+    at: Fraction
+    end: Fraction
+    names: tuple[str, ...]
+
+    def timeline(self) -> list[str]:
+        """One line per segment, with a bar per proposition."""
+        width = max((len(n) for n in self.names), default=0)
+        stops = [*self.times[1:], self.end]
+        rows = []
+        for start, stop, state in zip(self.times, stops, self.states, strict=True):
+            held = ", ".join(n for n in self.names if n in state) or "(none)"
+            rows.append(f"[{_number(start)}, {_number(stop)})  {held}")
+        chart = [f"{name.ljust(width)}  {self._bar(name)}" for name in self.names]
+        return [f"at t = {_number(self.at)}:", *rows, *chart]
+
+    def _bar(self, name: str, columns: int = 40) -> str:
+        span = self.end - self.times[0]
+        cells = []
+        for column in range(columns):
+            t = self.times[0] + span * Fraction(2 * column + 1, 2 * columns)
+            index = max(i for i, start in enumerate(self.times) if start <= t)
+            cells.append("#" if name in self.states[index] else ".")
+        return "".join(cells) + f"  0..{_number(self.end)}"
+
+    def as_json(self) -> dict[str, Any]:
+        return {
+            "at": _json_number(self.at),
+            "end": _json_number(self.end),
+            "trace": [
+                {"t": _json_number(t), "props": sorted(s)}
+                for t, s in zip(self.times, self.states, strict=True)
+            ],
+        }
+
+    def jsonl(self) -> str:
+        """The trace in the format `rmv eval` reads."""
+        lines = [json.dumps(item) for item in self.as_json()["trace"]]
+        lines.append(json.dumps({"t": _json_number(self.end), "end": True}))
+        return "\n".join(lines) + "\n"
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any], names: Sequence[str]) -> Witness:
+        return cls(
+            tuple(Fraction(str(item["t"])) for item in data["trace"]),
+            tuple(frozenset(item["props"]) for item in data["trace"]),
+            Fraction(str(data["at"])),
+            Fraction(str(data["end"])),
+            tuple(names),
+        )
+
+
+@dataclass(frozen=True)
+class Answer:
+    value: str  # yes, no or unknown
+    exact: bool
+    witness: Witness | None = None
+    core: tuple[int, ...] = ()  # for "no" on several formulas: a conflicting subset
+    note: str = ""
+    timed_out: bool = False
+
+    def as_json(self) -> dict[str, Any]:
+        return {
+            "value": self.value,
+            "exact": self.exact,
+            "witness": self.witness.as_json() if self.witness else None,
+            "names": list(self.witness.names) if self.witness else [],
+            "core": list(self.core),
+            "note": self.note,
+        }
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> Answer:
+        witness = data.get("witness")
+        return cls(
+            data["value"],
+            data["exact"],
+            Witness.from_json(witness, data["names"]) if witness else None,
+            tuple(data["core"]),
+            data["note"],
+        )
+
+
+@dataclass
+class Cache:
+    """Answers by question: in memory, and in a folder when one is given
+    (`RMV_CACHE_DIR`, else the user's cache folder; empty disables it)."""
+
+    folder: str | None = None
+    memory: dict[str, Answer] = field(default_factory=dict)
+    hits: int = 0
+
+    @classmethod
+    def default(cls) -> Cache:
+        folder = os.environ.get("RMV_CACHE_DIR")
+        if folder is None:
+            base = os.environ.get("XDG_CACHE_HOME") or os.path.join(
+                os.path.expanduser("~"), ".cache"
+            )
+            folder = os.path.join(base, "rmvdsl")
+        return cls(os.path.join(folder, "sat") if folder else None)
+
+    def get(self, key: str) -> Answer | None:
+        if key in self.memory:
+            self.hits += 1
+            return self.memory[key]
+        if self.folder is None:
+            return None
+        try:
+            with open(os.path.join(self.folder, key + ".json"), encoding="utf-8") as handle:
+                answer = Answer.from_json(json.load(handle))
+        except (OSError, ValueError, KeyError, TypeError):
+            return None
+        self.memory[key] = answer
+        self.hits += 1
+        return answer
+
+    def put(self, key: str, answer: Answer) -> None:
+        if answer.timed_out:
+            return  # a time limit depends on the machine, not on the question
+        self.memory[key] = answer
+        if self.folder is None:
+            return
+        try:
+            os.makedirs(self.folder, exist_ok=True)
+            temporary = os.path.join(self.folder, f".{key}.{os.getpid()}")
+            with open(temporary, "w", encoding="utf-8") as handle:
+                json.dump(answer.as_json(), handle)
+            os.replace(temporary, os.path.join(self.folder, key + ".json"))
+        except OSError:
+            pass  # a cache that cannot be written only costs time
+
+
+_DEFAULT_CACHE: Cache | None = None
+
+
+def default_cache() -> Cache:
+    global _DEFAULT_CACHE
+    if _DEFAULT_CACHE is None:
+        _DEFAULT_CACHE = Cache.default()
+    return _DEFAULT_CACHE
+
+
+def satisfiable(
+    formulas: Sequence[Any],
+    system: System | None = None,
+    limits: Limits | None = None,
+    cache: Cache | None = None,
+) -> Answer:
+    """Is there a trace of the system making all `formulas` true at one time?"""
+    system = system or System()
+    limits = limits or Limits()
+    cache = cache if cache is not None else default_cache()
+    key = _key("sat", formulas, system, limits)
+    cached = cache.get(key)
+    if cached is not None:
+        return cached
+    answer = _Question(list(formulas), system, limits).answer()
+    cache.put(key, answer)
+    return answer
+
+
+def valid(
+    formula: Any,
+    system: System | None = None,
+    limits: Limits | None = None,
+    cache: Cache | None = None,
+) -> Answer:
+    """Is the formula true at every time of every trace of the system? A "no"
+    comes with a counterexample: a trace where it is false."""
+    negation = satisfiable([("not", formula)], system, limits, cache)
+    flipped = {YES: NO, NO: YES, UNKNOWN: UNKNOWN}[negation.value]
+    return Answer(
+        flipped, negation.exact, negation.witness, note=negation.note, timed_out=negation.timed_out
+    )
+
+
+def conflict(
+    formulas: Sequence[Any], system: System | None, limits: Limits, core: Sequence[int] = ()
+) -> tuple[int, ...]:
+    """A smallest subset of formulas that cannot hold together (each member needed:
+    without any one of them the rest is not refuted), as indices; () when the
+    whole set is not refuted."""
+    system = system or System()
+    names = {n for f in formulas for n in system.names(set(propositions(f)))}
+    members = list(core) or list(range(len(formulas)))
+    verdict, found = refute([formulas[i] for i in members], system, names, limits)
+    if verdict != "unsat":
+        return ()
+    members = [members[i] for i in found]
+    for candidate in list(members):
+        if candidate not in members:
+            continue  # an earlier core already left it out
+        rest = [m for m in members if m != candidate]
+        if not rest:
+            break
+        verdict, found = refute([formulas[i] for i in rest], system, names, limits)
+        if verdict == "unsat":
+            members = [rest[i] for i in found]
+    return tuple(sorted(members))
+
+
+def propositions(f: Any) -> Iterator[str]:
+    if f[0] == "prop":
+        yield f[1]
+    elif f[0] == "dur":
+        yield from propositions(f[2])
+    elif f[0] not in ("const", "num"):
+        for child in f[1:]:
+            if isinstance(child, tuple):
+                yield from propositions(child)
+
+
+def future(f: Any) -> Fraction:
+    """How far ahead the formula looks."""
+    kind = f[0]
+    if kind in ("prop", "const", "num"):
+        return Fraction(0)
+    if kind == "until":
+        return Fraction(f[2]) + max(future(f[3]), future(f[4]))
+    if kind == "dur":
+        return Fraction(f[1]) + future(f[2])
+    return max((future(c) for c in f[1:] if isinstance(c, tuple)), default=Fraction(0))
+
+
+class _Question:
+    def __init__(self, formulas: list[Any], system: System, limits: Limits) -> None:
+        self.formulas = formulas
+        self.system = system
+        self.limits = limits
+        mentioned = {name for f in formulas for name in propositions(f)}
+        self.names = sorted(system.names(mentioned))
+        self.free_time = any(has_past(f) for f in formulas) or any(
+            m.initial is not None for m in system.relevant(mentioned)
+        )
+        self.timed_out = False
+        self.replay_failures = 0
+
+    def answer(self) -> Answer:
+        sizes = list(self.limits.segments)
+        early, late = sizes[:2], sizes[2:]
+        for k in early:
+            found = self.search(k)
+            if found is not None:
+                return Answer(YES, True, found)
+        verdict, core = refute(self.formulas, self.system, set(self.names), self.limits)
+        if verdict == "unsat":
+            return Answer(NO, True, core=core)
+        if verdict == "limit":
+            self.timed_out = True
+        for k in late:
+            found = self.search(k)
+            if found is not None:
+                return Answer(YES, True, found)
+        if self.timed_out:
+            note = "the solver's limit was reached before an answer"
+        else:
+            note = (
+                f"no witness with at most {max(sizes) - 1} changes, and no proof that none exists"
+            )
+        if self.replay_failures:
+            note += f" ({self.replay_failures} candidate traces did not replay: a bug, reported)"
+        return Answer(UNKNOWN, False, note=note, timed_out=self.timed_out)
+
+    def search(self, segments: int) -> Witness | None:
+        trace = BoundedTrace(segments, self.names, self.free_time)
+        solver = z3.Solver()
+        self.limits.configure(solver)
+        solver.add(*trace.structure)
+        solver.add(*self.system_constraints(trace))
+        at = (-1, Fraction(0)) if self.free_time else (0, Fraction(0))
+        for f in self.formulas:
+            value = trace.value(f, at)
+            solver.add(value if not isinstance(value, bool) else z3.BoolVal(value))
+        solver.add(*trace.definitions)
+        result = solver.check()
+        if result == z3.unknown:
+            self.timed_out = True
+            return None
+        if result == z3.unsat:
+            return None
+        times, states, at_time = trace.read(solver.model())
+        witness = self.replayed(times, states, at_time)
+        if witness is None:
+            self.replay_failures += 1
+        return witness
+
+    def system_constraints(self, trace: BoundedTrace) -> list[Any]:
+        facts: list[Any] = []
+        names = set(self.names)
+        for machine in self.system.relevant(names):
+            for i in range(trace.k):
+                holds = [trace.holds[i][s] for s in machine.states]
+                facts.append(z3.PbEq([(h, 1) for h in holds], 1))
+            if machine.initial is not None:
+                facts.append(trace.holds[0][machine.initial])
+            for i in range(trace.k - 1):
+                for a in machine.states:
+                    for b in machine.states:
+                        if a != b and (a, b) not in machine.moves:
+                            facts.append(z3.Not(z3.And(trace.holds[i][a], trace.holds[i + 1][b])))
+        for a, b in self.system.exclusive:
+            if a in names and b in names:
+                facts.extend(
+                    z3.Not(z3.And(trace.holds[i][a], trace.holds[i][b])) for i in range(trace.k)
+                )
+        for name in self.system.never:
+            if name in names:
+                facts.extend(z3.Not(trace.holds[i][name]) for i in range(trace.k))
+        return facts
+
+    def replayed(
+        self, times: list[Fraction], states: list[frozenset[str]], at: Fraction
+    ) -> Witness | None:
+        """The candidate, merged and with round times where they still replay; None
+        if it does not replay at all."""
+        kept_times, kept_states = [times[0]], [states[0]]
+        for t, s in zip(times[1:], states[1:], strict=True):
+            if s != kept_states[-1]:
+                kept_times.append(t)
+                kept_states.append(s)
+        for grid in (1, 2, 4, 10, 100, 1000, None):
+            candidate = _rounded(kept_times, at, grid)
+            if candidate is None:
+                continue
+            witness = self.witness(candidate[0], kept_states, candidate[1])
+            if self.replays(witness):
+                return self.simplified(witness)
+        return None
+
+    def simplified(self, witness: Witness, budget: int = 200) -> Witness:
+        """Fewer propositions held, where the witness still replays: a reader should
+        see what matters, not what the solver happened to choose."""
+        states = list(witness.states)
+        for index in range(len(states)):
+            for name in sorted(states[index]):
+                if budget == 0:
+                    break
+                budget -= 1
+                trial = [*states[:index], states[index] - {name}, *states[index + 1 :]]
+                candidate = Witness(
+                    witness.times, tuple(trial), witness.at, witness.end, witness.names
+                )
+                if self.replays(candidate):
+                    states = trial
+        times, kept = [witness.times[0]], [states[0]]
+        for t, state in zip(witness.times[1:], states[1:], strict=True):
+            if state != kept[-1]:
+                times.append(t)
+                kept.append(state)
+        return self.witness(times, kept, witness.at)
+
+    def witness(self, times: list[Fraction], states: list[frozenset[str]], at: Fraction) -> Witness:
+        horizon = max((future(f) for f in self.formulas), default=Fraction(0))
+        end = max(at, times[-1]) + horizon + 1
+        return Witness(tuple(times), tuple(states), at, end, tuple(self.names))
+
+    def replays(self, witness: Witness) -> bool:
+        names = set(self.names)
+        if self.system.violation(witness.times, witness.states, names) is not None:
+            return False
+        trace = Trace(list(witness.times), list(witness.states), witness.end)
+        return all(Reference(trace).value(f, witness.at) == TRUE for f in self.formulas)
+
+
+def _rounded(
+    times: list[Fraction], at: Fraction, grid: int | None
+) -> tuple[list[Fraction], Fraction] | None:
+    if grid is None:
+        return times, at
+    rounded = [Fraction(round(t * grid), grid) for t in times]
+    if any(b <= a for a, b in itertools.pairwise(rounded)):
+        return None
+    return rounded, Fraction(round(at * grid), grid)
+
+
+def _key(kind: str, formulas: Sequence[Any], system: System, limits: Limits) -> str:
+    text = repr(
+        (
+            ENCODING_VERSION,
+            z3.get_version_string(),
+            kind,
+            list(formulas),
+            system.key(),
+            limits.key(),
+        )
+    )
+    return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+
+def _number(value: Fraction) -> str:
+    if value.denominator == 1:
+        return str(value.numerator)
+    text = f"{float(value):.6g}"
+    return text if Fraction(text) == value else str(value)
+
+
+def _json_number(value: Fraction) -> int | float | str:
+    if value.denominator == 1:
+        return value.numerator
+    as_float = float(value)
+    return as_float if Fraction(str(as_float)) == value else str(value)

@@ -1,0 +1,74 @@
+"""What a spec says about its traces, for the satisfiability questions.
+
+The propositions of a property are transducer states and boolean events. A trace
+of the system respects its transducers: a transducer is in exactly one of its
+states at any time, starts in its initial state, and changes state only along one
+of its transitions. Events whose conditions can never hold together never hold
+together; an event whose condition can never hold never holds. Only facts that
+are certain go here: what is left out only makes the questions more permissive.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from fractions import Fraction
+
+
+@dataclass(frozen=True)
+class Machine:
+    name: str
+    states: tuple[str, ...]
+    initial: str | None
+    moves: frozenset[tuple[str, str]]  # (from, to), from != to
+
+
+@dataclass(frozen=True)
+class System:
+    transducers: tuple[Machine, ...] = ()
+    exclusive: frozenset[tuple[str, str]] = field(default_factory=frozenset)
+    never: frozenset[str] = field(default_factory=frozenset)
+
+    def key(self) -> str:
+        return repr(
+            (
+                sorted((m.name, m.states, m.initial, sorted(m.moves)) for m in self.transducers),
+                sorted(self.exclusive),
+                sorted(self.never),
+            )
+        )
+
+    def relevant(self, names: set[str]) -> tuple[Machine, ...]:
+        return tuple(m for m in self.transducers if names & set(m.states))
+
+    def names(self, names: set[str]) -> set[str]:
+        """The propositions a trace over `names` must also give: every state of a
+        transducer any of whose states is mentioned."""
+        out = set(names)
+        for machine in self.relevant(names):
+            out.update(machine.states)
+        return out
+
+    def violation(
+        self, times: Sequence[Fraction], states: Sequence[frozenset[str]], names: set[str]
+    ) -> str | None:
+        """Why this trace over the propositions `names` is not one of the system's
+        (None if it is)."""
+        for machine in self.relevant(names):
+            current = [[s for s in machine.states if s in state] for state in states]
+            for time, now in zip(times, current, strict=True):
+                if len(now) != 1:
+                    return f"{machine.name} is in {len(now)} states at {time}"
+            if machine.initial is not None and current[0] != [machine.initial]:
+                return f"{machine.name} does not start in {machine.initial}"
+            for before, after in itertools.pairwise(current):
+                if before != after and (before[0], after[0]) not in machine.moves:
+                    return f"{machine.name} has no transition {before[0]} -> {after[0]}"
+        for a, b in self.exclusive:
+            if any(a in s and b in s for s in states):
+                return f"{a} and {b} hold together"
+        for name in self.never:
+            if any(name in s for s in states):
+                return f"{name} holds"
+        return None
