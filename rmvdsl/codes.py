@@ -313,6 +313,8 @@ exist. Paths in a spec are relative to the spec's folder.""",
 
     ros = "humble"
     messages = ["msg", "../other_ws/src"]
+    solver_timeout = 10     # seconds per solver call on the properties
+    solver_effort = 500000  # z3's resource limit per call (the same on every machine)
 
 (optionally under a `[rmv]` table); folders are relative to the file.""",
     ),

@@ -15,6 +15,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from rmvdsl.grammar.parser import parse_formula
+from rmvdsl.logic.abstract import refute
 from rmvdsl.logic.bounded import BoundedTrace
 from rmvdsl.logic.compile import compile_formula
 from rmvdsl.logic.reference import FALSE, TRUE, Reference, Trace
@@ -33,7 +34,7 @@ from rmvdsl.logic.system import Machine, System
 from rmvdsl.logic.traces import read_trace
 from rmvdsl.runtime.rmtld3 import Monitor, merge
 
-PROPS = ["a", "b"]
+PROPS = ["a", "b"]  # the machine of the system tests has states a, b and c
 OPS = st.sampled_from(["<", "<=", "="])
 
 
@@ -162,6 +163,7 @@ def test_no_agrees_with_an_exhaustive_search(formula):
     answer = satisfiable([formula], cache=Cache())
     if found is not None:
         assert answer.value == YES, (formula, found)
+        assert refute([formula], System(), set(PROPS), Limits(timeout=1))[0] != "unsat"
     if answer.value == NO:
         assert found is None
 
@@ -234,6 +236,56 @@ def test_system_constraints_shape_the_answers():
         ("until", "<", Fraction(5), ("const", True), ("prop", "Idle")),
     )
     assert satisfiable([back], system, cache=Cache()).value != YES
+
+
+def test_a_state_far_from_the_initial_one_is_reachable():
+    """Five changes are needed: more than the first witness searches try, and the
+    refutation must not claim "no" meanwhile (the trace starts in S0, the time of
+    evaluation is free)."""
+    states = tuple(f"S{i}" for i in range(8))
+    moves = frozenset((states[i], states[i + 1]) for i in range(7))
+    system = System((Machine("Chain", states, "S0", moves),))
+    answer = satisfiable([("prop", "S5")], system, cache=Cache())
+    assert answer.value == YES and answer.witness is not None
+    assert answer.witness.at > 0
+
+
+MACHINE = Machine("M", ("a", "b", "c"), "a", frozenset({("a", "b"), ("b", "c"), ("c", "a")}))
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(formulas(2, st.integers(0, 2).map(Fraction), durations=False))
+def test_no_agrees_with_an_exhaustive_search_over_a_system(formula):
+    """With a transducer (a -> b -> c -> a, starting in a): every trace of at most
+    3 states and every time of evaluation on a grid; a "no" is never contradicted."""
+    system = System((MACHINE,))
+    horizon = future(formula)
+    found = None
+    grid = [Fraction(n, 2) for n in range(0, 7)]
+    for count in range(1, 4):
+        for cuts in itertools.combinations(grid[1:], count - 1):
+            times = [Fraction(0), *cuts]
+            states = [frozenset({"abc"[i % 3]}) for i in range(count)]
+            trace = Trace(times, states, times[-1] + horizon + 4)
+            reference = Reference(trace)
+            for at in grid:
+                if reference.value(formula, at) == TRUE:
+                    found = (times, states, at)
+                    break
+            if found:
+                break
+        if found:
+            break
+    answer = satisfiable([formula], system, cache=Cache())
+    if found is not None:
+        assert answer.value != NO, (formula, found)
+        # the refutation alone, whatever the witness search found first
+        assert refute([formula], system, {"a", "b", "c"}, Limits(timeout=1))[0] != "unsat"
+    if answer.value == YES:
+        assert answer.witness is not None
+        assert (
+            system.violation(answer.witness.times, answer.witness.states, {"a", "b", "c"}) is None
+        )
 
 
 def test_a_smallest_conflict_leaves_out_what_is_not_needed():

@@ -150,10 +150,16 @@ class Refuter:
         for machine in self.system.transducers:
             if not names & set(machine.states):
                 continue
-            holds = [self.prop(s)(t) for s in machine.states]
-            facts.append(z3.ForAll([t], z3.Implies(t >= 0, z3.Or(*holds))))
-            for a, b in itertools.combinations(holds, 2):
-                facts.append(z3.ForAll([t], z3.Not(z3.And(a, b))))
+            # Exactly one state at a time: the states are the values of one function.
+            current = z3.Function(f"state_of_{machine.name}", z3.RealSort(), z3.IntSort())
+            for index, state in enumerate(machine.states):
+                facts.append(
+                    z3.ForAll([t], z3.Implies(t >= 0, self.prop(state)(t) == (current(t) == index)))
+                )
+            size = len(machine.states)
+            facts.append(
+                z3.ForAll([t], z3.Implies(t >= 0, z3.And(current(t) >= 0, current(t) < size)))
+            )
             if machine.initial is not None:
                 facts.append(self.prop(machine.initial)(z3.RealVal(0)))
         for a, b in self.system.exclusive:
@@ -175,7 +181,10 @@ def refute(
     solver = z3.Solver()
     limits.configure(solver)
     solver.set("unsat_core", True)
-    if any(has_past(f) for f in formulas):
+    # As in the witness search: time 0 is no restriction for formulas about the
+    # future alone, unless the system fixes how traces start.
+    starts = any(m.initial is not None for m in system.relevant(names))
+    if starts or any(has_past(f) for f in formulas):
         at = z3.Real("tau")
         solver.add(at >= 0)
     else:

@@ -47,6 +47,11 @@ class Limits:
     def key(self) -> str:
         return f"{self.timeout}:{self.segments}:{self.effort}"
 
+    def quick(self) -> Limits:
+        """A tenth of the limits (at most half a second), for a first attempt."""
+        effort = None if self.effort is None else max(1, self.effort // 10)
+        return Limits(min(self.timeout, 0.5), self.segments, effort)
+
     def configure(self, solver: Any) -> None:
         solver.set("timeout", max(1, int(self.timeout * 1000)))
         if self.effort is not None:
@@ -298,21 +303,29 @@ class _Question:
         self.replay_failures = 0
 
     def answer(self) -> Answer:
+        """Witnesses with few changes first, then a quick refutation, then more
+        changes, then the refutation with the whole limit: a satisfiable question
+        rarely waits for a refutation that cannot succeed."""
         sizes = list(self.limits.segments)
-        early, late = sizes[:2], sizes[2:]
+        early, late = sizes[:3], sizes[3:]
         for k in early:
             found = self.search(k)
             if found is not None:
                 return Answer(YES, True, found)
-        verdict, core = refute(self.formulas, self.system, set(self.names), self.limits)
+        quick = self.limits.quick()
+        verdict, core = refute(self.formulas, self.system, set(self.names), quick)
         if verdict == "unsat":
             return Answer(NO, True, core=core)
-        if verdict == "limit":
-            self.timed_out = True
         for k in late:
             found = self.search(k)
             if found is not None:
                 return Answer(YES, True, found)
+        if verdict == "limit" and quick != self.limits:
+            verdict, core = refute(self.formulas, self.system, set(self.names), self.limits)
+            if verdict == "unsat":
+                return Answer(NO, True, core=core)
+        if verdict == "limit":
+            self.timed_out = True
         if self.timed_out:
             note = "the solver's limit was reached before an answer"
         else:
@@ -324,7 +337,7 @@ class _Question:
         return Answer(UNKNOWN, False, note=note, timed_out=self.timed_out)
 
     def search(self, segments: int) -> Witness | None:
-        trace = BoundedTrace(segments, self.names, self.free_time)
+        trace = _encoding(segments, tuple(self.names), self.free_time)
         solver = z3.Solver()
         self.limits.configure(solver)
         solver.add(*trace.structure)
@@ -347,28 +360,12 @@ class _Question:
         return witness
 
     def system_constraints(self, trace: BoundedTrace) -> list[Any]:
-        facts: list[Any] = []
-        names = set(self.names)
-        for machine in self.system.relevant(names):
-            for i in range(trace.k):
-                holds = [trace.holds[i][s] for s in machine.states]
-                facts.append(z3.PbEq([(h, 1) for h in holds], 1))
-            if machine.initial is not None:
-                facts.append(trace.holds[0][machine.initial])
-            for i in range(trace.k - 1):
-                for a in machine.states:
-                    for b in machine.states:
-                        if a != b and (a, b) not in machine.moves:
-                            facts.append(z3.Not(z3.And(trace.holds[i][a], trace.holds[i + 1][b])))
-        for a, b in self.system.exclusive:
-            if a in names and b in names:
-                facts.extend(
-                    z3.Not(z3.And(trace.holds[i][a], trace.holds[i][b])) for i in range(trace.k)
-                )
-        for name in self.system.never:
-            if name in names:
-                facts.extend(z3.Not(trace.holds[i][name]) for i in range(trace.k))
-        return facts
+        key = (id(trace), self.system.key(), tuple(self.names))
+        if key not in _CONSTRAINTS:
+            if len(_CONSTRAINTS) >= 64:
+                _CONSTRAINTS.pop(next(iter(_CONSTRAINTS)))
+            _CONSTRAINTS[key] = (trace, _system_constraints(self.system, trace, set(self.names)))
+        return _CONSTRAINTS[key][1]
 
     def replayed(
         self, times: list[Fraction], states: list[frozenset[str]], at: Fraction
@@ -386,7 +383,8 @@ class _Question:
                 continue
             witness = self.witness(candidate[0], kept_states, candidate[1])
             if self.replays(witness):
-                return self.simplified(witness)
+                # Only a witness of one formula is shown to a reader.
+                return self.simplified(witness) if len(self.formulas) == 1 else witness
         return None
 
     def simplified(self, witness: Witness, budget: int = 200) -> Witness:
@@ -422,6 +420,50 @@ class _Question:
             return False
         trace = Trace(list(witness.times), list(witness.states), witness.end)
         return all(Reference(trace).value(f, witness.at) == TRUE for f in self.formulas)
+
+
+def _system_constraints(system: System, trace: BoundedTrace, names: set[str]) -> list[Any]:
+    """Each relevant transducer in exactly one state per segment, the initial one
+    first, a new state only by a transition into it; exclusive and impossible
+    events."""
+    facts: list[Any] = []
+    holds = trace.holds
+    for machine in system.relevant(names):
+        for i in range(trace.k):
+            facts.append(z3.PbEq([(holds[i][s], 1) for s in machine.states], 1))
+        if machine.initial is not None:
+            facts.append(holds[0][machine.initial])
+        sources = {s: [a for a, b in machine.moves if b == s] for s in machine.states}
+        for i in range(trace.k - 1):
+            for state in machine.states:
+                came = [holds[i][state], *(holds[i][a] for a in sources[state])]
+                facts.append(z3.Implies(holds[i + 1][state], z3.Or(*came)))
+    for a, b in system.exclusive:
+        if a in names and b in names:
+            facts.extend(z3.Not(z3.And(holds[i][a], holds[i][b])) for i in range(trace.k))
+    for name in system.never:
+        if name in names:
+            facts.extend(z3.Not(holds[i][name]) for i in range(trace.k))
+    return facts
+
+
+# Both caches hold the encoding itself beside what is derived from it, so that
+# the id() in a key cannot be reused while the entry lives.
+_CONSTRAINTS: dict[tuple[int, str, tuple[str, ...]], tuple[BoundedTrace, list[Any]]] = {}
+_ENCODINGS: dict[tuple[int, tuple[str, ...], bool], BoundedTrace] = {}
+
+
+def _encoding(segments: int, names: tuple[str, ...], free_time: bool) -> BoundedTrace:
+    """The symbolic trace for these sizes, shared between questions: a formula asked
+    about again (with others, negated) is encoded once. The 32 last used are kept."""
+    key = (segments, names, free_time)
+    encoding = _ENCODINGS.pop(key, None)  # re-inserted last: least recently used first out
+    if encoding is None:
+        if len(_ENCODINGS) >= 32:
+            _ENCODINGS.pop(next(iter(_ENCODINGS)))
+        encoding = BoundedTrace(segments, list(names), free_time)
+    _ENCODINGS[key] = encoding
+    return encoding
 
 
 def _rounded(

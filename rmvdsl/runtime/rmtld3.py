@@ -286,6 +286,8 @@ class Temporal(Evaluated):
         return found
 
     def value_at(self, t: Any) -> int:
+        if self.op == "<" and self.bound <= 0:
+            return FALSE  # an empty window: no t' at all
         if self.plain:
             return self._sup(t)
         return self._until(t) if self.kind == "until" else self._since(t)
