@@ -214,9 +214,10 @@ def satisfiable(
     cache: Cache | None = None,
 ) -> Answer:
     """Is there a trace of the system making all `formulas` true at one time?"""
-    system = system or System()
     limits = limits or Limits()
     cache = cache if cache is not None else default_cache()
+    mentioned = {name for f in formulas for name in propositions(f)}
+    system = (system or System()).restricted(mentioned)
     key = _key("sat", formulas, system, limits)
     cached = cache.get(key)
     if cached is not None:

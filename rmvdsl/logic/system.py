@@ -10,6 +10,7 @@ are certain go here: what is left out only makes the questions more permissive.
 
 from __future__ import annotations
 
+import functools
 import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -30,7 +31,19 @@ class System:
     exclusive: frozenset[tuple[str, str]] = field(default_factory=frozenset)
     never: frozenset[str] = field(default_factory=frozenset)
 
-    def key(self) -> str:
+    def restricted(self, names: set[str]) -> System:
+        """What constrains traces over these propositions: the rest is left out, so
+        that a question's cache key does not change with unrelated declarations."""
+        machines = self.relevant(names)
+        every = set(names).union(*(m.states for m in machines))
+        return System(
+            machines,
+            frozenset(p for p in self.exclusive if p[0] in every and p[1] in every),
+            frozenset(n for n in self.never if n in every),
+        )
+
+    @functools.cached_property
+    def _key(self) -> str:
         return repr(
             (
                 sorted((m.name, m.states, m.initial, sorted(m.moves)) for m in self.transducers),
@@ -38,6 +51,9 @@ class System:
                 sorted(self.never),
             )
         )
+
+    def key(self) -> str:
+        return self._key
 
     def relevant(self, names: set[str]) -> tuple[Machine, ...]:
         return tuple(m for m in self.transducers if names & set(m.states))
