@@ -16,7 +16,7 @@ from rmvdsl import __version__
 from rmvdsl.check import check
 from rmvdsl.check.loader import UsageError, read_text
 from rmvdsl.codes import CODES, explain
-from rmvdsl.diagnostics import Diagnostic, Severity, error
+from rmvdsl.diagnostics import Diagnostic, Severity
 from rmvdsl.render import render_json, render_sarif, render_text, summary
 from rmvdsl.source import SourceMap
 
@@ -341,7 +341,6 @@ def _eval(args: argparse.Namespace) -> int:
 
     from rmvdsl.logic import evaluate as ev
     from rmvdsl.logic.traces import TraceError, read_trace
-    from rmvdsl.source import SourceFile
 
     try:
         at = Fraction(args.at)
@@ -354,14 +353,9 @@ def _eval(args: argparse.Namespace) -> int:
         raise UsageError(str(exc)) from None
     compiled = None
     if node is not None:
-        compiled, diagnostics = ev.compile_or_diagnose(node, trace)
+        compiled, diagnostics = ev.compile_or_diagnose(node, trace.unit_seconds, trace.unit)
     if compiled is None:
-        sources = SourceMap()
-        sources.add(SourceFile("<formula>", args.formula))
-        sys.stderr.write(
-            render_text(diagnostics, sources, _use_color(args) and sys.stderr.isatty())
-        )
-        return EXIT_ERRORS
+        return _formula_errors(args, diagnostics)
     for note in trace.notes:
         print(f"rmv eval: {note}", file=sys.stderr)
     if args.term:
@@ -428,27 +422,15 @@ def _write_witnesses(folder: str, report: PropertyReport) -> None:
 
 def _sat(args: argparse.Namespace) -> int:
     from rmvdsl.logic import evaluate as ev
-    from rmvdsl.logic.compile import CompileError, compile_formula
     from rmvdsl.logic.sat import NO, YES, satisfiable, valid
-    from rmvdsl.source import SourceFile
 
     limits = _limits(args.timeout)
     node, diagnostics = ev.parse(args.formula, args.syntax, False)
     compiled = None
     if node is not None:
-        try:
-            compiled = compile_formula(node)
-        except CompileError as exc:
-            span = getattr(exc.node, "span", None)
-            code = "RMV212" if "needs a time bound" in str(exc) else "RMV219"
-            diagnostics = [error(code, str(exc), span, label="here")]  # type: ignore[arg-type]
+        compiled, diagnostics = ev.compile_or_diagnose(node)
     if compiled is None:
-        sources = SourceMap()
-        sources.add(SourceFile("<formula>", args.formula))
-        sys.stderr.write(
-            render_text(diagnostics, sources, _use_color(args) and sys.stderr.isatty())
-        )
-        return EXIT_ERRORS
+        return _formula_errors(args, diagnostics)
     sat = satisfiable([compiled], limits=limits)
     validity = valid(compiled, limits=limits)
     if args.format == "json":
@@ -472,6 +454,16 @@ def _sat(args: argparse.Namespace) -> int:
         print("  counterexample (the formula is false):")
         print("\n".join("    " + line for line in validity.witness.timeline()))
     return EXIT_OK
+
+
+def _formula_errors(args: argparse.Namespace, diagnostics: list[Diagnostic]) -> int:
+    """What is wrong with a --formula, on standard error."""
+    from rmvdsl.source import SourceFile
+
+    sources = SourceMap()
+    sources.add(SourceFile("<formula>", args.formula))
+    sys.stderr.write(render_text(diagnostics, sources, _use_color(args) and sys.stderr.isatty()))
+    return EXIT_ERRORS
 
 
 def _answer_text(answer: Answer) -> str:

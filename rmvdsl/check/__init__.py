@@ -96,7 +96,8 @@ def check(
     earlier = [*loaded.diagnostics, *config_diagnostics, *names, *later]
     from rmvdsl.check.properties import analyze_properties
 
-    report = analyze_properties(model, types, broken_declarations(model, earlier), limits)
+    skip = broken_declarations(model, earlier)
+    report = analyze_properties(model, types, analysis, skip, limits)
     diagnostics = sorted([*earlier, *report.diagnostics], key=sort_key)
     return CheckResult(model, diagnostics, types, analysis, report)
 

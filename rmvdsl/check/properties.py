@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
-from rmvdsl.check.analysis import Conditions, solve
+from rmvdsl.check.analysis import AnalysisResult, Conditions, solve
 from rmvdsl.check.model import Kind, Model
 from rmvdsl.check.types import TypeInfo
 from rmvdsl.diagnostics import Diagnostic, Label, Severity, error, warning
@@ -65,6 +65,7 @@ class PropertyReport:
 def analyze_properties(
     model: Model,
     types: TypeInfo | None,
+    analysis: AnalysisResult | None,
     skip: set[str],
     limits: Limits | None = None,
     cache: Cache | None = None,
@@ -72,10 +73,16 @@ def analyze_properties(
     """`skip`: properties and transducers that earlier stages found wrong (they may
     not mean what they say): such properties are not analysed, such transducers
     constrain nothing."""
-    return _PropertyAnalyzer(model, types, skip, limits or Limits(), cache).run()
+    return _PropertyAnalyzer(model, types, analysis, skip, limits or Limits(), cache).run()
 
 
-def system_of(model: Model, conditions: Conditions, names: set[str], skip: set[str]) -> System:
+def system_of(
+    model: Model,
+    analysis: AnalysisResult | None,
+    conditions: Conditions,
+    names: set[str],
+    skip: set[str],
+) -> System:
     """The transducers, and the boolean events among `names` that can never hold,
     or never together."""
     machines = []
@@ -91,18 +98,11 @@ def system_of(model: Model, conditions: Conditions, names: set[str], skip: set[s
         )
         initial = decl.initial.name if decl.initial is not None else None
         machines.append(Machine(name, states, initial, moves))
-        if initial is not None:
-            # States the initial state cannot reach never hold (the refutation
-            # does not follow transitions, so it is told).
-            reachable = {initial}
-            frontier = [initial]
-            while frontier:
-                here = frontier.pop()
-                for source, target in moves:
-                    if source == here and target not in reachable:
-                        reachable.add(target)
-                        frontier.append(target)
-            unreachable.update(set(states) - reachable)
+        # States the initial one cannot reach never hold (the refutation does not
+        # follow transitions, so it is told).
+        facts = analysis.transducers.get(name) if analysis is not None else None
+        if facts is not None:
+            unreachable.update(facts.unreachable)
     events = sorted(
         n for n in names if (s := model.symbols.get(n)) is not None and s.kind is Kind.BOOL_EVENT
     )
@@ -120,6 +120,7 @@ class _PropertyAnalyzer:
         self,
         model: Model,
         types: TypeInfo | None,
+        analysis: AnalysisResult | None,
         skip: set[str],
         limits: Limits,
         cache: Cache | None,
@@ -139,7 +140,7 @@ class _PropertyAnalyzer:
             except CompileError:
                 continue  # the types stage reported it
         names = {n for f in self.compiled.values() for n in _names(f)}
-        self.system = system_of(model, Conditions(model, types), names, skip)
+        self.system = system_of(model, analysis, Conditions(model, types), names, skip)
 
     def compile(self, node: fm.Formula | fm.Term) -> Any:
         return compile_formula(node, Fraction(1), self.model.time_unit or "s")

@@ -35,9 +35,13 @@ def parse(text: str, syntax: str, term: bool) -> tuple[Formula | Term | None, li
     return parse_formula(text, syntax, "<formula>", "term" if term else "formula")
 
 
-def compile_or_diagnose(node: Any, trace: TraceFile) -> tuple[Any, list[Diagnostic]]:
+def compile_or_diagnose(
+    node: Any, unit: Fraction = Fraction(1), default_unit: str = "s"
+) -> tuple[Any, list[Diagnostic]]:
+    """The runtime form of a parsed formula, or why there is none. `unit`: one time
+    unit of the trace in seconds; `default_unit`: the unit of bare numbers."""
     try:
-        return compile_formula(node, trace.unit_seconds, trace.unit), []
+        return compile_formula(node, unit, default_unit), []
     except CompileError as exc:
         span = getattr(exc.node, "span", None)
         code = "RMV212" if "needs a time bound" in str(exc) else "RMV219"
