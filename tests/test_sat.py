@@ -14,6 +14,7 @@ from conftest import FIXTURES, ROOT
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from rmvdsl.cache import Cache
 from rmvdsl.grammar.parser import parse_formula
 from rmvdsl.logic.abstract import refute
 from rmvdsl.logic.bounded import BoundedTrace
@@ -23,7 +24,6 @@ from rmvdsl.logic.sat import (
     NO,
     UNKNOWN,
     YES,
-    Cache,
     Limits,
     conflict,
     future,
@@ -308,6 +308,25 @@ def test_answers_are_cached_by_formula(tmp_path, monkeypatch):
     second = Cache(str(tmp_path))
     assert satisfiable([formula], cache=second) == answer
     assert second.hits == 1
+
+
+@pytest.mark.parametrize(
+    "spec",
+    ["examples/carla/abs.rmv", "examples/errors/properties.rmv", "examples/errors/conflicts.rmv"],
+)
+def test_rechecking_an_unchanged_spec_asks_z3_nothing(spec, tmp_path, monkeypatch):
+    """What the editor relies on: the transducer and property analyses' answers come
+    from the cache the second time, even in a new process (a new cache object on
+    the same folder)."""
+    import rmvdsl.cache
+    from rmvdsl.check import check
+
+    monkeypatch.setattr(rmvdsl.cache, "_DEFAULT", Cache(str(tmp_path)))
+    first = check(str(ROOT / spec))
+    monkeypatch.setattr(rmvdsl.cache, "_DEFAULT", Cache(str(tmp_path)))
+    monkeypatch.setattr(z3.Solver, "check", lambda *_: pytest.fail("the solver ran"))
+    second = check(str(ROOT / spec))
+    assert second.diagnostics == first.diagnostics
 
 
 def test_a_time_limit_answers_unknown_and_is_not_cached(tmp_path):

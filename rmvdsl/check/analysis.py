@@ -23,6 +23,7 @@ from typing import Any
 import networkx as nx
 import z3
 
+from rmvdsl.cache import default_cache, digest
 from rmvdsl.check.model import Kind, Model
 from rmvdsl.check.types import TypeInfo, VType
 from rmvdsl.diagnostics import Diagnostic, Label, error, warning
@@ -190,14 +191,27 @@ class Conditions:
         return z3.If(value, 1, 0) if z3.is_bool(value) else value
 
 
-def solve(constraints: Iterable[Any], domains: list[Any]) -> tuple[str, Any]:
+def solve(
+    constraints: Iterable[Any], domains: list[Any], symbols: dict[str, Any]
+) -> tuple[str, str]:
+    """("sat", the values that make the constraints hold), ("unsat", "") or
+    ("unknown", ""). Cached by the constraints' text: re-checking an unchanged spec
+    asks z3 nothing."""
     solver = z3.Solver()
     solver.set("timeout", SOLVER_TIMEOUT_MS)
     solver.add(*domains, *constraints)
+    key = digest("conditions", z3.get_version_string(), solver.sexpr())
+    cache = default_cache()
+    cached = cache.get(key)
+    if cached is not None and isinstance(cached.get("answer"), str):
+        return cached["answer"], str(cached.get("values", ""))
     answer = solver.check()
-    if answer == z3.sat:
-        return "sat", solver.model()
-    return ("unsat" if answer == z3.unsat else "unknown"), None
+    if answer == z3.unknown:
+        return "unknown", ""  # a time limit: not an answer to keep
+    values = witness(solver.model(), symbols) if answer == z3.sat else ""
+    result = "sat" if answer == z3.sat else "unsat"
+    cache.put(key, {"answer": result, "values": values})
+    return result, values
 
 
 def witness(model: Any, symbols: dict[str, Any]) -> str:
@@ -320,10 +334,10 @@ class Analyzer:
                 self.conditions.of_event(first.input.name),
                 self.conditions.of_event(second.input.name),
             )
-            answer, found = solve(both, self.conditions.domains)
+            answer, found = solve(both, self.conditions.domains, self.conditions.symbols)
             if answer != "sat":
                 return  # unsat: they exclude each other; unknown: no claim either way
-            values = f"for example when {witness(found, self.conditions.symbols)}"
+            values = f"for example when {found or 'any values'}"
         facts.conflicts.append((first, second, values))
         self.report(
             error(
@@ -350,10 +364,10 @@ class Analyzer:
                 if inputs
                 else z3.BoolVal(True)
             )
-            answer, found = solve([none], self.conditions.domains)
+            answer, found = solve([none], self.conditions.domains, self.conditions.symbols)
             if answer != "sat":
                 continue
-            values = witness(found, self.conditions.symbols) if inputs else "any values"
+            values = (found or "any values") if inputs else "any values"
             self.report(
                 warning(
                     "RMV506",
@@ -410,7 +424,9 @@ class Analyzer:
         decl = self.model.events.get(name)
         if decl is None or not decl.boolean:
             return None
-        answer, _ = solve([self.conditions.of_event(name)], self.conditions.domains)
+        answer, _ = solve(
+            [self.conditions.of_event(name)], self.conditions.domains, self.conditions.symbols
+        )
         return "its condition is unsatisfiable" if answer == "unsat" else None
 
     def unconsumed_outputs(self, used: set[str]) -> None:

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
+from rmvdsl.cache import Cache
 from rmvdsl.check.analysis import AnalysisResult, Conditions, solve
 from rmvdsl.check.model import Kind, Model
 from rmvdsl.check.types import TypeInfo
@@ -31,7 +32,6 @@ from rmvdsl.logic.sat import (
     UNKNOWN,
     YES,
     Answer,
-    Cache,
     Limits,
     Witness,
     future,
@@ -106,11 +106,17 @@ def system_of(
     events = sorted(
         n for n in names if (s := model.symbols.get(n)) is not None and s.kind is Kind.BOOL_EVENT
     )
-    never = {e for e in events if solve([conditions.of_event(e)], conditions.domains)[0] == "unsat"}
+    symbols = conditions.symbols
+    never = {
+        e
+        for e in events
+        if solve([conditions.of_event(e)], conditions.domains, symbols)[0] == "unsat"
+    }
     exclusive = {
         (a, b)
         for a, b in itertools.combinations([e for e in events if e not in never], 2)
-        if solve([conditions.of_event(a), conditions.of_event(b)], conditions.domains)[0] == "unsat"
+        if solve([conditions.of_event(a), conditions.of_event(b)], conditions.domains, symbols)[0]
+        == "unsat"
     }
     return System(tuple(machines), frozenset(exclusive), frozenset(never | unreachable))
 

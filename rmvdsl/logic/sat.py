@@ -17,17 +17,16 @@ limit cut it short. Answers are cached by formula.
 
 from __future__ import annotations
 
-import hashlib
 import itertools
 import json
-import os
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
 import z3
 
+from rmvdsl.cache import Cache, default_cache, digest
 from rmvdsl.logic.abstract import refute
 from rmvdsl.logic.bounded import BoundedTrace, has_past
 from rmvdsl.logic.reference import TRUE, Reference, Trace
@@ -147,66 +146,6 @@ class Answer:
         )
 
 
-@dataclass
-class Cache:
-    """Answers by question: in memory, and in a folder when one is given
-    (`RMV_CACHE_DIR`, else the user's cache folder; empty disables it)."""
-
-    folder: str | None = None
-    memory: dict[str, Answer] = field(default_factory=dict)
-    hits: int = 0
-
-    @classmethod
-    def default(cls) -> Cache:
-        folder = os.environ.get("RMV_CACHE_DIR")
-        if folder is None:
-            base = os.environ.get("XDG_CACHE_HOME") or os.path.join(
-                os.path.expanduser("~"), ".cache"
-            )
-            folder = os.path.join(base, "rmvdsl")
-        return cls(os.path.join(folder, "sat") if folder else None)
-
-    def get(self, key: str) -> Answer | None:
-        if key in self.memory:
-            self.hits += 1
-            return self.memory[key]
-        if self.folder is None:
-            return None
-        try:
-            with open(os.path.join(self.folder, key + ".json"), encoding="utf-8") as handle:
-                answer = Answer.from_json(json.load(handle))
-        except (OSError, ValueError, KeyError, TypeError):
-            return None
-        self.memory[key] = answer
-        self.hits += 1
-        return answer
-
-    def put(self, key: str, answer: Answer) -> None:
-        if answer.timed_out:
-            return  # a time limit depends on the machine, not on the question
-        self.memory[key] = answer
-        if self.folder is None:
-            return
-        try:
-            os.makedirs(self.folder, exist_ok=True)
-            temporary = os.path.join(self.folder, f".{key}.{os.getpid()}")
-            with open(temporary, "w", encoding="utf-8") as handle:
-                json.dump(answer.as_json(), handle)
-            os.replace(temporary, os.path.join(self.folder, key + ".json"))
-        except OSError:
-            pass  # a cache that cannot be written only costs time
-
-
-_DEFAULT_CACHE: Cache | None = None
-
-
-def default_cache() -> Cache:
-    global _DEFAULT_CACHE
-    if _DEFAULT_CACHE is None:
-        _DEFAULT_CACHE = Cache.default()
-    return _DEFAULT_CACHE
-
-
 def satisfiable(
     formulas: Sequence[Any],
     system: System | None = None,
@@ -218,12 +157,18 @@ def satisfiable(
     cache = cache if cache is not None else default_cache()
     mentioned = {name for f in formulas for name in propositions(f)}
     system = (system or System()).restricted(mentioned)
-    key = _key("sat", formulas, system, limits)
+    key = digest(
+        ENCODING_VERSION, z3.get_version_string(), list(formulas), system.key(), limits.key()
+    )
     cached = cache.get(key)
     if cached is not None:
-        return cached
+        try:
+            return Answer.from_json(cached)
+        except (KeyError, TypeError, ValueError, ZeroDivisionError):
+            pass  # an entry from elsewhere: ask again
     answer = _Question(list(formulas), system, limits).answer()
-    cache.put(key, answer)
+    if not answer.timed_out:  # a time limit depends on the machine, not the question
+        cache.put(key, answer.as_json())
     return answer
 
 
@@ -248,13 +193,32 @@ def conflict(
     """A smallest subset of formulas that cannot hold together (each member needed:
     without any one of them the rest is not refuted), as indices; () when the
     whole set is not refuted."""
-    system = system or System()
+    mentioned = {name for f in formulas for name in propositions(f)}
+    system = (system or System()).restricted(mentioned)
+    key = digest("conflict", ENCODING_VERSION, z3.get_version_string(), list(formulas))
+    key = digest(key, system.key(), limits.key(), list(core))
+    cache = default_cache()
+    cached = cache.get(key)
+    if cached is not None and isinstance(cached.get("members"), list):
+        return tuple(int(m) for m in cached["members"])
+    members, complete = _smallest(formulas, system, limits, core)
+    if complete:
+        cache.put(key, {"members": list(members)})
+    return members
+
+
+def _smallest(
+    formulas: Sequence[Any], system: System, limits: Limits, core: Sequence[int]
+) -> tuple[tuple[int, ...], bool]:
+    """Deletion-based minimisation; False when a limit cut a refutation short
+    (then the result may not be the smallest, and is not cached)."""
     names = {n for f in formulas for n in system.names(set(propositions(f)))}
     members = list(core) or list(range(len(formulas)))
     verdict, found = refute([formulas[i] for i in members], system, names, limits)
     if verdict != "unsat":
-        return ()
+        return (), verdict != "limit"
     members = [members[i] for i in found]
+    complete = True
     for candidate in list(members):
         if candidate not in members:
             continue  # an earlier core already left it out
@@ -264,7 +228,8 @@ def conflict(
         verdict, found = refute([formulas[i] for i in rest], system, names, limits)
         if verdict == "unsat":
             members = [rest[i] for i in found]
-    return tuple(sorted(members))
+        complete = complete and verdict != "limit"
+    return tuple(sorted(members)), complete
 
 
 def propositions(f: Any) -> Iterator[str]:
@@ -476,20 +441,6 @@ def _rounded(
     if any(b <= a for a, b in itertools.pairwise(rounded)):
         return None
     return rounded, Fraction(round(at * grid), grid)
-
-
-def _key(kind: str, formulas: Sequence[Any], system: System, limits: Limits) -> str:
-    text = repr(
-        (
-            ENCODING_VERSION,
-            z3.get_version_string(),
-            kind,
-            list(formulas),
-            system.key(),
-            limits.key(),
-        )
-    )
-    return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
 def _number(value: Fraction) -> str:

@@ -1,0 +1,77 @@
+"""Solver answers by question, so that re-checking an unchanged spec asks z3
+nothing (the editor re-checks on every change).
+
+Entries are small JSON objects keyed by a digest of the question: in memory, and
+as files in `RMV_CACHE_DIR` (default `$XDG_CACHE_HOME/rmvdsl` or `~/.cache/rmvdsl`;
+empty: no files). A cache that cannot be read or written only costs time.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from dataclasses import dataclass, field
+from typing import Any
+
+
+@dataclass
+class Cache:
+    folder: str | None = None
+    memory: dict[str, dict[str, Any]] = field(default_factory=dict)
+    hits: int = 0
+
+    @classmethod
+    def default(cls) -> Cache:
+        folder = os.environ.get("RMV_CACHE_DIR")
+        if folder is None:
+            base = os.environ.get("XDG_CACHE_HOME") or os.path.join(
+                os.path.expanduser("~"), ".cache"
+            )
+            folder = os.path.join(base, "rmvdsl")
+        return cls(os.path.join(folder, "answers") if folder else None)
+
+    def get(self, key: str) -> dict[str, Any] | None:
+        if key in self.memory:
+            self.hits += 1
+            return self.memory[key]
+        if self.folder is None:
+            return None
+        try:
+            with open(os.path.join(self.folder, key + ".json"), encoding="utf-8") as handle:
+                value = json.load(handle)
+        except (OSError, ValueError):
+            return None
+        if not isinstance(value, dict):
+            return None
+        self.memory[key] = value
+        self.hits += 1
+        return value
+
+    def put(self, key: str, value: dict[str, Any]) -> None:
+        self.memory[key] = value
+        if self.folder is None:
+            return
+        try:
+            os.makedirs(self.folder, exist_ok=True)
+            temporary = os.path.join(self.folder, f".{key}.{os.getpid()}")
+            with open(temporary, "w", encoding="utf-8") as handle:
+                json.dump(value, handle)
+            os.replace(temporary, os.path.join(self.folder, key + ".json"))
+        except OSError:
+            pass
+
+
+def digest(*parts: object) -> str:
+    """A key for a question: its parts as text, hashed."""
+    return hashlib.sha256(repr(parts).encode()).hexdigest()[:32]
+
+
+_DEFAULT: Cache | None = None
+
+
+def default_cache() -> Cache:
+    global _DEFAULT
+    if _DEFAULT is None:
+        _DEFAULT = Cache.default()
+    return _DEFAULT
