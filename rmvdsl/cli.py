@@ -147,13 +147,12 @@ trace lines (JSONL):
     sat_parser = commands.add_parser(
         "sat",
         help="is a formula satisfiable? valid? (with witness traces)",
-        description="Decide whether a formula can hold (satisfiable) and whether it always "
-        "holds (valid), in dense time, with z3. Each answer is yes, no or unknown; yes and "
-        "no are exact, and come with a trace where one exists (a witness that makes the "
-        "formula true, a counterexample that makes it false), replayed through the "
-        "reference evaluator before it is shown. unknown says why: the search for a trace "
-        "with a few changes found none and no proof was found, or the time limit was hit. "
-        "Bare numbers are seconds.",
+        description="""Decide whether a formula can hold (satisfiable) and whether it always
+holds (valid), in dense time, with z3. Each answer is yes, no or unknown. A yes or
+a no is exact and comes with a trace where one exists (a witness where the formula
+is true, a counterexample where it is false), replayed through the reference
+evaluator before it is shown. unknown says why: no trace with a few changes was
+found and no proof either, or the time limit was hit. Bare numbers are seconds.""",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="""examples:
   rmv sat --formula 'eventually[<10] p and always[<10] not p'

@@ -17,6 +17,7 @@ evaluator before it is believed.
 
 from __future__ import annotations
 
+import time
 from fractions import Fraction
 from typing import Any
 
@@ -87,6 +88,10 @@ def has_past(f: Any) -> bool:
     return any(has_past(child) for child in f[1:] if isinstance(child, tuple))
 
 
+class EncodingTimeout(Exception):
+    """Building the encoding took longer than the question's time limit."""
+
+
 class BoundedTrace:
     """The symbolic trace and the encoding of formulas over it."""
 
@@ -107,6 +112,9 @@ class BoundedTrace:
         self._values: dict[tuple[int, Time, bool], Bool] = {}
         self._points: dict[int, frozenset[Time]] = {}
         self._keep: list[Any] = []  # nodes whose id() keys the caches
+        # Deeply nested formulas make many candidate points: building the encoding
+        # stops at this time.monotonic() (the caller sets it per question).
+        self.deadline = float("inf")
 
     # ---- times ----
 
@@ -208,6 +216,8 @@ class BoundedTrace:
         key = (id(f), at, plus)
         if key not in self._values:
             self._keep.append(f)
+            if len(self._values) % 256 == 0 and time.monotonic() > self.deadline:
+                raise EncodingTimeout
             self._values[key] = self._compute(f, at, plus)
         return self._values[key]
 

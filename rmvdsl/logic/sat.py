@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import time
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
@@ -28,7 +29,7 @@ import z3
 
 from rmvdsl.cache import Cache, default_cache, digest
 from rmvdsl.logic.abstract import refute
-from rmvdsl.logic.bounded import BoundedTrace, has_past
+from rmvdsl.logic.bounded import BoundedTrace, EncodingTimeout, has_past
 from rmvdsl.logic.reference import TRUE, Reference, Trace
 from rmvdsl.logic.system import System
 
@@ -278,11 +279,13 @@ class _Question:
             found = self.search(k)
             if found is not None:
                 return Answer(YES, True, found)
+            if self.timed_out:
+                break  # more segments would only take longer
         quick = self.limits.quick()
         verdict, core = refute(self.formulas, self.system, set(self.names), quick)
         if verdict == "unsat":
             return Answer(NO, True, core=core)
-        for k in late:
+        for k in late if not self.timed_out else ():
             found = self.search(k)
             if found is not None:
                 return Answer(YES, True, found)
@@ -309,9 +312,16 @@ class _Question:
         solver.add(*trace.structure)
         solver.add(*self.system_constraints(trace))
         at = (-1, Fraction(0)) if self.free_time else (0, Fraction(0))
-        for f in self.formulas:
-            value = trace.value(f, at)
-            solver.add(value if not isinstance(value, bool) else z3.BoolVal(value))
+        trace.deadline = time.monotonic() + self.limits.timeout
+        try:
+            for f in self.formulas:
+                value = trace.value(f, at)
+                solver.add(value if not isinstance(value, bool) else z3.BoolVal(value))
+        except EncodingTimeout:
+            self.timed_out = True
+            return None
+        finally:
+            trace.deadline = float("inf")
         solver.add(*trace.definitions)
         result = solver.check()
         if result == z3.unknown:
