@@ -174,9 +174,9 @@ class _PropertyAnalyzer:
         facts.satisfiable = answer = satisfiable([f], self.system, self.limits, self.cache)
         if answer.value == NO:
             pure = satisfiable([f], None, self.limits, self.cache)
-            if pure.value == YES and pure.witness is not None:
+            if pure.value != NO:  # exact on this system, whatever pure logic says
                 self.add(self.impossible(decl, pure.witness))
-            elif pure.value == NO:
+            else:
                 self.add(
                     error(
                         "RMV510",
@@ -217,8 +217,10 @@ class _PropertyAnalyzer:
             self.add(self.undecided(decl, "can fail", validity))
         return True
 
-    def impossible(self, decl: ast.PropertyDecl, pure: Witness) -> Diagnostic:
-        machines = [m.name for m in self.system.relevant(set(pure.names))]
+    def impossible(self, decl: ast.PropertyDecl, pure: Witness | None) -> Diagnostic:
+        """RMV511, with a trace of pure logic where the property holds, if found."""
+        names = _names(self.compiled[decl.name.name])
+        machines = [m.name for m in self.system.relevant(names)]
         because = (
             "the transducer"
             + ("s " if len(machines) > 1 else " ")
@@ -226,15 +228,18 @@ class _PropertyAnalyzer:
             if machines
             else "the events' conditions"
         )
-        return error(
+        found = error(
             "RMV511",
             f"property `{decl.name.name}` can never hold on this system: it needs traces "
             f"that {because} cannot make",
             decl.name.span,
-            label="satisfiable in pure logic, impossible here",
+            label="satisfiable in pure logic, impossible here" if pure else "impossible here",
             help="a transducer is in one state at a time, starts in its initial state and "
             "moves only along its transitions; check the states the property names",
-        ).with_notes(("without the spec's constraints it holds on:", *pure.timeline()))
+        )
+        if pure is None:
+            return found
+        return found.with_notes(("without the spec's constraints it holds on:", *pure.timeline()))
 
     def undecided(self, decl: ast.PropertyDecl, question: str, answer: Answer) -> Diagnostic:
         return Diagnostic(
