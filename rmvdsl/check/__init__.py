@@ -3,8 +3,9 @@
 Stages, each with its own diagnostics: load (parse the file and its imports),
 names (declare, resolve, check structure), types (message definitions, field
 paths, expressions, units, horizons), analyses (transducers, with networkx and
-z3). Each stage reads what the earlier ones built; the result is one model that
-every later analysis and target reads.
+z3; then properties, in dense time with z3, on the declarations without errors).
+Each stage reads what the earlier ones built; the result is one model that every
+later analysis and target reads.
 """
 
 from __future__ import annotations
