@@ -393,3 +393,25 @@ def test_check_witnesses_replay_with_rmv_eval(rmv, tmp_path):
         at = claim.rsplit("t = ", 1)[1]
         replay = rmv("eval", "--formula", formula, "--trace", str(path), "--at", at)
         assert replay.out.strip() == verdict, (suffix, path.read_text())
+
+
+def test_solver_settings_in_rmv_toml(tmp_path):
+    from rmvdsl.check import check
+
+    spec = tmp_path / "spec.rmv"
+    spec.write_text("", encoding="utf-8")
+    (tmp_path / "rmv.toml").write_text("solver_timeout = 0\nsolver_effort = -3\n", encoding="utf-8")
+    messages = [d.message for d in check(str(spec)).diagnostics if d.code == "RMV307"]
+    assert any("solver_timeout" in m for m in messages)
+    assert any("solver_effort" in m for m in messages)
+    # A tiny, deterministic budget answers nothing and says so, whatever the time
+    # limit given on the command line.
+    (tmp_path / "rmv.toml").write_text("solver_effort = 1\n", encoding="utf-8")
+    (tmp_path / "spec.rmv").write_text(
+        "transducer M {\n    states A, B\n    initial A\n    final B\n    A -> B on E\n}\n"
+        'topic t: std_msgs/Float64 = "/t"\nvar V = t.data\nevent E when V > 1\n'
+        "property P: eventually[<5s] B\n",
+        encoding="utf-8",
+    )
+    codes = [d.code for d in check(str(spec), solver_timeout=30).diagnostics]
+    assert codes == ["RMV516"]
