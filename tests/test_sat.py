@@ -415,3 +415,18 @@ def test_solver_settings_in_rmv_toml(tmp_path):
     )
     codes = [d.code for d in check(str(spec), solver_timeout=30).diagnostics]
     assert codes == ["RMV516"]
+
+
+def test_a_witness_time_without_a_decimal_form_survives_the_trace_file(tmp_path):
+    from rmvdsl.logic.sat import Witness
+    from rmvdsl.logic.traces import TraceError
+
+    third = Fraction(1, 3)
+    witness = Witness(
+        (Fraction(0), third), (frozenset(), frozenset({"a"})), third, Fraction(2), ("a",)
+    )
+    assert witness.as_json()["trace"][1]["t"] == "1/3"
+    trace = read_trace("w.jsonl", witness.jsonl())
+    assert trace.times == [Fraction(0), third] and trace.end == 2
+    with pytest.raises(TraceError, match="must be a number"):
+        read_trace("w.jsonl", '{"t": "1/0", "props": []}\n')

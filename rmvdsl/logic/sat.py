@@ -353,7 +353,7 @@ class _Question:
             if s != kept_states[-1]:
                 kept_times.append(t)
                 kept_states.append(s)
-        for grid in (1, 2, 4, 10, 100, 1000, None):
+        for grid in (1, 2, 4, 10, 100, 1000, 10**6, None):
             candidate = _rounded(kept_times, at, grid)
             if candidate is None:
                 continue

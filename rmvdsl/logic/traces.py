@@ -7,6 +7,9 @@ JSONL, one object per line:
     {"t": 1.5, "props": ["a", "b"]}     several (or none: [])
     {"t": 12.0, "end": true}            the trace ends: known up to 12
 
+A time is a number, or a string holding one or an exact fraction ("1/3", as
+`rmv sat` writes a witness time that no decimal gives exactly).
+
 CSV, with a header naming `t` and `state` or `props` (propositions separated by
 `;`), and optionally `end` (a row with `end` true ends the trace). A first line
 `# unit: ms` sets the unit. Without an end record the trace ends at its last
@@ -75,8 +78,14 @@ def _time(value: object, path: str, line: int, column: int) -> Fraction:
         raise TraceError(path, line, column, f"`t` must be a number, not {json.dumps(value)}")
     if isinstance(value, float) and not math.isfinite(value):
         raise TraceError(path, line, column, f"`t` is {value}: times must be finite numbers")
+    text = str(value).strip()
+    if isinstance(value, str) and "/" in text:  # an exact fraction: "1/3"
+        try:
+            return Fraction(text)
+        except (ValueError, ZeroDivisionError):
+            raise TraceError(path, line, column, f"`t` must be a number, not `{value}`") from None
     try:
-        number = Decimal(str(value).strip())
+        number = Decimal(text)
     except InvalidOperation:
         raise TraceError(path, line, column, f"`t` must be a number, not `{value}`") from None
     if not number.is_finite():
