@@ -181,3 +181,22 @@ def test_keywords_are_names_where_a_name_is_expected():
 def test_strings_keep_backslashes_but_unescape_quotes():
     spec, _ = parse('alert A { warn when x > 1 message "say \\"hi\\" \\\\ \\n" }\n')
     assert spec.items[0].message.value == 'say "hi" \\ \\n'
+
+
+def test_spans_start_at_the_operator_keyword():
+    """A node led by a keyword (`not`, `eventually`, `duration`, unary `-`) spans it:
+    the editor and the underlines of diagnostics point at the whole node."""
+    from rmvdsl.grammar.parser import parse_formula
+
+    for text in ("eventually[<5s] a", "not a", "once[<=2s] historically[=1s] a"):
+        node, _ = parse_formula(text, "rmv", "<f>", "formula")
+        assert text[node.span.start : node.span.end] == text
+    text = "duration[5s](a) > 1s"
+    node, _ = parse_formula(text, "rmv", "<f>", "formula")
+    assert text[node.left.span.start : node.left.span.end] == "duration[5s](a)"
+    text = "event A when not V > 1 and -V < 2\n"
+    parsed = parse_source(SourceFile("x.rmv", text))
+    expression = parsed.spec.items[0].expr
+    assert text[expression.left.span.start : expression.left.span.end] == "not V > 1"
+    minus = expression.right.left
+    assert text[minus.span.start : minus.span.end] == "-V"

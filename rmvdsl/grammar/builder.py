@@ -350,10 +350,10 @@ class AstBuilder(Transformer[Token, Any]):
         return ast.BinOp(op, c[0], c[1], self.cover(c))
 
     def not_op(self, c: list[Any]) -> ast.UnaryOp:
-        return ast.UnaryOp("not", c[0], self.cover(c))
+        return ast.UnaryOp("not", c[-1], self.cover(c))
 
     def neg(self, c: list[Any]) -> ast.UnaryOp:
-        return ast.UnaryOp("-", c[0], self.cover(c))
+        return ast.UnaryOp("-", c[-1], self.cover(c))
 
     def quantity_expr(self, c: list[Any]) -> ast.Node:
         return self.quantity(c[0])
@@ -572,7 +572,7 @@ class AstBuilder(Transformer[Token, Any]):
         return self._temporal_binary("since", c)
 
     def _temporal_unary(self, op: str, c: list[Any]) -> fm.Temporal:
-        bound, body = (x for x in c if not _is_operator(x))
+        bound, body = (x for x in c if not isinstance(x, Token))
         return fm.Temporal(op, bound, None, body, self.cover(c))
 
     def f_eventually(self, c: list[Any]) -> fm.Temporal:
@@ -588,7 +588,7 @@ class AstBuilder(Transformer[Token, Any]):
         return self._temporal_unary("historically", c)
 
     def f_not(self, c: list[Any]) -> fm.Not:
-        return fm.Not(self.operands(c)[0], self.cover(c))
+        return fm.Not(c[-1], self.cover(c))
 
     def f_prop(self, c: list[Any]) -> fm.Prop:
         return fm.Prop(str(c[0]), self.span(c[0]))
@@ -668,7 +668,8 @@ class AstBuilder(Transformer[Token, Any]):
         )
         if isinstance(window, Token):
             window = self.time_value(window)
-        return fm.Duration(window, c[-1], self.cover(c))
+        body = next(x for x in c if isinstance(x, fm.Formula))
+        return fm.Duration(window, body, self.cover(c))
 
     # ---- LaTeX duration windows written as constant arithmetic ----
 
