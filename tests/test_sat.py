@@ -19,6 +19,7 @@ from rmvdsl.grammar.parser import parse_formula
 from rmvdsl.logic.abstract import refute
 from rmvdsl.logic.bounded import BoundedTrace
 from rmvdsl.logic.compile import compile_formula
+from rmvdsl.logic.evaluate import verdict_at
 from rmvdsl.logic.reference import FALSE, TRUE, Reference, Trace
 from rmvdsl.logic.sat import (
     NO,
@@ -125,13 +126,6 @@ def test_a_yes_comes_with_a_witness_the_monitor_accepts(tmp_path_factory, formul
         monitor.feed(zip(trace.times, trace.states, strict=True))
         monitor.end(trace.end)
         assert verdict_at(merge(monitor.verdicts()), answer.witness.at) == expected
-
-
-def verdict_at(segments: list, t: Fraction) -> str:
-    for a, b, a_closed, b_closed, value in segments:
-        if (a < t or (a == t and a_closed)) and (t < b or (t == b and b_closed)):
-            return value
-    return "unknown"
 
 
 def small_traces(horizon: Fraction, changes: int):

@@ -35,6 +35,7 @@ from rmvdsl.logic.sat import (
     Limits,
     Witness,
     future,
+    propositions,
     satisfiable,
     valid,
 )
@@ -136,7 +137,8 @@ class _PropertyAnalyzer:
         self.cache = cache
         self.report = PropertyReport()
         self.pool: list[Witness] = []  # traces found by the joint questions
-        self.references: dict[int, tuple[Witness, Reference]] = {}
+        # by id(): the witness is kept beside, so that the id is not reused
+        self.references: dict[int, tuple[Witness, Reference | None]] = {}
         self.compiled: dict[str, Any] = {}
         for name, decl in model.properties.items():
             if name in skip or decl.formula is None:
@@ -145,7 +147,7 @@ class _PropertyAnalyzer:
                 self.compiled[name] = self.compile(decl.formula)
             except CompileError:
                 continue  # the types stage reported it
-        names = {n for f in self.compiled.values() for n in _names(f)}
+        names = {n for f in self.compiled.values() for n in propositions(f)}
         self.system = system_of(model, analysis, Conditions(model, types), names, skip)
 
     def compile(self, node: fm.Formula | fm.Term) -> Any:
@@ -199,7 +201,7 @@ class _PropertyAnalyzer:
             return False  # the vacuous implication says why
         if validity.value == YES:
             scope = ""
-            if self.system.relevant(set(_names(f))):
+            if self.system.relevant(set(propositions(f))):
                 pure = valid(f, None, self.limits, self.cache)
                 scope = "" if pure.value == YES else " of this system"
             self.add(
@@ -219,7 +221,7 @@ class _PropertyAnalyzer:
 
     def impossible(self, decl: ast.PropertyDecl, pure: Witness | None) -> Diagnostic:
         """RMV511, with a trace of pure logic where the property holds, if found."""
-        names = _names(self.compiled[decl.name.name])
+        names = set(propositions(self.compiled[decl.name.name]))
         machines = [m.name for m in self.system.relevant(names)]
         because = (
             "the transducer"
@@ -319,25 +321,28 @@ class _PropertyAnalyzer:
     def refuted_by_known_trace(self, name: str, others: list[str]) -> bool:
         """A trace already at hand where the others hold and `name` fails: then it
         is not implied, and no solver is needed."""
-        everything = set().union(*(_names(f) for f in self.compiled.values()))
         for witness in self.known_traces():
-            if self.system.violation(witness.times, witness.states, everything) is not None:
-                continue
             reference = self.reference(witness)
+            if reference is None:
+                continue
             if reference.value(self.compiled[name], witness.at) != FALSE:
                 continue
             if all(reference.value(self.compiled[n], witness.at) == TRUE for n in others):
                 return True
         return False
 
-    def reference(self, witness: Witness) -> Reference:
+    def reference(self, witness: Witness) -> Reference | None:
         """The reference evaluator on a known trace, its last state held long enough
-        for every property; one per trace, so values are computed once."""
+        for every property; None if the trace is not one of this system's for all
+        the properties' propositions. One per trace: values are computed once."""
         if id(witness) not in self.references:
-            horizon = max(future(f) for f in self.compiled.values())
-            end = max(witness.end, witness.at + horizon + 1)
-            trace = Trace(list(witness.times), list(witness.states), end)
-            self.references[id(witness)] = (witness, Reference(trace))
+            everything = {n for f in self.compiled.values() for n in propositions(f)}
+            reference = None
+            if self.system.violation(witness.times, witness.states, everything) is None:
+                horizon = max(future(f) for f in self.compiled.values())
+                end = max(witness.end, witness.at + horizon + 1)
+                reference = Reference(Trace(list(witness.times), list(witness.states), end))
+            self.references[id(witness)] = (witness, reference)
         return self.references[id(witness)][1]
 
     def redundancy(self, names: list[str]) -> None:
@@ -374,13 +379,3 @@ class _PropertyAnalyzer:
                     help="keep it if a separate alert is wanted; otherwise drop it",
                 )
             )
-
-
-def _names(f: Any) -> set[str]:
-    if f[0] == "prop":
-        return {f[1]}
-    out: set[str] = set()
-    for child in f[1:]:
-        if isinstance(child, tuple):
-            out |= _names(child)
-    return out

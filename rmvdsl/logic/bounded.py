@@ -32,28 +32,26 @@ EVAL = -1
 Bool = Any  # a z3 BoolRef, or a Python bool once folded
 
 
-def _and(*items: Bool) -> Bool:
+def _fold(items: tuple[Bool, ...], absorbing: bool, combine: Any) -> Bool:
+    """`and` (absorbing False) or `or` (absorbing True), folding Python bools so
+    that what is decided statically never reaches z3."""
     rest = []
     for item in items:
-        if item is False:
-            return False
-        if item is not True:
+        if item is absorbing:
+            return absorbing
+        if item is not (not absorbing):
             rest.append(item)
     if not rest:
-        return True
-    return rest[0] if len(rest) == 1 else z3.And(*rest)
+        return not absorbing
+    return rest[0] if len(rest) == 1 else combine(*rest)
+
+
+def _and(*items: Bool) -> Bool:
+    return _fold(items, False, z3.And)
 
 
 def _or(*items: Bool) -> Bool:
-    rest = []
-    for item in items:
-        if item is True:
-            return True
-        if item is not False:
-            rest.append(item)
-    if not rest:
-        return False
-    return rest[0] if len(rest) == 1 else z3.Or(*rest)
+    return _fold(items, True, z3.Or)
 
 
 def _not(item: Bool) -> Bool:
@@ -112,6 +110,8 @@ class BoundedTrace:
         self._values: dict[tuple[int, Time, bool], Bool] = {}
         self._points: dict[int, frozenset[Time]] = {}
         self._keep: list[Any] = []  # nodes whose id() keys the caches
+        # What callers derive from this trace alone (the spec's constraints on it).
+        self.derived: dict[str, list[Any]] = {}
         # Deeply nested formulas make many candidate points: building the encoding
         # stops at this time.monotonic() (the caller sets it per question).
         self.deadline = float("inf")

@@ -30,6 +30,7 @@ import z3
 from rmvdsl.cache import Cache, default_cache, digest
 from rmvdsl.logic.abstract import refute
 from rmvdsl.logic.bounded import BoundedTrace, EncodingTimeout, has_past
+from rmvdsl.logic.evaluate import number
 from rmvdsl.logic.reference import TRUE, Reference, Trace
 from rmvdsl.logic.system import System
 
@@ -76,9 +77,9 @@ class Witness:
         rows = []
         for start, stop, state in zip(self.times, stops, self.states, strict=True):
             held = ", ".join(n for n in self.names if n in state) or "(none)"
-            rows.append(f"[{_number(start)}, {_number(stop)})  {held}")
+            rows.append(f"[{number(start)}, {number(stop)})  {held}")
         chart = [f"{name.ljust(width)}  {self._bar(name)}" for name in self.names]
-        return [f"at t = {_number(self.at)}:", *rows, *chart]
+        return [f"at t = {number(self.at)}:", *rows, *chart]
 
     def _bar(self, name: str, columns: int = 40) -> str:
         span = self.end - self.times[0]
@@ -87,7 +88,7 @@ class Witness:
             t = self.times[0] + span * Fraction(2 * column + 1, 2 * columns)
             index = max(i for i, start in enumerate(self.times) if start <= t)
             cells.append("#" if name in self.states[index] else ".")
-        return "".join(cells) + f"  0..{_number(self.end)}"
+        return "".join(cells) + f"  0..{number(self.end)}"
 
     def as_json(self) -> dict[str, Any]:
         return {
@@ -196,8 +197,15 @@ def conflict(
     whole set is not refuted."""
     mentioned = {name for f in formulas for name in propositions(f)}
     system = (system or System()).restricted(mentioned)
-    key = digest("conflict", ENCODING_VERSION, z3.get_version_string(), list(formulas))
-    key = digest(key, system.key(), limits.key(), list(core))
+    key = digest(
+        "conflict",
+        ENCODING_VERSION,
+        z3.get_version_string(),
+        list(formulas),
+        system.key(),
+        limits.key(),
+        list(core),
+    )
     cache = default_cache()
     cached = cache.get(key)
     if cached is not None and isinstance(cached.get("members"), list):
@@ -336,12 +344,10 @@ class _Question:
         return witness
 
     def system_constraints(self, trace: BoundedTrace) -> list[Any]:
-        key = (id(trace), self.system.key(), tuple(self.names))
-        if key not in _CONSTRAINTS:
-            if len(_CONSTRAINTS) >= 64:
-                _CONSTRAINTS.pop(next(iter(_CONSTRAINTS)))
-            _CONSTRAINTS[key] = (trace, _system_constraints(self.system, trace, set(self.names)))
-        return _CONSTRAINTS[key][1]
+        key = repr((self.system.key(), self.names))
+        if key not in trace.derived:
+            trace.derived[key] = _system_constraints(self.system, trace, set(self.names))
+        return trace.derived[key]
 
     def replayed(
         self, times: list[Fraction], states: list[frozenset[str]], at: Fraction
@@ -394,8 +400,8 @@ class _Question:
         names = set(self.names)
         if self.system.violation(witness.times, witness.states, names) is not None:
             return False
-        trace = Trace(list(witness.times), list(witness.states), witness.end)
-        return all(Reference(trace).value(f, witness.at) == TRUE for f in self.formulas)
+        reference = Reference(Trace(list(witness.times), list(witness.states), witness.end))
+        return all(reference.value(f, witness.at) == TRUE for f in self.formulas)
 
 
 def _system_constraints(system: System, trace: BoundedTrace, names: set[str]) -> list[Any]:
@@ -423,9 +429,6 @@ def _system_constraints(system: System, trace: BoundedTrace, names: set[str]) ->
     return facts
 
 
-# Both caches hold the encoding itself beside what is derived from it, so that
-# the id() in a key cannot be reused while the entry lives.
-_CONSTRAINTS: dict[tuple[int, str, tuple[str, ...]], tuple[BoundedTrace, list[Any]]] = {}
 _ENCODINGS: dict[tuple[int, tuple[str, ...], bool], BoundedTrace] = {}
 
 
@@ -451,13 +454,6 @@ def _rounded(
     if any(b <= a for a, b in itertools.pairwise(rounded)):
         return None
     return rounded, Fraction(round(at * grid), grid)
-
-
-def _number(value: Fraction) -> str:
-    if value.denominator == 1:
-        return str(value.numerator)
-    text = f"{float(value):.6g}"
-    return text if Fraction(text) == value else str(value)
 
 
 def _json_number(value: Fraction) -> int | float | str:

@@ -298,16 +298,12 @@ class Temporal(Evaluated):
         if self.kind == "until":
             if op == "=":
                 return psi.at(t + bound)
-            if op == "<" and bound <= 0:
-                return FALSE
             return psi.supremum(t, t + bound, True, op == "<=")
         begin = t - bound
         if op == "=":
             return FALSE if begin < self.origin else psi.at(begin)
         if begin < self.origin:
             return psi.supremum(self.origin, t, True, True)
-        if begin == t and op == "<":
-            return FALSE
         return psi.supremum(begin, t, op == "<=", True)
 
     def _until(self, t: Any) -> int:
