@@ -75,16 +75,9 @@ def term_at(term: Any, trace: TraceFile, t: Fraction) -> tuple[Fraction, Fractio
 
 
 def number(value: Fraction) -> str:
-    return decimal(value) if value.denominator in _DECIMAL_DENOMINATORS(value) else str(value)
-
-
-def _DECIMAL_DENOMINATORS(value: Fraction) -> set[int]:
-    denominator = value.denominator
-    while denominator % 2 == 0:
-        denominator //= 2
-    while denominator % 5 == 0:
-        denominator //= 5
-    return {value.denominator} if denominator == 1 else set()
+    """A decimal where one is exact, else the quotient (`1/3`)."""
+    text = decimal(value)
+    return text if Fraction(text) == value else str(value)
 
 
 def segment_text(segment: Segment) -> str:
