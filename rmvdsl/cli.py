@@ -22,7 +22,7 @@ from rmvdsl.source import SourceMap
 
 if TYPE_CHECKING:
     from rmvdsl.check.properties import PropertyReport
-    from rmvdsl.logic.sat import Answer, Limits
+    from rmvdsl.logic.sat import Answer
 
 EXIT_OK, EXIT_ERRORS, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 70
 
@@ -67,7 +67,7 @@ exit codes: 0 no errors, 1 errors (or warnings with --strict), 2 usage or I/O pr
     check_parser.add_argument("--strict", action="store_true", help="warnings fail the check")
     check_parser.add_argument(
         "--timeout",
-        type=float,
+        type=_seconds,
         metavar="SECONDS",
         help="time limit of each solver call on the properties (default 5, or "
         "`solver_timeout` in rmv.toml)",
@@ -164,7 +164,7 @@ exit codes: 0 answered (whatever the answer), 1 the formula has errors, 2 usage 
     sat_parser.add_argument("--syntax", choices=("auto", "rmv", "latex"), default="auto")
     sat_parser.add_argument("--format", choices=("text", "json"), default="text")
     sat_parser.add_argument(
-        "--timeout", type=float, default=5.0, metavar="SECONDS", help="per solver call (5)"
+        "--timeout", type=_seconds, default=5.0, metavar="SECONDS", help="per solver call (5)"
     )
     sat_parser.add_argument("--no-color", action="store_true")
 
@@ -257,7 +257,6 @@ def _check(args: argparse.Namespace) -> int:
     for folder in args.messages:
         if not os.path.isdir(folder):
             raise UsageError(f"--messages {folder}: no such folder")
-    timeout = None if args.timeout is None else _limits(args.timeout).timeout
     all_diagnostics: list[Diagnostic] = []
     sources = SourceMap()
     usage_problem = False
@@ -265,7 +264,7 @@ def _check(args: argparse.Namespace) -> int:
     for path in args.files:
         try:
             result = check(
-                path, ros=args.ros, messages=tuple(args.messages), solver_timeout=timeout
+                path, ros=args.ros, messages=tuple(args.messages), solver_timeout=args.timeout
             )
         except UsageError as exc:
             print(f"rmv: error: {exc}", file=sys.stderr)
@@ -390,12 +389,15 @@ def _eval(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _limits(timeout: float) -> Limits:
-    from rmvdsl.logic.sat import Limits
-
-    if not 0 < timeout <= 3600:
-        raise UsageError(f"--timeout {timeout}: give seconds, more than 0 and at most 3600")
-    return Limits(timeout=timeout)
+def _seconds(text: str) -> float:
+    """A --timeout: seconds, more than 0 and at most an hour."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0 < value <= 3600:
+        raise argparse.ArgumentTypeError(f"{text}: give seconds, more than 0 and at most 3600")
+    return value
 
 
 def _write_witnesses(folder: str, report: PropertyReport) -> None:
@@ -421,9 +423,9 @@ def _write_witnesses(folder: str, report: PropertyReport) -> None:
 
 def _sat(args: argparse.Namespace) -> int:
     from rmvdsl.logic import evaluate as ev
-    from rmvdsl.logic.sat import NO, YES, satisfiable, valid
+    from rmvdsl.logic.sat import NO, YES, Limits, satisfiable, valid
 
-    limits = _limits(args.timeout)
+    limits = Limits(timeout=args.timeout)
     node, diagnostics = ev.parse(args.formula, args.syntax, False)
     compiled = None
     if node is not None:
