@@ -233,6 +233,8 @@ class BoundedTrace:
             return _and(self.value(f[1], at, plus), self.value(f[2], at, plus))
         if kind == "or":
             return _or(self.value(f[1], at, plus), self.value(f[2], at, plus))
+        if kind in ("until", "since") and f[1] == "<" and f[2] == 0:
+            return False  # an empty window: no t' at all
         if kind == "until":
             return self.until_plus(f, at) if plus else self.until(f, at)
         if kind == "since":
@@ -274,8 +276,6 @@ class BoundedTrace:
     def until(self, f: Any, at: Time) -> Bool:
         _, op, bound, phi, psi = f
         end = self.shifted(at, Fraction(bound))
-        if op == "<" and bound == 0:
-            return False
         if bound == 0:
             return self.value(psi, at)
         if op == "=":
@@ -309,8 +309,6 @@ class BoundedTrace:
         """The value on (at, at + epsilon)."""
         _, op, bound, phi, psi = f
         end = self.shifted(at, Fraction(bound))
-        if op == "<" and bound == 0:
-            return False
         if bound == 0:
             return self.value(psi, at, True)
         if op == "=":
@@ -350,8 +348,6 @@ class BoundedTrace:
         _, op, bound, phi, psi = f
         begin = self.shifted(at, -Fraction(bound))
         started = self.less_equal(ZERO, at)
-        if op == "<" and bound == 0:
-            return False
         if bound == 0:
             return _and(started, self.value(psi, at))
         if op == "=":
@@ -386,8 +382,6 @@ class BoundedTrace:
         _, op, bound, phi, psi = f
         begin = self.shifted(at, -Fraction(bound))
         started = self.less_equal(ZERO, at)
-        if op == "<" and bound == 0:
-            return False
         now = self.value(phi, at, True)
         if op == "=" or bound == 0:
             if bound == 0:
