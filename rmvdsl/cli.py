@@ -17,6 +17,7 @@ from rmvdsl.check import check
 from rmvdsl.check.loader import UsageError, read_text
 from rmvdsl.codes import CODES, explain
 from rmvdsl.diagnostics import Diagnostic, Severity
+from rmvdsl.numbers import NumberError, exact_or_quotient, exact_text
 from rmvdsl.render import render_json, render_sarif, render_text, summary
 from rmvdsl.source import SourceMap
 
@@ -335,15 +336,13 @@ def _fmt(args: argparse.Namespace) -> int:
 
 
 def _eval(args: argparse.Namespace) -> int:
-    from fractions import Fraction
-
     from rmvdsl.logic import evaluate as ev
     from rmvdsl.logic.traces import TraceError, read_trace
 
     try:
-        at = Fraction(args.at)
-    except (ValueError, ZeroDivisionError):
-        raise UsageError(f"--at {args.at}: not a number") from None
+        at = exact_or_quotient(args.at)
+    except NumberError as exc:
+        raise UsageError(f"--at: {exc}") from None
     node, diagnostics = ev.parse(args.formula, args.syntax, args.term)
     try:
         trace = read_trace(args.trace, read_text(args.trace))
@@ -351,7 +350,9 @@ def _eval(args: argparse.Namespace) -> int:
         raise UsageError(str(exc)) from None
     compiled = None
     if node is not None:
-        compiled, diagnostics = ev.compile_or_diagnose(node, trace.unit_seconds, trace.unit)
+        compiled, diagnostics = ev.compile_or_diagnose(
+            node, trace.unit_seconds, trace.unit, diagnostics, args.formula
+        )
     if compiled is None:
         return _formula_errors(args, diagnostics)
     for note in trace.notes:
@@ -359,12 +360,12 @@ def _eval(args: argparse.Namespace) -> int:
     if args.term:
         low, high = ev.term_at(compiled, trace, at)
         value = (
-            ev.number(low)
+            exact_text(low)
             if low == high
-            else f"unknown (between {ev.number(low)} and {ev.number(high)})"
+            else f"unknown (between {exact_text(low)} and {exact_text(high)})"
         )
         if args.format == "json":
-            sys.stdout.write(ev.as_json({"t": float(at), "low": float(low), "high": float(high)}))
+            sys.stdout.write(ev.as_json({"t": at, "low": low, "high": high}))
         else:
             print(value)
         return EXIT_OK
@@ -373,17 +374,25 @@ def _eval(args: argparse.Namespace) -> int:
         if args.format == "json":
             payload = {
                 "segments": [ev.segment_json(s) for s in result.segments],
-                "horizon": float(result.horizon),
+                "beyond": [ev.segment_json(s) for s in result.beyond],
+                "horizon": result.horizon,
                 "memory": {"held": result.memory, "bound": result.bound()},
             }
             sys.stdout.write(ev.as_json(payload))
         else:
             for segment in result.segments:
                 print(ev.segment_text(segment))
+            if result.beyond:
+                end = exact_text(trace.end if trace.end is not None else trace.times[-1])
+                print(f"after the end ({end}), as far as the trace decides:")
+            for segment in result.beyond:
+                print(ev.segment_text(segment))
         return EXIT_OK
-    verdict = ev.verdict_at(result.segments, at)
+    verdict = ev.verdict_at([*result.segments, *result.beyond], at)
+    if at < trace.times[0]:  # before the first sample: what the definitions say there
+        verdict = ev.reference_verdict(compiled, trace, at)
     if args.format == "json":
-        sys.stdout.write(ev.as_json({"t": float(at), "verdict": verdict}))
+        sys.stdout.write(ev.as_json({"t": at, "verdict": verdict}))
     else:
         print(verdict)
     return EXIT_OK
@@ -429,7 +438,7 @@ def _sat(args: argparse.Namespace) -> int:
     node, diagnostics = ev.parse(args.formula, args.syntax, False)
     compiled = None
     if node is not None:
-        compiled, diagnostics = ev.compile_or_diagnose(node)
+        compiled, diagnostics = ev.compile_or_diagnose(node, found=diagnostics, text=args.formula)
     if compiled is None:
         return _formula_errors(args, diagnostics)
     sat = satisfiable([compiled], limits=limits)

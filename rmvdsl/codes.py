@@ -91,6 +91,17 @@ and `<`, `<=`, `>`, `>=`, `=` between terms.""",
     event Slow = mean(Velocity) group by time(100sec)  // error: unknown unit""",
     ),
     (
+        "RMV106",
+        "number out of range",
+        """A number has more digits, or a larger or smaller magnitude, than rmvdsl reads:
+at most 100 digits, and a magnitude below 10^300 (zero, or at least 10^-300). Such a
+number cannot be a field value, a bound or a time of a real system, and reading
+`1e99999999` exactly would take unbounded time and memory. The same range holds for
+trace times and for times given on the command line.
+
+    event Fast when Velocity > 1e999   // RMV106: use a number a double can hold""",
+    ),
+    (
         "RMV200",
         "undefined name",
         """A name is used but never declared (in this file or the files it imports).

@@ -6,11 +6,8 @@
   same time, with the values that make them (z3); with `complete`, the inputs under
   which a state has no transition.
 
-Boolean events are conditions over variables: z3 reads them as formulas over real,
-integer, bool and string variables (a variable's ROS type gives its sort and, for
-unsigned integers, its range). What z3 cannot model exactly — a function of a
-variable (`mean(V)`), a value event — becomes a free variable of its own, so an
-answer "can hold together" is a possibility for the spec, never an invention.
+Boolean events are conditions over variables, as z3 formulas with the runtime's
+operator semantics (rmvdsl/check/conditions.py).
 """
 
 from __future__ import annotations
@@ -24,11 +21,12 @@ import networkx as nx
 import z3
 
 from rmvdsl.cache import default_cache, digest
-from rmvdsl.check.model import Kind, Model
-from rmvdsl.check.types import TypeInfo, VType
+from rmvdsl.check import conditions
+from rmvdsl.check.conditions import Conditions, value_text
+from rmvdsl.check.model import Model
+from rmvdsl.check.types import TypeInfo
 from rmvdsl.diagnostics import Diagnostic, Label, error, warning
 from rmvdsl.grammar import ast
-from rmvdsl.grammar.printer import decimal, expression
 from rmvdsl.logic import formula as fm
 
 SOLVER_TIMEOUT_MS = 2000
@@ -49,148 +47,6 @@ class AnalysisResult:
     transducers: dict[str, TransducerFacts] = field(default_factory=dict)
 
 
-class Conditions:
-    """Boolean events as z3 formulas."""
-
-    def __init__(self, model: Model, types: TypeInfo | None) -> None:
-        self.model = model
-        self.types = types
-        self.symbols: dict[str, Any] = {}
-        self.domains: list[Any] = []
-        self._inlining: set[str] = set()
-
-    def of_event(self, name: str) -> Any:
-        """The condition under which the input `name` holds."""
-        decl = self.model.events.get(name)
-        if decl is None or not decl.boolean or name in self._inlining:
-            return self.free_bool(f"event {name}")
-        self._inlining.add(name)
-        try:
-            condition = self.as_bool(self.expr(decl.expr))
-            where = decl.clause("where")
-            if where is not None:
-                condition = z3.And(condition, self.as_bool(self.expr(where.value)))
-            return condition
-        except (z3.Z3Exception, TypeError, AttributeError):
-            # Sorts that do not fit (the types stage reports why): no claim at all.
-            return self.free_bool(f"event {name}")
-        finally:
-            self._inlining.discard(name)
-
-    def free_bool(self, key: str) -> Any:
-        if key not in self.symbols:
-            self.symbols[key] = z3.Bool(key)
-        return self.symbols[key]
-
-    def free_real(self, key: str) -> Any:
-        if key not in self.symbols:
-            self.symbols[key] = z3.Real(key)
-        return self.symbols[key]
-
-    def variable(self, name: str) -> Any:
-        if name in self.symbols:
-            return self.symbols[name]
-        vtype = self.types.variables.get(name) if self.types else None
-        symbol = self._symbol(name, vtype)
-        self.symbols[name] = symbol
-        return symbol
-
-    def _symbol(self, name: str, vtype: VType | None) -> Any:
-        if vtype is None:
-            return z3.Real(name)
-        if vtype.kind == "bool":
-            return z3.Bool(name)
-        if vtype.kind == "string":
-            return z3.String(name)
-        if vtype.kind == "int":
-            symbol = z3.Int(name)
-            if vtype.ros in UNSIGNED:
-                self.domains.append(symbol >= 0)
-            return symbol
-        return z3.Real(name)
-
-    def expr(self, node: ast.Node) -> Any:
-        match node:
-            case ast.NumberLit():
-                return z3.RealVal(str(node.value))
-            case ast.BoolLit():
-                return z3.BoolVal(node.value)
-            case ast.StringLit():
-                return z3.StringVal(node.value)
-            case ast.TimeLit():
-                seconds = node.time.seconds() or Fraction(0)
-                return z3.RealVal(str(seconds))
-            case ast.NameRef():
-                return self.name(node.ident.name)
-            case ast.UnaryOp():
-                operand = self.expr(node.operand)
-                return (
-                    z3.Not(self.as_bool(operand)) if node.op == "not" else -self.as_number(operand)
-                )
-            case ast.BinOp():
-                return self.binary(node)
-        # a function of the data (an aggregate, a derivative): a value of its own
-        return self.free_real(expression(node))
-
-    def name(self, name: str) -> Any:
-        symbol = self.model.symbols.get(name)
-        if symbol is None:
-            return self.free_real(name)
-        if symbol.kind is Kind.VARIABLE:
-            return self.variable(name)
-        if symbol.kind is Kind.BOOL_EVENT:
-            return self.of_event(name)
-        if symbol.kind is Kind.EMITTED_EVENT:
-            return self.free_bool(f"event {name}")
-        return self.free_real(name)  # a value event: its value
-
-    def binary(self, node: ast.BinOp) -> Any:
-        left, right = self.expr(node.left), self.expr(node.right)
-        op = node.op
-        if op in ("and", "or"):
-            return (z3.And if op == "and" else z3.Or)(self.as_bool(left), self.as_bool(right))
-        if op in ("=~", "!~", "%", "&", "|", "^"):
-            return (
-                self.free_bool(expression(node))
-                if op in ("=~", "!~")
-                else self.free_real(expression(node))
-            )
-        try:
-            left, right = self.coerce(left, right)
-            return {
-                "=": lambda: left == right,
-                "!=": lambda: left != right,
-                "<": lambda: left < right,
-                "<=": lambda: left <= right,
-                ">": lambda: left > right,
-                ">=": lambda: left >= right,
-                "+": lambda: left + right,
-                "-": lambda: left - right,
-                "*": lambda: left * right,
-                "/": lambda: left / right,
-            }[op]()
-        except (z3.Z3Exception, TypeError):
-            return (
-                self.free_bool(expression(node))
-                if op in ("=", "!=", "<", "<=", ">", ">=")
-                else (self.free_real(expression(node)))
-            )
-
-    @staticmethod
-    def coerce(left: Any, right: Any) -> tuple[Any, Any]:
-        if z3.is_int(left) and z3.is_real(right):
-            return z3.ToReal(left), right
-        if z3.is_real(left) and z3.is_int(right):
-            return left, z3.ToReal(right)
-        return left, right
-
-    def as_bool(self, value: Any) -> Any:
-        return value if z3.is_bool(value) else value != 0
-
-    def as_number(self, value: Any) -> Any:
-        return z3.If(value, 1, 0) if z3.is_bool(value) else value
-
-
 def solve(
     constraints: Iterable[Any], domains: list[Any], symbols: dict[str, Any]
 ) -> tuple[str, str]:
@@ -208,10 +64,49 @@ def solve(
     answer = solver.check()
     if answer == z3.unknown:
         return "unknown", ""  # a time limit: not an answer to keep
-    values = witness(solver.model(), symbols) if answer == z3.sat else ""
+    values = witness(round_values(solver, symbols), symbols) if answer == z3.sat else ""
     result = "sat" if answer == z3.sat else "unsat"
     cache.put(key, {"answer": result, "values": values})
     return result, values
+
+
+def round_values(solver: Any, symbols: dict[str, Any]) -> Any:
+    """A model with round values where they serve (0, 1, the constants written in
+    the conditions): easier to read, and the same whatever z3 happened to find."""
+    found = solver.model()
+    constants = sorted(
+        {str(c) for c in _constants(solver.assertions())}, key=lambda text: (len(text), text)
+    )
+    for _, symbol in sorted(symbols.items()):
+        if not (z3.is_fp(symbol) or z3.is_bv(symbol)) or found.eval(symbol).eq(symbol):
+            continue
+        for text in ["0", "1", *constants][:8]:
+            candidate = conditions.number(Fraction(text), "int" if z3.is_bv(symbol) else "float")
+            solver.push()
+            solver.add(symbol == candidate)
+            if solver.check() == z3.sat:
+                found = solver.model()
+                solver.pop()
+                solver.add(symbol == candidate)
+                break
+            solver.pop()
+    return found
+
+
+def _constants(terms: Iterable[Any]) -> set[Fraction]:
+    out: set[Fraction] = set()
+    stack = list(terms)
+    while stack:
+        term = stack.pop()
+        if z3.is_fp_value(term):
+            value = conditions.as_python_float(term)
+            if value == value and abs(value) != float("inf"):
+                out.add(Fraction(value).limit_denominator(10**6))
+        elif z3.is_bv_value(term):
+            out.add(Fraction(term.as_signed_long()))
+        else:
+            stack.extend(term.children())
+    return out
 
 
 def witness(model: Any, symbols: dict[str, Any]) -> str:
@@ -223,18 +118,8 @@ def witness(model: Any, symbols: dict[str, Any]) -> str:
         value = model.eval(symbol, model_completion=False)
         if value.eq(symbol):
             continue
-        parts.append(f"{name} = {_value_text(value)}")
+        parts.append(f"{name} = {value_text(value)}")
     return ", ".join(parts) or "any values"
-
-
-def _value_text(value: Any) -> str:
-    if z3.is_rational_value(value):
-        return decimal(Fraction(value.numerator_as_long(), value.denominator_as_long()))
-    if z3.is_algebraic_value(value):
-        return value.approx(6).as_decimal(6)
-    if z3.is_string_value(value):
-        return f'"{value.as_string()}"'
-    return str(value)
 
 
 class Analyzer:

@@ -23,7 +23,8 @@ from rmvdsl.check.rosnames import message_type_problem, name_problem, suggest_na
 from rmvdsl.diagnostics import Diagnostic, Label, did_you_mean, error, warning
 from rmvdsl.grammar import ast
 from rmvdsl.logic import formula as fm
-from rmvdsl.source import SourceMap, Span
+from rmvdsl.logic.validate import check_formula
+from rmvdsl.source import SourceMap
 
 INFLUX_FUNCTIONS = frozenset(
     {
@@ -58,7 +59,7 @@ INFLUX_FUNCTIONS = frozenset(
     }
 )
 ARRAY_AGGREGATES = ("min", "max", "sum", "mean", "count", "any", "all")
-TIME_UNIT_NAMES = ("ns", "us", "ms", "s", "m", "h")
+TIME_UNIT_NAMES = tuple(fm.TIME_UNITS)  # ns, us, ms, s, m, h, d, w
 FILL_NAMES = ("none", "null", "previous", "linear")
 
 # Each action's positional parameters (required, then optional) and keywords.
@@ -653,44 +654,9 @@ class NameChecker:
             if isinstance(node, fm.Prop):
                 ident = ast.Ident(node.name, node.span)
                 self.resolve(ident, PROPOSITION_KINDS, "a state or a boolean event")
-            elif isinstance(node, fm.Temporal):
-                if node.bound is None:
-                    self.report(
-                        error(
-                            "RMV212",
-                            f"`{node.op}` needs a time bound",
-                            _keyword_span(node),
-                            label="unbounded",
-                            help=f"write e.g. `{node.op}[<=10s]`",
-                        )
-                    )
-                else:
-                    self.check_bound_time(node.bound.value)
-            elif isinstance(node, fm.Duration):
-                self.check_bound_time(node.window)
-            elif isinstance(node, fm.Number) and node.time is not None:
-                pass  # a constant with a unit is fine wherever a duration is
-
-    def check_bound_time(self, time: fm.TimeValue) -> None:
-        if time.unit is None and self.model.time_unit is None:
-            self.report(
-                error(
-                    "RMV213",
-                    f"the time `{time.text}` has no unit and the spec declares no time unit",
-                    time.span,
-                    label="seconds? milliseconds?",
-                    help=f"write `{time.text}s`, or declare `time unit s` once for the spec",
-                )
-            )
-        elif time.value <= 0:
-            self.report(
-                error(
-                    "RMV219",
-                    "a time bound must be positive",
-                    time.span,
-                    label=f"`{time.text}` is not positive",
-                )
-            )
+        source = self.model.sources.get(formula.span.path)
+        text = source.text if source is not None else None
+        self.diagnostics += check_formula(formula, self.model.time_unit, text)
 
     def check_whitelist(self, decl: ast.WhitelistDecl) -> None:
         if isinstance(decl.target, ast.Ident):
@@ -852,13 +818,6 @@ _ACTION_EXAMPLES = {
     "command": '"/usr/local/bin/notify.sh"',
     "address": '"127.0.0.1:5678"',
 }
-
-
-def _keyword_span(node: fm.Temporal) -> Span:
-    span = node.span
-    if node.left is not None:
-        return Span(span.path, node.left.span.end, node.right.span.start)
-    return Span(span.path, span.start, node.right.span.start)
 
 
 _ONE_PER_SPEC = "a spec has one (its imports included): remove or merge the second"

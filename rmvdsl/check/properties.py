@@ -18,7 +18,8 @@ from fractions import Fraction
 from typing import Any
 
 from rmvdsl.cache import Cache
-from rmvdsl.check.analysis import AnalysisResult, Conditions, solve
+from rmvdsl.check.analysis import AnalysisResult, solve
+from rmvdsl.check.conditions import Conditions
 from rmvdsl.check.model import Kind, Model
 from rmvdsl.check.types import TypeInfo
 from rmvdsl.diagnostics import Diagnostic, Label, Severity, error, warning
@@ -230,14 +231,28 @@ class _PropertyAnalyzer:
             if machines
             else "the events' conditions"
         )
+        if machines:
+            help = (
+                "a transducer is in one state at a time, starts in its initial state and "
+                "moves only along its transitions; check the states the property names"
+            )
+        else:
+            events = sorted(n for n in names if n in self.system.never) or sorted(
+                {n for pair in self.system.exclusive for n in pair if n in names}
+            )
+            help = (
+                "no values of the variables make "
+                + ", ".join(f"`{e}`" for e in events)
+                + " hold as the property needs (a variable ranges over its ROS type); "
+                "check the events' conditions"
+            )
         found = error(
             "RMV511",
             f"property `{decl.name.name}` can never hold on this system: it needs traces "
             f"that {because} cannot make",
             decl.name.span,
             label="satisfiable in pure logic, impossible here" if pure else "impossible here",
-            help="a transducer is in one state at a time, starts in its initial state and "
-            "moves only along its transitions; check the states the property names",
+            help=help,
         )
         if pure is None:
             return found

@@ -30,6 +30,7 @@ from rmvdsl.check.rosnames import message_type_problem
 from rmvdsl.diagnostics import Diagnostic, Label, did_you_mean, error
 from rmvdsl.grammar import ast
 from rmvdsl.logic import formula as fm
+from rmvdsl.runtime.values import literal
 from rmvdsl.source import Span
 
 NUMERIC = frozenset({"int", "float"})
@@ -45,6 +46,16 @@ class VType:
     @property
     def numeric(self) -> bool:
         return self.kind in NUMERIC
+
+    @property
+    def adapts(self) -> bool:
+        """A bare number written in the spec: it takes the unit of what it meets."""
+        return self.literal and self.kind in NUMERIC and self.rate == 0
+
+    @property
+    def exponent(self) -> int:
+        """The power of seconds in its unit: 1 for a time, -1 for a rate, 0 for none."""
+        return self.rate + (1 if self.kind == "duration" else 0)
 
     def describe(self) -> str:
         name = self.ros or self.kind
@@ -493,7 +504,7 @@ class TypeChecker:
     def expression(self, expr: ast.Node) -> VType:
         match expr:
             case ast.NumberLit():
-                kind = "int" if expr.value.denominator == 1 and "." not in expr.text else "float"
+                kind = "int" if isinstance(literal(expr.text), int) else "float"
                 return VType(kind, literal=True)
             case ast.TimeLit():
                 return VType("duration", literal=True)
@@ -560,14 +571,18 @@ class TypeChecker:
         if bad or UNKNOWN in (left, right):
             return UNKNOWN
         if op in ("+", "-"):
-            if not (left.literal or right.literal) and left.rate != right.rate:
+            if _units_clash(left, right):
                 self.report(self.unit_error(expr, left, right, f"`{op}` adds"))
-            rate = right.rate if left.literal else left.rate
+            if "duration" in (left.kind, right.kind):
+                return VType("duration", literal=left.literal and right.literal)
+            rate = right.rate if left.adapts else left.rate
         elif op == "*":
             rate = left.rate + right.rate
         else:
             rate = left.rate - right.rate
-        kind = "int" if left.kind == right.kind == "int" and op != "/" else "float"
+        kind = "int" if left.kind == right.kind == "int" and op not in ("/", "%") else "float"
+        if op == "%":
+            kind = "int" if left.kind == right.kind == "int" else "float"
         return VType(kind, rate=rate, literal=left.literal and right.literal)
 
     def comparison(self, expr: ast.BinOp, left: VType, right: VType) -> None:
@@ -578,12 +593,10 @@ class TypeChecker:
             self.regex(expr, left)
             return
         kinds = {left.kind, right.kind}
-        if kinds <= {"int", "float"} or kinds <= {"duration"}:
-            if not (left.literal or right.literal) and left.rate != right.rate:
+        if kinds <= {"int", "float", "duration"}:
+            if _units_clash(left, right):
                 self.report(self.unit_error(expr, left, right, "compares"))
             return
-        if kinds == {"duration", "int"} or kinds == {"duration", "float"}:
-            return  # a number of seconds against a time literal
         if len(kinds) == 1 and kinds & {"string", "bool", "time"}:
             if op not in ("=", "!=") and kinds != {"time"}:
                 self.report(
@@ -717,16 +730,27 @@ class TypeChecker:
 
     @staticmethod
     def unit_error(expr: ast.BinOp, left: VType, right: VType, verb: str) -> Diagnostic:
+        help = (
+            f"the left side is {_unit_text(left)}, the right side {_unit_text(right)}: "
+            "compare like with like, or use a bare number, which takes the other side's unit"
+        )
+        minutes = next(
+            (s for s in (expr.left, expr.right) if isinstance(s, ast.TimeLit)
+             and s.time.unit == "m"),
+            None,
+        )  # fmt: skip
+        if minutes is not None:
+            help += f"; `{minutes.time.text}` is in minutes (`m`): for metres, write the number"
         return error(
             "RMV315",
             f"{verb} {left.describe()} with {right.describe()}",
             expr.span,
-            label="different time units",
+            label="different units",
             secondary=[
-                Label(expr.left.span, left.describe()),
-                Label(expr.right.span, right.describe()),
+                Label(expr.left.span, _unit_text(left)),
+                Label(expr.right.span, _unit_text(right)),
             ],
-            help="a derivative is a value per second: compare it with another rate, or a constant",
+            help=help,
         )
 
     # ---- alerts ----
@@ -860,6 +884,21 @@ class TypeChecker:
         )
 
 
+def _units_clash(left: VType, right: VType) -> bool:
+    return not (left.adapts or right.adapts) and left.exponent != right.exponent
+
+
+def _unit_text(value: VType) -> str:
+    exponent = value.exponent
+    if exponent == 0:
+        return "a plain number (no unit)"
+    if exponent == 1:
+        return "a time (seconds)"
+    if exponent == -1:
+        return "a rate (per second)"
+    return f"in seconds^{exponent}"
+
+
 def _sums(term: fm.Term) -> Iterator[fm.Arith]:
     """The `+` and `-` of a term, not looking inside duration bodies."""
     if isinstance(term, fm.Arith):
@@ -874,7 +913,7 @@ def _unit_word(unit: int | None) -> str:
 
 
 def seconds_text(value: Fraction) -> str:
-    from rmvdsl.grammar.printer import decimal
+    from rmvdsl.numbers import decimal
 
     return f"{decimal(value)}s"
 

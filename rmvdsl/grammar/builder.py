@@ -15,8 +15,8 @@ from lark import Token, Transformer
 
 from rmvdsl.diagnostics import Diagnostic, Label, error
 from rmvdsl.grammar import ast
-from rmvdsl.grammar.printer import decimal
 from rmvdsl.logic import formula as fm
+from rmvdsl.numbers import NumberError, decimal, exact
 from rmvdsl.source import Span
 
 _QUANTITY = re.compile(r"^((?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?)([A-Za-z]*)$")
@@ -116,7 +116,14 @@ class AstBuilder(Transformer[Token, Any]):
         match = _QUANTITY.match(str(token))
         if match is None:  # cannot happen: the lexer's pattern is the same
             return Fraction(0), "", str(token)
-        return Fraction(match.group(1)), match.group(2), str(token)
+        try:
+            value = exact(match.group(1))
+        except NumberError as exc:
+            self.diagnostics.append(
+                error("RMV106", str(exc), self.span(token), label="out of range", help=None)
+            )
+            value = Fraction(0)
+        return value, match.group(2), str(token)
 
     def unknown_unit(self, token: Token, unit: str, expected: str) -> None:
         self.diagnostics.append(

@@ -43,6 +43,10 @@ _FRIENDLY = {
     "STRING": "a string",
     "$END": "the end of the file",
     "END_OF_DECLARATION": "the end of the declaration",
+}
+# The LaTeX grammar's terminals share names with the infix grammar's (`AND` is
+# `and` there): these texts apply to LaTeX messages only.
+_LATEX_FRIENDLY = {
     "OR": "`\\lor`",
     "AND": "`\\land`",
     "NOT": "`\\neg`",
@@ -112,7 +116,7 @@ def bare_spec_parser() -> Lark:
 @functools.cache
 def _terminal_texts(which: str) -> dict[str, str]:
     parser = _spec_parser()[0] if which == "spec" else _latex_parser()[0]
-    texts = dict(_FRIENDLY)
+    texts = dict(_FRIENDLY) if which == "spec" else {**_FRIENDLY, **_LATEX_FRIENDLY}
     for terminal in parser.terminals:
         if terminal.name in texts:
             continue

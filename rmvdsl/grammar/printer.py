@@ -3,10 +3,9 @@ the tree the same. The formatter and `rmv import` both print through here."""
 
 from __future__ import annotations
 
-from fractions import Fraction
-
 from rmvdsl.grammar import ast
 from rmvdsl.logic import formula as fm
+from rmvdsl.numbers import decimal
 
 
 def quote(value: str) -> str:
@@ -22,26 +21,6 @@ def quote(value: str) -> str:
             out.append(char)
     out.append('"')
     return "".join(out)
-
-
-def decimal(value: Fraction) -> str:
-    """A decimal text for a fraction with a finite expansion (else a quotient)."""
-    if value.denominator == 1:
-        return str(value.numerator)
-    denominator = value.denominator
-    twos = fives = 0
-    while denominator % 2 == 0:
-        denominator //= 2
-        twos += 1
-    while denominator % 5 == 0:
-        denominator //= 5
-        fives += 1
-    if denominator != 1:
-        return str(float(value))
-    digits = max(twos, fives)
-    text = f"{abs(value.numerator) * 10**digits // value.denominator:0{digits + 1}d}"
-    sign = "-" if value < 0 else ""
-    return f"{sign}{text[:-digits]}.{text[-digits:]}"
 
 
 def value(node: ast.Node) -> str:

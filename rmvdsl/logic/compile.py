@@ -1,7 +1,10 @@
 """From the formula tree to the runtime's nested tuples.
 
 Times become numbers in the trace's unit (seconds unless said otherwise): `10s` is
-10, `100ms` is 1/10, and a bare number is taken in the given default unit.
+10, `100ms` is 1/10, and a bare number is taken in the given default unit, wherever
+it stands for a time: a bound, a window, a side of a comparison of durations, a
+summand. The one bare number that is not a time is the constant factor of a
+product (`2 * duration[10s](p)`): it scales, so it keeps its value.
 `eventually`, `always`, `once`, `historically`, `->` and `<->` are rewritten with
 until, since, not, and, or, as docs/semantics.md defines them.
 """
@@ -12,6 +15,7 @@ from fractions import Fraction
 from typing import Any
 
 from rmvdsl.logic import formula as fm
+from rmvdsl.logic.formula import TIME_UNITS
 
 
 class CompileError(Exception):
@@ -87,17 +91,22 @@ class _Compiler:
                 return ("not", ("since", op, bound, true, ("not", body)))
         raise CompileError(f"unknown temporal operator {node.op}", node)
 
-    def term(self, node: fm.Term) -> Any:
+    def term(self, node: fm.Term, scalar: bool = False) -> Any:
+        """`scalar`: the term is the constant factor of a product, not a time."""
         match node:
             case fm.Number():
                 if node.time is not None:
                     return ("num", self.time(node.time, node) * (1 if node.value >= 0 else -1))
-                return ("num", node.value)
+                if scalar or self.default_unit is None:
+                    return ("num", node.value)
+                return ("num", node.value * TIME_UNITS[self.default_unit] / self.unit)
             case fm.Duration():
                 return ("dur", self.time(node.window, node), self.formula(node.body))
             case fm.Arith():
-                left, right = self.term(node.left), self.term(node.right)
                 kind = {"+": "add", "-": "sub", "*": "mul"}[node.op]
+                product = kind == "mul"
+                left = self.term(node.left, product and _constant(node.left))
+                right = self.term(node.right, product and _constant(node.right))
                 if kind == "mul" and left[0] != "num" and right[0] != "num":
                     raise CompileError(
                         "a product of two durations is not linear: one side must be a constant",
@@ -105,3 +114,8 @@ class _Compiler:
                     )
                 return (kind, left, right)
         raise CompileError(f"not a term: {node!r}", node)
+
+
+def _constant(term: fm.Term) -> bool:
+    """A term with no duration in it: as a factor of a product it is a plain number."""
+    return not any(isinstance(n, fm.Duration) for n in fm.walk(term))

@@ -2,23 +2,25 @@
 
 from __future__ import annotations
 
-import json
+import math
 from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
-from rmvdsl.diagnostics import Diagnostic, error
+from rmvdsl.diagnostics import Diagnostic, Severity, error
 from rmvdsl.grammar.parser import parse_formula
-from rmvdsl.grammar.printer import decimal
 from rmvdsl.logic.compile import CompileError, compile_formula
 from rmvdsl.logic.formula import Formula, Term
 from rmvdsl.logic.traces import TraceFile
+from rmvdsl.logic.validate import check_formula
+from rmvdsl.numbers import exact_text, to_json
 from rmvdsl.runtime.rmtld3 import Monitor, Segment, merge
 
 
 @dataclass
 class Evaluation:
     segments: list[Segment] = field(default_factory=list)
+    beyond: list[Segment] = field(default_factory=list)  # after the trace's end
     memory: int = 0  # breakpoints held at the end
     horizon: Fraction = Fraction(0)  # ahead plus back, in trace units
     nodes: int = 0
@@ -26,7 +28,7 @@ class Evaluation:
     def bound(self) -> str:
         """The static memory bound (docs/semantics.md)."""
         return (
-            f"at most {self.nodes} subformulas x (2 x (horizon {number(self.horizon)} + 1)"
+            f"at most {self.nodes} subformulas x (2 x (horizon {exact_text(self.horizon)} + 1)"
             " x state changes per time unit + 3) breakpoints"
         )
 
@@ -36,10 +38,19 @@ def parse(text: str, syntax: str, term: bool) -> tuple[Formula | Term | None, li
 
 
 def compile_or_diagnose(
-    node: Any, unit: Fraction = Fraction(1), default_unit: str = "s"
+    node: Any,
+    unit: Fraction = Fraction(1),
+    default_unit: str = "s",
+    found: list[Diagnostic] | None = None,
+    text: str | None = None,
 ) -> tuple[Any, list[Diagnostic]]:
     """The runtime form of a parsed formula, or why there is none. `unit`: one time
-    unit of the trace in seconds; `default_unit`: the unit of bare numbers."""
+    unit of the trace in seconds; `default_unit`: the unit of bare numbers; `found`:
+    what parsing it said; `text`: the formula's text. The checks are those a spec's
+    property gets (rmvdsl.logic.validate)."""
+    problems = [*(found or []), *check_formula(node, default_unit, text)]
+    if any(d.severity is Severity.ERROR for d in problems):
+        return None, problems
     try:
         return compile_formula(node, unit, default_unit), []
     except CompileError as exc:
@@ -54,7 +65,11 @@ def run(formula: Any, trace: TraceFile) -> Evaluation:
     assert trace.end is not None
     monitor.end(trace.end)
     return Evaluation(
-        merge(monitor.verdicts()), monitor.memory(), Fraction(monitor.horizon), len(monitor.order)
+        merge(monitor.verdicts()),
+        monitor.beyond(),
+        monitor.memory(),
+        Fraction(monitor.horizon),
+        len(monitor.order),
     )
 
 
@@ -63,6 +78,15 @@ def verdict_at(segments: list[Segment], t: Fraction) -> str:
         if (a < t or (a == t and a_closed)) and (t < b or (t == b and b_closed)):
             return value
     return "unknown"
+
+
+def reference_verdict(formula: Any, trace: TraceFile, t: Fraction) -> str:
+    """The verdict at t by the reference evaluator (docs/semantics.md)."""
+    from rmvdsl.logic.reference import Reference, Trace
+    from rmvdsl.runtime.rmtld3 import NAMES
+
+    assert trace.end is not None
+    return NAMES[Reference(Trace(trace.times, trace.states, trace.end)).value(formula, t)]
 
 
 def term_at(term: Any, trace: TraceFile, t: Fraction) -> tuple[Fraction, Fraction]:
@@ -74,29 +98,35 @@ def term_at(term: Any, trace: TraceFile, t: Fraction) -> tuple[Fraction, Fractio
     return Reference(Trace(trace.times, trace.states, trace.end)).term(term, t)
 
 
-def number(value: Fraction) -> str:
-    """A decimal where one is exact, else the quotient (`1/3`)."""
-    text = decimal(value)
-    return text if Fraction(text) == value else str(value)
+def _time_text(value: Any) -> str:
+    return "inf" if isinstance(value, float) and math.isinf(value) else exact_text(Fraction(value))
 
 
 def segment_text(segment: Segment) -> str:
     a, b, a_closed, b_closed, value = segment
     if a == b:
-        return f"{number(a)}  {value}"
-    return f"{'[' if a_closed else '('}{number(a)}, {number(b)}{']' if b_closed else ')'}  {value}"
+        return f"{_time_text(a)}  {value}"
+    left, right = "[" if a_closed else "(", "]" if b_closed else ")"
+    return f"{left}{_time_text(a)}, {_time_text(b)}{right}  {value}"
 
 
 def segment_json(segment: Segment) -> dict[str, Any]:
     a, b, a_closed, b_closed, value = segment
     return {
-        "from": float(a) if a.denominator != 1 else int(a),
-        "to": float(b) if b.denominator != 1 else int(b),
+        "from": json_time(a),
+        "to": json_time(b),
         "from_closed": a_closed,
         "to_closed": b_closed,
         "verdict": value,
     }
 
 
+def json_time(value: Any) -> Fraction | None:
+    """A time for JSON, exact (None for a segment that never ends)."""
+    if isinstance(value, float) and math.isinf(value):
+        return None
+    return Fraction(value)
+
+
 def as_json(payload: dict[str, Any]) -> str:
-    return json.dumps(payload, indent=2) + "\n"
+    return to_json(payload) + "\n"

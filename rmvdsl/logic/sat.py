@@ -30,9 +30,9 @@ import z3
 from rmvdsl.cache import Cache, default_cache, digest
 from rmvdsl.logic.abstract import refute
 from rmvdsl.logic.bounded import BoundedTrace, EncodingTimeout, has_past
-from rmvdsl.logic.evaluate import number
 from rmvdsl.logic.reference import TRUE, Reference, Trace
 from rmvdsl.logic.system import System
+from rmvdsl.numbers import exact_text as number
 
 # Bump when an encoding changes: cached answers carry it in their key.
 ENCODING_VERSION = "1"

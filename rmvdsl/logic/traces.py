@@ -21,14 +21,13 @@ from __future__ import annotations
 import csv
 import io
 import json
-import math
 import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from decimal import Decimal, InvalidOperation
 from fractions import Fraction
 
 from rmvdsl.logic.formula import TIME_UNITS
+from rmvdsl.numbers import NumberError, exact_or_quotient
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_^{}]*$")
 
@@ -73,24 +72,27 @@ def read_trace(path: str, text: str) -> TraceFile:
     return trace
 
 
+class JsonNumber(str):
+    """A number of a JSON text as written: read exactly, never through a float."""
+
+
+def load_json(raw: str) -> object:
+    """JSON with its numbers kept as written (`JsonNumber`); NaN and Infinity too."""
+    return json.loads(raw, parse_float=JsonNumber, parse_int=JsonNumber,
+                      parse_constant=JsonNumber)  # fmt: skip
+
+
 def _time(value: object, path: str, line: int, column: int) -> Fraction:
     if isinstance(value, bool) or not isinstance(value, int | float | str):
         raise TraceError(path, line, column, f"`t` must be a number, not {json.dumps(value)}")
-    if isinstance(value, float) and not math.isfinite(value):
-        raise TraceError(path, line, column, f"`t` is {value}: times must be finite numbers")
     text = str(value).strip()
-    if isinstance(value, str) and "/" in text:  # an exact fraction: "1/3"
-        try:
-            return Fraction(text)
-        except (ValueError, ZeroDivisionError):
-            raise TraceError(path, line, column, f"`t` must be a number, not `{value}`") from None
     try:
-        number = Decimal(text)
-    except InvalidOperation:
-        raise TraceError(path, line, column, f"`t` must be a number, not `{value}`") from None
-    if not number.is_finite():
-        raise TraceError(path, line, column, f"`t` is {value}: times must be finite numbers")
-    return Fraction(number)
+        return exact_or_quotient(text)  # "1/3": an exact fraction, as `rmv sat` writes
+    except NumberError as exc:
+        message = f"`t` must be a number: {exc}"
+        if text.lower().lstrip("+-") in ("nan", "infinity", "inf"):
+            message = f"`t` is {text}: times must be finite numbers"
+        raise TraceError(path, line, column, message) from None
 
 
 def _add(
@@ -132,7 +134,7 @@ def _read_jsonl(path: str, text: str) -> TraceFile:
         if not raw.strip():
             continue
         try:
-            record = json.loads(raw, parse_constant=lambda name: float(name))
+            record = load_json(raw)
         except json.JSONDecodeError as exc:
             raise TraceError(path, number, exc.colno, f"not JSON: {exc.msg}") from None
         if not isinstance(record, dict):

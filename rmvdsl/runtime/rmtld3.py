@@ -599,6 +599,18 @@ class Monitor:
         self._recompute()
         self._emit(final=True)
 
+    def beyond(self) -> list[Segment]:
+        """After `end`: the verdicts from the end of the input on, as far as the input
+        decides them (`true` stays true; `once[=20] p` is known for 20 more). The
+        unknown that runs for ever is left out."""
+        self._flush()
+        if self.start is None:
+            return []
+        tail = self._segments(self.known, _INFINITY)
+        if tail and tail[-1][4] == "unknown":
+            tail.pop()
+        return tail
+
     def _hold(self, t: Any, state: frozenset[str]) -> None:
         self.count += 1
         heapq.heappush(self.pending, (t, self.count, state))

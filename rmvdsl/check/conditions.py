@@ -1,0 +1,281 @@
+"""Boolean events as z3 formulas, with the runtime's operator semantics.
+
+Every operator means what `rmvdsl.runtime.values` computes (InfluxQL's semantics):
+integers are 64-bit bit-vectors (wrapping `+ - *`, Go's `%`, bitwise operators),
+floats are IEEE doubles (z3's floating-point theory: rounding, NaN and infinities
+included), `/` divides as floats and gives 0 for a zero divisor. A variable ranges
+over its ROS type (an `int8` over -128..127, a `float64` over every double,
+NaN included). What z3 cannot model exactly — a function of the data (`mean(V)`),
+a value event, a regular-expression match — is a free value of its sort, so an
+answer "can hold" is a possibility the spec leaves open and "never holds" is exact.
+"""
+
+from __future__ import annotations
+
+import struct
+from fractions import Fraction
+from typing import Any
+
+import z3
+
+from rmvdsl.check.model import Kind, Model
+from rmvdsl.check.types import TypeInfo, VType
+from rmvdsl.grammar import ast
+from rmvdsl.grammar.printer import expression
+from rmvdsl.runtime.values import INT_BITS, INTEGER_RANGES, literal
+
+FLOAT = z3.Float64()
+ROUNDING = z3.RNE()  # IEEE's default, and Go's
+_ORDERS = ("<", "<=", ">", ">=")
+
+
+class Conditions:
+    """The z3 formula of each boolean event; `symbols` names the free values."""
+
+    def __init__(self, model: Model, types: TypeInfo | None) -> None:
+        self.model = model
+        self.types = types
+        self.symbols: dict[str, Any] = {}
+        self.domains: list[Any] = []
+        self._inlining: set[str] = set()
+
+    def of_event(self, name: str) -> Any:
+        """The condition under which the input `name` holds."""
+        decl = self.model.events.get(name)
+        if decl is None or not decl.boolean or name in self._inlining:
+            return self.free(f"event {name}", "bool")
+        self._inlining.add(name)
+        try:
+            condition = as_bool(self.expr(decl.expr))
+            where = decl.clause("where")
+            if where is not None:
+                condition = z3.And(condition, as_bool(self.expr(where.value)))
+            return condition
+        except (z3.Z3Exception, TypeError, AttributeError):
+            # Sorts that do not fit (the types stage reports why): no claim at all.
+            return self.free(f"event {name}", "bool")
+        finally:
+            self._inlining.discard(name)
+
+    def free(self, key: str, kind: str) -> Any:
+        """A value of its own, one per key (the same text means the same value)."""
+        if key not in self.symbols:
+            self.symbols[key] = _constant(key, kind)
+        return self.symbols[key]
+
+    def variable(self, name: str) -> Any:
+        if name in self.symbols:
+            return self.symbols[name]
+        vtype = self.types.variables.get(name) if self.types else None
+        kind = vtype.kind if vtype is not None else "float"
+        symbol = _constant(name, kind)
+        self.symbols[name] = symbol
+        if vtype is not None and vtype.ros in INTEGER_RANGES:
+            least, most = INTEGER_RANGES[vtype.ros]
+            self.domains += [symbol >= least, symbol <= most]
+        return symbol
+
+    def expr(self, node: ast.Node) -> Any:
+        match node:
+            case ast.NumberLit():
+                kind = "int" if isinstance(literal(node.text), int) else "float"
+                return number(node.value, kind)
+            case ast.BoolLit():
+                return z3.BoolVal(node.value)
+            case ast.StringLit():
+                return z3.StringVal(node.value)
+            case ast.TimeLit():
+                return number(node.time.seconds() or Fraction(0), "float")
+            case ast.RateLit():
+                return number(node.hertz, "float")
+            case ast.NameRef():
+                return self.name(node.ident.name)
+            case ast.UnaryOp():
+                operand = self.expr(node.operand)
+                return z3.Not(as_bool(operand)) if node.op == "not" else negate(operand)
+            case ast.BinOp():
+                return self.binary(node)
+        return self.free(expression(node), self._kind_of(node))
+
+    def _kind_of(self, node: ast.Node) -> str:
+        """The sort of a function of the data: its type, when the types stage knows it."""
+        if isinstance(node, ast.Call) and node.func.name == "count":
+            return "int"
+        return "float"
+
+    def name(self, name: str) -> Any:
+        symbol = self.model.symbols.get(name)
+        if symbol is None:
+            return self.free(name, "float")
+        if symbol.kind is Kind.VARIABLE:
+            return self.variable(name)
+        if symbol.kind is Kind.BOOL_EVENT:
+            return self.of_event(name)
+        if symbol.kind is Kind.EMITTED_EVENT:
+            return self.free(f"event {name}", "bool")
+        vtype = self.types.events.get(name) if self.types else None
+        return self.free(name, _sort_kind(vtype))  # a value event: its value
+
+    def binary(self, node: ast.BinOp) -> Any:
+        left, right = self.expr(node.left), self.expr(node.right)
+        op = node.op
+        if op in ("and", "or"):
+            return (z3.And if op == "and" else z3.Or)(as_bool(left), as_bool(right))
+        if op in ("=~", "!~"):
+            return self.free(expression(node), "bool")
+        try:
+            return apply(op, left, right)
+        except (z3.Z3Exception, TypeError, KeyError):
+            kind = "bool" if op in ("=", "!=", *_ORDERS) else "float"
+            return self.free(expression(node), kind)
+
+
+def _sort_kind(vtype: VType | None) -> str:
+    if vtype is None or vtype.kind not in ("bool", "int", "string"):
+        return "float"
+    return vtype.kind
+
+
+def _constant(name: str, kind: str) -> Any:
+    if kind == "bool":
+        return z3.Bool(name)
+    if kind == "string":
+        return z3.String(name)
+    if kind == "int":
+        return z3.BitVec(name, INT_BITS)
+    return z3.FP(name, FLOAT)  # floats, times and durations (seconds)
+
+
+def number(value: Fraction, kind: str) -> Any:
+    """A constant: an integer literal as a 64-bit integer, anything else as the
+    double nearest to it (as InfluxQL parses it)."""
+    if kind == "int" and value.denominator == 1 and -(2**63) <= value < 2**63:
+        return z3.BitVecVal(int(value), INT_BITS)
+    return z3.FPVal(float(value), FLOAT)
+
+
+def is_int(value: Any) -> bool:
+    return z3.is_bv(value)
+
+
+def is_float(value: Any) -> bool:
+    return z3.is_fp(value)
+
+
+def to_float(value: Any) -> Any:
+    if is_float(value):
+        return value
+    if z3.is_bool(value):
+        value = z3.If(value, z3.BitVecVal(1, INT_BITS), z3.BitVecVal(0, INT_BITS))
+    return z3.fpSignedToFP(ROUNDING, value, FLOAT)
+
+
+def as_bool(value: Any) -> Any:
+    if z3.is_bool(value):
+        return value
+    if is_float(value):
+        return z3.Not(z3.fpIsZero(value))
+    return value != 0
+
+
+def negate(value: Any) -> Any:
+    if is_float(value):
+        return z3.fpNeg(value)
+    if is_int(value):
+        return -value
+    raise TypeError("`-` needs a number")
+
+
+def apply(op: str, left: Any, right: Any) -> Any:
+    """`op` on two z3 values, as `rmvdsl.runtime.values.binary` computes it."""
+    if op in ("&", "|", "^"):
+        if not (is_int(left) and is_int(right)):
+            raise TypeError(f"`{op}` needs integers")
+        return {"&": left & right, "|": left | right, "^": left ^ right}[op]
+    if z3.is_string(left) or z3.is_string(right):
+        if op not in ("=", "!="):
+            raise TypeError("strings are only compared for equality")
+        return left == right if op == "=" else left != right
+    if z3.is_bool(left) and z3.is_bool(right) and op in ("=", "!="):
+        return left == right if op == "=" else left != right
+    if op == "/":
+        return _divide(to_float(left), to_float(right))
+    if is_int(left) and is_int(right):
+        return _integers(op, left, right)
+    return _floats(op, to_float(left), to_float(right))
+
+
+def _divide(left: Any, right: Any) -> Any:
+    return z3.If(z3.fpIsZero(right), z3.FPVal(0.0, FLOAT), z3.fpDiv(ROUNDING, left, right))
+
+
+def _integers(op: str, left: Any, right: Any) -> Any:
+    zero = z3.BitVecVal(0, INT_BITS)
+    return {
+        "+": lambda: left + right,
+        "-": lambda: left - right,
+        "*": lambda: left * right,
+        "%": lambda: z3.If(right == zero, zero, z3.SRem(left, right)),
+        "=": lambda: left == right,
+        "!=": lambda: left != right,
+        "<": lambda: left < right,  # signed, as z3py's operators on bit-vectors are
+        "<=": lambda: left <= right,
+        ">": lambda: left > right,
+        ">=": lambda: left >= right,
+    }[op]()
+
+
+def _floats(op: str, left: Any, right: Any) -> Any:
+    return {
+        "+": lambda: z3.fpAdd(ROUNDING, left, right),
+        "-": lambda: z3.fpSub(ROUNDING, left, right),
+        "*": lambda: z3.fpMul(ROUNDING, left, right),
+        "%": lambda: _fmod(left, right),
+        "=": lambda: z3.fpEQ(left, right),
+        "!=": lambda: z3.Not(z3.fpEQ(left, right)),
+        "<": lambda: z3.fpLT(left, right),
+        "<=": lambda: z3.fpLEQ(left, right),
+        ">": lambda: z3.fpGT(left, right),
+        ">=": lambda: z3.fpGEQ(left, right),
+    }[op]()
+
+
+def _fmod(left: Any, right: Any) -> Any:
+    """C's fmod from IEEE's remainder: the same value moved by |right| to the
+    dividend's sign (exact: fmod's result is a double)."""
+    rem = z3.fpRem(left, right)
+    size = z3.fpAbs(right)
+    moved = z3.If(
+        z3.And(z3.fpIsPositive(left), z3.fpIsNegative(rem), z3.Not(z3.fpIsZero(rem))),
+        z3.fpAdd(ROUNDING, rem, size),
+        z3.If(
+            z3.And(z3.fpIsNegative(left), z3.fpIsPositive(rem), z3.Not(z3.fpIsZero(rem))),
+            z3.fpSub(ROUNDING, rem, size),
+            rem,
+        ),
+    )
+    nan = z3.fpNaN(FLOAT)
+    return z3.If(z3.Or(z3.fpIsZero(right), z3.fpIsInf(left)), nan, moved)
+
+
+def value_text(value: Any) -> str:
+    """A model's value as the runtime would print it."""
+    if z3.is_bv_value(value):
+        return str(value.as_signed_long())
+    if z3.is_fp_value(value):
+        number = as_python_float(value)
+        return "NaN" if number != number else repr(number)
+    if z3.is_rational_value(value):
+        from rmvdsl.numbers import decimal
+
+        return decimal(Fraction(value.numerator_as_long(), value.denominator_as_long()))
+    if z3.is_string_value(value):
+        return f'"{value.as_string()}"'
+    return str(value)
+
+
+def as_python_float(value: Any) -> float:
+    bits = z3.simplify(z3.fpToIEEEBV(value))
+    if not z3.is_bv_value(bits):  # NaN has no single encoding
+        return float("nan")
+    return float(struct.unpack("<d", bits.as_long().to_bytes(8, "little"))[0])

@@ -1,0 +1,305 @@
+"""Exact claims that must be true (issue 9): units of bare numbers, the operators'
+semantics in the solver, units of comparisons, exact numbers everywhere, verdicts
+past the end of a trace. Each test failed before its fix."""
+
+from __future__ import annotations
+
+import json
+import math
+import struct
+from fractions import Fraction
+from pathlib import Path
+
+import pytest
+import z3
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from rmvdsl.check import check
+from rmvdsl.check.conditions import apply, as_python_float, negate, number
+from rmvdsl.logic.formula import TIME_UNITS
+from rmvdsl.runtime import values
+
+TOGGLE = """system s
+ros humble
+topic a: std_msgs/msg/Bool = "/a"
+var X = a.data
+event On when X
+event Off when not X
+transducer T {{
+    states A, B
+    initial A
+    A -> B on On
+    B -> A on Off
+}}
+"""
+
+
+def codes(tmp_path: Path, text: str, name: str = "spec.rmv") -> list[str]:
+    path = tmp_path / name
+    path.write_text(text, encoding="utf-8")
+    return [d.code for d in check(str(path), use_environment=False).diagnostics]
+
+
+# ---- 1. bare numbers are in the declared time unit ----
+
+
+@pytest.mark.parametrize("unit", sorted(TIME_UNITS))
+def test_bare_numbers_in_formulas_take_the_declared_unit(tmp_path: Path, unit: str):
+    spec = (
+        f"time unit {unit}\n"
+        + TOGGLE.format()
+        + (
+            f"property Over: duration[10](A) > 4 {{ window = 10{unit} }}\n"
+            f'property Latex: latex "\\\\int^{{10}} A < 6" {{ window = 10{unit} }}\n'
+            f"property Scaled: 2 * duration[10](A) >= 4 + 1 {{ window = 10{unit} }}\n"
+        )
+    )
+    found = codes(tmp_path, spec)
+    # Each can hold and can fail, and they can hold together: more than 4 and less
+    # than 6 of 10 time units, whatever the unit (Scaled follows from Over: RMV515).
+    assert found == ["RMV515"], found
+
+
+@pytest.mark.parametrize("unit", sorted(TIME_UNITS))
+def test_a_bound_longer_than_the_window_is_found_in_every_unit(tmp_path: Path, unit: str):
+    spec = (
+        f"time unit {unit}\n"
+        + TOGGLE.format()
+        + (f"property Impossible: duration[10](A) > 11 {{ window = 10{unit} }}\n")
+    )
+    assert "RMV510" in codes(tmp_path, spec)
+
+
+# ---- 2. operators as the runtime computes them ----
+
+INT64 = st.integers(values.INT_MIN, values.INT_MAX)
+SMALL = st.integers(-1000, 1000)
+FLOATS = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.sampled_from([0.0, -0.0, 0.5, -2.5, 7.0, 1e300]),
+)
+
+
+def _z3(value: object):
+    if isinstance(value, int):
+        return number(Fraction(value), "int")
+    return z3.FPVal(value, z3.Float64())
+
+
+def _read(result) -> object:
+    result = z3.simplify(result)
+    if z3.is_true(result) or z3.is_false(result):
+        return z3.is_true(result)
+    if z3.is_bv_value(result):
+        return result.as_signed_long()
+    return as_python_float(result)
+
+
+def _same(got: object, expected: object) -> bool:
+    if isinstance(expected, float) and math.isnan(expected):
+        return isinstance(got, float) and math.isnan(got)
+    if isinstance(expected, float):
+        return isinstance(got, float) and struct.pack("<d", got) == struct.pack("<d", expected)
+    return got == expected and type(got) is type(expected)
+
+
+@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    st.sampled_from(["+", "-", "*", "/", "%", "&", "|", "^", "=", "!=", "<", "<=", ">", ">="]),
+    st.one_of(INT64, SMALL, FLOATS),
+    st.one_of(INT64, SMALL, FLOATS),
+)
+def test_the_solver_model_computes_what_the_runtime_computes(op, left, right):
+    try:
+        expected = values.binary(op, left, right)
+    except values.OperatorError:
+        with pytest.raises(TypeError):
+            apply(op, _z3(left), _z3(right))
+        return
+    got = _read(apply(op, _z3(left), _z3(right)))
+    if op == "/" and isinstance(expected, float) and not math.isnan(expected):
+        # 0 for a zero divisor; otherwise IEEE division of the two doubles
+        assert _same(got, expected) or (got == expected), (left, right, got, expected)
+    else:
+        assert _same(got, expected), (op, left, right, got, expected)
+
+
+@given(st.one_of(INT64, FLOATS))
+def test_negation_agrees(value):
+    assert _same(_read(negate(_z3(value))), values.negate(value))
+
+
+def test_influxql_operator_semantics_by_hand():
+    assert values.binary("/", 5, 8) == 0.625
+    assert values.binary("/", 5, 0) == 0.0
+    assert values.binary("%", -7, 3) == -1  # the sign of the dividend, as Go
+    assert values.binary("%", 7, 0) == 0
+    assert math.isnan(values.binary("%", 7.5, 0.0))  # type: ignore[arg-type]
+    assert values.binary("+", values.INT_MAX, 1) == values.INT_MIN
+    assert values.binary("&", 6, 3) == 2
+    assert values.binary("<", 2**53 + 1, float(2**53)) is False  # compared as doubles
+    assert values.binary("!=", math.nan, math.nan) is True
+
+
+def test_integer_division_is_not_integer_division_in_the_checker(tmp_path: Path):
+    spec = """system s
+ros humble
+topic a: std_msgs/msg/Int32 = "/a"
+topic b: std_msgs/msg/Int32 = "/b"
+var A = a.data
+var B = b.data
+event Ratio when A / B > 0 and A > 0 and A < B
+event Mod when A % 7 = 6 and A > 0 and A < 7
+event Bits when (A & 3) = 3 and A < 4 and A > 2
+transducer T {
+    states Idle, R
+    initial Idle
+    Idle -> R on Ratio
+    R -> Idle on Mod
+    R -> Idle on Bits
+}
+property P: always[<=10s] not R
+"""
+    found = codes(tmp_path, spec)
+    assert not {"RMV505", "RMV502", "RMV511", "RMV512"} & set(found), found
+
+
+def test_impossible_without_transducers_does_not_blame_them(tmp_path: Path):
+    spec = """system s
+ros humble
+topic a: std_msgs/msg/UInt32 = "/a"
+var A = a.data
+event Low when A < 1
+event Negative when A < 0 and Low
+property P: eventually[<=10s] Negative
+"""
+    path = tmp_path / "spec.rmv"
+    path.write_text(spec, encoding="utf-8")
+    found = [d for d in check(str(path), use_environment=False).diagnostics if d.code == "RMV511"]
+    assert found and "transducer" not in (found[0].help or "")
+
+
+# ---- 3. a plain number, or a rate, is not a time ----
+
+
+@pytest.mark.parametrize(
+    "condition",
+    ["MinRange < 0.5m", "MinRange > 1s", "derivative(mean(MinRange), 1s) > 2s", "1s < MinRange"],
+)
+def test_a_value_compared_with_a_time_is_a_unit_error(tmp_path: Path, condition: str):
+    spec = f"""system s
+ros humble
+topic scan: sensor_msgs/msg/LaserScan = "/scan"
+var MinRange = scan.range_min
+event Close when {condition}
+"""
+    path = tmp_path / "spec.rmv"
+    path.write_text(spec, encoding="utf-8")
+    found = [d for d in check(str(path), use_environment=False).diagnostics if d.code == "RMV315"]
+    assert found, condition
+    assert "time (seconds)" in (found[0].help or "")
+    if "0.5m" in condition:
+        assert "minutes" in (found[0].help or "")
+
+
+def test_like_units_and_bare_numbers_are_fine(tmp_path: Path):
+    spec = """system s
+ros humble
+topic scan: sensor_msgs/msg/LaserScan = "/scan"
+var MinRange = scan.range_min
+event Close when MinRange < 0.5
+event Rate when derivative(mean(MinRange), 1s) > 10Hz
+event Plain when derivative(mean(MinRange), 1s) > 2
+"""
+    found = codes(tmp_path, spec)
+    assert "RMV315" not in found
+
+
+# ---- 4, 7, 8, 9: numbers read exactly, within a range ----
+
+
+def test_trace_times_are_exact(rmv, tmp_path: Path):
+    trace = tmp_path / "t.jsonl"
+    trace.write_text(
+        '{"t": 1700000000.12345681, "props": ["p"]}\n'
+        '{"t": 1700000000.12345682, "props": []}\n'
+        '{"t": 1700000001, "end": true}\n',
+        encoding="utf-8",
+    )
+    before = rmv("eval", "--formula", "p", "--trace", str(trace), "--at", "1700000000.12345680")
+    assert before.code == 0 and before.out.strip() == "false"
+    at = rmv("eval", "--formula", "p", "--trace", str(trace), "--at", "1700000000.123456815")
+    assert at.out.strip() == "true"
+    out = rmv(
+        "eval", "--formula", "p", "--trace", str(trace), "--at", "1700000000.123456815",
+        "--format", "json",
+    )  # fmt: skip
+    assert '"t": 1700000000.123456815' in out.out  # printed exactly, not through a float
+    assert json.loads(out.out)["verdict"] == "true"
+
+
+@pytest.mark.parametrize("text", ["1e99999999", "1" * 5000, "-1e400", "1e-400", "1e+9999999999"])
+def test_numbers_out_of_range_are_refused_at_once(rmv, tmp_path: Path, text: str):
+    trace = tmp_path / "t.jsonl"
+    trace.write_text(f'{{"t": 0, "props": ["p"]}}\n{{"t": {text}, "end": true}}\n')
+    result = rmv("eval", "--formula", "p", "--trace", str(trace))
+    assert result.code == 2
+    assert "out of range" in result.err or "digits" in result.err
+    result = rmv("eval", "--formula", "p", "--trace", str(trace), "--at", text)
+    assert result.code == 2
+    if text.startswith("-"):
+        return  # not a bound at all: a syntax error
+    result = rmv("sat", "--formula", f"eventually[<{text}] p")
+    assert result.code in (1, 2) and "RMV106" in result.out + result.err
+    spec = tmp_path / "spec.rmv"
+    spec.write_text(TOGGLE.format() + f"property P: eventually[<={text}s] B\n")
+    result = rmv("check", str(spec))
+    assert result.code == 1 and "RMV106" in result.out
+
+
+def test_json_output_never_overflows(rmv, tmp_path: Path):
+    trace = tmp_path / "t.jsonl"
+    trace.write_text('{"t": 0, "props": ["p"]}\n{"t": 1e299, "end": true}\n')
+    result = rmv("eval", "--formula", "p", "--trace", str(trace), "--at", "1e299",
+                 "--format", "json")  # fmt: skip
+    assert result.code == 0, result.err
+    assert json.loads(result.out)["t"] == 10**299
+
+
+# ---- 5. verdicts past the end of a trace ----
+
+
+@pytest.mark.parametrize(
+    ("formula", "at", "expected"),
+    [
+        ("true", "12", "true"),
+        ("true", "100", "true"),
+        ("once[=20] p", "25", "true"),
+        ("once[=20] p", "12", "false"),
+        ("once[=20] p", "40", "unknown"),
+        ("once[=5] p", "13", "false"),
+        ("once[=10] p", "15", "true"),
+        ("p", "12", "unknown"),
+    ],
+)
+def test_verdicts_past_the_end_are_what_the_trace_decides(rmv, tmp_path, formula, at, expected):
+    from rmvdsl.logic.reference import evaluate
+    from rmvdsl.logic.traces import read_trace
+
+    trace = tmp_path / "t.jsonl"
+    text = '{"t": 0, "props": ["p"]}\n{"t": 8, "props": []}\n{"t": 12, "end": true}\n'
+    trace.write_text(text)
+    result = rmv("eval", "--formula", formula, "--trace", str(trace), "--at", at)
+    assert result.out.strip() == expected
+    # the same answer as the reference evaluator
+    from rmvdsl.logic.evaluate import compile_or_diagnose, parse
+
+    node, _ = parse(formula, "rmv", False)
+    compiled, _ = compile_or_diagnose(node)
+    parsed = read_trace(str(trace), text)
+    from rmvdsl.logic.reference import Trace
+
+    assert parsed.end is not None
+    reference = Trace(parsed.times, parsed.states, parsed.end)
+    assert evaluate(compiled, reference, Fraction(at)) == expected
