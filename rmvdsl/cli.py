@@ -16,6 +16,7 @@ from rmvdsl import __version__
 from rmvdsl.check import check
 from rmvdsl.check.loader import UsageError, read_text
 from rmvdsl.codes import CODES, explain
+from rmvdsl.deep import deep
 from rmvdsl.diagnostics import Diagnostic, Severity
 from rmvdsl.numbers import NumberError, exact_or_quotient, exact_text
 from rmvdsl.render import render_json, render_sarif, render_text, summary
@@ -211,20 +212,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return EXIT_USAGE
     try:
-        if args.command == "check":
-            return _check(args)
-        if args.command == "explain":
-            return _explain(args.code)
-        if args.command == "fmt":
-            return _fmt(args)
-        if args.command == "import":
-            return _import(args)
-        if args.command == "eval":
-            return _eval(args)
-        if args.command == "graph":
-            return _graph(args)
-        if args.command == "sat":
-            return _sat(args)
+        return deep(_run, args)
     except UsageError as exc:
         print(f"rmv: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
@@ -241,7 +229,19 @@ def main(argv: Sequence[str] | None = None) -> int:
             file=sys.stderr,
         )
         return EXIT_INTERNAL
-    return EXIT_USAGE
+
+
+def _run(args: argparse.Namespace) -> int:
+    commands = {
+        "check": _check,
+        "explain": lambda a: _explain(a.code),
+        "fmt": _fmt,
+        "import": _import,
+        "eval": _eval,
+        "graph": _graph,
+        "sat": _sat,
+    }
+    return commands[args.command](args)
 
 
 def _use_color(args: argparse.Namespace) -> bool:

@@ -303,3 +303,60 @@ def test_verdicts_past_the_end_are_what_the_trace_decides(rmv, tmp_path, formula
     assert parsed.end is not None
     reference = Trace(parsed.times, parsed.states, parsed.end)
     assert evaluate(compiled, reference, Fraction(at)) == expected
+
+
+# ---- 6. deep and long inputs: 100 times the sizes that crashed ----
+
+_BOOL_SPEC = """system s
+ros humble
+topic a: std_msgs/msg/Bool = "/a"
+topic n: std_msgs/msg/Int32 = "/n"
+var X = a.data
+var N = n.data
+event E when X
+transducer T {
+    states A, B
+    initial A
+    A -> B on E
+}
+"""
+
+
+@pytest.mark.parametrize(
+    "declaration",
+    [
+        "property P: " + " and ".join(["E"] * 40_000),
+        "event F when " + " or ".join(["X"] * 50_000),
+        "event F when " + " + ".join(["N"] * 100_000) + " > 3",
+        "event F when " + "not " * 40_000 + "X",
+        "property Q: " + "not " * 40_000 + "E",
+        "property R: " + "(" * 20_000 + "E" + ")" * 20_000,
+    ],
+    ids=["and", "or", "plus", "not-event", "not-property", "parentheses"],
+)
+def test_deep_inputs_are_checked_and_formatted(rmv, tmp_path: Path, declaration: str):
+    spec = tmp_path / "deep.rmv"
+    spec.write_text(_BOOL_SPEC + declaration + "\n", encoding="utf-8")
+    checked = rmv("check", str(spec))
+    assert checked.code in (0, 1) and "internal error" not in checked.err, checked.err[-300:]
+    assert "RMV1" not in checked.out  # no syntax error: the whole input was read
+    formatted = rmv("fmt", "--check", str(spec))
+    assert formatted.code in (0, 1) and "internal error" not in formatted.err
+
+
+@pytest.mark.parametrize(
+    "formula",
+    [
+        " and ".join(["p"] * 40_000),
+        "not " * 40_000 + "p",
+        "duration[3](p) > " + " + ".join(["1"] * 100_000),
+    ],
+    ids=["and", "not", "sum"],
+)
+def test_deep_formulas_in_sat_and_eval(rmv, tmp_path: Path, formula: str):
+    trace = tmp_path / "t.jsonl"
+    trace.write_text('{"t": 0, "props": ["p"]}\n{"t": 3, "end": true}\n')
+    answered = rmv("sat", "--formula", formula)
+    assert answered.code == 0 and "satisfiable:" in answered.out, answered.err[-300:]
+    evaluated = rmv("eval", "--formula", formula, "--trace", str(trace))
+    assert evaluated.code == 0 and evaluated.out.strip() in ("true", "false", "unknown")

@@ -20,6 +20,7 @@ from rmvdsl.check.loader import UsageError, load
 from rmvdsl.check.model import Model
 from rmvdsl.check.names import check_names
 from rmvdsl.check.types import TypeConfig, TypeInfo, check_types
+from rmvdsl.deep import deep
 from rmvdsl.diagnostics import Diagnostic, Severity, error, sort_key
 from rmvdsl.source import SourceFile
 
@@ -69,7 +70,19 @@ def check(
     `ros` and `messages` declarations, which win over an rmv.toml beside the spec.
     `solver_timeout` (seconds per solver call on the properties) wins over the
     `solver_timeout` of rmv.toml (docs/verification.md).
-    Raises UsageError only when the root file itself cannot be read."""
+    Raises UsageError only when the root file itself cannot be read. Runs on a deep
+    stack (rmvdsl.deep): a generated spec's formulas can nest 100,000 levels."""
+    return deep(_check, path, text, ros, messages, use_environment, solver_timeout)
+
+
+def _check(
+    path: str,
+    text: str | None,
+    ros: str | None,
+    messages: tuple[str, ...],
+    use_environment: bool,
+    solver_timeout: float | None,
+) -> CheckResult:
     loaded = load(path, text)
     model, name_diagnostics = check_names(
         loaded.specs, loaded.sources, loaded.damaged_names, loaded.damaged_ranges

@@ -901,11 +901,13 @@ def _unit_text(value: VType) -> str:
 
 def _sums(term: fm.Term) -> Iterator[fm.Arith]:
     """The `+` and `-` of a term, not looking inside duration bodies."""
-    if isinstance(term, fm.Arith):
-        if term.op in "+-":
-            yield term
-        yield from _sums(term.left)
-        yield from _sums(term.right)
+    stack = [term]
+    while stack:
+        node = stack.pop()
+        if isinstance(node, fm.Arith):
+            if node.op in "+-":
+                yield node
+            stack += [node.right, node.left]
 
 
 def _unit_word(unit: int | None) -> str:

@@ -53,11 +53,13 @@ class _Compiler:
             case fm.Const():
                 return ("const", node.value)
             case fm.Not():
-                return ("not", self.formula(node.operand))
+                operand = self.formula(node.operand)
+                # not not f is f, in three values too: a chain of 40,000 stays shallow
+                return operand[1] if operand[0] == "not" else ("not", operand)
+            case fm.Binary() if node.op in ("and", "or"):
+                return _balanced(node.op, [self.formula(f) for f in _chain(node)])
             case fm.Binary():
                 left, right = self.formula(node.left), self.formula(node.right)
-                if node.op in ("and", "or"):
-                    return (node.op, left, right)
                 implies = ("or", ("not", left), right)
                 if node.op == "->":
                     return implies
@@ -102,6 +104,14 @@ class _Compiler:
                 return ("num", node.value * TIME_UNITS[self.default_unit] / self.unit)
             case fm.Duration():
                 return ("dur", self.time(node.window, node), self.formula(node.body))
+            case fm.Arith() if node.op == "+":
+                # a sum associates: its constants folded, the rest as a shallow tree
+                terms = [self.term(t) for t in _chain(node)]
+                constant = sum((t[1] for t in terms if t[0] == "num"), Fraction(0))
+                rest = [t for t in terms if t[0] != "num"]
+                if not rest or constant:
+                    rest.append(("num", constant))
+                return _balanced("add", rest)
             case fm.Arith():
                 kind = {"+": "add", "-": "sub", "*": "mul"}[node.op]
                 product = kind == "mul"
@@ -114,6 +124,29 @@ class _Compiler:
                     )
                 return (kind, left, right)
         raise CompileError(f"not a term: {node!r}", node)
+
+
+def _chain(node: Any) -> list[Any]:
+    """The operands of `a and b and c ...` or `a + b + c ...` (one operator, any
+    grouping), in order."""
+    out: list[Any] = []
+    stack: list[Any] = [node]
+    while stack:
+        current = stack.pop()
+        if type(current) is type(node) and current.op == node.op:
+            stack += [current.right, current.left]
+        else:
+            out.append(current)
+    return out
+
+
+def _balanced(op: str, operands: list[Any]) -> Any:
+    """`and`/`or` of the operands as a tree of logarithmic depth (they associate):
+    the monitor and the solver then never recurse deeper than about 20 levels."""
+    while len(operands) > 1:
+        paired = [(op, a, b) for a, b in zip(operands[::2], operands[1::2], strict=False)]
+        operands = paired + operands[len(paired) * 2 :]
+    return operands[0]
 
 
 def _constant(term: fm.Term) -> bool:

@@ -242,14 +242,14 @@ def _smallest(
 
 
 def propositions(f: Any) -> Iterator[str]:
-    if f[0] == "prop":
-        yield f[1]
-    elif f[0] == "dur":
-        yield from propositions(f[2])
-    elif f[0] not in ("const", "num"):
-        for child in f[1:]:
-            if isinstance(child, tuple):
-                yield from propositions(child)
+    """The proposition names, left to right (a loop: formulas can be 100,000 deep)."""
+    stack = [f]
+    while stack:
+        node = stack.pop()
+        if node[0] == "prop":
+            yield node[1]
+        elif node[0] not in ("const", "num"):
+            stack.extend(reversed([c for c in node[1:] if isinstance(c, tuple)]))
 
 
 def future(f: Any) -> Fraction:
