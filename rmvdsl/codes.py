@@ -39,8 +39,9 @@ declarations into a third file that both import.""",
     (
         "RMV003",
         "imported file unreadable",
-        """An imported file exists but cannot be read, or is not UTF-8 text. Save it as
-UTF-8 and check its permissions.""",
+        """An imported file exists but cannot be read, or is not UTF-8 text, or is not a
+`.rmv` file at all (such a file is never read: its lines would end up in the
+diagnostics). Save specs as UTF-8 `.rmv` files and check their permissions.""",
     ),
     (
         "RMV100",
@@ -260,6 +261,17 @@ Each event is computed from variables and events computed before it, so the
 definitions must form no cycle.""",
     ),
     (
+        "RMV221",
+        "a keyword as a name",
+        """A declaration is named with a word that expressions or formulas reserve
+(`and`, `or`, `not`, `true`, `false`, `until`, `since`, `eventually`, `always`,
+`once`, `historically`, `duration`): every use of the name would be read as the
+keyword, so nothing could refer to it. Rename it.
+
+    event always when Velocity > 1     // RMV221
+    event Always when Velocity > 1     // ok: names are case-sensitive""",
+    ),
+    (
         "RMV300",
         "unknown message type",
         """A topic's message type is not among the definitions rmvdsl knows: the
@@ -328,6 +340,16 @@ exist. Paths in a spec are relative to the spec's folder.""",
     solver_effort = 500000  # z3's resource limit per call (the same on every machine)
 
 (optionally under a `[rmv]` table); folders are relative to the file.""",
+    ),
+    (
+        "RMV308",
+        "unknown key in rmv.toml",
+        """rmv.toml holds a key that rmv does not read: most often a misspelling, which
+would otherwise be ignored without a word.
+
+    solver_timout = 10    // RMV308: did you mean `solver_timeout`?
+
+The keys are `ros`, `messages`, `solver_timeout` and `solver_effort`.""",
     ),
     (
         "RMV310",

@@ -360,3 +360,37 @@ def test_deep_formulas_in_sat_and_eval(rmv, tmp_path: Path, formula: str):
     assert answered.code == 0 and "satisfiable:" in answered.out, answered.err[-300:]
     evaluated = rmv("eval", "--formula", formula, "--trace", str(trace))
     assert evaluated.code == 0 and evaluated.out.strip() in ("true", "false", "unknown")
+
+
+# ---- 15. one file, however it is named ----
+
+
+def test_a_file_imported_by_several_names_is_read_once(tmp_path: Path):
+    (tmp_path / "common.rmv").write_text(
+        'system s\nros humble\ntopic a: std_msgs/msg/Bool = "/a"\n', encoding="utf-8"
+    )
+    (tmp_path / "link.rmv").symlink_to(tmp_path / "common.rmv")
+    root = tmp_path / "root.rmv"
+    root.write_text(
+        'import "common.rmv"\n'
+        f'import "{tmp_path / "common.rmv"}"\n'
+        'import "./sub/../common.rmv"\n'
+        'import "link.rmv"\n'
+        "var X = a.data\nevent E when X\nproperty P: eventually[<=1s] E\n",
+        encoding="utf-8",
+    )
+    (tmp_path / "sub").mkdir()
+    found = [d.code for d in check(str(root), use_environment=False).diagnostics]
+    assert found == [], found
+
+
+def test_a_file_that_is_not_a_spec_is_never_read(tmp_path: Path):
+    secret = tmp_path / "secret.txt"
+    secret.write_text("root:SECRET-HASH:19000:0:99999:7:::\n", encoding="utf-8")
+    root = tmp_path / "root.rmv"
+    root.write_text(f'import "{secret}"\nsystem s\n', encoding="utf-8")
+    result = check(str(root), use_environment=False)
+    assert [d.code for d in result.diagnostics] == ["RMV003"]
+    from rmvdsl.render import render_text
+
+    assert "SECRET" not in render_text(result.diagnostics, result.model.sources, False)

@@ -13,16 +13,18 @@ from __future__ import annotations
 import os
 import re
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 from rmvdsl.check.loader import UsageError, load
 from rmvdsl.check.model import Model
+from rmvdsl.check.msgtypes import DISTROS
 from rmvdsl.check.names import check_names
 from rmvdsl.check.types import TypeConfig, TypeInfo, check_types
 from rmvdsl.deep import deep
-from rmvdsl.diagnostics import Diagnostic, Severity, error, sort_key
-from rmvdsl.source import SourceFile
+from rmvdsl.diagnostics import Diagnostic, Severity, did_you_mean, error, sort_key, warning
+from rmvdsl.source import SourceFile, Span
 
 if TYPE_CHECKING:
     from rmvdsl.check.analysis import AnalysisResult
@@ -174,52 +176,88 @@ def read_config(folder: str, model: Model) -> tuple[FileConfig, list[Diagnostic]
                 label="here",
             )
         ]
-    section = data.get("rmv", data)
-    ros = section.get("ros")
-    folders = section.get("messages", [])
-    problems = []
-    if ros is not None and not isinstance(ros, str):
-        problems.append(
-            error("RMV307", f"`ros` in {CONFIG_FILE} must be a string", source.span(0, 0))
-        )
-        ros = None
-    if isinstance(folders, str):
-        folders = [folders]
-    if not isinstance(folders, list) or not all(isinstance(f, str) for f in folders):
+    return _config_values(data.get("rmv", data), source, folder)
+
+
+# Each key of rmv.toml: whether a value is right, and what it must be.
+_CONFIG_KEYS: dict[str, tuple[Callable[[object], bool], str]] = {
+    "ros": (lambda v: isinstance(v, str) and v in DISTROS, 'a ROS distribution (e.g. "humble")'),
+    "messages": (
+        lambda v: (
+            isinstance(v, str) or (isinstance(v, list) and all(isinstance(f, str) for f in v))
+        ),
+        "a folder or a list of folders",
+    ),
+    "solver_timeout": (
+        lambda v: not isinstance(v, bool) and isinstance(v, int | float) and 0 < v <= 3600,
+        "a number of seconds in (0, 3600]",
+    ),
+    "solver_effort": (
+        lambda v: not isinstance(v, bool) and isinstance(v, int) and v >= 1,
+        "a positive whole number",
+    ),
+}
+
+
+def _config_values(
+    section: dict[str, object], source: SourceFile, folder: str
+) -> tuple[FileConfig, list[Diagnostic]]:
+    problems: list[Diagnostic] = []
+    good: dict[str, object] = {}
+    for key, value in section.items():
+        where = _key_span(source, key)
+        if key == "rmv" and isinstance(value, dict):
+            continue
+        if key not in _CONFIG_KEYS:
+            problems.append(
+                warning(
+                    "RMV308",
+                    f"unknown key `{key}` in {CONFIG_FILE}: it is ignored",
+                    where,
+                    label="not a setting rmv reads",
+                    help=did_you_mean(key, list(_CONFIG_KEYS))
+                    or "the keys are " + ", ".join(f"`{k}`" for k in _CONFIG_KEYS),
+                )
+            )
+            continue
+        accepts, wanted = _CONFIG_KEYS[key]
+        if accepts(value):
+            good[key] = value
+            continue
+        hint = did_you_mean(str(value), DISTROS) if key == "ros" else None
         problems.append(
             error(
                 "RMV307",
-                f"`messages` in {CONFIG_FILE} must be a list of folders",
-                source.span(0, 0),
+                f"`{key}` in {CONFIG_FILE} must be {wanted}, not {_toml_text(value)}",
+                where,
+                label="invalid value",
+                help=hint or (("known: " + ", ".join(DISTROS)) if key == "ros" else None),
             )
         )
-        folders = []
-    timeout = section.get("solver_timeout")
-    if timeout is not None and (
-        isinstance(timeout, bool) or not isinstance(timeout, int | float) or not 0 < timeout <= 3600
-    ):
-        problems.append(
-            error(
-                "RMV307",
-                f"`solver_timeout` in {CONFIG_FILE} must be a number of seconds in (0, 3600]",
-                source.span(0, 0),
-            )
-        )
-        timeout = None
-    effort = section.get("solver_effort")
-    if effort is not None and (
-        isinstance(effort, bool) or not isinstance(effort, int) or effort < 1
-    ):
-        problems.append(
-            error(
-                "RMV307",
-                f"`solver_effort` in {CONFIG_FILE} must be a positive whole number",
-                source.span(0, 0),
-            )
-        )
-        effort = None
-    messages = tuple(os.path.join(folder, f) for f in folders)
-    return FileConfig(ros, messages, timeout, effort), problems
+    folders = good.get("messages", [])
+    folders = [folders] if isinstance(folders, str) else folders
+    return (
+        FileConfig(
+            cast("str | None", good.get("ros")),
+            tuple(os.path.join(folder, f) for f in cast("list[str]", folders)),
+            cast("float | None", good.get("solver_timeout")),
+            cast("int | None", good.get("solver_effort")),
+        ),
+        problems,
+    )
+
+
+def _key_span(source: SourceFile, key: str) -> Span:
+    match = re.search(rf"^[ \t]*\"?{re.escape(key)}\"?[ \t]*=", source.text, re.MULTILINE)
+    if match is None:
+        return source.span(0, 0)
+    start = match.start() + len(match.group()) - len(match.group().lstrip())
+    return source.span(start, start + len(key))
+
+
+def _toml_text(value: object) -> str:
+    text = repr(value) if not isinstance(value, str) else f'"{value}"'
+    return text if len(text) <= 40 else text[:37] + "..."
 
 
 __all__ = ["CheckResult", "UsageError", "check"]

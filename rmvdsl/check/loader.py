@@ -44,6 +44,9 @@ class Loaded:
     diagnostics: list[Diagnostic]
     damaged_names: set[str] = field(default_factory=set)
     damaged_ranges: dict[str, list[tuple[int, int]]] = field(default_factory=dict)
+    # Each file by what it is (its resolved path): one file imported by a relative
+    # and an absolute path, or through a symbolic link, is read once.
+    read: set[str] = field(default_factory=set)
 
 
 def load(path: str, text: str | None = None) -> Loaded:
@@ -56,13 +59,15 @@ def load(path: str, text: str | None = None) -> Loaded:
 
 
 def _load_file(path: str, text: str, loaded: Loaded, active: list[str]) -> None:
+    real = os.path.realpath(path)
+    loaded.read.add(real)
     source = loaded.sources.add(SourceFile(path, text))
     parsed = parse_source(source)
     loaded.specs.append(parsed.spec)
     loaded.diagnostics.extend(parsed.diagnostics)
     loaded.damaged_names |= parsed.damaged_names
     loaded.damaged_ranges[path] = parsed.damaged_ranges
-    active.append(path)
+    active.append(real)
     for item in parsed.spec.items:
         if isinstance(item, ast.ImportDecl):
             _load_import(path, item, loaded, active)
@@ -71,8 +76,9 @@ def _load_file(path: str, text: str, loaded: Loaded, active: list[str]) -> None:
 
 def _load_import(importer: str, item: ast.ImportDecl, loaded: Loaded, active: list[str]) -> None:
     target = os.path.normpath(os.path.join(os.path.dirname(importer), item.path.value))
-    if target in active:
-        chain = " -> ".join(os.path.basename(p) for p in [*active[active.index(target) :], target])
+    real = os.path.realpath(target)
+    if real in active:
+        chain = " -> ".join(os.path.basename(p) for p in [*active[active.index(real) :], real])
         loaded.diagnostics.append(
             error(
                 "RMV002",
@@ -83,8 +89,20 @@ def _load_import(importer: str, item: ast.ImportDecl, loaded: Loaded, active: li
             )
         )
         return
-    if loaded.sources.get(target) is not None:
+    if real in loaded.read:
         return  # already read through another import
+    if not target.endswith(".rmv"):
+        # Never read: its lines would be shown in the diagnostics of a parse.
+        loaded.diagnostics.append(
+            error(
+                "RMV003",
+                f"cannot import `{item.path.value}`: an import names a spec, a `.rmv` file",
+                item.path.span,
+                label="not a .rmv file",
+                help='message definitions are read with `messages "folder"`',
+            )
+        )
+        return
     try:
         text = read_text(target)
     except UsageError as exc:

@@ -22,6 +22,7 @@ from rmvdsl.check.model import (
 from rmvdsl.check.rosnames import message_type_problem, name_problem, suggest_name
 from rmvdsl.diagnostics import Diagnostic, Label, did_you_mean, error, warning
 from rmvdsl.grammar import ast
+from rmvdsl.grammar.parser import reserved_names
 from rmvdsl.logic import formula as fm
 from rmvdsl.logic.validate import check_formula
 from rmvdsl.source import SourceMap
@@ -216,6 +217,17 @@ class NameChecker:
         self.model.emitted.setdefault(output.name, []).append(transition)
 
     def add(self, ident: ast.Ident, kind: Kind, decl: ast.Node, owner: str | None = None) -> bool:
+        if ident.name in reserved_names():
+            self.report(
+                error(
+                    "RMV221",
+                    f"`{ident.name}` is a keyword: {kind.described()} named so could never be "
+                    "referred to",
+                    ident.span,
+                    label="a keyword of expressions and formulas",
+                    help=f"rename it, e.g. `{ident.name.capitalize()}` or `{ident.name}_`",
+                )
+            )
         existing = self.model.symbols.get(ident.name)
         if existing is not None:
             self.report(

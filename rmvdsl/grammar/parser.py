@@ -135,6 +135,14 @@ def keywords() -> frozenset[str]:
     )
 
 
+@functools.cache
+def reserved_names() -> frozenset[str]:
+    """Words that cannot stand for a name inside an expression or a formula (`and`,
+    `true`, `always`, ...): a declaration named so could never be referred to."""
+    text = _grammar_text(("expr.lark", "formula.lark", "lexical.lark"))
+    return frozenset(re.findall(r'"([a-z_]+)"', text)) & keywords()
+
+
 def describe_expected(expected: set[str] | frozenset[str], which: str = "spec") -> str:
     texts = _terminal_texts(which)
     keywords = sorted(name for name in expected if name.startswith("KW_") and name != "KW_COMPLETE")
