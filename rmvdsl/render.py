@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import os
+import unicodedata
 from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
@@ -49,6 +50,27 @@ class _Style:
 _SEVERITY_COLORS = {Severity.ERROR: "31", Severity.WARNING: "33", Severity.NOTE: "36"}
 
 
+def visible(text: str) -> str:
+    """Control characters as their Unicode pictures (NUL as ␀): a message or a line
+    of a file never moves the cursor, rings the bell or paints the terminal."""
+    return text.translate(_PICTURES)
+
+
+_PICTURES = {code: 0x2400 + code for code in range(32) if code not in (9, 10)}
+_PICTURES |= {0x7F: 0x2421, **{code: 0xFFFD for code in range(0x80, 0xA0)}}
+
+
+def width(text: str) -> int:
+    """Columns a terminal gives the text: wide (CJK, most emoji) characters take two,
+    combining marks none."""
+    total = 0
+    for char in text:
+        if unicodedata.combining(char):
+            continue
+        total += 2 if unicodedata.east_asian_width(char) in "WF" else 1
+    return total
+
+
 def render_text(diagnostics: Iterable[Diagnostic], sources: SourceMap, color: bool = False) -> str:
     style = _Style(color)
     return "".join(_render_one(d, sources, style) + "\n" for d in diagnostics)
@@ -57,13 +79,13 @@ def render_text(diagnostics: Iterable[Diagnostic], sources: SourceMap, color: bo
 def _render_one(diagnostic: Diagnostic, sources: SourceMap, style: _Style) -> str:
     severity_color = _SEVERITY_COLORS[diagnostic.severity]
     head = style.paint(f"{diagnostic.severity.value}[{diagnostic.code}]", "1", severity_color)
-    lines = [f"{head}{style.paint(': ' + diagnostic.message, '1')}"]
+    lines = [f"{head}{style.paint(': ' + visible(diagnostic.message), '1')}"]
     primary = region(diagnostic.span, sources)
     labels = [(diagnostic.span, diagnostic.label, True)]
     labels += [(label.span, label.message, False) for label in diagnostic.secondary]
-    width = len(str(max(region(span, sources).line for span, _, _ in labels)))
-    gutter = style.paint(" " * width + " |", "1", "34")
-    arrow = style.paint(" " * width + "-->", "1", "34")
+    digits = len(str(max(region(span, sources).line for span, _, _ in labels)))
+    gutter = style.paint(" " * digits + " |", "1", "34")
+    arrow = style.paint(" " * digits + "-->", "1", "34")
     lines.append(f"{arrow} {primary.file}:{primary.line}:{primary.column}")
     shown_files = {diagnostic.span.path}
     by_line: dict[tuple[str, int], list[tuple[Span, str, bool]]] = {}
@@ -74,18 +96,19 @@ def _render_one(diagnostic: Diagnostic, sources: SourceMap, style: _Style) -> st
         if path not in shown_files:
             where = region(by_line[(path, line)][0][0], sources)
             lines.append(
-                style.paint(" " * width + ":::", "1", "34")
+                style.paint(" " * digits + ":::", "1", "34")
                 + f" {where.file}:{where.line}:{where.column}"
             )
             shown_files.add(path)
-        lines.extend(_snippet(by_line[(path, line)], sources, style, width, severity_color))
+        lines.extend(_snippet(by_line[(path, line)], sources, style, digits, severity_color))
     lines.append(gutter)
     if diagnostic.help:
-        lines.append(f"{' ' * width} {style.paint('= help:', '1', '36')} {diagnostic.help}")
+        help = visible(diagnostic.help)
+        lines.append(f"{' ' * digits} {style.paint('= help:', '1', '36')} {help}")
     if diagnostic.notes:
-        head, *rest = diagnostic.notes
-        lines.append(f"{' ' * width} {style.paint('= note:', '1')} {head}")
-        lines.extend(f"{' ' * (width + 9)}{line}" for line in rest)
+        head, *rest = (visible(note) for note in diagnostic.notes)
+        lines.append(f"{' ' * digits} {style.paint('= note:', '1')} {head}")
+        lines.extend(f"{' ' * (digits + 9)}{line}" for line in rest)
     return "\n".join(lines)
 
 
@@ -93,25 +116,29 @@ def _snippet(
     labels: list[tuple[Span, str, bool]],
     sources: SourceMap,
     style: _Style,
-    width: int,
+    digits: int,
     severity_color: str,
 ) -> list[str]:
     """One source line and an underline for each label on it."""
-    gutter = style.paint(" " * width + " |", "1", "34")
+    gutter = style.paint(" " * digits + " |", "1", "34")
     source = sources.get(labels[0][0].path)
     if source is None:
         return [gutter]
     first = region(labels[0][0], sources)
-    text = source.line_text(first.line).expandtabs(1)
-    number = style.paint(str(first.line).rjust(width) + " |", "1", "34")
+    raw = source.line_text(first.line)
+    text = visible(raw.expandtabs(1))
+    number = style.paint(str(first.line).rjust(digits) + " |", "1", "34")
     out = [gutter, f"{number} {text}"]
     for span, message, is_primary in sorted(labels, key=lambda label: label[0].start):
         where = region(span, sources)
-        end_column = where.end_column if where.end_line == where.line else len(text) + 1
-        mark = ("^" if is_primary else "-") * max(1, end_column - where.column)
+        end_column = where.end_column if where.end_line == where.line else len(raw) + 1
+        # columns count characters; a terminal counts cells (a wide character is two)
+        before = width(visible(raw[: where.column - 1].expandtabs(1)))
+        under = width(visible(raw[where.column - 1 : end_column - 1].expandtabs(1)))
+        mark = ("^" if is_primary else "-") * max(1, under)
         color = severity_color if is_primary else "34"
-        underline = " " * (where.column - 1) + style.paint(f"{mark} {message}".rstrip(), "1", color)
-        out.append(f"{gutter} {underline}")
+        label = f"{mark} {visible(message)}".rstrip()
+        out.append(f"{gutter} {' ' * before}{style.paint(label, '1', color)}")
     return out
 
 

@@ -394,3 +394,99 @@ def test_a_file_that_is_not_a_spec_is_never_read(tmp_path: Path):
     from rmvdsl.render import render_text
 
     assert "SECRET" not in render_text(result.diagnostics, result.model.sources, False)
+
+
+# ---- 11, 12, 13: `rmv import` of hostile YAML ----
+
+HOSTILE = st.sampled_from(
+    [
+        "x\nproperty Injected: true",
+        'a" }\nproperty Injected: true\n//',
+        'ms\ndatabase { name = "evil" }',
+        "}\n\nproperty Injected: eventually[<1s] A\nevent X when true",
+        "'''$(rm -rf /);`id`",
+        '\\\\"\\n\x00\x1b[31m',
+        "velocity\nproperty Injected: true",
+        "",
+        "7",
+    ]
+)
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.data())
+def test_import_of_hostile_values_gives_exactly_the_declared_things(tmp_path_factory, data):
+    import yaml
+
+    from rmvdsl.grammar import ast
+    from rmvdsl.grammar.formatter import format_spec
+    from rmvdsl.grammar.parser import parse_source
+    from rmvdsl.importers.thesis_yaml import convert_files
+    from rmvdsl.source import SourceFile
+
+    def h() -> str:
+        return data.draw(HOSTILE)
+
+    document = {
+        "database": [{"db_name": h()}, {"epoch": h()}, {"ip": h()}, {"port": h()}],
+        "topics": [{"name": h(), "topic": "/t" + h(), "type": h()}],
+        "variables": [{"name": h(), "topic": h(), "topic_var_path": h()}],
+        "events": [
+            {
+                "event_name": h(), "event_select": h(), "event_where": h(),
+                "event_fill": h(), "event_orderby": h(), "event_limit_size": h(),
+                "event_range": h(), "event_resample": h(), "event_groupby": h(),
+            }
+        ],
+        "states": [h(), h()],
+        "initial": h(),
+        "transitions": [{"source": h(), "dest": h(), "inputtapeEvent": h(),
+                         "outputtapeEvent": h()}],
+        "monitors": [{"monitor_gen": "rmtld3synth", "monitor_name": h(),
+                      "expression_string": h(), "monitor_rate": h(),
+                      "monitor_trigger": h(), "monitor_range": h()}],
+        "whitelists": [{"topic": h(), "publishers": [h()], "subscribers": h()}],
+        "nodes": [{"node": h(), "publishes": [h()]}],
+    }  # fmt: skip
+    path = tmp_path_factory.mktemp("imp") / "hostile.yaml"
+    path.write_text(yaml.safe_dump(document), encoding="utf-8")
+    result = convert_files([str(path)])
+    source = SourceFile("<import>", result.text)
+    parsed = parse_source(source)
+    assert not [d for d in parsed.diagnostics if d.is_error], result.text
+    kinds: dict[type, int] = {}
+    for item in parsed.spec.items:
+        kinds[type(item)] = kinds.get(type(item), 0) + 1
+        name = getattr(item, "name", None)
+        assert not (isinstance(name, ast.Ident) and name.name.startswith("Injected")), result.text
+    assert kinds.get(ast.DatabaseDecl, 0) <= 1
+    assert kinds.get(ast.PropertyDecl, 0) <= 1 and kinds.get(ast.TopicDecl, 0) <= 1
+    assert kinds.get(ast.EventDecl, 0) <= 1 and kinds.get(ast.VarDecl, 0) <= 1
+    assert kinds.get(ast.TransducerDecl, 0) <= 1
+    assert format_spec(parsed.spec, source) == result.text  # as `rmv fmt` writes it
+    assert all("\x00" not in note and "\x1b" not in note for note in result.notes)
+
+
+def test_alias_bombs_are_refused_quickly(rmv, tmp_path: Path):
+    levels = ['a: &a ["x","x","x","x","x","x","x","x","x"]']
+    for previous, name in zip("abcdefgh", "bcdefghi", strict=True):
+        levels.append(f"{name}: &{name} [" + ",".join([f"*{previous}"] * 9) + "]")
+    for use in ("whitelists:\n  - topic: /x\n    publishers: *i\n",
+                "variables:\n  - name: V\n    topic: *i\n"):  # fmt: skip
+        path = tmp_path / "bomb.yaml"
+        path.write_text("\n".join(levels) + "\n" + use, encoding="utf-8")
+        result = rmv("import", str(path))
+        assert result.code == 2 and "refused" in result.err and "bomb.yaml:" in result.err
+
+
+@pytest.mark.parametrize(
+    "text",
+    ["states: 7\n", "transitions: [3]\n", "topics: 5\n", "topics: [3, x]\n", "initial: {a: 1}\nstates: [A]\n",
+     "variables: 4\n", "monitors: [1]\n", "events: {a: 1}\n"],
+)  # fmt: skip
+def test_malformed_sections_are_noted_with_their_place(rmv, tmp_path: Path, text: str):
+    path = tmp_path / "bad.yaml"
+    path.write_text(text, encoding="utf-8")
+    result = rmv("import", str(path))
+    assert result.code == 0 and "internal error" not in result.err
+    assert "bad.yaml:1:" in result.err

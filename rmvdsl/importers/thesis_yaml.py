@@ -24,6 +24,7 @@ from rmvdsl.grammar.parser import parse_source
 from rmvdsl.grammar.printer import quote
 from rmvdsl.importers.influxql import influx_expression
 from rmvdsl.importers.tickscript import convert_tickscript
+from rmvdsl.render import visible
 from rmvdsl.source import SourceFile
 
 # Message types of the CARLA topics of thesis table 4.1 (the YAML files of
@@ -44,7 +45,9 @@ KNOWN_TOPIC_TYPES = {
     "/tf": "tf2_msgs/TFMessage",
 }
 UNKNOWN_TYPE = "unknown_msgs/Unknown"
-_IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+_IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+_NUMBER = re.compile(r"\d+(\.\d+)?")
+_MESSAGE_TYPE = re.compile(r"[A-Za-z][A-Za-z0-9_]*(/msg)?/[A-Za-z][A-Za-z0-9_]*")
 _NOW_RANGE = re.compile(
     r"^\s*time\s*>=?\s*now\(\)\s*-\s*(\d+(?:\.\d+)?(?:ns|u|us|ms|s|m|h|d|w))"
     r"(\s+and\s+time\s*<=?\s*now\(\))?\s*$",
@@ -86,10 +89,24 @@ def _loader_for(path: str) -> type[yaml.SafeLoader]:
     return Loader
 
 
+# YAML's aliases can multiply a small file into billions of values (nine levels of
+# `&a [*a, *a, ...]`): the nodes are counted as the aliases are followed, before
+# anything is built, and a document past this size is refused.
+MAX_NODES = 100_000
+
+
 def load_yaml(path: str) -> Any:
     text = read_text(path)
     try:
-        return yaml.load(text, Loader=_loader_for(path))
+        loader = _loader_for(path)(text)
+        try:
+            node = loader.get_single_node()
+            if node is None:
+                return None
+            _check_size(node, path)
+            return loader.construct_document(node)
+        finally:
+            loader.dispose()
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         where = f"{path}:{mark.line + 1}:{mark.column + 1}" if mark else path
@@ -97,6 +114,25 @@ def load_yaml(path: str) -> Any:
         raise UsageError(f"{where}: {problem}") from None
     except yaml.YAMLError as exc:
         raise UsageError(f"{path}: invalid YAML: {exc}") from None
+
+
+def _check_size(root: yaml.Node, path: str) -> None:
+    count = 0
+    stack: list[yaml.Node] = [root]
+    while stack:
+        node = stack.pop()
+        count += 1
+        if count > MAX_NODES:
+            mark = node.start_mark
+            raise UsageError(
+                f"{path}:{mark.line + 1}:{mark.column + 1}: the document expands to more than "
+                f"{MAX_NODES:,} values (aliases repeated inside aliases): refused"
+            )
+        if isinstance(node, yaml.SequenceNode):
+            stack.extend(node.value)
+        elif isinstance(node, yaml.MappingNode):
+            for key, value in node.value:
+                stack += [key, value]
 
 
 @dataclass
@@ -124,7 +160,17 @@ class _Spec:
     names: set[str] = field(default_factory=set)
 
     def note(self, where: str, message: str) -> None:
-        self.notes.append(f"{where}: {message}")
+        self.notes.append(visible(f"{where}: {message}"))
+
+    def add(self, section: list[str], text: str, where: str, what: str) -> bool:
+        """Add one declaration, if it is exactly one declaration of .rmv: whatever
+        a YAML value holds (a newline, a quote, `property Injected: true`) can never
+        add another one."""
+        if _parses(text):
+            section.append(text)
+            return True
+        self.note(where, f"{what} does not make valid .rmv: not carried over")
+        return False
 
     def text(self) -> str:
         sections = [
@@ -215,16 +261,16 @@ def _convert_document(path: str, document: Located, spec: _Spec) -> None:
             spec.note(document.where(key), f"unknown section `{key}`, not carried over")
     if "database" in document:
         _database(document, spec)
-    topics = document.get("topics") or []
+    topics = _entries(document.get("topics"), spec, document, "topics")
     if _is_intrusion_list(topics):
-        _whitelists(document.get("topics") or [], spec)
+        _whitelists(topics, spec)
     else:
         _topics(topics, spec)
     for key in ("whitelist", "whitelists"):
-        _whitelists(document.get(key) or [], spec)
-    _nodes(document.get("nodes") or [], spec)
-    _variables(document.get("variables") or [], spec)
-    _events(document.get("events") or [], spec)
+        _whitelists(_entries(document.get(key), spec, document, key), spec)
+    _nodes(_entries(document.get("nodes"), spec, document, "nodes"), spec)
+    _variables(_entries(document.get("variables"), spec, document, "variables"), spec)
+    _events(_entries(document.get("events"), spec, document, "events"), spec)
     if "states" in document or "transitions" in document:
         _transducer(path, document, spec)
     for monitor in _entries(document.get("monitors"), spec, document, "monitors"):
@@ -252,8 +298,32 @@ def _entries(value: Any, spec: _Spec, parent: Located, key: str) -> list[Located
         if isinstance(item, Located):
             entries.append(item)
         elif item is not None:
-            spec.note(parent.where(key), f"an entry of `{key}` is not a mapping: `{item}` skipped")
+            spec.note(
+                parent.where(key),
+                f"an entry of `{key}` is not a mapping: `{_short(item)}` skipped",
+            )
     return entries
+
+
+def _scalars(value: Any, spec: _Spec, parent: Located, key: str) -> list[str]:
+    """A list of plain values (`states: [A, B]`); anything else is noted."""
+    if value is None:
+        return []
+    if not isinstance(value, list):
+        spec.note(parent.where(key), f"`{key}` should be a list, not `{_short(value)}`")
+    items = value if isinstance(value, list) else [value]
+    out = []
+    for item in items:
+        if isinstance(item, str | int | float) and not isinstance(item, bool):
+            out.append(str(item))
+        elif item is not None:
+            spec.note(parent.where(key), f"`{key}` holds `{_short(item)}`, not a name: skipped")
+    return out
+
+
+def _short(value: Any) -> str:
+    text = " ".join(repr(value).split())
+    return text if len(text) <= 40 else text[:37] + "..."
 
 
 def _identifier(text: str, fallback: str) -> str:
@@ -303,7 +373,10 @@ def _database(document: Located, spec: _Spec) -> None:
             lines.append(f"    name = {quote(text)}")
         elif key == "epoch":
             precision = {"n": "ns"}.get(text, text)
-            lines.append(f"    precision = {precision}")
+            if precision in ("ns", "u", "us", "ms", "s", "m", "h"):
+                lines.append(f"    precision = {precision}")
+            else:
+                spec.note(where, f"epoch `{_short(text)}` is not a precision: not carried over")
         elif key == "username":
             lines.append(f"    username = {quote(text)}")
         elif key == "password":
@@ -315,13 +388,11 @@ def _database(document: Located, spec: _Spec) -> None:
         lines.append('    name = "rmvcps_db"')
         spec.note(where, "no `db_name`: the database is named `rmvcps_db`")
     lines.append("}")
-    spec.database.extend(lines)
+    spec.add(spec.database, "\n".join(lines), where, "the database")
 
 
-def _topics(topics: Any, spec: _Spec) -> None:
-    for entry in topics if isinstance(topics, list) else []:
-        if not isinstance(entry, Located):
-            continue
+def _topics(topics: list[Located], spec: _Spec) -> None:
+    for entry in topics:
         yaml_name = str(entry.get("name") or "").strip()
         path = str(entry.get("topic") or "").strip()
         if not path:
@@ -333,6 +404,9 @@ def _topics(topics: Any, spec: _Spec) -> None:
         msg_type = str(
             entry.get("type") or entry.get("msg_type") or ""
         ).strip() or KNOWN_TOPIC_TYPES.get(path)
+        if msg_type and not _MESSAGE_TYPE.fullmatch(msg_type):
+            spec.note(entry.where("type"), f"`{_short(msg_type)}` is not a message type")
+            msg_type = ""
         if not msg_type:
             msg_type = UNKNOWN_TYPE
             spec.note(
@@ -340,15 +414,16 @@ def _topics(topics: Any, spec: _Spec) -> None:
                 f"topic `{path}` has no message type in the YAML: "
                 f"replace `{UNKNOWN_TYPE}` in the spec with its type",
             )
-        spec.topics.append(f"topic {name}: {msg_type} = {quote(path)}")
+        if not spec.add(
+            spec.topics, f"topic {name}: {msg_type} = {quote(path)}", entry.where(), "the topic"
+        ):
+            continue
         spec.topic_names[yaml_name or name] = name
         spec.topic_paths[path] = name
 
 
-def _variables(variables: Any, spec: _Spec) -> None:
-    for entry in variables if isinstance(variables, list) else []:
-        if not isinstance(entry, Located):
-            continue
+def _variables(variables: list[Located], spec: _Spec) -> None:
+    for entry in variables:
         where = entry.where()
         topic_ref = str(entry.get("topic") or "").strip()
         topic = spec.topic_names.get(topic_ref) or spec.topic_paths.get(topic_ref)
@@ -367,7 +442,7 @@ def _variables(variables: Any, spec: _Spec) -> None:
             )
             continue
         name = _claim(spec, _identifier(str(entry.get("name") or field_path), "variable"), where)
-        spec.variables.append(f"var {name} = {topic}.{field_path}")
+        spec.add(spec.variables, f"var {name} = {topic}.{field_path}", where, f"variable `{name}`")
 
 
 def _field_path(raw: str) -> str:
@@ -377,17 +452,15 @@ def _field_path(raw: str) -> str:
     for part in parts:
         if (part.isdigit() or part == "*") and out:
             out[-1] += f"[{part}]"
-        elif _IDENT.match(part):
+        elif _IDENT.fullmatch(part):
             out.append(part)
         else:
             return ""
     return ".".join(out)
 
 
-def _events(events: Any, spec: _Spec) -> None:
-    for entry in events if isinstance(events, list) else []:
-        if not isinstance(entry, Located):
-            continue
+def _events(events: list[Located], spec: _Spec) -> None:
+    for entry in events:
         name = _claim(spec, _identifier(str(entry.get("event_name") or ""), "event"), entry.where())
         select = str(entry.get("event_select") or "").strip()
         if not select:
@@ -429,13 +502,23 @@ def _event_clauses(entry: Located, spec: _Spec) -> list[str]:
         clauses.append(f"    group by {influx_expression(group)}")
     fill = str(entry.get("event_fill") or "").strip()
     if fill:
-        clauses.append(f"    fill {fill.lower() if _IDENT.match(fill) else fill}")
+        if _IDENT.fullmatch(fill) or _NUMBER.fullmatch(fill):
+            clauses.append(f"    fill {fill.lower()}")
+        else:
+            spec.note(entry.where("event_fill"), f"fill `{_short(fill)}` not read")
     order = str(entry.get("event_orderby") or "").strip()
     if order:
-        clauses.append(f"    order {order.split()[-1].lower()}")
+        direction = order.split()[-1].lower()
+        if direction in ("asc", "desc"):
+            clauses.append(f"    order {direction}")
+        else:
+            spec.note(entry.where("event_orderby"), f"order `{_short(order)}` not read")
     limit = str(entry.get("event_limit_size") or "").strip()
     if limit:
-        clauses.append(f"    limit {limit}")
+        if limit.isdigit():
+            clauses.append(f"    limit {limit}")
+        else:
+            spec.note(entry.where("event_limit_size"), f"limit `{_short(limit)}` not read")
     return clauses
 
 
@@ -478,7 +561,7 @@ def _kapacitor_monitor(path: str, monitor: Located, spec: _Spec) -> None:
     for note in notes:
         spec.note(tick_path, note)
     if alert:
-        spec.alerts.append(alert)
+        spec.add(spec.alerts, alert, monitor.where(), f"the alert of `{name}`")
 
 
 # ---- rostopicver ----
@@ -490,10 +573,11 @@ def _transducer(path: str, document: Located, spec: _Spec) -> None:
         _identifier(os.path.splitext(os.path.basename(path))[0].title().replace("_", ""), "States"),
         document.where("states"),
     )
-    states = [_identifier(str(s), "state") for s in document.get("states") or [] if s is not None]
-    initial = document.get("initial")
-    if isinstance(initial, list):
-        initial = next((i for i in initial if i is not None), None)
+    states = [
+        _identifier(s, "state") for s in _scalars(document.get("states"), spec, document, "states")
+    ]
+    initials = _scalars(document.get("initial"), spec, document, "initial")
+    initial = initials[0] if initials else None
     lines = [f"transducer {name} {{"]
     if states:
         lines.append("    states " + ", ".join(states))
@@ -514,8 +598,8 @@ def _transducer(path: str, document: Located, spec: _Spec) -> None:
             text += f" emit {_identifier(str(output), 'e')}"
         lines.append(text)
     lines.append("}")
-    spec.transducers.append("\n".join(lines))
-    spec.names.update(states)
+    if spec.add(spec.transducers, "\n".join(lines), document.where("states"), "the transducer"):
+        spec.names.update(states)
 
 
 def _rmtld3_monitor(monitor: Located, spec: _Spec) -> None:
@@ -532,9 +616,7 @@ def _rmtld3_monitor(monitor: Located, spec: _Spec) -> None:
     rate = str(monitor.get("monitor_rate") or "").strip()
     if rate:
         members.append(
-            f"    rate = {rate}Hz"
-            if re.match(r"^\d+(\.\d+)?$", rate)
-            else f"    // rate {rate!r} not read"
+            f"    rate = {rate}Hz" if _NUMBER.fullmatch(rate) else f"    // rate {rate!r} not read"
         )
     trigger = str(monitor.get("monitor_trigger") or "").strip()
     if trigger and trigger.lower() != "true":
@@ -551,7 +633,12 @@ def _rmtld3_monitor(monitor: Located, spec: _Spec) -> None:
                 monitor.where("monitor_range"), f"range `{window}` not read: not carried over"
             )
     block = " {\n" + "\n".join(members) + "\n}" if members else ""
-    spec.properties.append(f"property {name}: latex {quote(expression)}{block}")
+    spec.add(
+        spec.properties,
+        f"property {name}: latex {quote(expression)}{block}",
+        monitor.where(),
+        f"property `{name}`",
+    )
 
 
 # ---- rostopicintrusion ----
@@ -576,10 +663,8 @@ def _pattern_line(keyword: str, patterns: list[str] | None) -> str | None:
     return f"    {keyword}: " + (", ".join(quote(p) for p in patterns) if patterns else "none")
 
 
-def _whitelists(entries: Any, spec: _Spec) -> None:
-    for entry in entries if isinstance(entries, list) else []:
-        if not isinstance(entry, Located):
-            continue
+def _whitelists(entries: list[Located], spec: _Spec) -> None:
+    for entry in entries:
         topic = str(entry.get("topic") or entry.get("name") or "").strip()
         if not topic:
             spec.note(entry.where(), "a whitelist entry without `topic:` is skipped")
@@ -597,13 +682,11 @@ def _whitelists(entries: Any, spec: _Spec) -> None:
             )
             continue
         lines.append("}")
-        spec.whitelists.append("\n".join(lines))
+        spec.add(spec.whitelists, "\n".join(lines), entry.where(), f"the whitelist of `{topic}`")
 
 
-def _nodes(entries: Any, spec: _Spec) -> None:
-    for entry in entries if isinstance(entries, list) else []:
-        if not isinstance(entry, Located):
-            continue
+def _nodes(entries: list[Located], spec: _Spec) -> None:
+    for entry in entries:
         node = str(entry.get("node") or entry.get("name") or "").strip()
         if not node:
             spec.note(entry.where(), "a node entry without `node:` is skipped")
@@ -614,4 +697,4 @@ def _nodes(entries: Any, spec: _Spec) -> None:
             if line:
                 lines.append(line)
         lines.append("}")
-        spec.whitelists.append("\n".join(lines))
+        spec.add(spec.whitelists, "\n".join(lines), entry.where(), f"the rules of node `{node}`")
