@@ -481,8 +481,8 @@ def test_alias_bombs_are_refused_quickly(rmv, tmp_path: Path):
 
 @pytest.mark.parametrize(
     "text",
-    ["states: 7\n", "transitions: [3]\n", "topics: 5\n", "topics: [3, x]\n", "initial: {a: 1}\nstates: [A]\n",
-     "variables: 4\n", "monitors: [1]\n", "events: {a: 1}\n"],
+    ["states: 7\n", "transitions: [3]\n", "topics: 5\n", "topics: [3, x]\n",
+     "initial: {a: 1}\nstates: [A]\n", "variables: 4\n", "monitors: [1]\n", "events: {a: 1}\n"],
 )  # fmt: skip
 def test_malformed_sections_are_noted_with_their_place(rmv, tmp_path: Path, text: str):
     path = tmp_path / "bad.yaml"

@@ -20,6 +20,7 @@ Values are `bool`, `int` (64-bit two's complement, as InfluxDB stores integers),
 from __future__ import annotations
 
 import math
+import re
 
 INT_BITS = 64
 INT_MIN = -(2 ** (INT_BITS - 1))
@@ -48,10 +49,15 @@ class OperatorError(TypeError):
 
 def literal(text: str) -> int | float:
     """A number written in a spec: an integer when it is digits only (`5`), else the
-    double nearest to it (`5.0`, `0.8`, `1e3`)."""
-    if text.lstrip("-").isdigit():
-        return int(text)
-    return float(text)
+    double nearest to it (`5.0`, `0.8`, `1e3`). A unit after it is not read."""
+    match = _LITERAL.match(text)
+    number = match.group() if match else "0"
+    if number.lstrip("-").isdigit() and len(number) <= 4000:  # int()'s own limit is 4300
+        return int(number)
+    return float(number)
+
+
+_LITERAL = re.compile(r"-?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?")
 
 
 def wrap(value: int) -> int:
