@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 from rmvdsl import __version__
 from rmvdsl.check import check
-from rmvdsl.check.loader import UsageError, read_text
+from rmvdsl.check.loader import UsageError, read_stdin, read_text
 from rmvdsl.codes import CODES, explain
 from rmvdsl.deep import deep
 from rmvdsl.diagnostics import Diagnostic, Severity
@@ -25,6 +25,7 @@ from rmvdsl.source import SourceMap
 if TYPE_CHECKING:
     from rmvdsl.check.properties import PropertyReport
     from rmvdsl.logic.sat import Answer
+    from rmvdsl.logic.traces import TraceFile
 
 EXIT_OK, EXIT_ERRORS, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 70
 
@@ -308,7 +309,7 @@ def _fmt(args: argparse.Namespace) -> int:
 
     status = EXIT_OK
     for path in args.files:
-        text = sys.stdin.read() if path == "-" else read_text(path)
+        text = read_stdin() if path == "-" else read_text(path)
         source = SourceFile("<stdin>" if path == "-" else path, text)
         parsed = parse_source(source)
         errors = [d for d in parsed.diagnostics if d.is_error]
@@ -355,7 +356,7 @@ def _eval(args: argparse.Namespace) -> int:
         )
     if compiled is None:
         return _formula_errors(args, diagnostics)
-    for note in trace.notes:
+    for note in [*trace.notes, *_absent_names(compiled, trace)]:
         print(f"rmv eval: {note}", file=sys.stderr)
     if args.term:
         low, high = ev.term_at(compiled, trace, at)
@@ -396,6 +397,20 @@ def _eval(args: argparse.Namespace) -> int:
     else:
         print(verdict)
     return EXIT_OK
+
+
+def _absent_names(compiled: object, trace: TraceFile) -> list[str]:
+    """Propositions of the formula that no sample of the trace holds: a typo reads as
+    `false` everywhere, so say so."""
+    from rmvdsl.diagnostics import did_you_mean
+    from rmvdsl.logic.sat import propositions
+
+    seen: set[str] = set().union(*trace.states)
+    notes = []
+    for name in sorted(set(propositions(compiled)) - seen):
+        hint = did_you_mean(name, seen)
+        notes.append(f"`{name}` holds in no sample of the trace" + (f" ({hint})" if hint else ""))
+    return notes
 
 
 def _seconds(text: str) -> float:
@@ -496,6 +511,13 @@ def _graph(args: argparse.Namespace) -> int:
         raise UsageError(f"{args.spec} has no transducer `{args.transducer}` ({hint})")
     if not transducers:
         raise UsageError(f"{args.spec} declares no transducer")
+    # The analyses' findings (RMV5xx) are what the drawing shows; an error before
+    # them (syntax, names, types) means the drawing would mislead: say what is wrong.
+    broken = [d for d in result.errors if not d.code.startswith("RMV5")]
+    if broken:
+        sys.stderr.write(render_text(broken, result.model.sources, False))
+        print(f"rmv graph: {args.spec}: {len(broken)} errors: not drawn", file=sys.stderr)
+        return EXIT_ERRORS
     if result.errors:
         sys.stderr.write(render_text(result.errors, result.model.sources, False))
     chosen = [transducers[args.transducer]] if args.transducer else list(transducers.values())

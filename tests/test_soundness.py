@@ -490,3 +490,90 @@ def test_malformed_sections_are_noted_with_their_place(rmv, tmp_path: Path, text
     result = rmv("import", str(path))
     assert result.code == 0 and "internal error" not in result.err
     assert "bad.yaml:1:" in result.err
+
+
+# ---- 14, 17, 18: the same answers from every front end, and clear messages ----
+
+
+def test_infix_syntax_errors_name_infix_tokens(rmv, tmp_path: Path):
+    spec = tmp_path / "s.rmv"
+    spec.write_text("system s\nproperty P: a b\n", encoding="utf-8")
+    out = rmv("check", str(spec)).out
+    assert "`and`" in out and "`until`" in out and "\\land" not in out
+    err = rmv("sat", "--formula", "a b").err
+    assert "`and`" in err and "\\land" not in err
+    assert "\\land" in rmv("sat", "--formula", "\\eventually_{<3} a b").err
+
+
+@pytest.mark.parametrize(
+    ("bound", "code"), [("<100Hz", "RMV316"), ("<0s", "RMV219"), ("<=0s", "RMV219")]
+)
+def test_one_validator_for_specs_sat_and_eval(rmv, tmp_path: Path, bound: str, code: str):
+    spec = tmp_path / "s.rmv"
+    spec.write_text(TOGGLE.format() + f"property P: eventually[{bound}] B\n", encoding="utf-8")
+    assert code in rmv("check", str(spec)).out
+    assert code in rmv("sat", "--formula", f"eventually[{bound}] p").err
+    trace = tmp_path / "t.jsonl"
+    trace.write_text('{"t": 0, "props": ["p"]}\n{"t": 3, "end": true}\n')
+    assert code in rmv("eval", "--formula", f"eventually[{bound}] p", "--trace", str(trace)).err
+
+
+def test_eval_says_when_a_name_never_occurs_in_the_trace(rmv, tmp_path: Path):
+    trace = tmp_path / "t.jsonl"
+    trace.write_text('{"t": 0, "props": ["Braking"]}\n{"t": 3, "end": true}\n')
+    result = rmv("eval", "--formula", "Brakng", "--trace", str(trace))
+    assert result.out.strip() == "false"
+    assert "`Brakng` holds in no sample" in result.err and "did you mean `Braking`" in result.err
+
+
+def test_control_characters_and_wide_characters_in_diagnostics(rmv, tmp_path: Path):
+    spec = tmp_path / "s.rmv"
+    spec.write_text('system s\nevent 車 when X\x00 > 1\nevent E when "日本" = Y\n', "utf-8")
+    out = rmv("check", "--no-color", str(spec)).out
+    assert "\x00" not in out and "␀" in out
+    lines = out.splitlines()
+    # the caret under `Y` stands below it: the two wide characters take four cells
+    source = next(line for line in lines if '"日本" = Y' in line)
+    caret = lines[lines.index(source) + 1]
+    from rmvdsl.render import width
+
+    assert width(source[: source.index("Y")]) == caret.index("^")
+
+
+def test_fmt_reads_standard_input_as_it_reads_a_file(tmp_path: Path):
+    from conftest import rmv_process
+
+    text = "\ufeffsystem s\n"
+    assert rmv_process(["fmt", "-"], stdin=text).out == "system s\n"
+
+
+def test_fmt_keeps_comments_inside_lists_after_their_item(rmv, tmp_path: Path):
+    spec = tmp_path / "s.rmv"
+    spec.write_text(
+        'system s\ntopic status: std_msgs/msg/Bool = "/s"\nwhitelist status {\n'
+        '    publishers: "/a", // the driver\n        "/b"  // the logger\n}\n'
+        "transducer T {\n    states A, // first\n        B\n    initial A\n    A -> B on A\n}\n",
+        encoding="utf-8",
+    )
+    from rmvdsl.grammar.formatter import format_spec
+    from rmvdsl.grammar.parser import parse_source
+    from rmvdsl.source import SourceFile
+
+    source = SourceFile(str(spec), spec.read_text("utf-8"))
+    out = format_spec(parse_source(source).spec, source)
+    assert '"/a",  // the driver\n' in out and '"/b"  // the logger\n' in out
+    assert "A,  // first\n" in out
+
+
+def test_graph_refuses_a_spec_with_errors_but_draws_analysis_findings(rmv):
+    broken = rmv("graph", "examples/errors/transducer.rmv")
+    assert broken.code == 1 and "not drawn" in broken.err and broken.out == ""
+    findings = rmv("graph", "examples/errors/analysis.rmv")
+    assert findings.code == 0 and findings.out
+
+
+def test_a_bare_number_setting_says_which_unit_it_lacks(tmp_path: Path):
+    spec = tmp_path / "s.rmv"
+    spec.write_text(TOGGLE.format() + "property P: eventually[<=1s] B { window = 10 }\n")
+    found = [d for d in check(str(spec), use_environment=False).diagnostics]
+    assert [d.code for d in found] == ["RMV208"] and "`10s`" in (found[0].help or "")

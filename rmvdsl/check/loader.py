@@ -28,6 +28,17 @@ def read_text(path: str) -> str:
         raise UsageError(f"{path}: permission denied") from None
     except OSError as exc:
         raise UsageError(f"{path}: cannot read: {exc.strerror}") from None
+    return decode(data, path)
+
+
+def read_stdin() -> str:
+    """Standard input, read as a file is: UTF-8, a byte-order mark dropped."""
+    import sys
+
+    return decode(sys.stdin.buffer.read(), "<stdin>")
+
+
+def decode(data: bytes, path: str) -> str:
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as exc:
@@ -133,4 +144,4 @@ def _import_help(importer: str, wanted: str) -> str:
     return f"paths are relative to the importing file's folder, {folder}"
 
 
-__all__ = ["Loaded", "UsageError", "load", "read_text"]
+__all__ = ["Loaded", "UsageError", "load", "read_stdin", "read_text"]

@@ -207,6 +207,7 @@ def check_settings(
                     f"invalid value for `{key}` in {schema.block}",
                     setting.value.span,
                     label=problem,
+                    help=_unit_fix(setting.value, problem),
                 )
             )
     for key in schema.required:
@@ -259,3 +260,14 @@ def _clear_secret(setting: ast.Setting) -> Diagnostic:
         label="credentials must not be stored in the spec",
         help=f'write `{setting.key.name} = env("{variable}")` and export {variable}',
     )
+
+
+def _unit_fix(value: ast.Value, problem: str) -> str | None:
+    """A bare number where a time or a rate is needed: the unit it lacks."""
+    if not isinstance(value, ast.NumberLit):
+        return None
+    if "rate" in problem:
+        return f"a rate needs its unit: `{value.text}Hz`"
+    if "time" in problem:
+        return f"a time needs its unit: `{value.text}s` (or `ms`, `m`, ...)"
+    return None

@@ -9,6 +9,7 @@ Formatting is idempotent and never changes the tree (the tests check both).
 from __future__ import annotations
 
 import bisect
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from rmvdsl.grammar import ast
@@ -30,28 +31,51 @@ class _Line:
     leading: list[tuple[str, bool]] = field(default_factory=list)
 
 
+# A member of a block: one line, or (a list with a comment inside it) one line per
+# item, the items after the first indented once more.
+Member = tuple[str, int] | list[tuple[str, int]]
+
+
 class _Printer:
-    def __init__(self) -> None:
+    def __init__(self, comments: tuple[ast.Comment, ...] = ()) -> None:
         self.lines: list[_Line] = []
+        self.comment_starts = sorted(c.span.start for c in comments)
 
     def emit(self, text: str, depth: int, anchor: int) -> None:
         self.lines.append(_Line(text, depth, anchor))
 
-    def block(self, head: str, anchor: int, end: int, members: list[tuple[str, int]]) -> None:
+    def block(self, head: str, anchor: int, end: int, members: Sequence[Member]) -> None:
         if not members:
             self.emit(head + " {}", 0, anchor)
             return
         self.emit(head + " {", 0, anchor)
-        for text, member_anchor in members:
-            self.emit(text, 1, member_anchor)
+        for member in members:
+            pieces = member if isinstance(member, list) else [member]
+            for index, (text, member_anchor) in enumerate(pieces):
+                self.emit(text, 1 if index == 0 else 2, member_anchor)
         self.close(0, end)
+
+    def commented(self, start: int, end: int) -> bool:
+        """A comment stands between these offsets (inside a list being printed)."""
+        index = bisect.bisect_left(self.comment_starts, start)
+        return index < len(self.comment_starts) and self.comment_starts[index] < end
+
+    def listed(self, head: str, items: list[tuple[str, int]], tail: str = "") -> Member:
+        """`head item, item, ...tail` on one line; one item per line when a comment
+        stands between the items, so that each comment stays after its item."""
+        if len(items) > 1 and self.commented(items[0][1], items[-1][1]):
+            pieces = [(text + ",", anchor) for text, anchor in items]
+            pieces[0] = (head + pieces[0][0], pieces[0][1])
+            pieces[-1] = (items[-1][0] + tail, items[-1][1])
+            return pieces
+        return (head + ", ".join(text for text, _ in items) + tail, items[0][1] if items else -1)
 
     def close(self, depth: int, end: int) -> None:
         self.lines.append(_Line("}", depth, max(0, end - 1), closing=True))
 
 
 def format_spec(spec: ast.Spec, source: SourceFile) -> str:
-    printer = _Printer()
+    printer = _Printer(spec.comments)
     for decl in spec.items:
         _print_decl(decl, printer)
     return _render(printer.lines, spec.comments, source)
@@ -109,36 +133,54 @@ def _print_decl(decl: ast.Decl, out: _Printer) -> None:
                 else p.quote(decl.target.value)
             )
             members = _pattern_members(
-                ("publishers", decl.publishers), ("subscribers", decl.subscribers)
+                out, ("publishers", decl.publishers), ("subscribers", decl.subscribers)
             )
-            out.block(f"whitelist {target}", start, end, members + _actions(decl.actions))
+            out.block(f"whitelist {target}", start, end, members + _actions(decl.actions, out))
         case ast.NodeDecl():
             members = _pattern_members(
-                ("publishes", decl.publishes), ("subscribes", decl.subscribes)
+                out, ("publishes", decl.publishes), ("subscribes", decl.subscribes)
             )
             out.block(
-                f"node {p.quote(decl.name.value)}", start, end, members + _actions(decl.actions)
+                f"node {p.quote(decl.name.value)}",
+                start,
+                end,
+                members + _actions(decl.actions, out),
             )
         case ast.IntrusionDecl():
-            out.block("intrusion", start, end, _settings(decl.settings) + _actions(decl.actions))
+            members = [*_settings(decl.settings), *_actions(decl.actions, out)]
+            out.block("intrusion", start, end, members)
 
 
 def _settings(settings: tuple[ast.Setting, ...]) -> list[tuple[str, int]]:
     return [(p.setting(s), s.span.start) for s in settings]
 
 
-def _actions(actions: tuple[ast.Action, ...]) -> list[tuple[str, int]]:
-    return [(p.action(a), a.span.start) for a in actions]
+def _actions(actions: tuple[ast.Action, ...], out: _Printer) -> list[Member]:
+    members: list[Member] = []
+    for action in actions:
+        if not action.args:
+            members.append((p.action(action), action.span.start))
+            continue
+        args = [(p.argument(arg), arg.span.start) for arg in action.args]
+        head = f"action {action.kind.name}("
+        members.append(out.listed(head, args, ")"))
+        if isinstance(members[-1], tuple):
+            members[-1] = (members[-1][0], action.span.start)
+    return members
 
 
-def _pattern_members(*lists: tuple[str, tuple[ast.StringLit, ...] | None]) -> list[tuple[str, int]]:
-    members = []
+def _pattern_members(
+    out: _Printer, *lists: tuple[str, tuple[ast.StringLit, ...] | None]
+) -> list[Member]:
+    members: list[Member] = []
     for keyword, patterns in lists:
         if patterns is None:
             continue
-        text = ", ".join(p.quote(s.value) for s in patterns) if patterns else "none"
-        anchor = patterns[0].span.start if patterns else -1
-        members.append((f"{keyword}: {text}", anchor))
+        if not patterns:
+            members.append((f"{keyword}: none", -1))
+            continue
+        items = [(p.quote(s.value), s.span.start) for s in patterns]
+        members.append(out.listed(f"{keyword}: ", items))
     return members
 
 
@@ -188,7 +230,7 @@ def _clause(clause: ast.Clause) -> str:
 
 
 def _print_alert(decl: ast.AlertDecl, out: _Printer) -> None:
-    members = []
+    members: list[Member] = []
     for level in decl.levels:
         text = f"{level.severity.name} when {p.expression(level.condition)}"
         if level.reset is not None:
@@ -196,22 +238,18 @@ def _print_alert(decl: ast.AlertDecl, out: _Printer) -> None:
         members.append((text, level.span.start))
     if decl.message is not None:
         members.append((f"message {p.quote(decl.message.value)}", decl.message.span.start))
-    members += _settings(decl.settings) + _actions(decl.actions)
+    members += [*_settings(decl.settings), *_actions(decl.actions, out)]
     out.block(f"alert {decl.name.name}", decl.span.start, decl.span.end, members)
 
 
 def _print_transducer(decl: ast.TransducerDecl, out: _Printer) -> None:
-    members: list[tuple[str, int]] = []
+    members: list[Member] = []
     if decl.states:
-        members.append(
-            ("states " + ", ".join(s.name for s in decl.states), decl.states[0].span.start)
-        )
+        members.append(out.listed("states ", [(s.name, s.span.start) for s in decl.states]))
     if decl.initial is not None:
         members.append((f"initial {decl.initial.name}", decl.initial.span.start))
     if decl.finals:
-        members.append(
-            ("final " + ", ".join(s.name for s in decl.finals), decl.finals[0].span.start)
-        )
+        members.append(out.listed("final ", [(s.name, s.span.start) for s in decl.finals]))
     if decl.complete:
         members.append(("complete", -1))
     for transition in decl.transitions:
@@ -228,7 +266,7 @@ def _print_property(decl: ast.PropertyDecl, out: _Printer) -> None:
     else:
         body = p.formula(decl.body.formula)
     head = f"property {decl.name.name}: {body}"
-    members = _settings(decl.settings) + _actions(decl.actions)
+    members = [*_settings(decl.settings), *_actions(decl.actions, out)]
     if members:
         out.block(head, decl.span.start, decl.span.end, members)
     else:

@@ -49,11 +49,11 @@ def setting(node: ast.Setting) -> str:
 def action(node: ast.Action) -> str:
     if not node.args:
         return f"action {node.kind.name}"
-    args = [
-        value(arg.value) if arg.key is None else f"{arg.key.name} = {value(arg.value)}"
-        for arg in node.args
-    ]
-    return f"action {node.kind.name}({', '.join(args)})"
+    return f"action {node.kind.name}({', '.join(argument(arg) for arg in node.args)})"
+
+
+def argument(arg: ast.Arg) -> str:
+    return value(arg.value) if arg.key is None else f"{arg.key.name} = {value(arg.value)}"
 
 
 # ---- expressions ----
