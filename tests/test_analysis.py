@@ -88,7 +88,10 @@ def test_graph_formats(rmv, tmp_path):
     assert dot.code == 0
     assert '"Limbo" [style=dashed, color=red' in dot.out
     assert '"Idle" -> "Soft" [label="SoftBrake", color=red' in dot.out
-    assert '"Parked" [color=orange' in dot.out
+    # Parked is entered only on FromLimbo, which is never emitted (issue 9): unreachable,
+    # not a reachable dead end; Hard's only way out (Impossible) never holds.
+    assert '"Parked" [style=dashed, color=red' in dot.out
+    assert '"Hard" [color=orange' in dot.out
     mermaid = rmv("graph", spec, "--format", "mermaid").out
     assert "[*] --> Idle" in mermaid and "class Limbo unreachable" in mermaid
     out = tmp_path / "braking.svg"

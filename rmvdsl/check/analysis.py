@@ -109,6 +109,17 @@ def _constants(terms: Iterable[Any]) -> set[Fraction]:
     return out
 
 
+def _unreachable(decl: ast.TransducerDecl, graph: nx.MultiDiGraph, untaken: set[int]) -> set[str]:
+    """The states no path of takeable transitions leads to from the initial state."""
+    if decl.initial is None or decl.initial.name not in graph:
+        return set()
+    usable = nx.subgraph_view(
+        graph, filter_edge=lambda a, b, key: id(graph.edges[a, b, key]["transition"]) not in untaken
+    )
+    reachable = nx.descendants(usable, decl.initial.name) | {decl.initial.name}
+    return {s.name for s in decl.states} - reachable
+
+
 def witness(model: Any, symbols: dict[str, Any]) -> str:
     """`BrakePedal = 0.9, Velocity = 6` from a z3 model."""
     parts = []
@@ -136,10 +147,12 @@ class Analyzer:
 
     def run(self) -> tuple[AnalysisResult, list[Diagnostic]]:
         graphs = {name: self.graph(decl) for name, decl in self.model.transducers.items()}
+        for name in self.model.transducers:
+            self.result.transducers[name] = TransducerFacts()
+        untaken = self.untaken_transitions(graphs)
         for name, decl in self.model.transducers.items():
-            facts = TransducerFacts()
-            self.result.transducers[name] = facts
-            self.reachability(decl, graphs[name], facts)
+            facts = self.result.transducers[name]
+            self.reachability(decl, graphs[name], facts, untaken)
             self.determinism(decl, facts)
             if decl.complete:
                 self.completeness(decl)
@@ -157,36 +170,90 @@ class Analyzer:
             graph.add_edge(transition.source.name, transition.dest.name, transition=transition)
         return graph
 
+    def untaken_transitions(self, graphs: dict[str, nx.MultiDiGraph]) -> set[int]:
+        """Transitions that can never be taken (by id): their input is a boolean event
+        whose condition is unsatisfiable, or an event emitted only from states that
+        cannot be reached. Reachability ignores them, so that a state reached only
+        through them is unreachable, not a reachable dead end; computed to a fixpoint
+        (an unreachable state silences what it emits, which may cut off more)."""
+        impossible = {
+            t.input.name
+            for decl in self.model.transducers.values()
+            for t in decl.transitions
+            if self._unsatisfiable(t.input.name)
+        }
+        untaken: set[int] = set()
+        while True:
+            for name, decl in self.model.transducers.items():
+                self.result.transducers[name].unreachable = _unreachable(
+                    decl, graphs[name], untaken
+                )
+            silent = self.never_emitted() | impossible
+            found = {
+                id(t)
+                for decl in self.model.transducers.values()
+                for t in decl.transitions
+                if t.input.name in silent
+            }
+            if found == untaken:
+                return untaken
+            untaken = found
+
+    def _unsatisfiable(self, name: str) -> bool:
+        decl = self.model.events.get(name)
+        if decl is None or not decl.boolean:
+            return False
+        condition = [self.conditions.of_event(name)]
+        return solve(condition, self.conditions.domains, self.conditions.symbols)[0] == "unsat"
+
     def reachability(
-        self, decl: ast.TransducerDecl, graph: nx.MultiDiGraph, facts: TransducerFacts
+        self,
+        decl: ast.TransducerDecl,
+        graph: nx.MultiDiGraph,
+        facts: TransducerFacts,
+        untaken: set[int],
     ) -> None:
         if decl.initial is None or decl.initial.name not in graph:
             return
-        reachable = nx.descendants(graph, decl.initial.name) | {decl.initial.name}
+        plainly = _unreachable(decl, graph, set())
         finals = {f.name for f in decl.finals}
         for state in decl.states:
-            if state.name not in reachable:
-                facts.unreachable.add(state.name)
+            if state.name in facts.unreachable:
+                entries = [t for t in decl.transitions if t.dest.name == state.name]
+                through = sorted({f"`{t.input.name}`" for t in entries if id(t) in untaken})
+                label = (
+                    f"no path from `{decl.initial.name}` leads here"
+                    if state.name in plainly
+                    else "entered only on " + ", ".join(through) + ", which never holds"
+                )
                 self.report(
                     error(
                         "RMV500",
                         f"state `{state.name}` of `{decl.name.name}` cannot be reached",
                         state.span,
-                        label=f"no path from `{decl.initial.name}` leads here",
+                        label=label,
                         secondary=[Label(decl.initial.span, "the initial state")],
-                        help=f"add a transition into `{state.name}`, or remove it",
+                        help=f"add a transition into `{state.name}`, or remove it"
+                        if state.name in plainly
+                        else "see why those inputs never hold (RMV502)",
                     )
                 )
                 continue
-            leaving = {d for _, d in graph.out_edges(state.name) if d != state.name}
+            exits = [t for t in decl.transitions if t.source.name == state.name]
+            leaving = [t for t in exits if t.dest.name != state.name and id(t) not in untaken]
             if not leaving and state.name not in finals:
                 facts.dead_ends.add(state.name)
+                blocked = sorted({f"`{t.input.name}`" for t in exits if id(t) in untaken})
                 self.report(
                     warning(
                         "RMV501",
                         f"state `{state.name}` of `{decl.name.name}` has no way out",
                         state.span,
-                        label="no transition leaves this state",
+                        label="its only ways out are on "
+                        + ", ".join(blocked)
+                        + ", which never holds"
+                        if blocked
+                        else "no transition leaves this state",
                         help=f"add a transition out of it, or declare it `final {state.name}`",
                     )
                 )
