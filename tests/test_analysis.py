@@ -93,7 +93,7 @@ def test_graph_formats(rmv, tmp_path):
     assert '"Parked" [style=dashed, color=red' in dot.out
     assert '"Hard" [color=orange' in dot.out
     mermaid = rmv("graph", spec, "--format", "mermaid").out
-    assert "[*] --> Idle" in mermaid and "class Limbo unreachable" in mermaid
+    assert "[*] --> Idle" in mermaid and "class Limbo,Parked unreachable" in mermaid
     out = tmp_path / "braking.svg"
     assert (
         rmv("graph", spec, "--transducer", "Braking", "--format", "svg", "-o", str(out)).code == 0
