@@ -577,3 +577,102 @@ def test_a_bare_number_setting_says_which_unit_it_lacks(tmp_path: Path):
     spec.write_text(TOGGLE.format() + "property P: eventually[<=1s] B { window = 10 }\n")
     found = [d for d in check(str(spec), use_environment=False).diagnostics]
     assert [d.code for d in found] == ["RMV208"] and "`10s`" in (found[0].help or "")
+
+
+# ---- 19. durations that bounded always/eventually pin down ----
+
+
+@pytest.mark.parametrize(
+    ("formula", "expected"),
+    [
+        ("(\\int^{10} p < 4) \\land (\\always_{<10} p)", "no"),
+        ("(\\int^{10} p > 4) \\land (\\always_{<10} \\neg p)", "no"),
+        ("(\\int^{10} p > 0) \\land \\neg (\\eventually_{<=12} p)", "no"),
+        ("(\\int^{10} p < 4) \\land (\\always_{<9} p)", "no"),
+        ("(\\int^{10} p <= 9) \\land (\\always_{<9} p)", "yes"),
+        ("(\\int^{10} p < 4) \\land (\\always_{=10} p)", "yes"),
+    ],
+)
+def test_durations_pinned_by_always_and_eventually_are_decided(rmv, formula, expected):
+    result = rmv("sat", "--syntax", "latex", "--formula", formula, "--format", "json")
+    assert json.loads(result.out)["sat"] == expected
+
+
+# ---- the analyses' exact answers, in every time unit, on int and float fields ----
+
+_UNITS = sorted(TIME_UNITS)
+_SHAPES = [
+    "duration[{w}](A) > {c}",
+    "duration[{w}](A) < {c} and eventually[<={b}] B",
+    "A -> eventually[<{b}] B",
+    "always[<={b}] A or duration[{w}](B) >= {c}",
+    "duration[{w}](A) + duration[{w}](B) > {c}",
+    "2 * duration[{w}](B) <= {c} + {b}",
+]
+
+
+@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    unit=st.sampled_from(_UNITS),
+    shape=st.sampled_from(_SHAPES),
+    w=st.integers(1, 20),
+    c=st.integers(0, 25),
+    b=st.integers(1, 20),
+    int_field=st.booleans(),
+    limit=st.integers(-3, 3),
+)
+def test_exact_answers_agree_across_units_and_replay(
+    tmp_path_factory, unit, shape, w, c, b, int_field, limit
+):
+    """The same property with bare numbers under `time unit U` and with explicit
+    units gets the same exact answers, and every witness replays in the reference
+    evaluator (true for "can hold", false for "can fail")."""
+    from rmvdsl.logic.compile import compile_formula
+    from rmvdsl.logic.reference import Reference, Trace
+
+    field, value = (
+        ("std_msgs/msg/Int32", f"{limit}") if int_field else ("std_msgs/msg/Float64", f"{limit}.5")
+    )
+    body = f"""system s
+ros humble
+topic a: {field} = "/a"
+var X = a.data
+event Up when X > {value}
+event Down when X <= {value}
+transducer T {{
+    states A, B
+    initial A
+    A -> B on Up
+    B -> A on Down
+}}
+"""
+    bare = shape.format(w=w, c=c, b=b)
+    united = shape.format(w=f"{w}{unit}", c=f"{c}{unit}", b=f"{b}{unit}").replace(
+        "2 * duration", "2 * duration"
+    )
+    answers = []
+    for text in (f"time unit {unit}\n{body}property P: {bare}\n", f"{body}property P: {united}\n"):
+        path = tmp_path_factory.mktemp("units") / "spec.rmv"
+        path.write_text(text, encoding="utf-8")
+        result = check(str(path), use_environment=False)
+        assert not result.errors or {d.code for d in result.errors} <= {"RMV510", "RMV511"}
+        assert result.properties is not None
+        facts = result.properties.facts.get("P")
+        if facts is None:
+            answers.append(None)
+            continue
+        decl = result.model.properties["P"]
+        assert decl.formula is not None
+        compiled = compile_formula(decl.formula, default_unit=result.model.time_unit or "s")
+        for answer, verdict in ((facts.satisfiable, 2), (facts.valid, 0)):
+            if answer is not None and answer.witness is not None and answer.exact:
+                witness = answer.witness
+                trace = Trace(list(witness.times), list(witness.states), witness.end)
+                assert Reference(trace).value(compiled, witness.at) == verdict, (text, witness)
+        answers.append(
+            (
+                facts.satisfiable.value if facts.satisfiable else None,
+                facts.valid.value if facts.valid else None,
+            )
+        )
+    assert answers[0] == answers[1], (bare, united, unit, answers)

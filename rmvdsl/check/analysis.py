@@ -56,7 +56,7 @@ def solve(
     solver = z3.Solver()
     solver.set("timeout", SOLVER_TIMEOUT_MS)
     solver.add(*domains, *constraints)
-    key = digest("conditions", z3.get_version_string(), solver.sexpr())
+    key = digest("conditions", "2", z3.get_version_string(), solver.sexpr())
     cache = default_cache()
     cached = cache.get(key)
     if cached is not None and isinstance(cached.get("answer"), str):

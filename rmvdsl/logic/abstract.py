@@ -144,6 +144,29 @@ class Refuter:
             self.axioms.append(z3.ForAll([t], function(t) + other(t) == length))
         return function
 
+    def pinned_durations(self) -> list[Any]:
+        """What bounded `always` and `eventually` fix of a duration from the same
+        start: `always[<b] phi` makes duration[T](phi) at least min(b, T) (all of T
+        when b >= T), and no `eventually[<b] phi` makes it at most T - min(b, T).
+        True of every trace, so answers stay exact."""
+        facts: list[Any] = []
+        t = self.variable("q")
+        for node, predicate in self.temporal.items():
+            kind, op, bound, left, psi = node
+            if kind != "until" or left != ("const", True) or op == "=":
+                continue
+            for (window, body), duration in self.durations.items():
+                covered = z3.RealVal(str(min(Fraction(bound), window)))
+                length = z3.RealVal(str(window))
+                if _plain(psi) == _plain(body):  # phi never holds in [t, t + b)
+                    pinned = duration(t) <= length - covered
+                elif _plain(psi) == _plain(("not", body)):  # phi holds all through it
+                    pinned = duration(t) >= covered
+                else:
+                    continue
+                facts.append(z3.ForAll([t], z3.Implies(z3.Not(predicate(t)), pinned)))
+        return facts
+
     def system_axioms(self, names: set[str]) -> list[Any]:
         t = self.variable("s")
         facts: list[Any] = []
@@ -171,6 +194,13 @@ class Refuter:
         return facts
 
 
+def _plain(f: Any) -> Any:
+    """The formula without double negations (the same in three values too)."""
+    while f[0] == "not" and f[1][0] == "not":
+        f = f[1][1]
+    return f
+
+
 def refute(
     formulas: Sequence[Any], system: System, names: set[str], limits: Limits
 ) -> tuple[str, tuple[int, ...]]:
@@ -194,7 +224,7 @@ def refute(
         label = z3.Bool(f"requirement{index}")
         labels.append(label)
         solver.assert_and_track(refuter.encode(f, 1, at), label)
-    solver.add(*refuter.axioms, *refuter.system_axioms(names))
+    solver.add(*refuter.axioms, *refuter.pinned_durations(), *refuter.system_axioms(names))
     result = solver.check()
     if result == z3.unknown and solver.reason_unknown() in (
         "timeout",

@@ -35,7 +35,7 @@ from rmvdsl.logic.system import System
 from rmvdsl.numbers import exact_text as number
 
 # Bump when an encoding changes: cached answers carry it in their key.
-ENCODING_VERSION = "1"
+ENCODING_VERSION = "2"  # 2: durations pinned by always/eventually in the refutation
 YES, NO, UNKNOWN = "yes", "no", "unknown"
 
 
