@@ -503,6 +503,9 @@ def test_infix_syntax_errors_name_infix_tokens(rmv, tmp_path: Path):
     err = rmv("sat", "--formula", "a b").err
     assert "`and`" in err and "\\land" not in err
     assert "\\land" in rmv("sat", "--formula", "\\eventually_{<3} a b").err
+    spec.write_text("system s\nevent E when X Y\n", encoding="utf-8")
+    out = rmv("check", str(spec)).out
+    assert "`and`" in out and "`or`" in out and "an operator" in out and "`where`" in out
 
 
 @pytest.mark.parametrize(

@@ -101,6 +101,12 @@ def _latex_parser() -> tuple[Lark, AstBuilder]:
     return parser, builder
 
 
+@functools.cache
+def _recognizer() -> Lark:
+    """The spec grammar with no actions: replays token streams to ask what fits."""
+    return bare_spec_parser()
+
+
 def bare_spec_parser() -> Lark:
     """lark alone on the same grammar, building its own parse tree (the benchmark's
     baseline)."""
@@ -153,12 +159,17 @@ def describe_expected(expected: set[str] | frozenset[str], which: str = "spec") 
         if not keywords:
             rest.append("END_OF_DECLARATION")
     words = sorted({texts.get(name, f"`{name.lower()}`") for name in rest}, key=_word_order)
+    symbols = [w for w in words if w.startswith("`") and not any(c.isalpha() for c in w)]
+    if len(symbols) > 5:  # after a value: every operator fits; name a few
+        shown = [s for s in ("`+`", "`<`", "`=`") if s in symbols][:2]
+        words = [w for w in words if w not in symbols]
+        words.append(f"an operator ({', '.join([*shown, '...'])})")
     if len(keywords) >= 5:
         words.append("a new declaration (`topic`, `var`, `event`, ...)")
     else:
         words.extend(texts.get(name, name) for name in keywords)
-    if len(words) > 10:
-        words = [*words[:10], "..."]
+    if len(words) > 12:
+        words = [*words[:12], "..."]
     if not words:
         return "nothing more"
     if len(words) == 1:
@@ -199,6 +210,7 @@ class _ChunkParser:
         self.line = line
         self.diagnostics: list[Diagnostic] = []
         self.accepted = _ACCEPTED_BEFORE_NEXT_REPORT
+        self.fed: list[Token] = []  # the tokens the parser took, in order
 
     def parse(self) -> list[ast.Decl] | None:
         parser, _ = _spec_parser()
@@ -269,16 +281,29 @@ class _ChunkParser:
         try:
             interactive.feed_token(token)
             self.accepted += 1
+            self.fed.append(token)
             return
         except UnexpectedToken:
-            # LALR lookahead sets are merged across contexts; accepts() is exact.
-            expected = set(interactive.accepts())
+            expected = self._expected_before()
         closer = self._insertable_closer(interactive, token, expected)
         self._report(self._unexpected(token, expected, closer))
         self.accepted = 0
         if closer is not None:
-            interactive.feed_token(Token.new_borrow_pos(closer, _CLOSERS[closer], token))
+            inserted = Token.new_borrow_pos(closer, _CLOSERS[closer], token)
+            interactive.feed_token(inserted)
             interactive.feed_token(token)
+            self.fed += [inserted, token]
+
+    def _expected_before(self) -> set[str]:
+        """What the parser would have taken instead of the token it refused. A refused
+        token may already have made the parser reduce (LALR lookahead sets are merged
+        across contexts: after `when X`, a name reduces the expression), so the tokens
+        taken so far are replayed on a parser without actions and asked there;
+        accepts() tries each token, so the answer is exact."""
+        trial = _recognizer().parse_interactive("", start="start")
+        for taken in self.fed:
+            trial.feed_token(taken)
+        return set(trial.accepts())
 
     def _insertable_closer(self, interactive: Any, token: Token, expected: set[str]) -> str | None:
         for closer in _CLOSERS:
