@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 import os
+import sys
+from pathlib import Path
 
 import pytest
 from conftest import ROOT, rmv_process
@@ -198,7 +200,10 @@ def test_console_script_is_installed():
     import shutil
     import subprocess
 
-    path = shutil.which("rmv")
+    # The script pip installs stands beside this interpreter (a venv's bin folder need
+    # not be on PATH); PATH is the fallback for other layouts.
+    beside = Path(sys.executable).parent / "rmv"
+    path = str(beside) if beside.exists() else shutil.which("rmv")
     assert path is not None, "install the project first: pip install -e '.[dev]'"
 
     completed = subprocess.run(

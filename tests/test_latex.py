@@ -5,9 +5,9 @@ from __future__ import annotations
 import pytest
 from conftest import FIXTURES
 
+from rmvdsl.grammar import formula as fm
 from rmvdsl.grammar.parser import parse_formula
 from rmvdsl.grammar.printer import formula as print_formula
-from rmvdsl.logic import formula as fm
 
 CORPUS = FIXTURES / "rmtld3synth" / "formulas.txt"
 

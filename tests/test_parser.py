@@ -8,9 +8,9 @@ import pytest
 from conftest import EXAMPLES
 
 from rmvdsl.grammar import ast
+from rmvdsl.grammar import formula as fm
 from rmvdsl.grammar.parser import parse_source
 from rmvdsl.grammar.scanner import TOP_LEVEL_KEYWORDS
-from rmvdsl.logic import formula as fm
 from rmvdsl.source import SourceFile
 
 

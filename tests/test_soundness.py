@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 from rmvdsl.check import check
 from rmvdsl.check.conditions import apply, as_python_float, negate, number
-from rmvdsl.logic.formula import TIME_UNITS
+from rmvdsl.grammar.formula import TIME_UNITS
 from rmvdsl.runtime import values
 
 TOGGLE = """system s

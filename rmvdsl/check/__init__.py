@@ -13,6 +13,7 @@ from __future__ import annotations
 import os
 import re
 import sys
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, cast
@@ -37,6 +38,10 @@ else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
 CONFIG_FILE = "rmv.toml"
+# z3's Python objects live in one context that is not safe to share between threads
+# (six threads checking at once crashed the process): the solver stages take turns.
+# Parsing, names and types run in parallel.
+SOLVER_LOCK = threading.RLock()
 # Name diagnostics that a syntax error in the same declaration can cause.
 CONSEQUENTIAL = frozenset({"RMV200", "RMV209", "RMV210", "RMV213"})
 
@@ -102,7 +107,8 @@ def _check(
     # networkx and z3 load only when a check runs, not for `rmv --version` or `fmt`.
     from rmvdsl.check.analysis import analyze
 
-    analysis, analysis_diagnostics = analyze(model, types)
+    with SOLVER_LOCK:
+        analysis, analysis_diagnostics = analyze(model, types)
     # Inside a declaration with syntax errors parts may be missing: what follows from
     # a missing part is not reported, the syntax error is.
     names = [
@@ -113,7 +119,8 @@ def _check(
     from rmvdsl.check.properties import analyze_properties
 
     skip = broken_declarations(model, earlier)
-    report = analyze_properties(model, types, analysis, skip, limits)
+    with SOLVER_LOCK:
+        report = analyze_properties(model, types, analysis, skip, limits)
     diagnostics = sorted([*earlier, *report.diagnostics], key=sort_key)
     return CheckResult(model, diagnostics, types, analysis, report)
 

@@ -27,7 +27,7 @@ from rmvdsl.check.model import Model
 from rmvdsl.check.types import TypeInfo
 from rmvdsl.diagnostics import Diagnostic, Label, error, warning
 from rmvdsl.grammar import ast
-from rmvdsl.logic import formula as fm
+from rmvdsl.grammar import formula as fm
 
 SOLVER_TIMEOUT_MS = 2000
 UNSIGNED = {"uint8", "uint16", "uint32", "uint64", "byte", "char"}

@@ -22,8 +22,8 @@ from rmvdsl.check.model import (
 from rmvdsl.check.rosnames import message_type_problem, name_problem, suggest_name
 from rmvdsl.diagnostics import Diagnostic, Label, did_you_mean, error, warning
 from rmvdsl.grammar import ast
+from rmvdsl.grammar import formula as fm
 from rmvdsl.grammar.parser import reserved_names
-from rmvdsl.logic import formula as fm
 from rmvdsl.logic.validate import check_formula
 from rmvdsl.source import SourceMap
 

@@ -24,8 +24,8 @@ from rmvdsl.check.model import Kind, Model
 from rmvdsl.check.types import TypeInfo
 from rmvdsl.diagnostics import Diagnostic, Label, Severity, error, warning
 from rmvdsl.grammar import ast
+from rmvdsl.grammar import formula as fm
 from rmvdsl.grammar.printer import formula as show_formula
-from rmvdsl.logic import formula as fm
 from rmvdsl.logic.compile import CompileError, compile_formula
 from rmvdsl.logic.reference import FALSE, TRUE, Reference, Trace
 from rmvdsl.logic.sat import (

@@ -29,7 +29,7 @@ from rmvdsl.check.msgtypes import (
 from rmvdsl.check.rosnames import message_type_problem
 from rmvdsl.diagnostics import Diagnostic, Label, did_you_mean, error
 from rmvdsl.grammar import ast
-from rmvdsl.logic import formula as fm
+from rmvdsl.grammar import formula as fm
 from rmvdsl.runtime.values import literal
 from rmvdsl.source import Span
 

@@ -11,7 +11,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field, fields
 from fractions import Fraction
 
-from rmvdsl.logic.formula import Formula, TimeValue
+from rmvdsl.grammar.formula import Formula, TimeValue
 from rmvdsl.source import NO_SPAN, Span
 
 

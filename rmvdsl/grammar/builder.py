@@ -7,6 +7,7 @@ last token. Literal problems found here (an unknown unit) become diagnostics.
 from __future__ import annotations
 
 import re
+import threading
 from collections.abc import Callable, Sequence
 from fractions import Fraction
 from typing import Any
@@ -15,7 +16,7 @@ from lark import Token, Transformer
 
 from rmvdsl.diagnostics import Diagnostic, Label, error
 from rmvdsl.grammar import ast
-from rmvdsl.logic import formula as fm
+from rmvdsl.grammar import formula as fm
 from rmvdsl.numbers import NumberError, decimal, exact
 from rmvdsl.source import Span
 
@@ -53,14 +54,50 @@ def unescape(raw: str, start: int) -> tuple[str, tuple[int, ...]]:
     return "".join(chars), tuple(offsets)
 
 
+class _ParseState(threading.local):
+    """What one parse writes: each thread has its own (one lark parser, with this
+    builder's callbacks, serves every thread)."""
+
+    def __init__(self) -> None:
+        self.path = "<input>"
+        self.diagnostics: list[Diagnostic] = []
+        self.span_of: SpanOf | None = None
+
+
 class AstBuilder(Transformer[Token, Any]):
     """Callbacks named after the grammar's rules and aliases."""
 
     def __init__(self, path: str = "<input>", span_of: SpanOf | None = None) -> None:
         super().__init__(visit_tokens=False)
+        self._state = _ParseState()
         self.path = path
-        self.diagnostics: list[Diagnostic] = []
         self._span_of = span_of
+
+    def start_parse(self, path: str, span_of: SpanOf | None = None) -> None:
+        """Begin a parse on this thread: its file, and a fresh list of diagnostics."""
+        self._state.path = path
+        self._state.diagnostics = []
+        self._state.span_of = span_of
+
+    @property
+    def path(self) -> str:
+        return self._state.path
+
+    @path.setter
+    def path(self, value: str) -> None:
+        self._state.path = value
+
+    @property
+    def diagnostics(self) -> list[Diagnostic]:
+        return self._state.diagnostics
+
+    @property
+    def _span_of(self) -> SpanOf | None:
+        return self._state.span_of
+
+    @_span_of.setter
+    def _span_of(self, value: SpanOf | None) -> None:
+        self._state.span_of = value
 
     # ---- spans ----
 

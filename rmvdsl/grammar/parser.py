@@ -27,8 +27,8 @@ from lark.utils import TextSlice
 from rmvdsl.diagnostics import Diagnostic, Label, did_you_mean, error
 from rmvdsl.grammar import ast
 from rmvdsl.grammar.builder import AstBuilder
+from rmvdsl.grammar.formula import Formula
 from rmvdsl.grammar.scanner import TOP_LEVEL_KEYWORDS, RawComment, scan
-from rmvdsl.logic.formula import Formula
 from rmvdsl.source import SourceFile, Span
 
 _SPEC_GRAMMAR_FILES = ("rmv.lark", "expr.lark", "formula.lark", "lexical.lark")
@@ -401,8 +401,7 @@ def _last_unclosed(text: str, start: int, end: int) -> int | None:
 def parse_source(source: SourceFile) -> ParsedSpec:
     """Parse a whole file: every declaration, every syntax error."""
     _, builder = _spec_parser()
-    builder.path = source.path
-    builder.diagnostics = []
+    builder.start_parse(source.path)
     scanned = scan(source.text)
     items: list[ast.Decl] = []
     diagnostics: list[Diagnostic] = []
@@ -482,9 +481,7 @@ def parse_latex(literal: ast.StringLit, start: str = "start") -> tuple[Any, list
         last = offsets[end - 1] + 1 if 0 < end <= len(offsets) else first
         return Span(path, first, max(first, last))
 
-    builder.path = path
-    builder.diagnostics = []
-    builder._span_of = lambda token: file_span(token.start_pos or 0, token.end_pos or 0)
+    builder.start_parse(path, lambda token: file_span(token.start_pos or 0, token.end_pos or 0))
     try:
         formula = parser.parse(value, start=start)
     except UnexpectedInput as exc:
@@ -560,9 +557,7 @@ def parse_formula(
         literal = ast.StringLit(text, Span(path, -1, len(text) + 1), tuple(range(len(text))))
         return parse_latex(literal, "start" if kind == "formula" else "term")
     parser, builder = _spec_parser()
-    builder.path = path
-    builder.diagnostics = []
-    builder._span_of = None
+    builder.start_parse(path)
     try:
         formula = parser.parse(text, start=kind)
     except UnexpectedToken as exc:

@@ -4,7 +4,7 @@ the tree the same. The formatter and `rmv import` both print through here."""
 from __future__ import annotations
 
 from rmvdsl.grammar import ast
-from rmvdsl.logic import formula as fm
+from rmvdsl.grammar import formula as fm
 from rmvdsl.numbers import decimal
 
 

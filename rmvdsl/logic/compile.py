@@ -14,8 +14,8 @@ from __future__ import annotations
 from fractions import Fraction
 from typing import Any
 
-from rmvdsl.logic import formula as fm
-from rmvdsl.logic.formula import TIME_UNITS
+from rmvdsl.grammar import formula as fm
+from rmvdsl.grammar.formula import TIME_UNITS
 
 
 class CompileError(Exception):

@@ -8,9 +8,9 @@ from fractions import Fraction
 from typing import Any
 
 from rmvdsl.diagnostics import Diagnostic, Severity, error
+from rmvdsl.grammar.formula import Formula, Term
 from rmvdsl.grammar.parser import parse_formula
 from rmvdsl.logic.compile import CompileError, compile_formula
-from rmvdsl.logic.formula import Formula, Term
 from rmvdsl.logic.traces import TraceFile
 from rmvdsl.logic.validate import check_formula
 from rmvdsl.numbers import exact_text, to_json

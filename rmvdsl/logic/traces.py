@@ -26,7 +26,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from fractions import Fraction
 
-from rmvdsl.logic.formula import TIME_UNITS
+from rmvdsl.grammar.formula import TIME_UNITS
 from rmvdsl.numbers import NumberError, exact_or_quotient
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_^{}]*$")

@@ -5,7 +5,7 @@ gets the same answer from every front end)."""
 from __future__ import annotations
 
 from rmvdsl.diagnostics import Diagnostic, error
-from rmvdsl.logic import formula as fm
+from rmvdsl.grammar import formula as fm
 from rmvdsl.source import Span
 
 

@@ -1,0 +1,58 @@
+"""The imports point one way: grammar/ knows nothing of the checker or the logic,
+runtime/ is the standard library alone (generated nodes embed it), and nothing
+imports the command line. Every import counts, also those inside functions."""
+
+from __future__ import annotations
+
+import ast
+import sys
+from pathlib import Path
+
+from conftest import ROOT
+
+PACKAGE = ROOT / "rmvdsl"
+
+
+def _imports(path: Path) -> set[str]:
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    found = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found |= {alias.name for alias in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            found.add(node.module)
+    return found
+
+
+def _modules(folder: str) -> list[Path]:
+    return sorted((PACKAGE / folder).rglob("*.py"))
+
+
+def test_the_grammar_imports_no_checker_and_no_logic():
+    for path in _modules("grammar"):
+        bad = {m for m in _imports(path) if m.startswith(("rmvdsl.logic", "rmvdsl.check"))}
+        assert not bad, f"{path.relative_to(ROOT)} imports {sorted(bad)}"
+
+
+def test_the_runtime_is_the_standard_library_alone():
+    for path in _modules("runtime"):
+        for module in _imports(path):
+            top = module.split(".")[0]
+            own = module.startswith("rmvdsl.runtime")
+            assert own or (top in sys.stdlib_module_names and top != "rmvdsl"), (
+                f"{path.relative_to(ROOT)} imports {module}"
+            )
+
+
+def test_nothing_imports_the_command_line():
+    for path in sorted(PACKAGE.rglob("*.py")):
+        if path.name == "cli.py":
+            continue
+        assert "rmvdsl.cli" not in _imports(path), f"{path.relative_to(ROOT)} imports rmvdsl.cli"
+
+
+def test_the_contracts_catch_a_break(tmp_path: Path):
+    """The checker itself: a grammar module that imports the checker is found."""
+    bad = tmp_path / "bad.py"
+    bad.write_text("def f():\n    from rmvdsl.check import check\n", encoding="utf-8")
+    assert "rmvdsl.check" in _imports(bad)
