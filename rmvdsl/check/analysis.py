@@ -30,7 +30,6 @@ from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
 
 SOLVER_TIMEOUT_MS = 2000
-UNSIGNED = {"uint8", "uint16", "uint32", "uint64", "byte", "char"}
 
 
 @dataclass

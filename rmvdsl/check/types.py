@@ -1,9 +1,7 @@
 """Types (stage 3): every variable against real ROS message definitions, then
 events, alerts and properties, with time units and property horizons.
 
-Value types are small: bool, int, float, string, time, duration. A numeric value
-also carries its time exponent (`derivative(x, 1s)` is x per second: -1), so that a
-rate of change compared with a value is reported; literals adapt to any unit.
+Value types are in vtypes.py, the resolution of field paths in fieldpaths.py.
 """
 
 from __future__ import annotations
@@ -14,80 +12,36 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from fractions import Fraction
 
+from rmvdsl.check.fieldpaths import FieldPaths
 from rmvdsl.check.model import Kind, Model
 from rmvdsl.check.msgtypes import (
     DEFAULT_DISTRO,
     DISTROS,
-    FLOATS,
-    INTEGERS,
-    FieldType,
     MessageDef,
     TypeRegistry,
-    canonical,
     environment_folders,
 )
-from rmvdsl.check.rosnames import message_type_problem
+from rmvdsl.check.vtypes import (
+    BOOL,
+    DURATION,
+    FLOAT,
+    INT,
+    NUMERIC,
+    STRING,
+    UNKNOWN,
+    VType,
+    from_ros,
+)
 from rmvdsl.diagnostics import Diagnostic, Label, did_you_mean, error
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
 from rmvdsl.runtime.values import literal
 from rmvdsl.source import Span
 
-NUMERIC = frozenset({"int", "float"})
-
-
-@dataclass(frozen=True)
-class VType:
-    kind: str  # bool | int | float | string | time | duration | unknown
-    ros: str = ""  # the ROS type it comes from, for messages and hover
-    rate: int = 0  # time exponent: -1 for a derivative, +1 for an integral
-    literal: bool = False  # a constant written in the spec: adapts to units
-
-    @property
-    def numeric(self) -> bool:
-        return self.kind in NUMERIC
-
-    @property
-    def adapts(self) -> bool:
-        """A bare number written in the spec: it takes the unit of what it meets."""
-        return self.literal and self.kind in NUMERIC and self.rate == 0
-
-    @property
-    def exponent(self) -> int:
-        """The power of seconds in its unit: 1 for a time, -1 for a rate, 0 for none."""
-        return self.rate + (1 if self.kind == "duration" else 0)
-
-    def describe(self) -> str:
-        name = self.ros or self.kind
-        if self.rate < 0:
-            name += " per second" if self.rate == -1 else f" per second^{-self.rate}"
-        elif self.rate > 0:
-            name += " times seconds" if self.rate == 1 else f" times seconds^{self.rate}"
-        return name
-
-
-UNKNOWN = VType("unknown")
-BOOL = VType("bool")
-INT = VType("int")
-FLOAT = VType("float")
-STRING = VType("string")
-DURATION = VType("duration")
-
-
-def from_ros(base: str) -> VType:
-    if base == "bool":
-        return VType("bool", base)
-    if base in INTEGERS:
-        return VType("int", base)
-    if base in FLOATS:
-        return VType("float", base)
-    if base in ("string", "wstring"):
-        return VType("string", base)
-    if base in ("time", "builtin_interfaces/msg/Time"):
-        return VType("time", base)
-    if base in ("duration", "builtin_interfaces/msg/Duration"):
-        return VType("duration", base)
-    return UNKNOWN
+__all__ = [
+    "BOOL", "DURATION", "FLOAT", "INT", "NUMERIC", "STRING", "UNKNOWN",
+    "Horizon", "TypeChecker", "TypeConfig", "TypeInfo", "VType", "check_types", "from_ros",
+]  # fmt: skip
 
 
 @dataclass
@@ -165,7 +119,7 @@ _TIME_ARGUMENT = {"derivative", "non_negative_derivative", "integral", "elapsed"
 _COUNT_ARGUMENT = {"top", "bottom", "moving_average", "sample"}
 
 
-class TypeChecker:
+class TypeChecker(FieldPaths):
     def __init__(self, model: Model, config: TypeConfig, spec_folder: str) -> None:
         self.model = model
         self.config = config
@@ -173,9 +127,6 @@ class TypeChecker:
         self.diagnostics: list[Diagnostic] = []
         self.info = TypeInfo(TypeRegistry(self._distro()))
         self._event_stack: set[str] = set()
-
-    def report(self, diagnostic: Diagnostic) -> None:
-        self.diagnostics.append(diagnostic)
 
     # ---- configuration ----
 
@@ -237,234 +188,6 @@ class TypeChecker:
         for prop in self.model.properties.values():
             self.check_property(prop)
         return self.info, self.diagnostics
-
-    # ---- topics and variables ----
-
-    def resolve_topic(self, topic: ast.TopicDecl) -> MessageDef | None:
-        registry = self.info.registry
-        definition = registry.get(topic.msg_type.text)
-        if definition is not None:
-            return definition
-        if message_type_problem([p.name for p in topic.msg_type.parts]):
-            return None  # not a type name at all: the names stage said so
-        if canonical(topic.msg_type.text) in registry.broken:
-            return None  # its .msg file has errors, reported there
-        suggestion = registry.closest_type(topic.msg_type.text)
-        package = topic.msg_type.parts[0].name
-        known_package = any(n.startswith(package + "/") for n in registry.names())
-        self.report(
-            error(
-                "RMV300",
-                f"unknown message type `{topic.msg_type.text}`",
-                topic.msg_type.span,
-                label=(
-                    f"no such type in package `{package}`"
-                    if known_package
-                    else f"no definitions of package `{package}` for ROS {registry.distro}"
-                ),
-                help=(f"did you mean `{suggestion}`?" if suggestion else None)
-                or 'add its .msg folder with `messages "path"` or `rmv check --messages DIR`',
-            )
-        )
-        return None
-
-    def type_variable(self, variable: ast.VarDecl) -> VType:
-        topic = self.info.topics.get(variable.source.topic.name)
-        if topic is None:
-            return UNKNOWN
-        aggregates = variable.aggregate is not None and variable.aggregate.name != "number"
-        if aggregates and not any(s.index == "*" for s in variable.source.segments):
-            return UNKNOWN  # an aggregate without `[*]`: the names stage said so
-        resolved = self.walk_path(topic, variable.source)
-        if resolved is None:
-            return UNKNOWN
-        field_type, wildcard, last = resolved
-        if variable.aggregate is not None:
-            return self.aggregate(variable, field_type, wildcard)
-        if wildcard or field_type.array:
-            self.report(
-                error(
-                    "RMV320",
-                    f"`{variable.name.name}` is an array, not a value",
-                    last.span,
-                    label=f"{field_type.text() if field_type.array else field_type.base + '[*]'}",
-                    help=f"aggregate it: `var {variable.name.name} = max("
-                    f"{variable.source.topic.name}.{variable.source.text})`, "
-                    "or pick one element with `[0]`",
-                )
-            )
-            return UNKNOWN
-        return self.scalar_of(variable, field_type, last)
-
-    def scalar_of(self, variable: ast.VarDecl, field_type: FieldType, last: ast.Node) -> VType:
-        value = from_ros(field_type.base)
-        if value is UNKNOWN:
-            message = self.info.registry.get(field_type.base)
-            fields = ", ".join(list(message.fields)[:6]) if message else ""
-            self.report(
-                error(
-                    "RMV303",
-                    f"`{variable.name.name}` is a whole message ({field_type.base}), not a value",
-                    last.span,
-                    label="pick one of its fields",
-                    help=f"its fields: {fields}" if fields else None,
-                )
-            )
-        return value
-
-    def walk_path(
-        self, message: MessageDef, ref: ast.FieldRef
-    ) -> tuple[FieldType, bool, ast.Node] | None:
-        current = FieldType(message.name)
-        wildcard = False
-        previous: ast.Node = ref.topic
-        for segment in ref.segments:
-            if current.array:
-                self.report_unindexed_array(previous, current)
-                return None
-            fields = self.fields_of(current.base)
-            if fields is None:
-                self.report(
-                    error(
-                        "RMV301",
-                        f"`{previous_name(previous)}` is a {current.base}, which has no fields",
-                        segment.field_name.span,
-                        label="no field here",
-                        help=f"end the path at `{previous_name(previous)}`",
-                    )
-                )
-                return None
-            found = fields.get(segment.field_name.name)
-            if found is None:
-                found = self.constant(current.base, segment)
-                if found is None:
-                    self.report_missing_field(current.base, fields, segment)
-                    return None
-            current = found
-            if segment.index is not None:
-                if not current.array:
-                    self.report(
-                        error(
-                            "RMV302",
-                            f"`{segment.field_name.name}` is not an array ({current.text()})",
-                            segment.span,
-                            label="cannot be indexed",
-                            help=f"write `{segment.field_name.name}` without `[{segment.index}]`",
-                        )
-                    )
-                    return None
-                if self.out_of_range(segment, current):
-                    return None
-                wildcard = wildcard or segment.index == "*"
-                current = current.element()
-            previous = segment
-        return current, wildcard, previous
-
-    def out_of_range(self, segment: ast.Segment, array: FieldType) -> bool:
-        size = array.size
-        if not isinstance(segment.index, int) or size is None or array.bounded:
-            return False
-        if segment.index < size:
-            return False
-        self.report(
-            error(
-                "RMV302",
-                f"index {segment.index} is out of range for `{segment.field_name.name}` "
-                f"({array.text()})",
-                segment.span,
-                label=f"indices are 0..{size - 1}",
-            )
-        )
-        return True
-
-    def fields_of(self, base: str) -> dict[str, FieldType] | None:
-        if base in ("time", "duration") and self.info.registry.ros_version == 1:
-            return self.info.registry.time_fields(base)
-        definition = self.info.registry.get(base)
-        return definition.fields if definition is not None else None
-
-    def constant(self, base: str, segment: ast.Segment) -> FieldType | None:
-        definition = self.info.registry.get(base)
-        if definition is None or segment.field_name.name not in definition.constants:
-            return None
-        return FieldType(definition.constants[segment.field_name.name][0])
-
-    def report_missing_field(
-        self, base: str, fields: dict[str, FieldType], segment: ast.Segment
-    ) -> None:
-        name = segment.field_name.name
-        definition = self.info.registry.get(base)
-        candidates = [*fields, *(definition.constants if definition else ())]
-        hint = did_you_mean(name, candidates)
-        if (
-            hint is None
-            and self.info.registry.ros_version == 2
-            and name in ("secs", "nsecs", "seq")
-        ):
-            hint = "ROS 2 time has `sec` and `nanosec`, and its Header has no `seq`"
-        elif hint is None and self.info.registry.ros_version == 1 and name in ("sec", "nanosec"):
-            hint = "ROS 1 time has `secs` and `nsecs`"
-        self.report(
-            error(
-                "RMV301",
-                f"{base} has no field `{name}`",
-                segment.field_name.span,
-                label="no such field",
-                help=hint or "its fields: " + ", ".join(list(fields)[:8]),
-            )
-        )
-
-    def report_unindexed_array(self, previous: ast.Node, current: FieldType) -> None:
-        name = previous_name(previous)
-        self.report(
-            error(
-                "RMV302",
-                f"`{name}` is an array ({current.text()}): say which element",
-                previous.span,
-                label="an array here",
-                help=f"write `{name}[0]` for one element, or `{name}[*]` with an aggregate",
-            )
-        )
-
-    def aggregate(self, variable: ast.VarDecl, element: FieldType, wildcard: bool) -> VType:
-        assert variable.aggregate is not None
-        name = variable.aggregate.name
-        value = from_ros(element.base)
-        if name == "number":
-            if value.kind != "bool" or wildcard:
-                self.report(
-                    error(
-                        "RMV313",
-                        f"`number(...)` turns a bool into 0 or 1, but this is {value.describe()}",
-                        variable.source.span,
-                        label="not a single bool",
-                    )
-                )
-            return VType("int", "bool as number")
-        if not wildcard:
-            return UNKNOWN  # reported by the names stage (RMV218)
-        if name == "count":
-            return INT
-        if name in ("any", "all"):
-            if value.kind != "bool":
-                self.report(self.argument_error(name, "bools", value, variable.source.span))
-            return BOOL
-        if not value.numeric:
-            self.report(self.argument_error(name, "numbers", value, variable.source.span))
-            return UNKNOWN
-        return FLOAT if name == "mean" else value
-
-    @staticmethod
-    def argument_error(function: str, wanted: str, got: VType, span: Span) -> Diagnostic:
-        return error(
-            "RMV313",
-            f"`{function}` needs {wanted}, but its argument is {got.describe()}",
-            span,
-            label=f"{got.describe()}",
-            help="compare a bool (`X = true`) or convert it with `number(...)` in the variable"
-            if got.kind == "bool"
-            else None,
-        )
 
     # ---- expressions ----
 
@@ -918,14 +641,6 @@ def seconds_text(value: Fraction) -> str:
     from rmvdsl.numbers import decimal
 
     return f"{decimal(value)}s"
-
-
-def previous_name(node: ast.Node) -> str:
-    if isinstance(node, ast.Segment):
-        return node.field_name.name
-    if isinstance(node, ast.Ident):
-        return node.name
-    return "?"
 
 
 def check_types(
