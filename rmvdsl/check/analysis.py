@@ -51,15 +51,18 @@ def solve(
 ) -> tuple[str, str]:
     """("sat", the values that make the constraints hold), ("unsat", "") or
     ("unknown", ""). Cached by the constraints' text: re-checking an unchanged spec
-    asks z3 nothing."""
-    solver = z3.Solver()
-    solver.set("timeout", SOLVER_TIMEOUT_MS)
-    solver.add(*domains, *constraints)
-    key = digest("conditions", "2", z3.get_version_string(), solver.sexpr())
+    asks z3 nothing (not even to build a solver)."""
+    constraints = list(constraints)
+    declared = sorted(f"{name}: {symbol.sort()}" for name, symbol in symbols.items())
+    terms = [c.sexpr() for c in [*domains, *constraints]]
+    key = digest("conditions", "3", z3.get_version_string(), declared, terms)
     cache = default_cache()
     cached = cache.get(key)
     if cached is not None and isinstance(cached.get("answer"), str):
         return cached["answer"], str(cached.get("values", ""))
+    solver = z3.Solver()
+    solver.set("timeout", SOLVER_TIMEOUT_MS)
+    solver.add(*domains, *constraints)
     answer = solver.check()
     if answer == z3.unknown:
         return "unknown", ""  # a time limit: not an answer to keep
@@ -140,6 +143,7 @@ class Analyzer:
         self.result = AnalysisResult()
         self.conditions = Conditions(model, types)
         self._never: dict[str, str | None] = {}
+        self._unsat: dict[str, bool] = {}
 
     def report(self, diagnostic: Diagnostic) -> None:
         self.diagnostics.append(diagnostic)
@@ -199,11 +203,15 @@ class Analyzer:
             untaken = found
 
     def _unsatisfiable(self, name: str) -> bool:
-        decl = self.model.events.get(name)
-        if decl is None or not decl.boolean:
-            return False
-        condition = [self.conditions.of_event(name)]
-        return solve(condition, self.conditions.domains, self.conditions.symbols)[0] == "unsat"
+        """A boolean event whose condition no values make true (asked once a name)."""
+        if name not in self._unsat:
+            decl = self.model.events.get(name)
+            self._unsat[name] = bool(
+                decl is not None
+                and decl.boolean
+                and self.conditions.solve([self.conditions.of_event(name)])[0] == "unsat"
+            )
+        return self._unsat[name]
 
     def reachability(
         self,
@@ -285,7 +293,7 @@ class Analyzer:
                 self.conditions.of_event(first.input.name),
                 self.conditions.of_event(second.input.name),
             )
-            answer, found = solve(both, self.conditions.domains, self.conditions.symbols)
+            answer, found = self.conditions.solve(list(both))
             if answer != "sat":
                 return  # unsat: they exclude each other; unknown: no claim either way
             values = f"for example when {found or 'any values'}"
@@ -315,7 +323,7 @@ class Analyzer:
                 if inputs
                 else z3.BoolVal(True)
             )
-            answer, found = solve([none], self.conditions.domains, self.conditions.symbols)
+            answer, found = self.conditions.solve([none])
             if answer != "sat":
                 continue
             values = (found or "any values") if inputs else "any values"
@@ -372,13 +380,7 @@ class Analyzer:
                 if reachable_emitters[name]
                 else "every transition emitting it starts in an unreachable state"
             )
-        decl = self.model.events.get(name)
-        if decl is None or not decl.boolean:
-            return None
-        answer, _ = solve(
-            [self.conditions.of_event(name)], self.conditions.domains, self.conditions.symbols
-        )
-        return "its condition is unsatisfiable" if answer == "unsat" else None
+        return "its condition is unsatisfiable" if self._unsatisfiable(name) else None
 
     def unconsumed_outputs(self, used: set[str]) -> None:
         for name, transitions in self.model.emitted.items():

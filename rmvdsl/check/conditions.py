@@ -36,7 +36,7 @@ class Conditions:
         self.model = model
         self.types = types
         self.symbols: dict[str, Any] = {}
-        self.domains: list[Any] = []
+        self.domains: dict[str, list[Any]] = {}  # a variable's range, by its name
         self._inlining: set[str] = set()
 
     def of_event(self, name: str) -> Any:
@@ -57,6 +57,17 @@ class Conditions:
         finally:
             self._inlining.discard(name)
 
+    def solve(self, constraints: list[Any]) -> tuple[str, str]:
+        """`rmvdsl.check.analysis.solve` of these constraints, with the ranges of the
+        variables they mention (only those: a question's cache key and its cost do
+        not grow with the rest of the spec)."""
+        from rmvdsl.check.analysis import solve
+
+        used = _names_in(constraints)
+        domains = [c for name in sorted(used & self.domains.keys()) for c in self.domains[name]]
+        symbols = {name: s for name, s in self.symbols.items() if name in used}
+        return solve(constraints, domains, symbols)
+
     def free(self, key: str, kind: str) -> Any:
         """A value of its own, one per key (the same text means the same value)."""
         if key not in self.symbols:
@@ -72,7 +83,7 @@ class Conditions:
         self.symbols[name] = symbol
         if vtype is not None and vtype.ros in INTEGER_RANGES:
             least, most = INTEGER_RANGES[vtype.ros]
-            self.domains += [symbol >= least, symbol <= most]
+            self.domains[name] = [symbol >= least, symbol <= most]
         return symbol
 
     def expr(self, node: ast.Node) -> Any:
@@ -279,3 +290,22 @@ def as_python_float(value: Any) -> float:
     if not z3.is_bv_value(bits):  # NaN has no single encoding
         return float("nan")
     return float(struct.unpack("<d", bits.as_long().to_bytes(8, "little"))[0])
+
+
+def _names_in(terms: list[Any]) -> set[str]:
+    """The names of the free constants in z3 terms (each shared subterm once)."""
+    names: set[str] = set()
+    seen: set[int] = set()
+    stack = list(terms)
+    while stack:
+        term = stack.pop()
+        key = term.get_id()
+        if key in seen:
+            continue
+        seen.add(key)
+        if z3.is_const(term) and term.decl().kind() == z3.Z3_OP_UNINTERPRETED:
+            names.add(term.decl().name())
+        else:
+            stack.extend(term.children())
+    return names
+

@@ -18,7 +18,7 @@ from fractions import Fraction
 from typing import Any
 
 from rmvdsl.cache import Cache
-from rmvdsl.check.analysis import AnalysisResult, solve
+from rmvdsl.check.analysis import AnalysisResult
 from rmvdsl.check.conditions import Conditions
 from rmvdsl.check.model import Kind, Model
 from rmvdsl.check.types import TypeInfo
@@ -108,16 +108,15 @@ def system_of(
     events = sorted(
         n for n in names if (s := model.symbols.get(n)) is not None and s.kind is Kind.BOOL_EVENT
     )
-    symbols = conditions.symbols
     never = {
         e
         for e in events
-        if solve([conditions.of_event(e)], conditions.domains, symbols)[0] == "unsat"
+        if conditions.solve([conditions.of_event(e)])[0] == "unsat"
     }
     exclusive = {
         (a, b)
         for a, b in itertools.combinations([e for e in events if e not in never], 2)
-        if solve([conditions.of_event(a), conditions.of_event(b)], conditions.domains, symbols)[0]
+        if conditions.solve([conditions.of_event(a), conditions.of_event(b)])[0]
         == "unsat"
     }
     return System(tuple(machines), frozenset(exclusive), frozenset(never | unreachable))
