@@ -308,4 +308,3 @@ def _names_in(terms: list[Any]) -> set[str]:
         else:
             stack.extend(term.children())
     return names
-

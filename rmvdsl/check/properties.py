@@ -108,16 +108,11 @@ def system_of(
     events = sorted(
         n for n in names if (s := model.symbols.get(n)) is not None and s.kind is Kind.BOOL_EVENT
     )
-    never = {
-        e
-        for e in events
-        if conditions.solve([conditions.of_event(e)])[0] == "unsat"
-    }
+    never = {e for e in events if conditions.solve([conditions.of_event(e)])[0] == "unsat"}
     exclusive = {
         (a, b)
         for a, b in itertools.combinations([e for e in events if e not in never], 2)
-        if conditions.solve([conditions.of_event(a), conditions.of_event(b)])[0]
-        == "unsat"
+        if conditions.solve([conditions.of_event(a), conditions.of_event(b)])[0] == "unsat"
     }
     return System(tuple(machines), frozenset(exclusive), frozenset(never | unreachable))
 
