@@ -9,6 +9,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 from rmvdsl.check import settings as schemas
+from rmvdsl.check.actions import ActionChecks
 from rmvdsl.check.model import (
     BOOLEAN_KINDS,
     EVENT_KINDS,
@@ -19,7 +20,7 @@ from rmvdsl.check.model import (
     Reference,
     Symbol,
 )
-from rmvdsl.check.rosnames import message_type_problem, name_problem, suggest_name
+from rmvdsl.check.rosnames import message_type_problem
 from rmvdsl.diagnostics import Diagnostic, Label, did_you_mean, error, warning
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
@@ -63,18 +64,8 @@ ARRAY_AGGREGATES = ("min", "max", "sum", "mean", "count", "any", "all")
 TIME_UNIT_NAMES = tuple(fm.TIME_UNITS)  # ns, us, ms, s, m, h, d, w
 FILL_NAMES = ("none", "null", "previous", "linear")
 
-# Each action's positional parameters (required, then optional) and keywords.
-ACTIONS: dict[str, tuple[tuple[str, ...], tuple[str, ...], tuple[str, ...]]] = {
-    "log": ((), ("message",), ("level", "message")),
-    "publish": (("topic",), ("message",), ("topic", "message")),
-    "post": (("url",), (), ("url", "timeout")),
-    "exec": (("command",), ("args",), ("command",)),
-    "tcp": (("address",), (), ("address",)),
-}
-LOG_LEVELS = ("debug", "info", "warn", "error", "fatal")
 
-
-class NameChecker:
+class NameChecker(ActionChecks):
     def __init__(
         self,
         specs: list[ast.Spec],
@@ -101,9 +92,6 @@ class NameChecker:
         self.check_whitelist_duplicates()
         self.report_unused()
         return self.model, self.diagnostics
-
-    def report(self, diagnostic: Diagnostic) -> None:
-        self.diagnostics.append(diagnostic)
 
     # ---- declaring ----
 
@@ -389,21 +377,6 @@ class NameChecker:
                 )
             )
         self.diagnostics += schemas.check_settings(schemas.QOS, decl.qos, decl.name, decl)
-
-    def check_ros_name(
-        self, literal: ast.StringLit, what: str, code: str, patterns: bool = False
-    ) -> None:
-        problem = name_problem(literal.value, what, patterns)
-        if problem:
-            self.report(
-                error(
-                    code,
-                    f"invalid ROS {what} name",
-                    literal.span,
-                    label=problem,
-                    help=f'did you mean "{suggest_name(literal.value)}"?',
-                )
-            )
 
     def check_variable(self, decl: ast.VarDecl) -> None:
         self.resolve(decl.source.topic, frozenset({Kind.TOPIC}), "a topic")
@@ -716,82 +689,6 @@ class NameChecker:
             return topic.path.value if topic else decl.target.name
         return decl.target.value
 
-    def check_actions(self, actions: Iterable[ast.Action]) -> None:
-        for action in actions:
-            self.check_action(action)
-
-    def check_action(self, action: ast.Action) -> None:
-        kind = action.kind.name
-        signature = ACTIONS.get(kind)
-        if signature is None:
-            self.report(
-                error(
-                    "RMV216",
-                    f"unknown action `{kind}`",
-                    action.kind.span,
-                    label="expected " + ", ".join(ACTIONS),
-                    help=did_you_mean(kind, ACTIONS),
-                )
-            )
-            return
-        required, optional, keywords = signature
-        positional = [a for a in action.args if a.key is None]
-        named = {a.key.name: a for a in action.args if a.key is not None}
-        for key, arg in named.items():
-            if key not in keywords:
-                self.bad_action_arg(
-                    arg, f"`{kind}` has no argument `{key}`", did_you_mean(key, keywords)
-                )
-        if len(positional) > len(required) + len(optional):
-            self.bad_action_arg(
-                positional[len(required) + len(optional)],
-                f"`{kind}` takes at most {len(required) + len(optional)} positional arguments",
-                None,
-            )
-        given = {*([*required, *optional][: len(positional)]), *named}
-        for name in required:
-            if name not in given:
-                self.report(
-                    error(
-                        "RMV217",
-                        f"`{kind}` needs its `{name}`",
-                        action.span,
-                        label=f"no `{name}` given",
-                        help=f"write e.g. `action {kind}({_ACTION_EXAMPLES[name]})`",
-                    )
-                )
-        self.check_action_values(kind, positional, named, required, optional)
-
-    def check_action_values(
-        self,
-        kind: str,
-        positional: list[ast.Arg],
-        named: dict[str, ast.Arg],
-        required: tuple[str, ...],
-        optional: tuple[str, ...],
-    ) -> None:
-        values = dict(zip([*required, *optional], positional, strict=False)) | named
-        for name, arg in values.items():
-            value = arg.value
-            if name == "level":
-                if not (isinstance(value, ast.NameValue) and value.ident.name in LOG_LEVELS):
-                    found = value.ident.name if isinstance(value, ast.NameValue) else ""
-                    self.bad_action_arg(
-                        arg,
-                        "`level` is one of " + ", ".join(LOG_LEVELS),
-                        did_you_mean(found, LOG_LEVELS) if found else None,
-                    )
-            elif name == "timeout":
-                if not isinstance(value, ast.TimeLit):
-                    self.bad_action_arg(arg, "`timeout` is a time such as `2s`", None)
-            elif not isinstance(value, ast.StringLit):
-                self.bad_action_arg(arg, f"`{name}` of `{kind}` is a string", None)
-            elif name == "topic":
-                self.check_ros_name(value, "topic", "RMV204")
-
-    def bad_action_arg(self, arg: ast.Arg, message: str, hint: str | None) -> None:
-        self.report(error("RMV217", message, arg.span, label="invalid argument", help=hint))
-
     # ---- unused declarations ----
 
     def report_unused(self) -> None:
@@ -822,14 +719,6 @@ class NameChecker:
                 help="remove it, or use it",
             )
         )
-
-
-_ACTION_EXAMPLES = {
-    "topic": '"/rmv/alerts"',
-    "url": '"http://127.0.0.1:9000/alerts"',
-    "command": '"/usr/local/bin/notify.sh"',
-    "address": '"127.0.0.1:5678"',
-}
 
 
 _ONE_PER_SPEC = "a spec has one (its imports included): remove or merge the second"
