@@ -268,6 +268,8 @@ class TypeRegistry:
     broken: set[str] = field(default_factory=set)  # .msg files that did not parse
     diagnostics: list[Diagnostic] = field(default_factory=list)
     sources: SourceMap = field(default_factory=SourceMap)
+    # did-you-mean answers by type name: 1,000 topics of one unknown type ask once
+    _closest: dict[str, str | None] = field(default_factory=dict, repr=False)
 
     @property
     def ros_version(self) -> int:
@@ -283,6 +285,11 @@ class TypeRegistry:
 
     def closest_type(self, name: str) -> str | None:
         full = canonical(name)
+        if full not in self._closest:
+            self._closest[full] = self._closest_uncached(full)
+        return self._closest[full]
+
+    def _closest_uncached(self, full: str) -> str | None:
         names = list(self.names())
         package = full.split("/")[0]
         type_name = full.split("/")[-1]
@@ -300,6 +307,7 @@ class TypeRegistry:
         return {"secs": FieldType(kind), "nsecs": FieldType(kind)}
 
     def add_folder(self, folder: str, declared_at: Span | None = None) -> None:
+        self._closest.clear()  # new types: other answers
         if not os.path.isdir(folder):
             if declared_at is not None:
                 self.diagnostics.append(
