@@ -679,3 +679,12 @@ transducer T {{
             )
         )
     assert answers[0] == answers[1], (bare, united, unit, answers)
+
+
+@pytest.mark.parametrize("unit", ["ms", "s", "m"])
+def test_a_product_of_constants_is_a_time_in_the_declared_unit(tmp_path: Path, unit: str):
+    spec = f"time unit {unit}\n" + TOGGLE.format()
+    impossible = spec + f"property P: duration[10](A) > 2 * 6 {{ window = 10{unit} }}\n"
+    assert "RMV510" in codes(tmp_path, impossible)
+    possible = spec + f"property P: duration[10](A) > 2 * 3 {{ window = 10{unit} }}\n"
+    assert codes(tmp_path, possible) == []

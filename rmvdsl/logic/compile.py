@@ -114,9 +114,13 @@ class _Compiler:
                 return _balanced("add", rest)
             case fm.Arith():
                 kind = {"+": "add", "-": "sub", "*": "mul"}[node.op]
+                # In a product one factor scales the other: a constant beside a
+                # duration, or the left of two constants (`2 * 3` is 6 time units).
                 product = kind == "mul"
-                left = self.term(node.left, product and _constant(node.left))
-                right = self.term(node.right, product and _constant(node.right))
+                left_scales = product and _constant(node.left)
+                right_scales = product and _constant(node.right) and not left_scales
+                left = self.term(node.left, left_scales)
+                right = self.term(node.right, right_scales)
                 if kind == "mul" and left[0] != "num" and right[0] != "num":
                     raise CompileError(
                         "a product of two durations is not linear: one side must be a constant",
