@@ -403,11 +403,11 @@ def _absent_names(compiled: object, trace: TraceFile) -> list[str]:
     """Propositions of the formula that no sample of the trace holds: a typo reads as
     `false` everywhere, so say so."""
     from rmvdsl.diagnostics import did_you_mean
-    from rmvdsl.logic.sat import propositions
+    from rmvdsl.runtime.rmtld3 import facts
 
     seen: set[str] = set().union(*trace.states)
     notes = []
-    for name in sorted(set(propositions(compiled)) - seen):
+    for name in sorted(set(facts(compiled).propositions) - seen):
         hint = did_you_mean(name, seen)
         notes.append(f"`{name}` holds in no sample of the trace" + (f" ({hint})" if hint else ""))
     return notes

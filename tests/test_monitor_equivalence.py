@@ -105,3 +105,27 @@ def test_cut_traces_never_flip(formula, trace, data):
             before = value_at(early, t)
             if before != "unknown":
                 assert value_at(final, t) == before, (t, before)
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(formulas())
+def test_one_traversal_gives_the_monitors_horizon(formula):
+    """`facts` (used by the solver) and the monitor's nodes compute the horizon each
+    their own way: they must agree."""
+    from rmvdsl.runtime.rmtld3 import facts
+
+    found = facts(formula)
+    monitor = Monitor(formula)
+    assert (found.future, found.past) == (monitor.root.future, monitor.root.past)
+    names = [n for n in PROPS if n in str(formula)]
+    assert sorted(found.propositions) == sorted(n for n in names if ("prop", n) in _nodes(formula))
+    assert found.has_past == any(node[0] == "since" for node in _nodes(formula))
+
+
+def _nodes(formula) -> list:
+    out, stack = [], [formula]
+    while stack:
+        node = stack.pop()
+        out.append(node)
+        stack += [c for c in node[1:] if isinstance(c, tuple)]
+    return out

@@ -27,13 +27,12 @@ from rmvdsl.logic.sat import (
     YES,
     Limits,
     conflict,
-    future,
     satisfiable,
     valid,
 )
 from rmvdsl.logic.system import Machine, System
 from rmvdsl.logic.traces import read_trace
-from rmvdsl.runtime.rmtld3 import Monitor, merge
+from rmvdsl.runtime.rmtld3 import Monitor, facts, merge
 
 PROPS = ["a", "b"]  # the machine of the system tests has states a, b and c
 OPS = st.sampled_from(["<", "<=", "="])
@@ -97,7 +96,7 @@ def test_encoding_gives_the_reference_value_on_a_fixed_trace(formula, trace, at)
     solver.add(symbolic.evaluation == z3.RealVal(str(at)))
     assert solver.check() == z3.sat
     model = solver.model()
-    end = max(times[-1], at) + future(formula) + 2
+    end = max(times[-1], at) + facts(formula).future + 2
     reference = Reference(Trace(times, states, end))
     for value, t in ((here, at), (right, at + Fraction(1, 1000))):
         got = value if isinstance(value, bool) else z3.is_true(model.eval(value, True))
@@ -147,7 +146,7 @@ def small_traces(horizon: Fraction, changes: int):
 def test_no_agrees_with_an_exhaustive_search(formula):
     """A "no" is never contradicted by a small trace, and a small witness is always
     found: the bounded search covers every trace with at most 3 changes."""
-    horizon = future(formula)
+    horizon = facts(formula).future
     found = None
     for times, states in small_traces(horizon, 2):
         trace = Trace(times, states, horizon + times[-1] + 2)
@@ -253,7 +252,7 @@ def test_no_agrees_with_an_exhaustive_search_over_a_system(formula):
     """With a transducer (a -> b -> c -> a, starting in a): every trace of at most
     3 states and every time of evaluation on a grid; a "no" is never contradicted."""
     system = System((MACHINE,))
-    horizon = future(formula)
+    horizon = facts(formula).future
     found = None
     grid = [Fraction(n, 2) for n in range(0, 7)]
     for count in range(1, 4):

@@ -35,13 +35,12 @@ from rmvdsl.logic.sat import (
     Answer,
     Limits,
     Witness,
-    future,
-    propositions,
     satisfiable,
     valid,
 )
 from rmvdsl.logic.sat import conflict as smallest_conflict
 from rmvdsl.logic.system import Machine, System
+from rmvdsl.runtime.rmtld3 import facts as formula_facts
 
 # Redundancy costs one question per property over all the others (0.1-0.4 s each
 # with 20 to 40 properties): past this many properties it is skipped, as
@@ -142,7 +141,7 @@ class _PropertyAnalyzer:
                 self.compiled[name] = self.compile(decl.formula)
             except CompileError:
                 continue  # the types stage reported it
-        names = {n for f in self.compiled.values() for n in propositions(f)}
+        names = {n for f in self.compiled.values() for n in formula_facts(f).propositions}
         self.system = system_of(model, analysis, Conditions(model, types), names, skip)
 
     def compile(self, node: fm.Formula | fm.Term) -> Any:
@@ -196,7 +195,7 @@ class _PropertyAnalyzer:
             return False  # the vacuous implication says why
         if validity.value == YES:
             scope = ""
-            if self.system.relevant(set(propositions(f))):
+            if self.system.relevant(set(formula_facts(f).propositions)):
                 pure = valid(f, None, self.limits, self.cache)
                 scope = "" if pure.value == YES else " of this system"
             self.add(
@@ -216,7 +215,7 @@ class _PropertyAnalyzer:
 
     def impossible(self, decl: ast.PropertyDecl, pure: Witness | None) -> Diagnostic:
         """RMV511, with a trace of pure logic where the property holds, if found."""
-        names = set(propositions(self.compiled[decl.name.name]))
+        names = set(formula_facts(self.compiled[decl.name.name]).propositions)
         machines = [m.name for m in self.system.relevant(names)]
         because = (
             "the transducer"
@@ -345,10 +344,10 @@ class _PropertyAnalyzer:
         for every property; None if the trace is not one of this system's for all
         the properties' propositions. One per trace: values are computed once."""
         if id(witness) not in self.references:
-            everything = {n for f in self.compiled.values() for n in propositions(f)}
+            everything = {n for f in self.compiled.values() for n in formula_facts(f).propositions}
             reference = None
             if self.system.violation(witness.times, witness.states, everything) is None:
-                horizon = max(future(f) for f in self.compiled.values())
+                horizon = max(formula_facts(f).future for f in self.compiled.values())
                 end = max(witness.end, witness.at + horizon + 1)
                 reference = Reference(Trace(list(witness.times), list(witness.states), end))
             self.references[id(witness)] = (witness, reference)

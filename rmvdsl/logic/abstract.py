@@ -22,8 +22,8 @@ from typing import TYPE_CHECKING, Any
 
 import z3
 
-from rmvdsl.logic.bounded import has_past
 from rmvdsl.logic.system import System
+from rmvdsl.runtime.rmtld3 import facts
 
 if TYPE_CHECKING:
     from rmvdsl.logic.sat import Limits
@@ -214,7 +214,7 @@ def refute(
     # As in the witness search: time 0 is no restriction for formulas about the
     # future alone, unless the system fixes how traces start.
     starts = any(m.initial is not None for m in system.relevant(names))
-    if starts or any(has_past(f) for f in formulas):
+    if starts or any(facts(f).has_past for f in formulas):
         at = z3.Real("tau")
         solver.add(at >= 0)
     else:

@@ -74,18 +74,6 @@ def propositional(f: Any) -> bool:
     return False
 
 
-def has_past(f: Any) -> bool:
-    if f[0] == "since":
-        return True
-    if f[0] in ("prop", "const", "num"):
-        return False
-    if f[0] == "dur":
-        return has_past(f[2])
-    if f[0] == "cmp":
-        return has_past(f[2]) or has_past(f[3])
-    return any(has_past(child) for child in f[1:] if isinstance(child, tuple))
-
-
 class EncodingTimeout(Exception):
     """Building the encoding took longer than the question's time limit."""
 

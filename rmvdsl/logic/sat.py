@@ -20,7 +20,7 @@ from __future__ import annotations
 import itertools
 import json
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
@@ -29,10 +29,11 @@ import z3
 
 from rmvdsl.cache import Cache, default_cache, digest
 from rmvdsl.logic.abstract import refute
-from rmvdsl.logic.bounded import BoundedTrace, EncodingTimeout, has_past
+from rmvdsl.logic.bounded import BoundedTrace, EncodingTimeout
 from rmvdsl.logic.reference import TRUE, Reference, Trace
 from rmvdsl.logic.system import System
 from rmvdsl.numbers import exact_text as number
+from rmvdsl.runtime.rmtld3 import facts
 
 # Bump when an encoding changes: cached answers carry it in their key.
 ENCODING_VERSION = "2"  # 2: durations pinned by always/eventually in the refutation
@@ -157,7 +158,7 @@ def satisfiable(
     """Is there a trace of the system making all `formulas` true at one time?"""
     limits = limits or Limits()
     cache = cache if cache is not None else default_cache()
-    mentioned = {name for f in formulas for name in propositions(f)}
+    mentioned = {name for f in formulas for name in facts(f).propositions}
     system = (system or System()).restricted(mentioned)
     key = digest(
         ENCODING_VERSION, z3.get_version_string(), list(formulas), system.key(), limits.key()
@@ -195,7 +196,7 @@ def conflict(
     """A smallest subset of formulas that cannot hold together (each member needed:
     without any one of them the rest is not refuted), as indices; () when the
     whole set is not refuted."""
-    mentioned = {name for f in formulas for name in propositions(f)}
+    mentioned = {name for f in formulas for name in facts(f).propositions}
     system = (system or System()).restricted(mentioned)
     key = digest(
         "conflict",
@@ -221,7 +222,7 @@ def _smallest(
 ) -> tuple[tuple[int, ...], bool]:
     """Deletion-based minimisation; False when a limit cut a refutation short
     (then the result may not be the smallest, and is not cached)."""
-    names = {n for f in formulas for n in system.names(set(propositions(f)))}
+    names = {n for f in formulas for n in system.names(set(facts(f).propositions))}
     members = list(core) or list(range(len(formulas)))
     verdict, found = refute([formulas[i] for i in members], system, names, limits)
     if verdict != "unsat":
@@ -241,37 +242,14 @@ def _smallest(
     return tuple(sorted(members)), complete
 
 
-def propositions(f: Any) -> Iterator[str]:
-    """The proposition names, left to right (a loop: formulas can be 100,000 deep)."""
-    stack = [f]
-    while stack:
-        node = stack.pop()
-        if node[0] == "prop":
-            yield node[1]
-        elif node[0] not in ("const", "num"):
-            stack.extend(reversed([c for c in node[1:] if isinstance(c, tuple)]))
-
-
-def future(f: Any) -> Fraction:
-    """How far ahead the formula looks."""
-    kind = f[0]
-    if kind in ("prop", "const", "num"):
-        return Fraction(0)
-    if kind == "until":
-        return Fraction(f[2]) + max(future(f[3]), future(f[4]))
-    if kind == "dur":
-        return Fraction(f[1]) + future(f[2])
-    return max((future(c) for c in f[1:] if isinstance(c, tuple)), default=Fraction(0))
-
-
 class _Question:
     def __init__(self, formulas: list[Any], system: System, limits: Limits) -> None:
         self.formulas = formulas
         self.system = system
         self.limits = limits
-        mentioned = {name for f in formulas for name in propositions(f)}
+        mentioned = {name for f in formulas for name in facts(f).propositions}
         self.names = sorted(system.names(mentioned))
-        self.free_time = any(has_past(f) for f in formulas) or any(
+        self.free_time = any(facts(f).has_past for f in formulas) or any(
             m.initial is not None for m in system.relevant(mentioned)
         )
         self.timed_out = False
@@ -392,7 +370,7 @@ class _Question:
         return self.witness(times, kept, witness.at)
 
     def witness(self, times: list[Fraction], states: list[frozenset[str]], at: Fraction) -> Witness:
-        horizon = max((future(f) for f in self.formulas), default=Fraction(0))
+        horizon = max((facts(f).future for f in self.formulas), default=Fraction(0))
         end = max(at, times[-1]) + horizon + 1
         return Witness(tuple(times), tuple(states), at, end, tuple(self.names))
 

@@ -28,7 +28,7 @@ import itertools
 from abc import ABC, abstractmethod
 from collections.abc import Iterable, Iterator
 from fractions import Fraction
-from typing import Any
+from typing import Any, NamedTuple
 
 FALSE, UNKNOWN, TRUE = 0, 1, 2
 NAMES = {FALSE: "false", UNKNOWN: "unknown", TRUE: "true"}
@@ -757,6 +757,46 @@ class Monitor:
     def memory(self) -> int:
         """Breakpoints held over all nodes: bounded by the horizon, not the trace."""
         return sum(len(node.signal.starts) for node in self.order) + len(self.pending)
+
+
+class Facts(NamedTuple):
+    """What one walk over a compiled formula finds (docs/semantics.md, "horizon")."""
+
+    future: Any  # how far it looks ahead
+    past: Any  # how far it looks back
+    propositions: tuple[str, ...]  # left to right, each once
+    has_past: bool  # a `since` (or `once`, `historically`) inside
+
+
+def facts(formula: Any) -> Facts:
+    """Horizon, propositions and past-ness in one traversal, by a loop (formulas can
+    be 100,000 levels deep). The monitor's nodes compute the same horizon each for
+    itself; a test keeps the two equal."""
+    done: dict[int, tuple[Any, Any, bool]] = {}
+    names: dict[str, None] = {}
+    stack: list[tuple[Any, bool]] = [(formula, False)]
+    while stack:
+        node, expanded = stack.pop()
+        children = [c for c in node[1:] if isinstance(c, tuple)]
+        if not expanded:
+            if node[0] == "prop":
+                names.setdefault(node[1], None)
+            stack.append((node, True))
+            stack.extend((child, False) for child in reversed(children))
+            continue
+        parts = [done[id(child)] for child in children]
+        future = max((p[0] for p in parts), default=0)
+        past = max((p[1] for p in parts), default=0)
+        backwards = node[0] == "since" or any(p[2] for p in parts)
+        if node[0] == "until":
+            future += node[2]
+        elif node[0] == "since":
+            past += node[2]
+        elif node[0] == "dur":
+            future += node[1]
+        done[id(node)] = (future, past, backwards)
+    future, past, backwards = done[id(formula)]
+    return Facts(future, past, tuple(names), backwards)
 
 
 def merge(segments: Iterable[Segment]) -> list[Segment]:
