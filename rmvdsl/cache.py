@@ -75,3 +75,10 @@ def default_cache() -> Cache:
     if _DEFAULT is None:
         _DEFAULT = Cache.default()
     return _DEFAULT
+
+
+def use_cache(cache: Cache | None) -> None:
+    """Make `cache` the one every check uses from now on (None: the default again,
+    from RMV_CACHE_DIR). Benchmarks start each measurement from an empty one."""
+    global _DEFAULT
+    _DEFAULT = cache

@@ -423,3 +423,15 @@ def test_a_witness_time_without_a_decimal_form_survives_the_trace_file(tmp_path)
     assert trace.times == [Fraction(0), third] and trace.end == 2
     with pytest.raises(TraceError, match="must be a number"):
         read_trace("w.jsonl", '{"t": "1/0", "props": []}\n')
+
+
+def test_use_cache_replaces_the_default_that_checks_use():
+    from rmvdsl import cache as cache_module
+
+    fresh = cache_module.Cache()
+    cache_module.use_cache(fresh)
+    try:
+        assert cache_module.default_cache() is fresh
+    finally:
+        cache_module.use_cache(None)
+    assert cache_module.default_cache() is not fresh
