@@ -12,24 +12,17 @@ operator semantics (rmvdsl/check/conditions.py).
 
 from __future__ import annotations
 
-from collections.abc import Iterable
 from dataclasses import dataclass, field
-from fractions import Fraction
-from typing import Any
 
 import networkx as nx
 import z3
 
-from rmvdsl.cache import default_cache, digest
-from rmvdsl.check import conditions
-from rmvdsl.check.conditions import Conditions, value_text
+from rmvdsl.check.conditions import Conditions
 from rmvdsl.check.model import Model
 from rmvdsl.check.types import TypeInfo
 from rmvdsl.diagnostics import Diagnostic, Label, error, warning
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
-
-SOLVER_TIMEOUT_MS = 2000
 
 
 @dataclass
@@ -46,71 +39,6 @@ class AnalysisResult:
     transducers: dict[str, TransducerFacts] = field(default_factory=dict)
 
 
-def solve(
-    constraints: Iterable[Any], domains: list[Any], symbols: dict[str, Any]
-) -> tuple[str, str]:
-    """("sat", the values that make the constraints hold), ("unsat", "") or
-    ("unknown", ""). Cached by the constraints' text: re-checking an unchanged spec
-    asks z3 nothing (not even to build a solver)."""
-    constraints = list(constraints)
-    declared = sorted(f"{name}: {symbol.sort()}" for name, symbol in symbols.items())
-    terms = [c.sexpr() for c in [*domains, *constraints]]
-    key = digest("conditions", "3", z3.get_version_string(), declared, terms)
-    cache = default_cache()
-    cached = cache.get(key)
-    if cached is not None and isinstance(cached.get("answer"), str):
-        return cached["answer"], str(cached.get("values", ""))
-    solver = z3.Solver()
-    solver.set("timeout", SOLVER_TIMEOUT_MS)
-    solver.add(*domains, *constraints)
-    answer = solver.check()
-    if answer == z3.unknown:
-        return "unknown", ""  # a time limit: not an answer to keep
-    values = witness(round_values(solver, symbols), symbols) if answer == z3.sat else ""
-    result = "sat" if answer == z3.sat else "unsat"
-    cache.put(key, {"answer": result, "values": values})
-    return result, values
-
-
-def round_values(solver: Any, symbols: dict[str, Any]) -> Any:
-    """A model with round values where they serve (0, 1, the constants written in
-    the conditions): easier to read, and the same whatever z3 happened to find."""
-    found = solver.model()
-    constants = sorted(
-        {str(c) for c in _constants(solver.assertions())}, key=lambda text: (len(text), text)
-    )
-    for _, symbol in sorted(symbols.items()):
-        if not (z3.is_fp(symbol) or z3.is_bv(symbol)) or found.eval(symbol).eq(symbol):
-            continue
-        for text in ["0", "1", *constants][:8]:
-            candidate = conditions.number(Fraction(text), "int" if z3.is_bv(symbol) else "float")
-            solver.push()
-            solver.add(symbol == candidate)
-            if solver.check() == z3.sat:
-                found = solver.model()
-                solver.pop()
-                solver.add(symbol == candidate)
-                break
-            solver.pop()
-    return found
-
-
-def _constants(terms: Iterable[Any]) -> set[Fraction]:
-    out: set[Fraction] = set()
-    stack = list(terms)
-    while stack:
-        term = stack.pop()
-        if z3.is_fp_value(term):
-            value = conditions.as_python_float(term)
-            if value == value and abs(value) != float("inf"):
-                out.add(Fraction(value).limit_denominator(10**6))
-        elif z3.is_bv_value(term):
-            out.add(Fraction(term.as_signed_long()))
-        else:
-            stack.extend(term.children())
-    return out
-
-
 def _unreachable(decl: ast.TransducerDecl, graph: nx.MultiDiGraph, untaken: set[int]) -> set[str]:
     """The states no path of takeable transitions leads to from the initial state."""
     if decl.initial is None or decl.initial.name not in graph:
@@ -120,19 +48,6 @@ def _unreachable(decl: ast.TransducerDecl, graph: nx.MultiDiGraph, untaken: set[
     )
     reachable = nx.descendants(usable, decl.initial.name) | {decl.initial.name}
     return {s.name for s in decl.states} - reachable
-
-
-def witness(model: Any, symbols: dict[str, Any]) -> str:
-    """`BrakePedal = 0.9, Velocity = 6` from a z3 model."""
-    parts = []
-    for name, symbol in sorted(symbols.items()):
-        if name.startswith("event "):
-            continue
-        value = model.eval(symbol, model_completion=False)
-        if value.eq(symbol):
-            continue
-        parts.append(f"{name} = {value_text(value)}")
-    return ", ".join(parts) or "any values"
 
 
 class Analyzer:

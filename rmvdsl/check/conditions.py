@@ -8,22 +8,28 @@ over its ROS type (an `int8` over -128..127, a `float64` over every double,
 NaN included). What z3 cannot model exactly — a function of the data (`mean(V)`),
 a value event, a regular-expression match — is a free value of its sort, so an
 answer "can hold" is a possibility the spec leaves open and "never holds" is exact.
+
+`solve` asks z3 (each answer cached by its question), with round values in the
+witnesses it returns.
 """
 
 from __future__ import annotations
 
 import struct
+from collections.abc import Iterable
 from fractions import Fraction
 from typing import Any
 
 import z3
 
+from rmvdsl.cache import default_cache, digest
 from rmvdsl.check.model import Kind, Model
 from rmvdsl.check.types import TypeInfo, VType
 from rmvdsl.grammar import ast
 from rmvdsl.grammar.printer import expression
 from rmvdsl.runtime.values import INT_BITS, INTEGER_RANGES, literal
 
+SOLVER_TIMEOUT_MS = 2000
 FLOAT = z3.Float64()
 ROUNDING = z3.RNE()  # IEEE's default, and Go's
 _ORDERS = ("<", "<=", ">", ">=")
@@ -58,11 +64,9 @@ class Conditions:
             self._inlining.discard(name)
 
     def solve(self, constraints: list[Any]) -> tuple[str, str]:
-        """`rmvdsl.check.analysis.solve` of these constraints, with the ranges of the
+        """`solve` of these constraints, with the ranges of the
         variables they mention (only those: a question's cache key and its cost do
         not grow with the rest of the spec)."""
-        from rmvdsl.check.analysis import solve
-
         used = _names_in(constraints)
         domains = [c for name in sorted(used & self.domains.keys()) for c in self.domains[name]]
         symbols = {name: s for name, s in self.symbols.items() if name in used}
@@ -308,3 +312,81 @@ def _names_in(terms: list[Any]) -> set[str]:
         else:
             stack.extend(term.children())
     return names
+
+
+def solve(
+    constraints: Iterable[Any], domains: list[Any], symbols: dict[str, Any]
+) -> tuple[str, str]:
+    """("sat", the values that make the constraints hold), ("unsat", "") or
+    ("unknown", ""). Cached by the constraints' text: re-checking an unchanged spec
+    asks z3 nothing (not even to build a solver)."""
+    constraints = list(constraints)
+    declared = sorted(f"{name}: {symbol.sort()}" for name, symbol in symbols.items())
+    terms = [c.sexpr() for c in [*domains, *constraints]]
+    key = digest("conditions", "3", z3.get_version_string(), declared, terms)
+    cache = default_cache()
+    cached = cache.get(key)
+    if cached is not None and isinstance(cached.get("answer"), str):
+        return cached["answer"], str(cached.get("values", ""))
+    solver = z3.Solver()
+    solver.set("timeout", SOLVER_TIMEOUT_MS)
+    solver.add(*domains, *constraints)
+    answer = solver.check()
+    if answer == z3.unknown:
+        return "unknown", ""  # a time limit: not an answer to keep
+    values = witness(round_values(solver, symbols), symbols) if answer == z3.sat else ""
+    result = "sat" if answer == z3.sat else "unsat"
+    cache.put(key, {"answer": result, "values": values})
+    return result, values
+
+
+def round_values(solver: Any, symbols: dict[str, Any]) -> Any:
+    """A model with round values where they serve (0, 1, the constants written in
+    the conditions): easier to read, and the same whatever z3 happened to find."""
+    found = solver.model()
+    constants = sorted(
+        {str(c) for c in _constants(solver.assertions())}, key=lambda text: (len(text), text)
+    )
+    for _, symbol in sorted(symbols.items()):
+        if not (z3.is_fp(symbol) or z3.is_bv(symbol)) or found.eval(symbol).eq(symbol):
+            continue
+        for text in ["0", "1", *constants][:8]:
+            candidate = number(Fraction(text), "int" if z3.is_bv(symbol) else "float")
+            solver.push()
+            solver.add(symbol == candidate)
+            if solver.check() == z3.sat:
+                found = solver.model()
+                solver.pop()
+                solver.add(symbol == candidate)
+                break
+            solver.pop()
+    return found
+
+
+def _constants(terms: Iterable[Any]) -> set[Fraction]:
+    out: set[Fraction] = set()
+    stack = list(terms)
+    while stack:
+        term = stack.pop()
+        if z3.is_fp_value(term):
+            value = as_python_float(term)
+            if value == value and abs(value) != float("inf"):
+                out.add(Fraction(value).limit_denominator(10**6))
+        elif z3.is_bv_value(term):
+            out.add(Fraction(term.as_signed_long()))
+        else:
+            stack.extend(term.children())
+    return out
+
+
+def witness(model: Any, symbols: dict[str, Any]) -> str:
+    """`BrakePedal = 0.9, Velocity = 6` from a z3 model."""
+    parts = []
+    for name, symbol in sorted(symbols.items()):
+        if name.startswith("event "):
+            continue
+        value = model.eval(symbol, model_completion=False)
+        if value.eq(symbol):
+            continue
+        parts.append(f"{name} = {value_text(value)}")
+    return ", ".join(parts) or "any values"
