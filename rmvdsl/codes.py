@@ -8,7 +8,22 @@ RMV3xx types, RMV5xx analyses.
 
 from __future__ import annotations
 
+import textwrap
 from dataclasses import dataclass
+
+from rmvdsl import builtins
+
+
+def _function_list() -> str:
+    """RMV215's list of functions, from the registry."""
+    groups = [("aggregations", "aggregation"), ("selectors", "selector"),
+              ("transformations", "transformation")]  # fmt: skip
+    parts = []
+    for title, group in groups:
+        names = sorted(n for n, f in builtins.FUNCTIONS.items() if f.group == group)
+        parts.append(f"{title} ({', '.join(names)})")
+    text = ", ".join(parts[:-1]) + " and " + parts[-1] + "."
+    return textwrap.fill(text, 80)
 
 
 @dataclass(frozen=True)
@@ -215,13 +230,8 @@ appears twice. The secondary label shows the first one.""",
     (
         "RMV215",
         "unknown function",
-        """An event expression calls a function that InfluxQL does not have. Supported:
-aggregations (count, distinct, integral, mean, median, mode, spread, stddev,
-sum), selectors (bottom, first, last, max, min, percentile, sample, top) and
-transformations (abs, acos, asin, atan, atan2, ceil, cos, cumulative_sum,
-derivative, difference, elapsed, exp, floor, histogram, ln, log, log2, log10,
-moving_average, non_negative_derivative, non_negative_difference, pow, round,
-sin, sqrt, tan).""",
+        "An event expression calls a function that InfluxQL does not have. Supported:\n"
+        + _function_list(),
     ),
     (
         "RMV216",

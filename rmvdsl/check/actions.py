@@ -5,19 +5,13 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
+from rmvdsl import builtins
 from rmvdsl.check.rosnames import name_problem, suggest_name
 from rmvdsl.diagnostics import Diagnostic, did_you_mean, error
 from rmvdsl.grammar import ast
 
-# Each action's positional parameters (required, then optional) and keywords.
-ACTIONS: dict[str, tuple[tuple[str, ...], tuple[str, ...], tuple[str, ...]]] = {
-    "log": ((), ("message",), ("level", "message")),
-    "publish": (("topic",), ("message",), ("topic", "message")),
-    "post": (("url",), (), ("url", "timeout")),
-    "exec": (("command",), ("args",), ("command",)),
-    "tcp": (("address",), (), ("address",)),
-}
-LOG_LEVELS = ("debug", "info", "warn", "error", "fatal")
+ACTIONS = builtins.ACTIONS
+LOG_LEVELS = builtins.LOG_LEVELS
 
 
 _ACTION_EXAMPLES = {
@@ -69,7 +63,9 @@ class ActionChecks:
                 )
             )
             return
-        required, optional, keywords = signature
+        required = signature.positional[: signature.required]
+        optional = signature.positional[signature.required :]
+        keywords = signature.keywords
         positional = [a for a in action.args if a.key is None]
         named = {a.key.name: a for a in action.args if a.key is not None}
         for key, arg in named.items():
@@ -95,20 +91,19 @@ class ActionChecks:
                         help=f"write e.g. `action {kind}({_ACTION_EXAMPLES[name]})`",
                     )
                 )
-        self.check_action_values(kind, positional, named, required, optional)
+        self.check_action_values(signature, positional, named)
 
     def check_action_values(
-        self,
-        kind: str,
-        positional: list[ast.Arg],
-        named: dict[str, ast.Arg],
-        required: tuple[str, ...],
-        optional: tuple[str, ...],
+        self, signature: builtins.ActionSpec, positional: list[ast.Arg], named: dict[str, ast.Arg]
     ) -> None:
-        values = dict(zip([*required, *optional], positional, strict=False)) | named
+        kind = signature.name
+        values = dict(zip(signature.positional, positional, strict=False)) | named
         for name, arg in values.items():
             value = arg.value
-            if name == "level":
+            parameter = signature.parameters.get(name)
+            if parameter is None:
+                continue  # not an argument of this action: reported above
+            if parameter.kind == "level":
                 if not (isinstance(value, ast.NameValue) and value.ident.name in LOG_LEVELS):
                     found = value.ident.name if isinstance(value, ast.NameValue) else ""
                     self.bad_action_arg(
@@ -116,12 +111,15 @@ class ActionChecks:
                         "`level` is one of " + ", ".join(LOG_LEVELS),
                         did_you_mean(found, LOG_LEVELS) if found else None,
                     )
-            elif name == "timeout":
+            elif parameter.kind == "time":
                 if not isinstance(value, ast.TimeLit):
-                    self.bad_action_arg(arg, "`timeout` is a time such as `2s`", None)
+                    self.bad_action_arg(arg, f"`{name}` is a time such as `2s`", None)
+            elif parameter.kind == "strings" and isinstance(value, ast.ListValue):
+                if not all(isinstance(item, ast.StringLit) for item in value.items):
+                    self.bad_action_arg(arg, f"`{name}` of `{kind}` is a list of strings", None)
             elif not isinstance(value, ast.StringLit):
                 self.bad_action_arg(arg, f"`{name}` of `{kind}` is a string", None)
-            elif name == "topic":
+            elif parameter.kind == "topic":
                 self.check_ros_name(value, "topic", "RMV204")
 
     def bad_action_arg(self, arg: ast.Arg, message: str, hint: str | None) -> None:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
+from rmvdsl import builtins
 from rmvdsl.check import settings as schemas
 from rmvdsl.check.actions import ActionChecks
 from rmvdsl.check.model import (
@@ -28,41 +29,10 @@ from rmvdsl.grammar.parser import reserved_names
 from rmvdsl.logic.validate import check_formula
 from rmvdsl.source import SourceMap
 
-INFLUX_FUNCTIONS = frozenset(
-    {
-        *schemas.AGGREGATES,
-        *schemas.SELECTORS,
-        "abs",
-        "acos",
-        "asin",
-        "atan",
-        "atan2",
-        "ceil",
-        "cos",
-        "cumulative_sum",
-        "derivative",
-        "difference",
-        "elapsed",
-        "exp",
-        "floor",
-        "histogram",
-        "ln",
-        "log",
-        "log2",
-        "log10",
-        "moving_average",
-        "non_negative_derivative",
-        "non_negative_difference",
-        "pow",
-        "round",
-        "sin",
-        "sqrt",
-        "tan",
-    }
-)
-ARRAY_AGGREGATES = ("min", "max", "sum", "mean", "count", "any", "all")
+INFLUX_FUNCTIONS = builtins.FUNCTIONS
+ARRAY_AGGREGATES = tuple(builtins.ARRAY_AGGREGATES)
 TIME_UNIT_NAMES = tuple(fm.TIME_UNITS)  # ns, us, ms, s, m, h, d, w
-FILL_NAMES = ("none", "null", "previous", "linear")
+FILL_NAMES = builtins.FILLS
 
 
 class NameChecker(ActionChecks):
@@ -316,13 +286,11 @@ class NameChecker(ActionChecks):
             case ast.NodeDecl():
                 self.check_node(decl)
             case ast.IntrusionDecl():
-                self.diagnostics += schemas.check_settings(
-                    schemas.INTRUSION, decl.settings, None, decl
-                )
+                self.diagnostics += schemas.check_settings("intrusion", decl.settings, None, decl)
                 self.check_actions(decl.actions)
 
     def check_database(self, decl: ast.DatabaseDecl) -> None:
-        self.diagnostics += schemas.check_settings(schemas.DATABASE, decl.settings, decl.name, decl)
+        self.diagnostics += schemas.check_settings("database", decl.settings, decl.name, decl)
         retention_names: dict[str, ast.RetentionDecl] = {}
         for retention in decl.retentions:
             first = retention_names.setdefault(retention.name.name, retention)
@@ -331,11 +299,11 @@ class NameChecker(ActionChecks):
                     f"retention policy `{retention.name.name}`", retention.name, first.name
                 )
             self.diagnostics += schemas.check_settings(
-                schemas.RETENTION, retention.settings, retention.name, retention
+                "retention", retention.settings, retention.name, retention
             )
         for downsample in decl.downsamples:
             self.diagnostics += schemas.check_settings(
-                schemas.DOWNSAMPLE, downsample.settings, downsample.name, downsample
+                "downsample", downsample.settings, downsample.name, downsample
             )
             self.check_downsample(downsample, retention_names)
 
@@ -376,7 +344,7 @@ class NameChecker(ActionChecks):
                     "`carla_msgs/msg/CarlaEgoVehicleStatus`",
                 )
             )
-        self.diagnostics += schemas.check_settings(schemas.QOS, decl.qos, decl.name, decl)
+        self.diagnostics += schemas.check_settings("qos", decl.qos, decl.name, decl)
 
     def check_variable(self, decl: ast.VarDecl) -> None:
         self.resolve(decl.source.topic, frozenset({Kind.TOPIC}), "a topic")
@@ -384,7 +352,7 @@ class NameChecker(ActionChecks):
         if decl.aggregate is None:
             return
         name = decl.aggregate.name
-        if name == "number":
+        if name == builtins.NUMBER:
             return  # a bool as 0 or 1; the types stage checks it is one bool
         if name not in ARRAY_AGGREGATES:
             self.report(
@@ -433,8 +401,8 @@ class NameChecker(ActionChecks):
                 self.check_fill(value)
             case "order":
                 assert isinstance(value, ast.NameValue)
-                if value.ident.name.lower() not in ("asc", "desc"):
-                    self.invalid_clause(value, "`order` is `asc` or `desc`", ("asc", "desc"))
+                if value.ident.name.lower() not in builtins.ORDERS:
+                    self.invalid_clause(value, "`order` is `asc` or `desc`", builtins.ORDERS)
             case "limit":
                 if not (
                     isinstance(value, ast.NumberLit)
@@ -567,7 +535,7 @@ class NameChecker(ActionChecks):
                     help="add e.g. `crit when EVelocityinKMH > 80 reset when EVelocityinKMH < 70`",
                 )
             )
-        self.diagnostics += schemas.check_settings(schemas.ALERT, decl.settings, decl.name, decl)
+        self.diagnostics += schemas.check_settings("alert", decl.settings, decl.name, decl)
         self.check_actions(decl.actions)
 
     def check_transducer(self, decl: ast.TransducerDecl) -> None:
@@ -626,7 +594,7 @@ class NameChecker(ActionChecks):
         formula = decl.formula
         if formula is not None:
             self.check_formula(formula)
-        self.diagnostics += schemas.check_settings(schemas.PROPERTY, decl.settings, decl.name, decl)
+        self.diagnostics += schemas.check_settings("property", decl.settings, decl.name, decl)
         for setting in decl.settings:
             value = setting.value
             is_trigger = setting.key.name == "trigger" and isinstance(value, ast.NameValue)

@@ -1,10 +1,11 @@
-"""What each block's `key = value` settings may be, and the check of one block."""
+"""The check of one block's `key = value` settings against the registry
+(rmvdsl.builtins.BLOCKS): the validator of each kind of value."""
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
 
+from rmvdsl import builtins
 from rmvdsl.diagnostics import Diagnostic, Label, did_you_mean, error
 from rmvdsl.grammar import ast
 
@@ -84,106 +85,36 @@ def _string_list(value: ast.Value) -> str | None:
     return 'expected a list of strings, such as `["/rosout"]`'
 
 
-@dataclass(frozen=True)
-class Schema:
-    block: str
-    settings: dict[str, Validator]
-    required: tuple[str, ...] = ()
-    secret: frozenset[str] = frozenset()
+_VALIDATORS: dict[str, Validator] = {
+    "string": _string,
+    "secret": _secret,
+    "string_or_env": _string_or_env,
+    "bool": _bool,
+    "time": _time,
+    "time_or_inf": _time_or_infinite,
+    "rate": _rate,
+    "name": _name,
+    "name_list": _name_list,
+    "string_list": _string_list,
+}
 
 
-INFLUX_PRECISIONS = ("ns", "u", "us", "ms", "s", "m", "h")
-
-DATABASE = Schema(
-    "database",
-    {
-        "url": _string,
-        "host": _string,
-        "port": _integer(1, 65535),
-        "name": _string,
-        "precision": _names(*INFLUX_PRECISIONS),
-        "username": _string_or_env,
-        "password": _secret,
-        "token": _secret,
-        "ssl": _bool,
-        "timeout": _time,
-        "batch_size": _integer(1),
-        "flush_interval": _time,
-    },
-    required=("name",),
-    secret=frozenset({"password", "token"}),
-)
-RETENTION = Schema(
-    "retention policy",
-    {
-        "duration": _time_or_infinite,
-        "replication": _integer(1),
-        "shard_duration": _time,
-        "default": _bool,
-    },
-    required=("duration",),
-)
-AGGREGATES = ("count", "distinct", "integral", "mean", "median", "mode", "spread", "stddev", "sum")
-SELECTORS = ("bottom", "first", "last", "max", "min", "percentile", "sample", "top")
-DOWNSAMPLE = Schema(
-    "downsample",
-    {
-        "from": _name,
-        "into": _name,
-        "every": _time,
-        "for": _time,
-        "aggregate": _names(*AGGREGATES, *SELECTORS),
-        "measurements": _name_list,
-    },
-    required=("into", "every"),
-)
-QOS = Schema(
-    "qos",
-    {
-        "depth": _integer(1),
-        "history": _names("keep_last", "keep_all"),
-        "reliability": _names("reliable", "best_effort"),
-        "durability": _names("volatile", "transient_local"),
-        "deadline": _time,
-        "lifespan": _time,
-        "liveliness": _names("automatic", "manual_by_topic"),
-        "liveliness_lease": _time,
-    },
-)
-ALERT = Schema(
-    "alert",
-    {
-        "id": _string,
-        "details": _string,
-        "state_changes_only": _bool,
-        "no_recoveries": _bool,
-    },
-)
-PROPERTY = Schema(
-    "property",
-    {
-        "rate": _rate,
-        "trigger": _name,
-        "window": _time,
-        "lateness": _time,
-    },
-)
-INTRUSION = Schema(
-    "intrusion",
-    {
-        "poll": _time,
-        "default": _names("allow", "deny"),
-        "ignore_nodes": _string_list,
-    },
-)
+def validator(spec: builtins.SettingSpec) -> Validator:
+    """The check of one setting's value, from its kind in the registry."""
+    if spec.kind == "names":
+        return _names(*spec.choices)
+    if spec.kind == "int":
+        return _integer(spec.low if spec.low is not None else 0, spec.high)
+    return _VALIDATORS[spec.kind]
 
 
 def check_settings(
-    schema: Schema,
+    block_name: str,
     settings: Iterable[ast.Setting],
     owner: ast.Ident | None,
     owner_span: ast.Node,
 ) -> list[Diagnostic]:
+    schema = builtins.block(block_name)
     diagnostics: list[Diagnostic] = []
     seen: dict[str, ast.Setting] = {}
     for setting in settings:
@@ -192,19 +123,19 @@ def check_settings(
             diagnostics.append(_duplicate(setting, seen[key]))
             continue
         seen[key] = setting
-        validator = schema.settings.get(key)
-        if validator is None:
+        spec = schema.settings.get(key)
+        if spec is None:
             diagnostics.append(_unknown(schema, setting))
             continue
         if key in schema.secret and isinstance(setting.value, ast.StringLit):
             diagnostics.append(_clear_secret(setting))
             continue
-        problem = validator(setting.value)
+        problem = validator(spec)(setting.value)
         if problem:
             diagnostics.append(
                 error(
                     "RMV208",
-                    f"invalid value for `{key}` in {schema.block}",
+                    f"invalid value for `{key}` in {schema.name}",
                     setting.value.span,
                     label=problem,
                     help=_unit_fix(setting.value, problem),
@@ -216,7 +147,7 @@ def check_settings(
             diagnostics.append(
                 error(
                     "RMV209",
-                    f"{schema.block}{where} has no `{key}`",
+                    f"{schema.name}{where} has no `{key}`",
                     owner.span if owner else owner_span.span,
                     label=f"`{key} = ...` is required",
                     help=f"add `{key} = {_EXAMPLES.get(key, '...')}` to the block",
@@ -239,11 +170,11 @@ def _duplicate(setting: ast.Setting, first: ast.Setting) -> Diagnostic:
     )
 
 
-def _unknown(schema: Schema, setting: ast.Setting) -> Diagnostic:
+def _unknown(schema: builtins.Block, setting: ast.Setting) -> Diagnostic:
     known = sorted(schema.settings)
     return error(
         "RMV207",
-        f"unknown setting `{setting.key.name}` in {schema.block}",
+        f"unknown setting `{setting.key.name}` in {schema.name}",
         setting.key.span,
         label="not a setting of this block",
         help=did_you_mean(setting.key.name, known)

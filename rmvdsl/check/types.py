@@ -12,6 +12,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from fractions import Fraction
 
+from rmvdsl import builtins
 from rmvdsl.check.fieldpaths import FieldPaths
 from rmvdsl.check.model import Kind, Model
 from rmvdsl.check.msgtypes import (
@@ -73,50 +74,6 @@ class TypeConfig:
     ros: str | None = None
     messages: tuple[str, ...] = ()
     use_environment: bool = True
-
-
-# Function signatures: (least, most arguments, what the first must be, result).
-# `same` keeps the argument's type, `rate` changes its time exponent.
-_ANY, _NUM = "any", "numeric"
-FUNCTIONS: dict[str, tuple[int, int, str, str]] = {
-    "count": (1, 1, _ANY, "int"),
-    "distinct": (1, 1, _ANY, "same"),
-    "mode": (1, 1, _ANY, "same"),
-    "first": (1, 1, _ANY, "same"),
-    "last": (1, 1, _ANY, "same"),
-    "sample": (2, 2, _ANY, "same"),
-    "integral": (1, 2, _NUM, "rate+1"),
-    "mean": (1, 1, _NUM, "float"),
-    "median": (1, 1, _NUM, "float"),
-    "spread": (1, 1, _NUM, "same"),
-    "stddev": (1, 1, _NUM, "float"),
-    "sum": (1, 1, _NUM, "same"),
-    "max": (1, 1, _NUM, "same"),
-    "min": (1, 1, _NUM, "same"),
-    "top": (2, 2, _NUM, "same"),
-    "bottom": (2, 2, _NUM, "same"),
-    "percentile": (2, 2, _NUM, "same"),
-    "derivative": (1, 2, _NUM, "rate-1"),
-    "non_negative_derivative": (1, 2, _NUM, "rate-1"),
-    "difference": (1, 1, _NUM, "same"),
-    "non_negative_difference": (1, 1, _NUM, "same"),
-    "cumulative_sum": (1, 1, _NUM, "same"),
-    "moving_average": (2, 2, _NUM, "float"),
-    "elapsed": (1, 2, _ANY, "duration"),
-    "histogram": (1, 3, _NUM, "float"),
-    "abs": (1, 1, _NUM, "same"),
-    "ceil": (1, 1, _NUM, "same"),
-    "floor": (1, 1, _NUM, "same"),
-    "round": (1, 1, _NUM, "same"),
-    "pow": (2, 2, _NUM, "float"),
-    "atan2": (2, 2, _NUM, "float"),
-    "log": (2, 2, _NUM, "float"),
-    **{name: (1, 1, _NUM, "float") for name in
-       ("sqrt", "exp", "ln", "log2", "log10", "sin", "cos", "tan", "asin", "acos", "atan")},
-}  # fmt: skip
-# Second arguments that must be a time (the unit of a derivative) or a count.
-_TIME_ARGUMENT = {"derivative", "non_negative_derivative", "integral", "elapsed"}
-_COUNT_ARGUMENT = {"top", "bottom", "moving_average", "sample"}
 
 
 class TypeChecker(FieldPaths):
@@ -374,10 +331,10 @@ class TypeChecker(FieldPaths):
     def call(self, expr: ast.Call) -> VType:
         name = expr.func.name
         arguments = [self.expression(a) for a in expr.args]
-        signature = FUNCTIONS.get(name)
+        signature = builtins.FUNCTIONS.get(name)
         if signature is None:
             return UNKNOWN  # reported by the names stage
-        least, most, wants, result = signature
+        least, most = signature.least, signature.most
         if not least <= len(arguments) <= most:
             count = str(least) if least == most else f"{least} to {most}"
             self.report(
@@ -391,18 +348,19 @@ class TypeChecker(FieldPaths):
             )
             return UNKNOWN
         first = arguments[0]
-        if wants == _NUM and first.kind not in ("int", "float", "duration", "unknown"):
+        numeric = first.kind in ("int", "float", "duration", "unknown")
+        if signature.wants == "numeric" and not numeric:
             self.report(self.argument_error(name, "numbers", first, expr.args[0].span))
             return UNKNOWN
-        self.check_second_argument(expr, arguments)
-        return self.call_result(result, first)
+        self.check_second_argument(expr, signature.second)
+        return self.call_result(signature.result, first)
 
-    def check_second_argument(self, expr: ast.Call, arguments: list[VType]) -> None:
+    def check_second_argument(self, expr: ast.Call, kind: str | None) -> None:
         name = expr.func.name
-        if len(arguments) < 2:
+        if len(expr.args) < 2:
             return
         second = expr.args[1]
-        if name in _TIME_ARGUMENT and not isinstance(second, ast.TimeLit):
+        if kind == "time" and not isinstance(second, ast.TimeLit):
             self.report(
                 error(
                     "RMV316",
@@ -411,7 +369,18 @@ class TypeChecker(FieldPaths):
                     label="not a time",
                 )
             )
-        if name in _COUNT_ARGUMENT and not (
+        if kind == "percent" and not (
+            isinstance(second, ast.NumberLit) and 0 <= second.value <= 100
+        ):
+            self.report(
+                error(
+                    "RMV313",
+                    f"the second argument of `{name}` is a percentile from 0 to 100",
+                    second.span,
+                    label="not a percentile",
+                )
+            )
+        if kind == "count" and not (
             isinstance(second, ast.NumberLit) and second.value.denominator == 1 and second.value > 0
         ):
             self.report(

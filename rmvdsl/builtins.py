@@ -1,0 +1,374 @@
+"""Every built-in name of the language, in one place: InfluxQL functions, array
+aggregates, actions and the settings of every block, each with its arity, argument
+kinds, result rule, default and the text an editor shows on hover.
+
+The checker validates against these tables, `rmvdsl.ir` fills defaults from them,
+the runtime implements exactly these functions, docs/language.md's tables are
+generated from them (a test keeps the two equal), and a test fails when code asks
+for a name that is not here. Standard library only: generated nodes embed it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Any
+
+
+class UnknownBuiltin(KeyError):
+    """Code asked for a built-in the registry lacks: a bug, never a user error."""
+
+
+# ---- InfluxQL functions (events and alerts) ----
+
+
+@dataclass(frozen=True)
+class Function:
+    name: str
+    group: str  # aggregation | selector | transformation
+    least: int  # fewest arguments
+    most: int  # most arguments
+    wants: str  # what the first argument must be: any | numeric
+    result: str  # same | int | float | rate-1 | rate+1 | duration
+    second: str | None  # the second argument: time (a unit) | count | percent | number
+    doc: str
+
+    @property
+    def arity(self) -> str:
+        return str(self.least) if self.least == self.most else f"{self.least} to {self.most}"
+
+
+def _f(
+    name: str, group: str, arity: tuple[int, int], wants: str, result: str,
+    second: str | None, doc: str,
+) -> Function:  # fmt: skip
+    return Function(name, group, arity[0], arity[1], wants, result, second, doc)
+
+
+_AGG, _SEL, _TRANS = "aggregation", "selector", "transformation"
+_MATH = {
+    "sqrt": "the square root", "exp": "e to the power of the value", "ln": "the natural logarithm",
+    "log2": "the base-2 logarithm", "log10": "the base-10 logarithm", "sin": "the sine (radians)",
+    "cos": "the cosine (radians)", "tan": "the tangent (radians)", "asin": "the arcsine",
+    "acos": "the arccosine", "atan": "the arctangent",
+}  # fmt: skip
+
+FUNCTIONS: dict[str, Function] = {
+    f.name: f
+    for f in (
+        _f("count", _AGG, (1, 1), "any", "int", None, "the number of non-null values"),
+        _f("distinct", _AGG, (1, 1), "any", "same", None, "the unique values of the window"),
+        _f("integral", _AGG, (1, 2), "numeric", "rate+1", "time",
+           "the area under the curve (trapezoids), in the given time unit (default 1s)"),
+        _f("mean", _AGG, (1, 1), "numeric", "float", None, "the arithmetic mean of the window"),
+        _f("median", _AGG, (1, 1), "numeric", "float", None, "the middle value of the window"),
+        _f("mode", _AGG, (1, 1), "any", "same", None,
+           "the most frequent value (the smallest of equally frequent ones)"),
+        _f("spread", _AGG, (1, 1), "numeric", "same", None, "the maximum minus the minimum"),
+        _f("stddev", _AGG, (1, 1), "numeric", "float", None, "the sample standard deviation"),
+        _f("sum", _AGG, (1, 1), "numeric", "same", None, "the sum of the window's values"),
+        _f("bottom", _SEL, (2, 2), "numeric", "same", "count", "the N smallest values"),
+        _f("first", _SEL, (1, 1), "any", "same", None, "the value with the oldest time stamp"),
+        _f("last", _SEL, (1, 1), "any", "same", None, "the value with the newest time stamp"),
+        _f("max", _SEL, (1, 1), "numeric", "same", None, "the greatest value"),
+        _f("min", _SEL, (1, 1), "numeric", "same", None, "the smallest value"),
+        _f("percentile", _SEL, (2, 2), "numeric", "same", "percent",
+           "the value at the N-th percentile (N from 0 to 100), nearest rank"),
+        _f("sample", _SEL, (2, 2), "any", "same", "count", "N values picked at random"),
+        _f("top", _SEL, (2, 2), "numeric", "same", "count", "the N greatest values"),
+        _f("abs", _TRANS, (1, 1), "numeric", "same", None, "the absolute value"),
+        _f("ceil", _TRANS, (1, 1), "numeric", "same", None, "rounded up to an integer"),
+        _f("floor", _TRANS, (1, 1), "numeric", "same", None, "rounded down to an integer"),
+        _f("round", _TRANS, (1, 1), "numeric", "same", None,
+           "rounded to the nearest integer (halves away from zero)"),
+        _f("pow", _TRANS, (2, 2), "numeric", "float", "number", "the value to the power of N"),
+        _f("atan2", _TRANS, (2, 2), "numeric", "float", None,
+           "the angle of (x, y), atan2(y, x), in radians"),
+        _f("log", _TRANS, (2, 2), "numeric", "float", "number", "the logarithm to base B"),
+        *(_f(name, _TRANS, (1, 1), "numeric", "float", None, doc) for name, doc in _MATH.items()),
+        _f("cumulative_sum", _TRANS, (1, 1), "numeric", "same", None,
+           "the running total of the values so far"),
+        _f("derivative", _TRANS, (1, 2), "numeric", "rate-1", "time",
+           "the rate of change between consecutive values, per time unit (default 1s)"),
+        _f("non_negative_derivative", _TRANS, (1, 2), "numeric", "rate-1", "time",
+           "`derivative`, without its negative values"),
+        _f("difference", _TRANS, (1, 1), "numeric", "same", None,
+           "the value minus the one before it"),
+        _f("non_negative_difference", _TRANS, (1, 1), "numeric", "same", None,
+           "`difference`, without its negative values"),
+        _f("moving_average", _TRANS, (2, 2), "numeric", "float", "count",
+           "the mean of the last N values"),
+        _f("elapsed", _TRANS, (1, 2), "any", "duration", "time",
+           "the time between consecutive values, in the given unit (default 1ns)"),
+    )
+}  # fmt: skip
+AGGREGATIONS = tuple(n for n, f in FUNCTIONS.items() if f.group == _AGG)
+SELECTORS = tuple(n for n, f in FUNCTIONS.items() if f.group == _SEL)
+
+# Reductions of a `[*]` path to one value in a variable, and `number(...)`.
+ARRAY_AGGREGATES: dict[str, str] = {
+    "min": "the smallest element",
+    "max": "the greatest element",
+    "sum": "the sum of the elements",
+    "mean": "the mean of the elements (a float)",
+    "count": "the number of elements",
+    "any": "true when some element is true",
+    "all": "true when every element is true (also for none)",
+}
+NUMBER = "number"  # `number(path)`: one bool as 0 or 1
+FILLS = ("none", "null", "previous", "linear")  # or a number
+ORDERS = ("asc", "desc")
+
+
+def function(name: str) -> Function:
+    try:
+        return FUNCTIONS[name]
+    except KeyError:
+        raise UnknownBuiltin(f"function {name}") from None
+
+
+# ---- actions ----
+
+
+@dataclass(frozen=True)
+class Parameter:
+    name: str
+    kind: str  # string | topic | url | address | command | strings | time | level
+    default: Any = None
+    doc: str = ""
+
+
+@dataclass(frozen=True)
+class ActionSpec:
+    name: str
+    positional: tuple[str, ...]  # in order
+    required: int  # how many of the positional ones are required
+    parameters: dict[str, Parameter]
+    doc: str
+
+    @property
+    def keywords(self) -> tuple[str, ...]:
+        return tuple(self.parameters)
+
+
+LOG_LEVELS = ("debug", "info", "warn", "error", "fatal")
+
+
+def _action(
+    name: str, positional: tuple[str, ...], required: int, doc: str, *parameters: Parameter
+) -> ActionSpec:
+    return ActionSpec(name, positional, required, {p.name: p for p in parameters}, doc)
+
+
+ACTIONS: dict[str, ActionSpec] = {
+    a.name: a
+    for a in (
+        _action(
+            "log", ("message",), 0, "write a line to the monitor's log",
+            Parameter("message", "string", None, "the text (default: the owner's message)"),
+            Parameter("level", "level", None,
+                      "debug, info, warn, error or fatal (default: the alert's level, "
+                      "`error` for properties and intrusions)"),
+        ),
+        _action(
+            "publish", ("topic", "message"), 1, "publish a std_msgs/String on a ROS topic",
+            Parameter("topic", "topic", None, "the ROS topic"),
+            Parameter("message", "string", None, "the text (default: the owner's message)"),
+        ),
+        _action(
+            "post", ("url",), 1, "send an HTTP POST of the event as JSON",
+            Parameter("url", "url", None, "where to post"),
+            Parameter("timeout", "time", Fraction(10), "how long to wait for an answer"),
+        ),
+        _action(
+            "exec", ("command", "args"), 1,
+            "run a program, with the event as JSON on its standard input (no shell)",
+            Parameter("command", "command", None, "the program"),
+            Parameter("args", "strings", (), "its arguments: a string or a list of strings"),
+        ),
+        _action(
+            "tcp", ("address",), 1, "send the event as one JSON line to a TCP address",
+            Parameter("address", "address", None, "host:port"),
+        ),
+    )
+}  # fmt: skip
+
+
+def action(name: str) -> ActionSpec:
+    try:
+        return ACTIONS[name]
+    except KeyError:
+        raise UnknownBuiltin(f"action {name}") from None
+
+
+# ---- settings of blocks ----
+
+# The value a setting takes when the spec leaves it out and the default depends on
+# the rest of the spec (the text says what).
+DERIVED = "derived"
+
+
+@dataclass(frozen=True)
+class SettingSpec:
+    key: str
+    kind: str  # string | secret | string_or_env | bool | int | time | time_or_inf | rate
+    #            | name | names | name_list | string_list
+    default: Any = None  # None: absent means "not set" (the doc says what that means)
+    doc: str = ""
+    choices: tuple[str, ...] = ()  # for `names`
+    low: int | None = None  # for `int`
+    high: int | None = None
+    shown: str = ""  # the default as the docs write it
+
+
+@dataclass(frozen=True)
+class Block:
+    name: str  # as diagnostics say it
+    settings: dict[str, SettingSpec]
+    required: tuple[str, ...] = ()
+    secret: frozenset[str] = frozenset()
+
+
+def _s(key: str, kind: str, default: Any, doc: str, shown: str = "", **more: Any) -> SettingSpec:
+    return SettingSpec(key, kind, default, doc, shown=shown, **more)
+
+
+def _block(name: str, *settings: SettingSpec, required: tuple[str, ...] = ()) -> Block:
+    secret = frozenset(s.key for s in settings if s.kind == "secret")
+    return Block(name, {s.key: s for s in settings}, required, secret)
+
+
+INFLUX_PRECISIONS = ("ns", "u", "us", "ms", "s", "m", "h")
+_S = Fraction
+
+BLOCKS: dict[str, Block] = {
+    "database": _block(
+        "database",
+        _s("url", "string", DERIVED, "the server's URL", "`http://HOST:PORT`"),
+        _s("host", "string", "127.0.0.1", "the server's host", '`"127.0.0.1"`'),
+        _s("port", "int", 8086, "the server's port", "`8086`", low=1, high=65535),
+        _s("name", "string", None, "the database name (required)", "required"),
+        _s("precision", "names", "ns", "the time stamp precision of writes (the thesis's "
+           "`epoch`)", "`ns`", choices=INFLUX_PRECISIONS),
+        _s("username", "string_or_env", None, 'a string or `env("...")`', "none"),
+        _s("password", "secret", None, '`env("...")` only', "none"),
+        _s("token", "secret", None, '`env("...")` only', "none"),
+        _s("ssl", "bool", False, "HTTPS instead of HTTP", "`false`"),
+        _s("timeout", "time", _S(5), "how long a write may take", "`5s`"),
+        _s("batch_size", "int", 5000, "points written per request", "`5000`", low=1),
+        _s("flush_interval", "time", _S(1), "the longest a point waits to be written", "`1s`"),
+        required=("name",),
+    ),
+    "retention": _block(
+        "retention policy",
+        _s("duration", "time_or_inf", None, "how long data is kept (`inf`: forever)", "required"),
+        _s("replication", "int", 1, "the replication factor", "`1`", low=1),
+        _s("shard_duration", "time", None, "the shard group duration", "InfluxDB's choice"),
+        _s("default", "bool", False, "writes without a policy go here", "`false`"),
+        required=("duration",),
+    ),
+    "downsample": _block(
+        "downsample",
+        _s("from", "name", DERIVED, "the retention policy read", "the default policy"),
+        _s("into", "name", None, "the retention policy written", "required"),
+        _s("every", "time", None, "how often it runs, and its window", "required"),
+        _s("for", "time", DERIVED, "how far back each run reads", "`every`"),
+        _s("aggregate", "names", "mean", "the InfluxQL aggregate or selector", "`mean`",
+           choices=(*AGGREGATIONS, *SELECTORS)),
+        _s("measurements", "name_list", DERIVED, "the variables and events it reads",
+           "all of them"),
+        required=("into", "every"),
+    ),
+    "qos": _block(
+        "qos",
+        _s("depth", "int", 10, "the history depth", "`10`", low=1),
+        _s("history", "names", "keep_last", "which messages are kept", "`keep_last`",
+           choices=("keep_last", "keep_all")),
+        _s("reliability", "names", "reliable", "delivery guarantee", "`reliable`",
+           choices=("reliable", "best_effort")),
+        _s("durability", "names", "volatile", "whether late joiners get old messages",
+           "`volatile`", choices=("volatile", "transient_local")),
+        _s("deadline", "time", None, "the longest gap between messages", "none"),
+        _s("lifespan", "time", None, "how long a message stays valid", "none"),
+        _s("liveliness", "names", "automatic", "how publishers show they are alive",
+           "`automatic`", choices=("automatic", "manual_by_topic")),
+        _s("liveliness_lease", "time", None, "the liveliness lease duration", "none"),
+    ),
+    "alert": _block(
+        "alert",
+        _s("id", "string", DERIVED, "the alert's identifier", "its name"),
+        _s("details", "string", "", "a longer text sent with the alert", '`""`'),
+        _s("state_changes_only", "bool", False, "act only when the level changes", "`false`"),
+        _s("no_recoveries", "bool", False, "do not act when the alert returns to OK",
+           "`false`"),
+    ),
+    "property": _block(
+        "property",
+        _s("rate", "rate", None, "how often the verdict is sampled and reported",
+           "every instant (exact segments)"),
+        _s("trigger", "name", "always", "when the monitor runs: `always`, or while a state "
+           "or boolean event holds", "`always`"),
+        _s("window", "time", DERIVED, "how much history the monitor keeps",
+           "the property's horizon"),
+        _s("lateness", "time", _S(0), "how late input may arrive and still be ordered in",
+           "`0s`"),
+    ),
+    "intrusion": _block(
+        "intrusion",
+        _s("poll", "time", _S(1), "how often the ROS graph is read", "`1s`"),
+        _s("default", "names", "allow", "topics without a whitelist: `allow` or `deny`",
+           "`allow`", choices=("allow", "deny")),
+        _s("ignore_nodes", "string_list", (), "node patterns never reported", "`[]`"),
+    ),
+}  # fmt: skip
+
+
+def block(name: str) -> Block:
+    try:
+        return BLOCKS[name]
+    except KeyError:
+        raise UnknownBuiltin(f"block {name}") from None
+
+
+def setting(block_name: str, key: str) -> SettingSpec:
+    try:
+        return block(block_name).settings[key]
+    except KeyError:
+        raise UnknownBuiltin(f"setting {key} of {block_name}") from None
+
+
+# ---- the reference tables of docs/language.md ----
+
+
+def settings_markdown(block_name: str) -> str:
+    """The table of a block's settings, as docs/language.md shows it."""
+    rows = ["| setting | value | default |", "|---|---|---|"]
+    for spec in block(block_name).settings.values():
+        value = spec.doc
+        if spec.choices:
+            value += ": " + ", ".join(f"`{c}`" for c in spec.choices)
+        rows.append(f"| `{spec.key}` | {value} | {spec.shown or '`' + str(spec.default) + '`'} |")
+    return "\n".join(rows)
+
+
+def functions_markdown() -> str:
+    rows = ["| function | arguments | result |", "|---|---|---|"]
+    for f in FUNCTIONS.values():
+        args = "x" + {None: "", "time": ", unit", "count": ", N", "percent": ", N",
+                      "number": ", N"}[f.second]  # fmt: skip
+        if f.least == 1 and f.most == 2:
+            args = args.replace(", ", "[, ") + "]"
+        rows.append(f"| `{f.name}({args})` | {f.group} | {f.doc} |")
+    return "\n".join(rows)
+
+
+def actions_markdown() -> str:
+    rows = ["| action | arguments |", "|---|---|"]
+    for a in ACTIONS.values():
+        parts = []
+        for name, p in a.parameters.items():
+            place = "positional or " if name in a.positional else ""
+            need = "required" if name in a.positional[: a.required] else "optional"
+            parts.append(f"`{name}` ({place}keyword, {need}): {p.doc}")
+        rows.append(f"| `{a.name}`: {a.doc} | {'; '.join(parts)} |")
+    return "\n".join(rows)
