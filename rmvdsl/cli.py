@@ -28,6 +28,7 @@ if TYPE_CHECKING:
     from rmvdsl.logic.traces import TraceFile
 
 EXIT_OK, EXIT_ERRORS, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 70
+TARGETS = ("ir",)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -81,19 +82,24 @@ exit codes: 0 no errors, 1 errors (or warnings with --strict), 2 usage or I/O pr
         help="write, for each property, a trace where it holds and one where it fails "
         "(JSONL, replayable with `rmv eval`)",
     )
-    check_parser.add_argument(
-        "--ros",
-        metavar="DISTRO",
-        help="the ROS distribution whose messages apply (noetic, humble, jazzy, ...); "
-        "wins over the spec's `ros`",
+    _add_message_options(check_parser)
+
+    build_parser = commands.add_parser(
+        "build",
+        help="generate a target from a spec (ir: the resolved spec as JSON)",
+        description="Check a spec and, when it has no errors, generate a target from its "
+        "resolved model. `ir` writes the resolved spec as versioned JSON (docs/ir.md).",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="""examples:
+  rmv build --target ir examples/carla/abs.rmv
+  rmv build --target ir examples/carla/abs.rmv -o abs.ir.json
+exit codes: 0 built, 1 the spec has errors (shown on standard error), 2 usage or I/O problem""",
     )
-    check_parser.add_argument(
-        "--messages",
-        metavar="DIR",
-        action="append",
-        default=[],
-        help="a folder of .msg files (<pkg>/msg/*.msg below it); may be repeated",
-    )
+    build_parser.add_argument("spec", metavar="SPEC")
+    build_parser.add_argument("--target", required=True, choices=TARGETS)
+    build_parser.add_argument("-o", "--output", metavar="OUT", help="write here (default: stdout)")
+    build_parser.add_argument("--no-color", action="store_true")
+    _add_message_options(build_parser)
 
     explain_parser = commands.add_parser(
         "explain",
@@ -206,6 +212,22 @@ exit codes: 0 answered (whatever the answer), 1 the formula has errors, 2 usage 
     return parser
 
 
+def _add_message_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--ros",
+        metavar="DISTRO",
+        help="the ROS distribution whose messages apply (noetic, humble, jazzy, ...); "
+        "wins over the spec's `ros`",
+    )
+    parser.add_argument(
+        "--messages",
+        metavar="DIR",
+        action="append",
+        default=[],
+        help="a folder of .msg files (<pkg>/msg/*.msg below it); may be repeated",
+    )
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = _build_parser()
     args = parser.parse_args(argv)
@@ -234,6 +256,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _run(args: argparse.Namespace) -> int:
     commands = {
+        "build": _build,
         "check": _check,
         "explain": lambda a: _explain(a.code),
         "fmt": _fmt,
@@ -251,7 +274,7 @@ def _use_color(args: argparse.Namespace) -> bool:
     return sys.stdout.isatty()
 
 
-def _check(args: argparse.Namespace) -> int:
+def _message_options(args: argparse.Namespace) -> None:
     from rmvdsl.check.msgtypes import DISTROS
 
     if args.ros is not None and args.ros not in DISTROS:
@@ -259,6 +282,29 @@ def _check(args: argparse.Namespace) -> int:
     for folder in args.messages:
         if not os.path.isdir(folder):
             raise UsageError(f"--messages {folder}: no such folder")
+
+
+def _build(args: argparse.Namespace) -> int:
+    from rmvdsl.ir import dump, lower
+
+    _message_options(args)
+    result = check(args.spec, ros=args.ros, messages=tuple(args.messages))
+    if result.errors:
+        sys.stderr.write(render_text(result.errors, result.model.sources, False))
+        print(
+            f"rmv build: {args.spec}: {len(result.errors)} errors: nothing built", file=sys.stderr
+        )
+        return EXIT_ERRORS
+    text = dump(lower(result)) + "\n"
+    if args.output:
+        _write(args.output, text)
+    else:
+        sys.stdout.write(text)
+    return EXIT_OK
+
+
+def _check(args: argparse.Namespace) -> int:
+    _message_options(args)
     all_diagnostics: list[Diagnostic] = []
     sources = SourceMap()
     usage_problem = False

@@ -62,7 +62,9 @@ class FieldPaths:
         aggregates = variable.aggregate is not None and variable.aggregate.name != "number"
         if aggregates and not any(s.index == "*" for s in variable.source.segments):
             return UNKNOWN  # an aggregate without `[*]`: the names stage said so
-        resolved = self.walk_path(topic, variable.source)
+        steps: list[FieldType] = []
+        resolved = self.walk_path(topic, variable.source, steps)
+        self.info.paths[variable.name.name] = tuple(steps)
         if resolved is None:
             return UNKNOWN
         field_type, wildcard, last = resolved
@@ -100,8 +102,10 @@ class FieldPaths:
         return value
 
     def walk_path(
-        self, message: MessageDef, ref: ast.FieldRef
+        self, message: MessageDef, ref: ast.FieldRef, steps: list[FieldType] | None = None
     ) -> tuple[FieldType, bool, ast.Node] | None:
+        """The type at the end of the path, whether it crossed a `[*]`, and its last
+        node; `steps` receives each segment's field type."""
         current = FieldType(message.name)
         wildcard = False
         previous: ast.Node = ref.topic
@@ -128,6 +132,8 @@ class FieldPaths:
                     self.report_missing_field(current.base, fields, segment)
                     return None
             current = found
+            if steps is not None:
+                steps.append(found)
             if segment.index is not None:
                 if not current.array:
                     self.report(

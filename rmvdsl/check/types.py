@@ -18,6 +18,7 @@ from rmvdsl.check.model import Kind, Model
 from rmvdsl.check.msgtypes import (
     DEFAULT_DISTRO,
     DISTROS,
+    FieldType,
     MessageDef,
     TypeRegistry,
     environment_folders,
@@ -36,6 +37,8 @@ from rmvdsl.check.vtypes import (
 from rmvdsl.diagnostics import Diagnostic, Label, did_you_mean, error
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
+from rmvdsl.logic.compile import CompileError, compile_formula
+from rmvdsl.runtime.rmtld3 import facts
 from rmvdsl.runtime.values import literal
 from rmvdsl.source import Span
 
@@ -64,6 +67,13 @@ class TypeInfo:
     variables: dict[str, VType] = field(default_factory=dict)
     events: dict[str, VType] = field(default_factory=dict)
     horizons: dict[str, Horizon] = field(default_factory=dict)
+    # Each variable's field types, one per segment of its path.
+    paths: dict[str, tuple[FieldType, ...]] = field(default_factory=dict)
+    # The type of every expression node of events and alerts, by id of the node.
+    expressions: dict[int, VType] = field(default_factory=dict)
+
+    def type_of(self, node: ast.Node) -> VType:
+        return self.expressions.get(id(node), UNKNOWN)
 
 
 @dataclass
@@ -182,6 +192,10 @@ class TypeChecker(FieldPaths):
             )
 
     def expression(self, expr: ast.Node) -> VType:
+        value = self.info.expressions[id(expr)] = self._expression(expr)
+        return value
+
+    def _expression(self, expr: ast.Node) -> VType:
         match expr:
             case ast.NumberLit():
                 kind = "int" if isinstance(literal(expr.text), int) else "float"
@@ -546,34 +560,15 @@ class TypeChecker(FieldPaths):
             )
             return
 
-    def horizon(self, formula: fm.Formula | fm.Term) -> Horizon | None:
-        unit = self.model.time_unit
-        match formula:
-            case fm.Temporal():
-                if formula.bound is None:
-                    return None
-                length = formula.bound.value.seconds(unit)
-                parts = [self.horizon(c) for c in formula.children()]
-                if length is None or None in parts:
-                    return None
-                future = max(p.future for p in parts if p)
-                past = max(p.past for p in parts if p)
-                if formula.op in ("until", "eventually", "always"):
-                    return Horizon(future + length, past)
-                return Horizon(future, past + length)
-            case fm.Duration():
-                length = formula.window.seconds(unit)
-                body = self.horizon(formula.body)
-                if length is None or body is None:
-                    return None
-                return Horizon(body.future + length, body.past)
-        parts = [self.horizon(c) for c in formula.children()]
-        if None in parts:
-            return None
-        return Horizon(
-            max((p.future for p in parts if p), default=Fraction(0)),
-            max((p.past for p in parts if p), default=Fraction(0)),
-        )
+    def horizon(self, formula: fm.Formula) -> Horizon | None:
+        """How far the formula looks ahead and back: the runtime's own traversal
+        of the compiled formula (rmvdsl.runtime.rmtld3.facts)."""
+        try:
+            compiled = compile_formula(formula, Fraction(1), self.model.time_unit)
+        except CompileError:
+            return None  # a bound without a unit or a bad term: the names stage said so
+        found = facts(compiled)
+        return Horizon(Fraction(found.future), Fraction(found.past))
 
 
 def _units_clash(left: VType, right: VType) -> bool:

@@ -1,4 +1,4 @@
-"""From the formula tree to the runtime's nested tuples.
+"""From the formula tree to the runtime's typed nested tuples (runtime/formulas.py).
 
 Times become numbers in the trace's unit (seconds unless said otherwise): `10s` is
 10, `100ms` is 1/10, and a bare number is taken in the given default unit, wherever
@@ -16,6 +16,7 @@ from typing import Any
 
 from rmvdsl.grammar import formula as fm
 from rmvdsl.grammar.formula import TIME_UNITS
+from rmvdsl.runtime import formulas as f
 
 
 class CompileError(Exception):
@@ -49,25 +50,25 @@ class _Compiler:
     def formula(self, node: fm.Formula) -> Any:
         match node:
             case fm.Prop():
-                return ("prop", node.name)
+                return f.prop(node.name)
             case fm.Const():
-                return ("const", node.value)
+                return f.const(node.value)
             case fm.Not():
                 operand = self.formula(node.operand)
                 # not not f is f, in three values too: a chain of 40,000 stays shallow
-                return operand[1] if operand[0] == "not" else ("not", operand)
+                return operand[1] if operand[0] == "not" else f.not_(operand)
             case fm.Binary() if node.op in ("and", "or"):
-                return _balanced(node.op, [self.formula(f) for f in _chain(node)])
+                return _balanced(node.op, [self.formula(o) for o in _chain(node)])
             case fm.Binary():
                 left, right = self.formula(node.left), self.formula(node.right)
-                implies = ("or", ("not", left), right)
+                implies = f.binary("or", f.not_(left), right)
                 if node.op == "->":
                     return implies
-                return ("and", implies, ("or", ("not", right), left))
+                return f.binary("and", implies, f.binary("or", f.not_(right), left))
             case fm.Temporal():
                 return self.temporal(node)
             case fm.Compare():
-                return ("cmp", node.op, self.term(node.left), self.term(node.right))
+                return f.cmp(node.op, self.term(node.left), self.term(node.right))
         raise CompileError(f"not a formula: {node!r}", node)
 
     def temporal(self, node: fm.Temporal) -> Any:
@@ -78,19 +79,19 @@ class _Compiler:
             raise CompileError("a time bound must not be negative", node)
         op = node.bound.op
         body = self.formula(node.right)
-        true = ("const", True)
+        true = f.TRUE
         match node.op:
             case "until" | "since":
                 assert node.left is not None
-                return (node.op, op, bound, self.formula(node.left), body)
+                return f.temporal(node.op, op, bound, self.formula(node.left), body)
             case "eventually":
-                return ("until", op, bound, true, body)
+                return f.temporal("until", op, bound, true, body)
             case "once":
-                return ("since", op, bound, true, body)
+                return f.temporal("since", op, bound, true, body)
             case "always":
-                return ("not", ("until", op, bound, true, ("not", body)))
+                return f.not_(f.temporal("until", op, bound, true, f.not_(body)))
             case "historically":
-                return ("not", ("since", op, bound, true, ("not", body)))
+                return f.not_(f.temporal("since", op, bound, true, f.not_(body)))
         raise CompileError(f"unknown temporal operator {node.op}", node)
 
     def term(self, node: fm.Term, scalar: bool = False) -> Any:
@@ -98,19 +99,19 @@ class _Compiler:
         match node:
             case fm.Number():
                 if node.time is not None:
-                    return ("num", self.time(node.time, node) * (1 if node.value >= 0 else -1))
+                    return f.num(self.time(node.time, node) * (1 if node.value >= 0 else -1))
                 if scalar or self.default_unit is None:
-                    return ("num", node.value)
-                return ("num", node.value * TIME_UNITS[self.default_unit] / self.unit)
+                    return f.num(node.value)
+                return f.num(node.value * TIME_UNITS[self.default_unit] / self.unit)
             case fm.Duration():
-                return ("dur", self.time(node.window, node), self.formula(node.body))
+                return f.dur(self.time(node.window, node), self.formula(node.body))
             case fm.Arith() if node.op == "+":
                 # a sum associates: its constants folded, the rest as a shallow tree
                 terms = [self.term(t) for t in _chain(node)]
                 constant = sum((t[1] for t in terms if t[0] == "num"), Fraction(0))
                 rest = [t for t in terms if t[0] != "num"]
                 if not rest or constant:
-                    rest.append(("num", constant))
+                    rest.append(f.num(constant))
                 return _balanced("add", rest)
             case fm.Arith():
                 kind = {"+": "add", "-": "sub", "*": "mul"}[node.op]
@@ -126,7 +127,7 @@ class _Compiler:
                         "a product of two durations is not linear: one side must be a constant",
                         node,
                     )
-                return (kind, left, right)
+                return f.binary(kind, left, right)
         raise CompileError(f"not a term: {node!r}", node)
 
 
@@ -148,7 +149,7 @@ def _balanced(op: str, operands: list[Any]) -> Any:
     """`and`/`or` of the operands as a tree of logarithmic depth (they associate):
     the monitor and the solver then never recurse deeper than about 20 levels."""
     while len(operands) > 1:
-        paired = [(op, a, b) for a, b in zip(operands[::2], operands[1::2], strict=False)]
+        paired = [f.binary(op, a, b) for a, b in zip(operands[::2], operands[1::2], strict=False)]
         operands = paired + operands[len(paired) * 2 :]
     return operands[0]
 

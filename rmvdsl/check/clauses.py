@@ -1,0 +1,173 @@
+"""Events (names stage): each event's expression and InfluxQL clauses (where,
+group by, fill, order, limit, resample, range), and events defined in a cycle."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+from rmvdsl import builtins
+from rmvdsl.check.model import EVENT_KINDS, Kind, Model, Symbol
+from rmvdsl.diagnostics import Diagnostic, did_you_mean, error
+from rmvdsl.grammar import ast
+from rmvdsl.grammar import formula as fm
+
+INFLUX_FUNCTIONS = builtins.FUNCTIONS
+FILL_NAMES = builtins.FILLS
+
+
+class EventChecks:
+    """The names stage's checks of events (a part of NameChecker)."""
+
+    model: Model
+    diagnostics: list[Diagnostic]
+
+    def report(self, diagnostic: Diagnostic) -> None:
+        self.diagnostics.append(diagnostic)
+
+    def resolve(self, ident: ast.Ident, allowed: frozenset[Kind], wanted: str) -> Symbol | None:
+        raise NotImplementedError  # NameChecker's
+
+    def once_only(
+        self, what: str, again: ast.Node, first: ast.Node, help: str = "keep only one"
+    ) -> None:
+        raise NotImplementedError  # NameChecker's
+
+    def check_event(self, decl: ast.EventDecl) -> None:
+        allowed = frozenset({Kind.VARIABLE, *EVENT_KINDS})
+        self.check_expression(decl.expr, allowed)
+        seen: dict[str, ast.Clause] = {}
+        for clause in decl.clauses:
+            first = seen.setdefault(clause.kind, clause)
+            if first is not clause:
+                self.once_only(f"the `{clause.kind}` clause of `{decl.name.name}`", clause, first)
+            self.check_clause(clause, allowed)
+
+    def check_clause(self, clause: ast.Clause, allowed: frozenset[Kind]) -> None:
+        value = clause.value
+        match clause.kind:
+            case "where":
+                self.check_expression(value, allowed)
+            case "group":
+                assert isinstance(value, ast.GroupBy)
+                for time in (value.interval, value.offset):
+                    if time is not None:
+                        self.check_positive_time(
+                            time.time, "group-by interval", allow_zero=time is value.offset
+                        )
+            case "fill":
+                self.check_fill(value)
+            case "order":
+                assert isinstance(value, ast.NameValue)
+                if value.ident.name.lower() not in builtins.ORDERS:
+                    self.invalid_clause(value, "`order` is `asc` or `desc`", builtins.ORDERS)
+            case "limit":
+                if not (
+                    isinstance(value, ast.NumberLit)
+                    and value.value.denominator == 1
+                    and value.value > 0
+                ):
+                    self.invalid_clause(value, "`limit` is a positive whole number", ())
+            case "resample":
+                assert isinstance(value, ast.Resample)
+                for time in (value.every, value.for_):
+                    if time is not None:
+                        self.check_positive_time(time.time, "resample interval")
+            case "range":
+                assert isinstance(value, ast.TimeLit)
+                self.check_positive_time(value.time, "range")
+
+    def check_fill(self, value: ast.Node) -> None:
+        if isinstance(value, ast.NameValue):
+            if value.ident.name not in FILL_NAMES:
+                self.invalid_clause(
+                    value, "`fill` is none, null, previous, linear or a number", FILL_NAMES
+                )
+        elif not isinstance(value, ast.NumberLit):
+            self.invalid_clause(
+                value, "`fill` is none, null, previous, linear or a number", FILL_NAMES
+            )
+
+    def invalid_clause(self, value: ast.Node, expected: str, choices: Iterable[str]) -> None:
+        found = value.ident.name if isinstance(value, ast.NameValue) else ""
+        self.report(
+            error(
+                "RMV208",
+                "invalid clause value",
+                value.span,
+                label=expected,
+                help=did_you_mean(found, choices) if found else None,
+            )
+        )
+
+    def check_positive_time(self, time: fm.TimeValue, what: str, allow_zero: bool = False) -> None:
+        if time.unit is None:
+            self.report(
+                error(
+                    "RMV213",
+                    f"the {what} `{time.text}` has no unit",
+                    time.span,
+                    label="a time needs a unit here",
+                    help=f"write `{time.text}s` or `{time.text}ms`",
+                )
+            )
+        elif time.value < 0 or (time.value == 0 and not allow_zero):
+            self.report(
+                error("RMV219", f"the {what} must be positive", time.span, label=f"`{time.text}`")
+            )
+
+    def check_expression(self, expr: ast.Node, allowed: frozenset[Kind]) -> None:
+        for node in ast.walk(expr):
+            if isinstance(node, ast.NameRef):
+                self.resolve(node.ident, allowed, "a variable or an event")
+            elif isinstance(node, ast.Call) and node.func.name not in INFLUX_FUNCTIONS:
+                self.report(
+                    error(
+                        "RMV215",
+                        f"unknown function `{node.func.name}`",
+                        node.func.span,
+                        label="not an InfluxQL function",
+                        help=did_you_mean(node.func.name, INFLUX_FUNCTIONS)
+                        or "see `rmv explain RMV215` for the supported functions",
+                    )
+                )
+
+    def check_event_cycles(self) -> None:
+        events = self.model.events
+        dependencies = {
+            name: [
+                n.ident
+                for n in ast.walk(decl.expr, *(c.value for c in decl.clauses if c.kind == "where"))
+                if isinstance(n, ast.NameRef) and n.ident.name in events
+            ]
+            for name, decl in events.items()
+        }
+        state: dict[str, int] = {}  # 1: on the current path, 2: done
+        for name in dependencies:
+            self._visit_event(name, dependencies, state, [])
+
+    def _visit_event(
+        self,
+        name: str,
+        deps: dict[str, list[ast.Ident]],
+        state: dict[str, int],
+        path: list[ast.Ident],
+    ) -> None:
+        if state.get(name) == 2:
+            return
+        state[name] = 1
+        for ident in deps[name]:
+            if state.get(ident.name) == 1:
+                cycle = [*(i.name for i in path), name, ident.name]
+                start = cycle.index(ident.name)
+                self.report(
+                    error(
+                        "RMV220",
+                        "events defined in a cycle: " + " -> ".join(cycle[start:]),
+                        ident.span,
+                        label=f"`{name}` uses `{ident.name}`, which depends on `{name}`",
+                        help="an event can only use variables and events defined without it",
+                    )
+                )
+            elif state.get(ident.name) is None:
+                self._visit_event(ident.name, deps, state, [*path, ident])
+        state[name] = 2

@@ -1,0 +1,511 @@
+"""Lowering: from a checked spec (syntax tree, symbols, types) to the resolved spec
+of rmvdsl.runtime.spec, which every target, the runtime and the editor read.
+
+Nothing here decides what a spec means beyond filling in what the checker already
+established: names resolved, field paths typed, defaults (from rmvdsl.builtins)
+filled, times in seconds, formulas compiled, events ordered by dependency.
+"""
+
+from __future__ import annotations
+
+import graphlib
+from collections.abc import Iterable
+from fractions import Fraction
+from typing import Any
+
+from rmvdsl import builtins
+from rmvdsl.check import CheckResult
+from rmvdsl.check.model import Kind, Model
+from rmvdsl.check.msgtypes import FieldType, TypeRegistry, canonical
+from rmvdsl.check.types import TypeInfo
+from rmvdsl.check.vtypes import VType
+from rmvdsl.grammar import ast, printer
+from rmvdsl.grammar.formula import TIME_UNITS
+from rmvdsl.logic.compile import compile_formula
+from rmvdsl.runtime import spec as ir
+from rmvdsl.runtime.rmtld3 import facts
+from rmvdsl.runtime.spec import dump, load, pattern
+
+__all__ = ["LowerError", "dump", "load", "lower"]
+
+# ROS 1 time fields as a decoded message names them (rosbags and rclpy alike).
+_ROS1_TIME_READS = {"secs": "sec", "nsecs": "nanosec"}
+_EXPRESSION_OPS = {"<>": "!="}
+
+
+class LowerError(ValueError):
+    """The spec has errors: only an error-free check result lowers."""
+
+
+def lower(result: CheckResult) -> ir.Spec:
+    if result.errors or result.types is None:
+        raise LowerError(f"the spec has {len(result.errors)} errors: fix them first")
+    return _Lowering(result.model, result.types).spec()
+
+
+class _Lowering:
+    def __init__(self, model: Model, types: TypeInfo) -> None:
+        self.model = model
+        self.types = types
+        self.registry: TypeRegistry = types.registry
+
+    # ---- the whole spec ----
+
+    def spec(self) -> ir.Spec:
+        model = self.model
+        system = model.system
+        topics = tuple(self.topic(t) for t in model.topics.values())
+        return ir.Spec(
+            format=ir.FORMAT,
+            version=ir.VERSION,
+            system=ir.System(
+                system.name.name if system else "",
+                system.title.value if system and system.title else "",
+                system.doc if system else "",
+            ),
+            time_unit=model.time_unit,
+            ros=ir.Ros(self.registry.distro, self.registry.ros_version),
+            database=self.database(model.database) if model.database else None,
+            messages=self.messages(t.message_type for t in topics),
+            topics=topics,
+            variables=tuple(self.variable(v) for v in model.variables.values()),
+            events=tuple(self.event(model.events[name]) for name in self.event_order()),
+            transducers=tuple(self.transducer(t) for t in model.transducers.values()),
+            properties=tuple(self.property(p) for p in model.properties.values()),
+            alerts=tuple(self.alert(a) for a in model.alerts.values()),
+            whitelists=tuple(self.whitelist(w) for w in model.whitelists),
+            nodes=tuple(self.node_rule(n) for n in model.nodes),
+            intrusion=self.intrusion(model.intrusion),
+        )
+
+    def origin(self, node: ast.Node) -> str:
+        source = self.model.sources.get(node.span.path)
+        if source is None:
+            return node.span.path
+        position = source.position(node.span.start)
+        return f"{node.span.path}:{position.line}:{position.column}"
+
+    # ---- settings ----
+
+    def settings(self, block: str, given: Iterable[ast.Setting]) -> dict[str, Any]:
+        """Every setting of the block: the spec's value, converted, or the default."""
+        values = {s.key.name: _setting_value(s.value) for s in given}
+        out = {}
+        for key, spec in builtins.block(block).settings.items():
+            out[key] = values.get(key, spec.default)
+        return out
+
+    # ---- database ----
+
+    def database(self, decl: ast.DatabaseDecl) -> ir.Database:
+        values = self.settings("database", decl.settings)
+        retentions = tuple(self.retention(r) for r in decl.retentions)
+        default = next((r.name for r in retentions if r.default), "autogen")
+        scheme = "https" if values["ssl"] else "http"
+        url = values["url"]
+        if url == builtins.DERIVED:
+            url = f"{scheme}://{values['host']}:{values['port']}"
+        return ir.Database(
+            name=values["name"],
+            url=url,
+            host=values["host"],
+            port=values["port"],
+            precision=values["precision"],
+            username=_credential(values["username"]),
+            password=_credential(values["password"]),
+            token=_credential(values["token"]),
+            ssl=values["ssl"],
+            timeout=values["timeout"],
+            batch_size=values["batch_size"],
+            flush_interval=values["flush_interval"],
+            default_retention=default,
+            retentions=retentions,
+            downsamples=tuple(self.downsample(d, default) for d in decl.downsamples),
+            origin=self.origin(decl),
+        )
+
+    def retention(self, decl: ast.RetentionDecl) -> ir.Retention:
+        values = self.settings("retention", decl.settings)
+        duration = values["duration"]
+        return ir.Retention(
+            name=decl.name.name,
+            duration=None if duration == "inf" else duration,
+            replication=values["replication"],
+            shard_duration=values["shard_duration"],
+            default=values["default"],
+            origin=self.origin(decl.name),
+        )
+
+    def downsample(self, decl: ast.DownsampleDecl, default: str) -> ir.Downsample:
+        values = self.settings("downsample", decl.settings)
+        lookback = values["for"]
+        measurements = values["measurements"]
+        return ir.Downsample(
+            name=decl.name.name,
+            source=default if values["from"] == builtins.DERIVED else values["from"],
+            into=values["into"],
+            every=values["every"],
+            lookback=values["every"] if lookback == builtins.DERIVED else lookback,
+            aggregate=values["aggregate"],
+            measurements=None if measurements == builtins.DERIVED else tuple(measurements),
+            origin=self.origin(decl.name),
+        )
+
+    # ---- topics and messages ----
+
+    def topic(self, decl: ast.TopicDecl) -> ir.Topic:
+        qos = self.settings("qos", decl.qos)
+        return ir.Topic(
+            name=decl.name.name,
+            ros_name=decl.path.value,
+            message_type=canonical(decl.msg_type.text),
+            qos=ir.Qos(**qos),
+            time_source="receipt",
+            origin=self.origin(decl.name),
+            doc=decl.doc,
+        )
+
+    def messages(self, roots: Iterable[str]) -> tuple[ir.Message, ...]:
+        """Every message type the topics carry, nested ones included, by name."""
+        found: dict[str, ir.Message] = {}
+        pending = list(roots)
+        while pending:
+            name = pending.pop()
+            definition = self.registry.get(name)
+            if name in found or definition is None:
+                continue
+            fields = tuple(ir.MessageField(f, t.text()) for f, t in definition.fields.items())
+            constants = tuple((c, kind, value) for c, (kind, value) in definition.constants.items())
+            found[name] = ir.Message(name, fields, constants)
+            bases = (t.base for t in definition.fields.values())
+            pending += [canonical(base) for base in bases if not _primitive(base)]
+        return tuple(found[name] for name in sorted(found))
+
+    # ---- variables ----
+
+    def variable(self, decl: ast.VarDecl) -> ir.Variable:
+        name = decl.name.name
+        field_types = self.types.paths[name]
+        steps: list[ir.Step] = []
+        for segment, field_type in zip(decl.source.segments, field_types, strict=True):
+            steps.append(self.field_step(segment.field_name.name, field_type))
+            if segment.index == "*":
+                steps.append(ir.EachStep())
+            elif segment.index is not None:
+                steps.append(ir.IndexStep(int(segment.index)))
+        return ir.Variable(
+            name=name,
+            topic=decl.source.topic.name,
+            path=tuple(steps),
+            aggregate=decl.aggregate.name if decl.aggregate else None,
+            type=_value_type(self.types.variables[name]),
+            origin=self.origin(decl.name),
+            doc=decl.doc,
+        )
+
+    def field_step(self, name: str, field_type: FieldType) -> ir.FieldStep:
+        read = name
+        if self.registry.ros_version == 1 and name in _ROS1_TIME_READS:
+            read = _ROS1_TIME_READS[name]
+        return ir.FieldStep(name, read, field_type.text())
+
+    # ---- expressions ----
+
+    def expr(self, node: ast.Node) -> ir.Expr:
+        value_type = _value_type(self.types.type_of(node))
+        match node:
+            case ast.NumberLit():
+                return ir.Number(node.text, node.value, value_type)
+            case ast.StringLit():
+                return ir.String(node.value, value_type)
+            case ast.BoolLit():
+                return ir.Boolean(node.value, value_type)
+            case ast.TimeLit():
+                seconds = node.time.seconds(self.model.time_unit)
+                assert seconds is not None, "a time without a unit passed the checker"
+                return ir.Time(node.time.text, seconds, value_type)
+            case ast.NameRef():
+                return ir.Ref(node.ident.name, self.ref_kind(node.ident.name), value_type)
+            case ast.UnaryOp():
+                return ir.Unary(node.op, self.expr(node.operand), value_type)
+            case ast.BinOp():
+                op = _EXPRESSION_OPS.get(node.op, node.op)
+                return ir.Binary(op, self.expr(node.left), self.expr(node.right), value_type)
+            case ast.Call():
+                builtins.function(node.func.name)
+                args = tuple(self.expr(a) for a in node.args)
+                return ir.Call(node.func.name, args, value_type)
+        raise LowerError(f"not an expression: {type(node).__name__}")
+
+    def ref_kind(self, name: str) -> str:
+        kind = self.model.symbols[name].kind
+        if kind is Kind.VARIABLE:
+            return "variable"
+        return "emitted" if kind is Kind.EMITTED_EVENT else "event"
+
+    # ---- events ----
+
+    def event_order(self) -> list[str]:
+        """Events after those they read, otherwise in declaration order."""
+        sorter: graphlib.TopologicalSorter[str] = graphlib.TopologicalSorter()
+        for name, decl in self.model.events.items():
+            sorter.add(name, *(n for n in _reads(decl) if n in self.model.events))
+        return list(sorter.static_order())
+
+    def event(self, decl: ast.EventDecl) -> ir.Event:
+        clauses = {c.kind: c.value for c in decl.clauses}
+        group = clauses.get("group")
+        window: ir.Window | None = None
+        tags: tuple[str, ...] = ()
+        if isinstance(group, ast.GroupBy):
+            tags = tuple(t.value if isinstance(t, ast.StringLit) else t.name for t in group.tags)
+            interval = self.seconds(group.interval)
+            if interval is not None:
+                window = ir.Window(interval, self.seconds(group.offset) or Fraction(0))
+        resample = clauses.get("resample")
+        # InfluxDB's continuous querier: a query runs every group-by interval and
+        # reads that interval, or the EVERY interval when that is longer.
+        every = lookback = window.interval if window else None
+        if isinstance(resample, ast.Resample):
+            every = self.seconds(resample.every) or every
+            lookback = self.seconds(resample.for_) or _longest(lookback, every)
+        where = clauses.get("where")
+        limit = clauses.get("limit")
+        order = clauses.get("order")
+        return ir.Event(
+            name=decl.name.name,
+            kind="boolean" if decl.boolean else "value",
+            expr=self.expr(decl.expr),
+            type=_value_type(self.types.events[decl.name.name]),
+            reads=tuple(sorted(_reads(decl))),
+            where=self.expr(where) if where is not None else None,
+            window=window,
+            tags=tags,
+            fill=self.fill(clauses.get("fill")),
+            order=order.ident.name.lower() if isinstance(order, ast.NameValue) else "asc",
+            limit=int(limit.value) if isinstance(limit, ast.NumberLit) else None,
+            range=self.seconds(clauses.get("range")),
+            resample_every=every,
+            resample_for=lookback,
+            origin=self.origin(decl.name),
+            doc=decl.doc,
+        )
+
+    def seconds(self, node: ast.Node | None) -> Fraction | None:
+        if not isinstance(node, ast.TimeLit):
+            return None
+        return node.time.seconds(self.model.time_unit)
+
+    def fill(self, node: ast.Node | None) -> ir.Fill:
+        if isinstance(node, ast.NameValue):
+            return ir.Fill(node.ident.name)
+        if isinstance(node, ast.NumberLit):
+            kind = "int" if node.value.denominator == 1 and "." not in node.text else "float"
+            return ir.Fill("number", ir.Number(node.text, node.value, ir.ValueType(kind)))
+        return ir.Fill("null")  # InfluxDB's default
+
+    # ---- transducers ----
+
+    def transducer(self, decl: ast.TransducerDecl) -> ir.Transducer:
+        assert decl.initial is not None
+        transitions = tuple(
+            ir.Transition(
+                t.source.name,
+                t.dest.name,
+                t.input.name,
+                t.output.name if t.output else None,
+                self.origin(t),
+            )
+            for t in decl.transitions
+        )
+        emits = tuple(dict.fromkeys(t.emit for t in transitions if t.emit))
+        return ir.Transducer(
+            name=decl.name.name,
+            states=tuple(s.name for s in decl.states),
+            initial=decl.initial.name,
+            finals=tuple(f.name for f in decl.finals),
+            complete=decl.complete,
+            transitions=transitions,
+            emits=emits,
+            origin=self.origin(decl.name),
+            doc=decl.doc,
+        )
+
+    # ---- properties ----
+
+    def property(self, decl: ast.PropertyDecl) -> ir.Property:
+        formula = decl.formula
+        assert formula is not None, "a property without a formula passed the checker"
+        compiled = compile_formula(formula, Fraction(1), self.model.time_unit or "s")
+        found = facts(compiled)
+        values = self.settings("property", decl.settings)
+        window = values["window"]
+        horizon = Fraction(found.future) + Fraction(found.past)
+        return ir.Property(
+            name=decl.name.name,
+            text=printer.formula(formula),
+            formula=compiled,
+            propositions=tuple(found.propositions),
+            horizon_future=Fraction(found.future),
+            horizon_past=Fraction(found.past),
+            rate=values["rate"],
+            trigger=values["trigger"],
+            window=horizon if window == builtins.DERIVED else window,
+            lateness=values["lateness"],
+            actions=self.actions(decl.actions),
+            origin=self.origin(decl.name),
+            doc=decl.doc,
+        )
+
+    # ---- alerts ----
+
+    def alert(self, decl: ast.AlertDecl) -> ir.Alert:
+        values = self.settings("alert", decl.settings)
+        levels = tuple(
+            ir.AlertLevel(
+                level.severity.name,
+                self.expr(level.condition),
+                self.expr(level.reset) if level.reset is not None else None,
+            )
+            for level in decl.levels
+        )
+        reads = set()
+        for level in decl.levels:
+            reads |= ast.names_in(level.condition)
+            if level.reset is not None:
+                reads |= ast.names_in(level.reset)
+        name = decl.name.name
+        return ir.Alert(
+            name=name,
+            id=name if values["id"] == builtins.DERIVED else values["id"],
+            message=decl.message.value if decl.message else name,
+            details=values["details"],
+            state_changes_only=values["state_changes_only"],
+            no_recoveries=values["no_recoveries"],
+            levels=levels,
+            reads=tuple(sorted(reads)),
+            actions=self.actions(decl.actions),
+            origin=self.origin(decl.name),
+            doc=decl.doc,
+        )
+
+    # ---- actions ----
+
+    def actions(self, actions: Iterable[ast.Action]) -> tuple[ir.Action, ...]:
+        return tuple(self.action(a) for a in actions)
+
+    def action(self, node: ast.Action) -> ir.Action:
+        signature = builtins.action(node.kind.name)
+        positional = [a for a in node.args if a.key is None]
+        given = dict(zip(signature.positional, positional, strict=False))
+        given |= {a.key.name: a for a in node.args if a.key is not None}
+        values = {
+            name: _setting_value(given[name].value) if name in given else parameter.default
+            for name, parameter in signature.parameters.items()
+        }
+        match signature.name:
+            case "log":
+                return ir.Log(values["message"], values["level"])
+            case "publish":
+                return ir.Publish(values["topic"], values["message"])
+            case "post":
+                return ir.Post(values["url"], values["timeout"])
+            case "exec":
+                args = values["args"]
+                return ir.Exec(values["command"], (args,) if isinstance(args, str) else args)
+            case "tcp":
+                return ir.Tcp(values["address"])
+        raise LowerError(f"no lowering of action `{signature.name}`")
+
+    # ---- intrusion detection ----
+
+    def whitelist(self, decl: ast.WhitelistDecl) -> ir.Whitelist:
+        if isinstance(decl.target, ast.Ident):
+            topic_name: str | None = decl.target.name
+            ros_name = self.model.topics[decl.target.name].path.value
+        else:
+            topic_name, ros_name = None, decl.target.value
+        return ir.Whitelist(
+            topic=pattern(ros_name),
+            topic_name=topic_name,
+            publishers=_patterns(decl.publishers),
+            subscribers=_patterns(decl.subscribers),
+            actions=self.actions(decl.actions),
+            origin=self.origin(decl.target),
+            doc=decl.doc,
+        )
+
+    def node_rule(self, decl: ast.NodeDecl) -> ir.NodeRule:
+        return ir.NodeRule(
+            node=pattern(decl.name.value),
+            publishes=_patterns(decl.publishes),
+            subscribes=_patterns(decl.subscribes),
+            actions=self.actions(decl.actions),
+            origin=self.origin(decl.name),
+            doc=decl.doc,
+        )
+
+    def intrusion(self, decl: ast.IntrusionDecl | None) -> ir.Intrusion:
+        values = self.settings("intrusion", decl.settings if decl else ())
+        return ir.Intrusion(
+            poll=values["poll"],
+            default=values["default"],
+            ignore_nodes=tuple(pattern(p) for p in values["ignore_nodes"]),
+            actions=self.actions(decl.actions) if decl else (),
+            origin=self.origin(decl) if decl else "",
+        )
+
+
+# ---- small conversions ----
+
+
+def _setting_value(node: ast.Value) -> Any:
+    """A setting's or argument's value as the resolved spec holds it."""
+    match node:
+        case ast.StringLit():
+            return node.value
+        case ast.NumberLit():
+            return int(node.value) if node.value.denominator == 1 else node.value
+        case ast.TimeLit():
+            assert node.time.unit is not None, "a time without a unit passed the checker"
+            return node.time.value * TIME_UNITS[node.time.unit]
+        case ast.RateLit():
+            return node.hertz
+        case ast.BoolLit():
+            return node.value
+        case ast.NameValue():
+            return node.ident.name
+        case ast.EnvRef():
+            return ast.EnvRef(node.variable)
+        case ast.ListValue():
+            return tuple(_setting_value(item) for item in node.items)
+    raise LowerError(f"not a value: {type(node).__name__}")
+
+
+def _credential(value: Any) -> ir.Credential | None:
+    if value is None:
+        return None
+    if isinstance(value, ast.EnvRef):
+        return ir.Credential(env=value.variable.value)
+    return ir.Credential(value=value)
+
+
+def _patterns(items: tuple[ast.StringLit, ...] | None) -> tuple[ir.Pattern, ...] | None:
+    return None if items is None else tuple(pattern(i.value) for i in items)
+
+
+def _value_type(value: VType) -> ir.ValueType:
+    return ir.ValueType(value.kind, value.ros, value.rate)
+
+
+def _reads(decl: ast.EventDecl) -> set[str]:
+    where = decl.clause("where")
+    return ast.names_in(decl.expr) | (ast.names_in(where.value) if where else set())
+
+
+def _primitive(base: str) -> bool:
+    return FieldType(base).is_primitive
+
+
+def _longest(a: Fraction | None, b: Fraction | None) -> Fraction | None:
+    return max((x for x in (a, b) if x is not None), default=None)

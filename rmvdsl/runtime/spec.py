@@ -1,0 +1,666 @@
+"""The resolved spec: one immutable, fully typed, target-neutral value that the
+runtime, every target and the editor read (docs/ir.md). Standard library only:
+generated nodes embed it and load the spec's JSON with it.
+
+`rmvdsl.ir.lower` builds it from a checked spec; `dump` and `load` convert it to
+and from its versioned JSON form, exactly (JSON -> value -> JSON is identical).
+Every default is filled in (from rmvdsl.builtins); times are seconds, exact.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import re
+import sys
+import types
+import typing
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Any, ClassVar
+
+from rmvdsl.runtime import formulas
+
+FORMAT = "rmvdsl.ir"
+VERSION = 1
+
+
+class FormatError(ValueError):
+    """A JSON text that is not a resolved spec of this version."""
+
+
+# ---- values ----
+
+
+@dataclass(frozen=True)
+class ValueType:
+    kind: str  # bool | int | float | string | time | duration
+    ros: str = ""  # the ROS type it comes from, if any
+    time_exponent: int = 0  # -1 per second (a derivative), +1 times seconds (an integral)
+
+
+@dataclass(frozen=True)
+class Pattern:
+    """A ROS name pattern: `*` matches any run of characters."""
+
+    text: str
+    regex: str  # anchored, for Python's `re` and Go's RE2 alike
+
+
+@dataclass(frozen=True)
+class Credential:
+    """A database credential: always from the environment (RMV211), or a username
+    written in the spec."""
+
+    env: str | None = None
+    value: str | None = None
+
+
+# ---- header ----
+
+
+@dataclass(frozen=True)
+class System:
+    name: str
+    title: str
+    doc: str
+
+
+@dataclass(frozen=True)
+class Ros:
+    distro: str
+    version: int  # 1 or 2
+
+
+# ---- database ----
+
+
+@dataclass(frozen=True)
+class Retention:
+    name: str
+    duration: Fraction | None  # None: forever (`inf`)
+    replication: int
+    shard_duration: Fraction | None  # None: InfluxDB chooses
+    default: bool
+    origin: str
+
+
+@dataclass(frozen=True)
+class Downsample:
+    name: str
+    source: str  # the retention policy read
+    into: str
+    every: Fraction
+    lookback: Fraction  # RESAMPLE ... FOR
+    aggregate: str
+    measurements: tuple[str, ...] | None  # None: every measurement
+    origin: str
+
+
+@dataclass(frozen=True)
+class Database:
+    name: str
+    url: str
+    host: str
+    port: int
+    precision: str
+    username: Credential | None
+    password: Credential | None
+    token: Credential | None
+    ssl: bool
+    timeout: Fraction
+    batch_size: int
+    flush_interval: Fraction
+    default_retention: str  # `autogen` when no policy is the default
+    retentions: tuple[Retention, ...]
+    downsamples: tuple[Downsample, ...]
+    origin: str
+
+
+# ---- messages and topics ----
+
+
+@dataclass(frozen=True)
+class MessageField:
+    name: str
+    type: str  # `float32`, `pkg/msg/Type`, arrays as `T[]`, `T[3]`, `T[<=3]`
+
+
+@dataclass(frozen=True)
+class Message:
+    name: str  # pkg/msg/Type
+    fields: tuple[MessageField, ...]
+    constants: tuple[tuple[str, str, str], ...]  # (name, type, value)
+
+
+@dataclass(frozen=True)
+class Qos:
+    depth: int
+    history: str
+    reliability: str
+    durability: str
+    deadline: Fraction | None
+    lifespan: Fraction | None
+    liveliness: str
+    liveliness_lease: Fraction | None
+
+
+@dataclass(frozen=True)
+class Topic:
+    name: str
+    ros_name: str
+    message_type: str  # pkg/msg/Type
+    qos: Qos
+    time_source: str  # receipt: the time the message arrived
+    origin: str
+    doc: str
+
+
+# ---- variables ----
+
+
+@dataclass(frozen=True)
+class FieldStep:
+    TAG: ClassVar[str] = "field"
+    name: str  # as the spec writes it
+    read: str  # the field of the decoded message (ROS 1 `secs` is `sec` there)
+    type: str  # the field's ROS type, `[]` for arrays
+
+
+@dataclass(frozen=True)
+class IndexStep:
+    TAG: ClassVar[str] = "index"
+    index: int
+
+
+@dataclass(frozen=True)
+class EachStep:
+    TAG: ClassVar[str] = "each"
+
+
+Step = FieldStep | IndexStep | EachStep
+
+
+@dataclass(frozen=True)
+class Variable:
+    name: str
+    topic: str
+    path: tuple[Step, ...]
+    aggregate: str | None  # an array aggregate over the `[*]`, or `number`
+    type: ValueType
+    origin: str
+    doc: str
+
+
+# ---- expressions ----
+
+
+@dataclass(frozen=True)
+class Number:
+    TAG: ClassVar[str] = "number"
+    text: str  # as written: `3` is an integer, `3.0` a float (InfluxQL's rule)
+    value: Fraction
+    type: ValueType
+
+
+@dataclass(frozen=True)
+class String:
+    TAG: ClassVar[str] = "string"
+    value: str
+    type: ValueType
+
+
+@dataclass(frozen=True)
+class Boolean:
+    TAG: ClassVar[str] = "bool"
+    value: bool
+    type: ValueType
+
+
+@dataclass(frozen=True)
+class Time:
+    TAG: ClassVar[str] = "time"
+    text: str
+    seconds: Fraction
+    type: ValueType
+
+
+@dataclass(frozen=True)
+class Ref:
+    TAG: ClassVar[str] = "ref"
+    name: str
+    kind: str  # variable | event | emitted
+    type: ValueType
+
+
+@dataclass(frozen=True)
+class Unary:
+    TAG: ClassVar[str] = "unary"
+    op: str  # `-` | `not`
+    operand: Expr
+    type: ValueType
+
+
+@dataclass(frozen=True)
+class Binary:
+    TAG: ClassVar[str] = "binary"
+    op: str  # InfluxQL's, with `<>` written `!=`
+    left: Expr
+    right: Expr
+    type: ValueType
+
+
+@dataclass(frozen=True)
+class Call:
+    TAG: ClassVar[str] = "call"
+    function: str  # a name of rmvdsl.builtins.FUNCTIONS
+    args: tuple[Expr, ...]
+    type: ValueType
+
+
+Expr = Number | String | Boolean | Time | Ref | Unary | Binary | Call
+
+
+# ---- events ----
+
+
+@dataclass(frozen=True)
+class Window:
+    """`group by time(interval, offset)`: windows aligned to the epoch plus offset."""
+
+    interval: Fraction
+    offset: Fraction
+
+
+@dataclass(frozen=True)
+class Fill:
+    mode: str  # none | null | previous | linear | number
+    value: Number | None = None  # for `number`
+
+
+@dataclass(frozen=True)
+class Event:
+    name: str
+    kind: str  # value | boolean
+    expr: Expr
+    type: ValueType
+    reads: tuple[str, ...]  # the variables and events it uses
+    where: Expr | None
+    window: Window | None
+    tags: tuple[str, ...]
+    fill: Fill
+    order: str
+    limit: int | None
+    range: Fraction | None  # `time >= now() - range`
+    resample_every: Fraction | None  # how often the continuous query runs
+    resample_for: Fraction | None  # how far back each run reads
+    origin: str
+    doc: str
+
+
+# ---- actions ----
+
+
+@dataclass(frozen=True)
+class Log:
+    TAG: ClassVar[str] = "log"
+    message: str | None  # None: the owner's message
+    level: str | None  # None: the alert's level (`error` outside alerts)
+
+
+@dataclass(frozen=True)
+class Publish:
+    TAG: ClassVar[str] = "publish"
+    topic: str
+    message: str | None
+
+
+@dataclass(frozen=True)
+class Post:
+    TAG: ClassVar[str] = "post"
+    url: str
+    timeout: Fraction
+
+
+@dataclass(frozen=True)
+class Exec:
+    TAG: ClassVar[str] = "exec"
+    command: str
+    args: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class Tcp:
+    TAG: ClassVar[str] = "tcp"
+    address: str
+
+
+Action = Log | Publish | Post | Exec | Tcp
+
+
+# ---- transducers, properties, alerts ----
+
+
+@dataclass(frozen=True)
+class Transition:
+    source: str
+    dest: str
+    input: str
+    emit: str | None
+    origin: str
+
+
+@dataclass(frozen=True)
+class Transducer:
+    name: str
+    states: tuple[str, ...]
+    initial: str
+    finals: tuple[str, ...]
+    complete: bool
+    transitions: tuple[Transition, ...]
+    emits: tuple[str, ...]
+    origin: str
+    doc: str
+
+
+@dataclass(frozen=True)
+class Property:
+    name: str
+    text: str  # the formula as rmv fmt prints it
+    formula: Any  # rmvdsl.runtime.formulas nodes, times in seconds
+    propositions: tuple[str, ...]
+    horizon_future: Fraction
+    horizon_past: Fraction
+    rate: Fraction | None  # Hz; None: every instant (exact segments)
+    trigger: str  # `always`, or a state or boolean event
+    window: Fraction
+    lateness: Fraction
+    actions: tuple[Action, ...]
+    origin: str
+    doc: str
+
+
+@dataclass(frozen=True)
+class AlertLevel:
+    severity: str  # info | warn | crit
+    condition: Expr
+    reset: Expr | None
+
+
+@dataclass(frozen=True)
+class Alert:
+    name: str
+    id: str
+    message: str
+    details: str
+    state_changes_only: bool
+    no_recoveries: bool
+    levels: tuple[AlertLevel, ...]
+    reads: tuple[str, ...]
+    actions: tuple[Action, ...]
+    origin: str
+    doc: str
+
+
+# ---- intrusion detection ----
+
+
+@dataclass(frozen=True)
+class Whitelist:
+    topic: Pattern  # a ROS topic name or pattern
+    topic_name: str | None  # the spec's short name, when it names a declared topic
+    publishers: tuple[Pattern, ...] | None  # None: no restriction
+    subscribers: tuple[Pattern, ...] | None
+    actions: tuple[Action, ...]
+    origin: str
+    doc: str
+
+
+@dataclass(frozen=True)
+class NodeRule:
+    node: Pattern
+    publishes: tuple[Pattern, ...] | None
+    subscribes: tuple[Pattern, ...] | None
+    actions: tuple[Action, ...]
+    origin: str
+    doc: str
+
+
+@dataclass(frozen=True)
+class Intrusion:
+    poll: Fraction
+    default: str  # allow | deny
+    ignore_nodes: tuple[Pattern, ...]
+    actions: tuple[Action, ...]
+    origin: str  # empty without an `intrusion` block
+
+
+# ---- the spec ----
+
+
+@dataclass(frozen=True)
+class Spec:
+    format: str
+    version: int
+    system: System
+    time_unit: str | None
+    ros: Ros
+    database: Database | None
+    messages: tuple[Message, ...]
+    topics: tuple[Topic, ...]
+    variables: tuple[Variable, ...]
+    events: tuple[Event, ...]  # in dependency order: each after what it reads
+    transducers: tuple[Transducer, ...]
+    properties: tuple[Property, ...]
+    alerts: tuple[Alert, ...]
+    whitelists: tuple[Whitelist, ...]
+    nodes: tuple[NodeRule, ...]
+    intrusion: Intrusion
+
+
+def pattern(text: str) -> Pattern:
+    """A ROS name pattern and its anchored regular expression."""
+    return Pattern(text, "^" + ".*".join(re.escape(part) for part in text.split("*")) + "$")
+
+
+# ---- JSON ----
+
+_TAGGED = {
+    cls.TAG: cls
+    for cls in (FieldStep, IndexStep, EachStep, Number, String, Boolean, Time, Ref, Unary,
+                Binary, Call, Log, Publish, Post, Exec, Tcp)
+}  # fmt: skip
+
+
+def dump(spec: Spec, indent: int | None = 2) -> str:
+    """The spec's JSON text: exact numbers (a decimal where one is exact, else the
+    quotient as a string such as "1/3"), fields in declaration order."""
+    numbers: list[str] = []
+
+    def number(value: Fraction) -> str:
+        text = _exact(value)
+        if text is None:
+            return f"{value.numerator}/{value.denominator}"
+        numbers.append(text)
+        return f"\x00{len(numbers) - 1}\x00"
+
+    text = _pretty(_encode(spec, number), indent or 0, 0)
+    return re.sub(r'"\\u0000(\d+)\\u0000"', lambda m: numbers[int(m.group(1))], text)
+
+
+def _pretty(value: Any, indent: int, depth: int) -> str:
+    """JSON with each object or list on one line when it fits in 100 columns (a
+    formula, a type, a pattern), else one item per line. Below depth 12 all is on
+    one line: a formula nesting 100,000 levels would otherwise be indented by
+    gigabytes of spaces."""
+    wide = isinstance(value, dict | list) and indent and depth < _MAX_INDENTED
+    if not wide or _fits(value, 100 - indent * depth):
+        return json.dumps(value, ensure_ascii=False, separators=(", ", ": "))
+    pad, inner = " " * indent * depth, " " * indent * (depth + 1)
+    if isinstance(value, dict):
+        items = [
+            f"{inner}{json.dumps(k, ensure_ascii=False)}: {_pretty(v, indent, depth + 1)}"
+            for k, v in value.items()
+        ]
+        return "{\n" + ",\n".join(items) + f"\n{pad}}}" if items else "{}"
+    items = [inner + _pretty(v, indent, depth + 1) for v in value]
+    return "[\n" + ",\n".join(items) + f"\n{pad}]" if items else "[]"
+
+
+_MAX_INDENTED = 12
+
+
+def _fits(value: Any, budget: int) -> bool:
+    """Whether the one-line JSON of `value` is at most `budget` characters; stops
+    counting once it is longer, so the cost is bounded whatever the size."""
+    stack = [value]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, dict):
+            budget -= 2
+            for key, content in item.items():
+                budget -= len(key) + 6
+                stack.append(content)
+        elif isinstance(item, list):
+            budget -= 2
+            stack.extend(item)
+        else:
+            budget -= len(json.dumps(item, ensure_ascii=False)) + 2
+        if budget < 0:
+            return False
+    return True
+
+
+def load(text: str) -> Spec:
+    """The spec of a JSON text written by `dump` (FormatError when it is not one)."""
+    try:
+        payload = json.loads(text, parse_float=str, parse_int=str)
+    except (json.JSONDecodeError, RecursionError) as exc:
+        raise FormatError(f"not JSON: {exc}") from None
+    if not isinstance(payload, dict) or payload.get("format") != FORMAT:
+        raise FormatError(f'not a resolved spec (no "format": "{FORMAT}")')
+    if payload.get("version") != str(VERSION):
+        raise FormatError(f"version {payload.get('version')} of the format; this reads {VERSION}")
+    try:
+        spec: Spec = _decode(Spec, payload)
+    except (TypeError, ValueError, KeyError, ZeroDivisionError) as exc:
+        raise FormatError(f"malformed resolved spec: {exc}") from None
+    return spec
+
+
+def _exact(value: Fraction) -> str | None:
+    denominator = value.denominator
+    digits = 0
+    while denominator % 10 == 0:
+        denominator //= 10
+        digits += 1
+    for factor in (2, 5):
+        while denominator % factor == 0:
+            denominator //= factor
+            digits += 1
+    if denominator != 1:
+        return None
+    if digits == 0:
+        return str(value.numerator)
+    scaled = abs(value.numerator) * 10**digits // value.denominator
+    text = f"{scaled:0{digits + 1}d}"
+    text = f"{text[:-digits]}.{text[-digits:]}".rstrip("0").rstrip(".")
+    return ("-" if value < 0 else "") + text
+
+
+def _encode(value: Any, number: Any) -> Any:
+    if isinstance(value, bool) or value is None or isinstance(value, str):
+        return value
+    if isinstance(value, int):
+        return number(Fraction(value))
+    if isinstance(value, Fraction):
+        return number(value)
+    if dataclasses.is_dataclass(value):
+        out: dict[str, Any] = {}
+        tag = getattr(type(value), "TAG", None)
+        if tag is not None:
+            out["node"] = tag
+        for item in dataclasses.fields(value):
+            content = getattr(value, item.name)
+            if item.name == "formula" and isinstance(value, Property):
+                out[item.name] = _encode(formulas.to_lists(content), number)
+            else:
+                out[item.name] = _encode(content, number)
+        return out
+    if isinstance(value, tuple | list):
+        return [_encode(item, number) for item in value]
+    raise TypeError(f"cannot encode {type(value).__name__}")
+
+
+_HINTS: dict[type, dict[str, Any]] = {}
+
+
+def _hints(cls: type) -> dict[str, Any]:
+    if cls not in _HINTS:
+        _HINTS[cls] = typing.get_type_hints(cls, vars(sys.modules[__name__]))
+    return _HINTS[cls]
+
+
+def _decode(annotation: Any, value: Any) -> Any:
+    origin = typing.get_origin(annotation)
+    if annotation is Any:
+        return value
+    if origin in (typing.Union, types.UnionType):
+        options = [a for a in typing.get_args(annotation) if a is not type(None)]
+        if value is None:
+            if len(options) == len(typing.get_args(annotation)):
+                raise ValueError("null where a value is needed")
+            return None
+        if len(options) == 1:
+            return _decode(options[0], value)
+        return _decode_tagged(options, value)
+    if origin is tuple:
+        arguments = typing.get_args(annotation)
+        if not isinstance(value, list):
+            raise ValueError(f"expected a list, not {str(value)[:40]}")
+        if len(arguments) == 2 and arguments[1] is Ellipsis:
+            return tuple(_decode(arguments[0], item) for item in value)
+        return tuple(_decode(a, item) for a, item in zip(arguments, value, strict=True))
+    if annotation is Fraction:
+        if not isinstance(value, str):
+            raise ValueError(f"expected a number, not {str(value)[:40]}")
+        return Fraction(value)
+    if annotation is int:
+        if not isinstance(value, str) or not re.fullmatch(r"-?\d+", value):
+            raise ValueError(f"expected an integer, not {str(value)[:40]}")
+        return int(value)
+    if annotation is bool or annotation is str:
+        if not isinstance(value, annotation):
+            raise ValueError(f"expected a {annotation.__name__}, not {str(value)[:40]}")
+        return value
+    if dataclasses.is_dataclass(annotation):
+        return _decode_object(annotation, value)
+    raise TypeError(f"cannot decode {annotation}")
+
+
+def _decode_tagged(options: list[Any], value: Any) -> Any:
+    if not isinstance(value, dict) or value.get("node") not in _TAGGED:
+        raise ValueError(f"expected a node, not {str(value)[:40]}")
+    cls = _TAGGED[value["node"]]
+    if cls not in options:
+        raise ValueError(f"a `{value['node']}` node cannot stand here")
+    return _decode_object(cls, value)
+
+
+def _decode_object(cls: Any, value: Any) -> Any:
+    if not isinstance(value, dict):
+        raise ValueError(f"expected an object for {cls.__name__}, not {str(value)[:40]}")
+    hints = _hints(cls)
+    names = [f.name for f in dataclasses.fields(cls)]
+    extra = set(value) - set(names) - {"node"}
+    if extra:
+        raise ValueError(f"unknown keys in {cls.__name__}: {', '.join(sorted(extra))}")
+    arguments = {}
+    for name in names:
+        if name not in value:
+            raise ValueError(f"{cls.__name__} has no `{name}`")
+        if cls is Property and name == "formula":
+            arguments[name] = formulas.from_lists(value[name], Fraction)
+        else:
+            arguments[name] = _decode(hints[name], value[name])
+    return cls(**arguments)
