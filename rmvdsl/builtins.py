@@ -10,6 +10,8 @@ for a name that is not here. Standard library only: generated nodes embed it.
 
 from __future__ import annotations
 
+import dataclasses
+import re
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
@@ -32,10 +34,14 @@ class Function:
     result: str  # same | int | float | rate-1 | rate+1 | duration
     second: str | None  # the second argument: time (a unit) | count | percent | number
     doc: str
+    shape: str = ""  # how the docs write a call, where `x` and `N` would mislead
 
     @property
     def arity(self) -> str:
         return str(self.least) if self.least == self.most else f"{self.least} to {self.most}"
+
+    def with_shape(self, shape: str) -> Function:
+        return dataclasses.replace(self, shape=shape)
 
 
 def _f(
@@ -83,8 +89,9 @@ FUNCTIONS: dict[str, Function] = {
            "rounded to the nearest integer (halves away from zero)"),
         _f("pow", _TRANS, (2, 2), "numeric", "float", "number", "the value to the power of N"),
         _f("atan2", _TRANS, (2, 2), "numeric", "float", None,
-           "the angle of (x, y), atan2(y, x), in radians"),
-        _f("log", _TRANS, (2, 2), "numeric", "float", "number", "the logarithm to base B"),
+           "the angle of the point (x, y), in radians").with_shape("atan2(y, x)"),
+        _f("log", _TRANS, (2, 2), "numeric", "float", "number",
+           "the logarithm to base b").with_shape("log(x, b)"),
         *(_f(name, _TRANS, (1, 1), "numeric", "float", None, doc) for name, doc in _MATH.items()),
         _f("cumulative_sum", _TRANS, (1, 1), "numeric", "same", None,
            "the running total of the values so far"),
@@ -178,7 +185,7 @@ ACTIONS: dict[str, ActionSpec] = {
         _action(
             "post", ("url",), 1, "send an HTTP POST of the event as JSON",
             Parameter("url", "url", None, "where to post"),
-            Parameter("timeout", "time", Fraction(10), "how long to wait for an answer"),
+            Parameter("timeout", "time", Fraction(10), "how long to wait (default 10s)"),
         ),
         _action(
             "exec", ("command", "args"), 1,
@@ -352,13 +359,13 @@ def settings_markdown(block_name: str) -> str:
 
 
 def functions_markdown() -> str:
-    rows = ["| function | arguments | result |", "|---|---|---|"]
+    rows = ["| function | kind | what it gives |", "|---|---|---|"]
     for f in FUNCTIONS.values():
         args = "x" + {None: "", "time": ", unit", "count": ", N", "percent": ", N",
                       "number": ", N"}[f.second]  # fmt: skip
         if f.least == 1 and f.most == 2:
             args = args.replace(", ", "[, ") + "]"
-        rows.append(f"| `{f.name}({args})` | {f.group} | {f.doc} |")
+        rows.append(f"| `{f.shape or f'{f.name}({args})'}` | {f.group} | {f.doc} |")
     return "\n".join(rows)
 
 
@@ -372,3 +379,30 @@ def actions_markdown() -> str:
             parts.append(f"`{name}` ({place}keyword, {need}): {p.doc}")
         rows.append(f"| `{a.name}`: {a.doc} | {'; '.join(parts)} |")
     return "\n".join(rows)
+
+
+_MARKER = re.compile(r"(<!-- builtins:(\S+) -->\n)(.*?)(<!-- /builtins -->)", re.S)
+
+
+def reference_table(name: str) -> str:
+    """The generated table a `<!-- builtins:NAME -->` marker of the docs holds."""
+    if name == "functions":
+        return functions_markdown()
+    if name == "actions":
+        return actions_markdown()
+    return settings_markdown(name)
+
+
+def sync_reference(text: str) -> str:
+    """The text with every marked table regenerated from the registry."""
+    return _MARKER.sub(lambda m: m.group(1) + reference_table(m.group(2)) + "\n" + m.group(4), text)
+
+
+if __name__ == "__main__":  # python -m rmvdsl.builtins docs/language.md
+    import sys
+
+    for name in sys.argv[1:]:
+        with open(name, encoding="utf-8") as handle:
+            current = handle.read()
+        with open(name, "w", encoding="utf-8") as handle:
+            handle.write(sync_reference(current))

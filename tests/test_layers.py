@@ -56,3 +56,17 @@ def test_the_contracts_catch_a_break(tmp_path: Path):
     bad = tmp_path / "bad.py"
     bad.write_text("def f():\n    from rmvdsl.check import check\n", encoding="utf-8")
     assert "rmvdsl.check" in _imports(bad)
+
+
+def test_the_registry_is_the_standard_library_alone():
+    """rmvdsl.builtins is data that generated nodes embed beside the runtime."""
+    for module in _imports(PACKAGE / "builtins.py"):
+        assert module.split(".")[0] in sys.stdlib_module_names, f"builtins imports {module}"
+
+
+def test_only_targets_and_the_command_line_read_the_lowering():
+    """rmvdsl.ir reads the checker's result; the checker, the grammar, the logic and
+    the runtime never import it (the runtime reads rmvdsl.runtime.spec)."""
+    for folder in ("grammar", "check", "logic", "runtime"):
+        for path in _modules(folder):
+            assert "rmvdsl.ir" not in _imports(path), f"{path.relative_to(ROOT)} imports rmvdsl.ir"
