@@ -8,7 +8,6 @@ filled, times in seconds, formulas compiled, events ordered by dependency.
 
 from __future__ import annotations
 
-import graphlib
 from collections.abc import Iterable
 from fractions import Fraction
 from typing import Any
@@ -246,11 +245,23 @@ class _Lowering:
     # ---- events ----
 
     def event_order(self) -> list[str]:
-        """Events after those they read, otherwise in declaration order."""
-        sorter: graphlib.TopologicalSorter[str] = graphlib.TopologicalSorter()
-        for name, decl in self.model.events.items():
-            sorter.add(name, *(n for n in _reads(decl) if n in self.model.events))
-        return list(sorter.static_order())
+        """Events after those they read, otherwise in declaration order (a depth-first
+        walk by a loop: a chain of events can be long; the checker refused cycles)."""
+        events = self.model.events
+        order: dict[str, None] = {}
+        for root in events:
+            stack = [(root, False)]
+            while stack:
+                name, expanded = stack.pop()
+                if name in order:
+                    continue
+                if expanded:
+                    order[name] = None
+                    continue
+                stack.append((name, True))
+                reads = sorted(n for n in _reads(events[name]) if n in events)
+                stack.extend((n, False) for n in reversed(reads) if n not in order)
+        return list(order)
 
     def event(self, decl: ast.EventDecl) -> ir.Event:
         clauses = {c.kind: c.value for c in decl.clauses}
