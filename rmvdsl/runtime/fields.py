@@ -1,0 +1,156 @@
+"""Variables: the value a resolved variable reads from one decoded message
+(docs/runtime.md, "Variables"). Standard library only.
+
+A decoded message is nested objects with attributes (rosbags, rclpy) or nested
+mappings (JSON); arrays are any sequence (lists, tuples, numpy arrays). The path's
+steps come typed from the resolved spec: a field, an index, or `[*]` (every
+element, reduced by the variable's aggregate).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+from fractions import Fraction
+from typing import Any
+
+from rmvdsl.runtime.spec import EachStep, FieldStep, IndexStep, Variable
+
+
+class Missing:
+    """No value: an index past the end of an array, or an aggregate that needs at
+    least one element (`min`, `max`, `mean`) over none. The message gives the
+    variable no sample; the runtime counts it."""
+
+    _instance: Missing | None = None
+
+    def __new__(cls) -> Missing:
+        if cls._instance is None:
+            cls._instance = super().__new__(cls)
+        return cls._instance
+
+    def __repr__(self) -> str:
+        return "MISSING"
+
+
+MISSING = Missing()
+
+
+class FieldError(ValueError):
+    """The message does not have the shape the spec's types say (a field absent,
+    an array where a value was expected): the recording and the spec disagree."""
+
+
+def read(variable: Variable, message: Any) -> Any:
+    """The variable's value in the message, as a Python bool, int, float, str, or
+    exact seconds (a Fraction) for times and durations; MISSING when there is none."""
+    values: list[Any] = [message]
+    fanned = False
+    for step in variable.path:
+        if isinstance(step, FieldStep):
+            values = [_field(v, step) for v in values]
+        elif isinstance(step, IndexStep):
+            values = [_element(v, step.index) for v in values]
+            values = [v for v in values if v is not MISSING]
+            if not values:
+                return MISSING
+        elif isinstance(step, EachStep):
+            values = [item for v in values for item in _sequence(v, variable.name)]
+            fanned = True
+    kind = variable.type.kind if variable.aggregate is None else _element_kind(variable)
+    converted = [_convert(v, kind, variable.name) for v in values]
+    if variable.aggregate is not None:
+        return aggregate(variable.aggregate, converted)
+    if fanned or len(converted) != 1:
+        raise FieldError(f"`{variable.name}` reads {len(converted)} values, not one")
+    return converted[0]
+
+
+def aggregate(name: str, values: Sequence[Any]) -> Any:
+    """An array aggregate (rmvdsl.builtins.ARRAY_AGGREGATES, and `number`)."""
+    if name == "number":
+        return 1 if values[0] else 0
+    if name == "count":
+        return len(values)
+    if name == "any":
+        return any(values)
+    if name == "all":
+        return all(values)
+    if name == "sum":
+        return sum(values) if values else 0
+    if not values:
+        return MISSING
+    if name == "min":
+        return min(values)
+    if name == "max":
+        return max(values)
+    if name == "mean":
+        return sum(float(v) for v in values) / len(values)
+    raise ValueError(f"unknown array aggregate {name!r}")
+
+
+def _field(value: Any, step: FieldStep) -> Any:
+    if isinstance(value, Mapping):
+        if step.read in value:
+            return value[step.read]
+        if step.name in value:
+            return value[step.name]
+    else:
+        for name in (step.read, step.name):
+            if hasattr(value, name):
+                return getattr(value, name)
+    raise FieldError(f"the message has no field `{step.name}` ({step.type})")
+
+
+def _element(value: Any, index: int) -> Any:
+    items = _sequence(value, f"[{index}]")
+    return items[index] if index < len(items) else MISSING
+
+
+def _sequence(value: Any, what: str) -> Sequence[Any]:
+    if isinstance(value, str | bytes | Mapping) or not isinstance(value, Iterable):
+        raise FieldError(f"{what}: expected an array, found {type(value).__name__}")
+    return value if isinstance(value, Sequence) else list(value)
+
+
+def _element_kind(variable: Variable) -> str:
+    step = next((s for s in reversed(variable.path) if isinstance(s, FieldStep)), None)
+    base = step.type.split("[")[0] if step else ""
+    if base == "bool" or variable.aggregate == "number":
+        return "bool"
+    if base in ("float32", "float64"):
+        return "float"
+    if base in ("time", "duration", "builtin_interfaces/msg/Time"):
+        return "time"
+    return "int" if base else variable.type.kind
+
+
+def _convert(value: Any, kind: str, name: str) -> Any:
+    try:
+        if kind == "bool":
+            return bool(value)
+        if kind == "int":
+            return int(value)
+        if kind == "float":
+            return float(value)
+        if kind == "string":
+            return value if isinstance(value, str) else bytes(value).decode("utf-8", "replace")
+        if kind in ("time", "duration"):
+            return _seconds(value)
+    except (TypeError, ValueError) as exc:
+        raise FieldError(f"`{name}`: {exc}") from None
+    return value
+
+
+def _seconds(value: Any) -> Fraction:
+    """A ROS time or duration (`sec`/`nanosec`, or ROS 1's `secs`/`nsecs`) in exact
+    seconds."""
+    if isinstance(value, Mapping):
+        parts = dict(value)
+    else:
+        names = ("sec", "nanosec", "secs", "nsecs")
+        parts = {n: getattr(value, n) for n in names if hasattr(value, n)}
+    seconds = parts.get("sec", parts.get("secs"))
+    nanoseconds = parts.get("nanosec", parts.get("nsecs"))
+    if seconds is None or nanoseconds is None:
+        raise TypeError(f"not a ROS time: {type(value).__name__}")
+    return Fraction(int(seconds)) + Fraction(int(nanoseconds), 10**9)

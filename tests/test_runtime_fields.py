@@ -1,0 +1,126 @@
+"""Variables read from decoded messages (rmvdsl.runtime.fields): real rosbags
+message objects built from the CARLA bridge's definitions, and JSON mappings,
+against values worked out by hand."""
+
+from __future__ import annotations
+
+from fractions import Fraction
+
+import pytest
+from conftest import EXAMPLES, ROOT
+
+from rmvdsl.check import check
+from rmvdsl.ir import lower
+from rmvdsl.runtime import spec as ir
+from rmvdsl.runtime.fields import MISSING, FieldError, aggregate, read
+
+
+@pytest.fixture(scope="module")
+def carla():
+    """The resolved abs.rmv and a rosbags type store with the CARLA messages."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC)
+    types = {}
+    for path in sorted((EXAMPLES / "carla" / "msg").rglob("*.msg")):
+        name = f"{path.parent.parent.name}/msg/{path.stem}"
+        types.update(get_types_from_msg(path.read_text(encoding="utf-8"), name))
+    store.register(types)
+    spec = lower(check(str(ROOT / "examples" / "carla" / "abs.rmv")))
+    return spec, store
+
+
+def _variable(spec: ir.Spec, name: str) -> ir.Variable:
+    return next(v for v in spec.variables if v.name == name)
+
+
+def _status(store, velocity: float, brake: float, hand_brake: bool):
+    types = store.types
+    time = types["builtin_interfaces/msg/Time"](sec=12, nanosec=500_000_000)
+    header = types["std_msgs/msg/Header"](seq=1, stamp=time, frame_id="hero")
+    vector = types["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0)
+    accel = types["geometry_msgs/msg/Accel"](linear=vector, angular=vector)
+    quaternion = types["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)
+    control = types["carla_msgs/msg/CarlaEgoVehicleControl"](
+        header=header, throttle=0.25, steer=0.0, brake=brake, hand_brake=hand_brake,
+        reverse=False, gear=1, manual_gear_shift=False,
+    )  # fmt: skip
+    return types["carla_msgs/msg/CarlaEgoVehicleStatus"](
+        header=header, velocity=velocity, acceleration=accel, orientation=quaternion,
+        control=control,
+    )  # fmt: skip
+
+
+def test_scalar_fields_of_a_rosbags_message(carla):
+    spec, store = carla
+    message = _status(store, velocity=13.5, brake=0.9, hand_brake=True)
+    assert read(_variable(spec, "Velocity"), message) == 13.5
+    assert read(_variable(spec, "BrakePedal"), message) == pytest.approx(0.9)
+    assert read(_variable(spec, "HandBrake"), message) is True
+    assert read(_variable(spec, "GasPedal"), message) == 0.25
+
+
+def _objects(store, speeds: list[float]):
+    types = store.types
+    time = types["builtin_interfaces/msg/Time"](sec=0, nanosec=0)
+    header = types["std_msgs/msg/Header"](seq=0, stamp=time, frame_id="map")
+    objects = []
+    for number, speed in enumerate(speeds):
+        linear = types["geometry_msgs/msg/Vector3"](x=speed, y=0.0, z=0.0)
+        twist = types["geometry_msgs/msg/Twist"](linear=linear, angular=linear)
+        objects.append({"id": number, "twist": twist})
+    return {"header": header, "objects": objects}
+
+
+def test_an_aggregate_over_every_element(carla):
+    spec, store = carla
+    fastest = _variable(spec, "FastestObject")  # max(objects.objects[*].twist.linear.x)
+    assert read(fastest, _objects(store, [3.0, 31.5, -40.0])) == 31.5
+    assert read(fastest, _objects(store, [])) is MISSING  # no object: no sample
+
+
+def _variable_at(path: list[ir.Step], kind: str, aggregate_name: str | None = None):
+    return ir.Variable("V", "t", tuple(path), aggregate_name, ir.ValueType(kind), "", "")
+
+
+def test_json_messages_indices_and_times():
+    stamp = [ir.FieldStep("header", "header", "std_msgs/msg/Header"),
+             ir.FieldStep("stamp", "stamp", "time")]  # fmt: skip
+    message = {"header": {"stamp": {"sec": 3, "nanosec": 250_000_000}}, "ranges": [1.5, 2.5]}
+    assert read(_variable_at(stamp, "time"), message) == Fraction(13, 4)
+    secs = [*stamp, ir.FieldStep("secs", "sec", "uint32")]
+    assert read(_variable_at(secs, "int"), message) == 3  # ROS 1's `secs` read as `sec`
+    ranges = ir.FieldStep("ranges", "ranges", "float32[]")
+    assert read(_variable_at([ranges, ir.IndexStep(1)], "float"), message) == 2.5
+    assert read(_variable_at([ranges, ir.IndexStep(5)], "float"), message) is MISSING
+    with pytest.raises(FieldError, match="no field `range`"):
+        read(_variable_at([ir.FieldStep("range", "range", "float32")], "float"), message)
+    with pytest.raises(FieldError, match="expected an array"):
+        read(_variable_at([stamp[0], ir.EachStep()], "int", "count"), message)
+
+
+@pytest.mark.parametrize(
+    ("name", "values", "expected"),
+    [
+        ("count", [], 0),
+        ("count", [4, 5], 2),
+        ("sum", [], 0),
+        ("sum", [1, 2, 3], 6),
+        ("min", [], MISSING),
+        ("max", [2, 9, 4], 9),
+        ("mean", [1, 2], 1.5),
+        ("mean", [], MISSING),
+        ("any", [], False),
+        ("any", [False, True], True),
+        ("all", [], True),
+        ("all", [True, False], False),
+        ("number", [True], 1),
+        ("number", [False], 0),
+    ],
+)
+def test_array_aggregates(name, values, expected):
+    assert (
+        aggregate(name, values) == expected
+        if expected is not MISSING
+        else (aggregate(name, values) is MISSING)
+    )
