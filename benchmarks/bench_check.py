@@ -11,11 +11,14 @@ events, 100 transducers of 20 states, 500 properties), then times in one run:
           the property analyses answered from the solver cache (re-checking an
           unchanged spec, as the editor does); `first` is the same check with an
           empty cache, all the solver work included (bench_sat.py measures it
-          per question).
+          per question);
+- lower:  the checked spec lowered to its resolved spec (rmvdsl.ir); `dump` the
+          same and its JSON text (what `rmv build --target ir` adds to a check).
 
 Machines here are shared and noisy, so the figures are ratios to `bare` in the
 same run, each the best of --repeat runs. Targets: names <= 3x bare, the check of
-the 10x spec <= 12x the check of the 1x spec (issue 2), types <= 3x names (issue 3).
+the 10x spec <= 12x the check of the 1x spec (issue 2), types <= 3x names (issue 3),
+lower + dump <= 1x bare (the resolved spec costs less than reading the spec).
 
     python benchmarks/bench_check.py            # scales 1 and 10
     python benchmarks/bench_check.py --scale 1 --repeat 3 --json out.json
@@ -40,6 +43,7 @@ from rmvdsl.check.loader import load
 from rmvdsl.check.names import check_names
 from rmvdsl.check.types import TypeConfig, check_types
 from rmvdsl.grammar.parser import bare_spec_parser
+from rmvdsl.ir import dump, lower
 
 
 def generate(scale: int = 1) -> str:
@@ -132,6 +136,9 @@ def measure(scale: int, repeat: int, folder: str) -> dict[str, float]:
         "types": best_of(repeat, types),
         "check": best_of(repeat, lambda: check(path, text, use_environment=False)),
         "first": first,
+        # the resolved spec: lowering the checked spec, and its JSON
+        "lower": best_of(repeat, lambda: lower(result)),
+        "dump": best_of(repeat, lambda: dump(lower(result))),
     }
 
 
@@ -153,13 +160,15 @@ def main() -> int:
     }
     for figures in results.values():
         figures["types"] = max(0.0, figures["types"] - figures["names"])
-    columns = ("bare", "parse", "names", "types", "check", "first")
+    columns = ("bare", "parse", "names", "types", "check", "first", "lower", "dump")
     ratios = f" {'parse/bare':>10} {'names/bare':>10} {'check/bare':>10} {'types/names':>11}"
+    ratios += f" {'dump/bare':>9}"
     print(f"{'scale':>5} {'lines':>8} " + " ".join(f"{c + ' s':>8}" for c in columns) + ratios)
     for scale, f in results.items():
         print(f"{scale:>5} {f['lines']:>8} " + " ".join(f"{f[c]:>8.3f}" for c in columns)
               + f" {f['parse'] / f['bare']:>10.2f} {f['names'] / f['bare']:>10.2f}"
-              f" {f['check'] / f['bare']:>10.2f} {f['types'] / f['names']:>11.2f}")  # fmt: skip
+              f" {f['check'] / f['bare']:>10.2f} {f['types'] / f['names']:>11.2f}"
+              f" {f['dump'] / f['bare']:>9.2f}")  # fmt: skip
     if 1 in results and 10 in results:
         growth = results[10]["check"] / results[1]["check"]
         print(f"check time of the 10x spec / the 1x spec: {growth:.2f} (target <= 12)")

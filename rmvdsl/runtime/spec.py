@@ -495,12 +495,11 @@ def _pretty(value: Any, indent: int, depth: int) -> str:
     gigabytes of spaces."""
     wide = isinstance(value, dict | list) and indent and depth < _MAX_INDENTED
     if not wide or _fits(value, 100 - indent * depth):
-        return json.dumps(value, ensure_ascii=False, separators=(", ", ": "))
+        return _ONE_LINE(value)
     pad, inner = " " * indent * depth, " " * indent * (depth + 1)
     if isinstance(value, dict):
         items = [
-            f"{inner}{json.dumps(k, ensure_ascii=False)}: {_pretty(v, indent, depth + 1)}"
-            for k, v in value.items()
+            f"{inner}{_ONE_LINE(k)}: {_pretty(v, indent, depth + 1)}" for k, v in value.items()
         ]
         return "{\n" + ",\n".join(items) + f"\n{pad}}}" if items else "{}"
     items = [inner + _pretty(v, indent, depth + 1) for v in value]
@@ -508,6 +507,8 @@ def _pretty(value: Any, indent: int, depth: int) -> str:
 
 
 _MAX_INDENTED = 12
+# One encoder for every call: json.dumps with arguments builds a new one each time.
+_ONE_LINE = json.JSONEncoder(ensure_ascii=False, separators=(", ", ": ")).encode
 
 
 def _fits(value: Any, budget: int) -> bool:
@@ -524,8 +525,10 @@ def _fits(value: Any, budget: int) -> bool:
         elif isinstance(item, list):
             budget -= 2
             stack.extend(item)
+        elif isinstance(item, str):
+            budget -= len(item) + 4  # quotes and separator; escapes are rare in names
         else:
-            budget -= len(json.dumps(item, ensure_ascii=False)) + 2
+            budget -= 7  # true, false, null
         if budget < 0:
             return False
     return True
@@ -576,20 +579,28 @@ def _encode(value: Any, number: Any) -> Any:
     if isinstance(value, Fraction):
         return number(value)
     if dataclasses.is_dataclass(value):
-        out: dict[str, Any] = {}
-        tag = getattr(type(value), "TAG", None)
-        if tag is not None:
-            out["node"] = tag
-        for item in dataclasses.fields(value):
-            content = getattr(value, item.name)
-            if item.name == "formula" and isinstance(value, Property):
-                out[item.name] = _encode(formulas.to_lists(content), number)
-            else:
-                out[item.name] = _encode(content, number)
+        tag, names = _layout(type(value))
+        out: dict[str, Any] = {"node": tag} if tag is not None else {}
+        for name in names:
+            content = getattr(value, name)
+            if name == "formula" and isinstance(value, Property):
+                content = formulas.to_lists(content)
+            out[name] = _encode(content, number)
         return out
     if isinstance(value, tuple | list):
         return [_encode(item, number) for item in value]
     raise TypeError(f"cannot encode {type(value).__name__}")
+
+
+_LAYOUTS: dict[type, tuple[str | None, tuple[str, ...]]] = {}
+
+
+def _layout(cls: type) -> tuple[str | None, tuple[str, ...]]:
+    """A class's tag and field names, looked up once."""
+    if cls not in _LAYOUTS:
+        names = tuple(f.name for f in dataclasses.fields(cls))
+        _LAYOUTS[cls] = (getattr(cls, "TAG", None), names)
+    return _LAYOUTS[cls]
 
 
 _HINTS: dict[type, dict[str, Any]] = {}
