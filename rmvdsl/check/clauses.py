@@ -3,7 +3,7 @@ group by, fill, order, limit, resample, range), and events defined in a cycle.""
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 
 from rmvdsl import builtins
 from rmvdsl.check.model import EVENT_KINDS, Kind, Model, Symbol
@@ -24,13 +24,9 @@ class EventChecks:
     def report(self, diagnostic: Diagnostic) -> None:
         self.diagnostics.append(diagnostic)
 
-    def resolve(self, ident: ast.Ident, allowed: frozenset[Kind], wanted: str) -> Symbol | None:
-        raise NotImplementedError  # NameChecker's
-
-    def once_only(
-        self, what: str, again: ast.Node, first: ast.Node, help: str = "keep only one"
-    ) -> None:
-        raise NotImplementedError  # NameChecker's
+    # NameChecker's, which this class is a part of.
+    resolve: Callable[[ast.Ident, frozenset[Kind], str], Symbol | None]
+    once_only: Callable[..., None]
 
     def check_event(self, decl: ast.EventDecl) -> None:
         allowed = frozenset({Kind.VARIABLE, *EVENT_KINDS})
