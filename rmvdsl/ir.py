@@ -24,6 +24,7 @@ from rmvdsl.logic.compile import compile_formula
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.rmtld3 import facts
 from rmvdsl.runtime.spec import dump, load, pattern
+from rmvdsl.runtime.values import literal
 
 __all__ = ["LowerError", "dump", "load", "lower"]
 
@@ -311,7 +312,7 @@ class _Lowering:
         if isinstance(node, ast.NameValue):
             return ir.Fill(node.ident.name)
         if isinstance(node, ast.NumberLit):
-            kind = "int" if node.value.denominator == 1 and "." not in node.text else "float"
+            kind = "int" if isinstance(literal(node.text), int) else "float"  # InfluxQL's rule
             return ir.Fill("number", ir.Number(node.text, node.value, ir.ValueType(kind)))
         return ir.Fill("null")  # InfluxDB's default
 
