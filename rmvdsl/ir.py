@@ -20,7 +20,6 @@ from rmvdsl.check.types import TypeInfo
 from rmvdsl.check.vtypes import VType
 from rmvdsl.grammar import ast, printer
 from rmvdsl.grammar.formula import TIME_UNITS
-from rmvdsl.logic.compile import compile_formula
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.rmtld3 import facts
 from rmvdsl.runtime.spec import dump, load, pattern
@@ -348,7 +347,7 @@ class _Lowering:
     def property(self, decl: ast.PropertyDecl) -> ir.Property:
         formula = decl.formula
         assert formula is not None, "a property without a formula passed the checker"
-        compiled = compile_formula(formula, Fraction(1), self.model.time_unit or "s")
+        compiled = self.types.formulas[decl.name.name]
         found = facts(compiled)
         values = self.settings("property", decl.settings)
         window = values["window"]

@@ -134,13 +134,11 @@ class _PropertyAnalyzer:
         # by id(): the witness is kept beside, so that the id is not reused
         self.references: dict[int, tuple[Witness, Reference | None]] = {}
         self.compiled: dict[str, Any] = {}
-        for name, decl in model.properties.items():
-            if name in skip or decl.formula is None:
-                continue
-            try:
-                self.compiled[name] = self.compile(decl.formula)
-            except CompileError:
-                continue  # the types stage reported it
+        # compiled once, by the types stage; absent when it does not compile (reported)
+        formulas = types.formulas if types is not None else {}
+        for name in model.properties:
+            if name not in skip and name in formulas:
+                self.compiled[name] = formulas[name]
         names = {n for f in self.compiled.values() for n in formula_facts(f).propositions}
         self.system = system_of(model, analysis, Conditions(model, types), names, skip)
 

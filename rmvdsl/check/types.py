@@ -11,6 +11,7 @@ import re
 from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from fractions import Fraction
+from typing import Any
 
 from rmvdsl import builtins
 from rmvdsl.check.fieldpaths import FieldPaths
@@ -69,6 +70,9 @@ class TypeInfo:
     horizons: dict[str, Horizon] = field(default_factory=dict)
     # Each variable's field types, one per segment of its path.
     paths: dict[str, tuple[FieldType, ...]] = field(default_factory=dict)
+    # Each property's compiled formula (times in seconds), when it compiles: the one
+    # compilation the analyses and the lowering read.
+    formulas: dict[str, Any] = field(default_factory=dict)
     # The type of every expression node of events and alerts, by id of the node.
     expressions: dict[int, VType] = field(default_factory=dict)
 
@@ -494,7 +498,7 @@ class TypeChecker(FieldPaths):
         for node in fm.walk(formula):
             if isinstance(node, fm.Compare):
                 self.compare_terms(node)
-        horizon = self.horizon(formula)
+        horizon = self.horizon(prop.name.name, formula)
         if horizon is None:
             return
         self.info.horizons[prop.name.name] = horizon
@@ -560,13 +564,14 @@ class TypeChecker(FieldPaths):
             )
             return
 
-    def horizon(self, formula: fm.Formula) -> Horizon | None:
-        """How far the formula looks ahead and back: the runtime's own traversal
-        of the compiled formula (rmvdsl.runtime.rmtld3.facts)."""
+    def horizon(self, name: str, formula: fm.Formula) -> Horizon | None:
+        """How far the property looks ahead and back: the runtime's own traversal
+        of its compiled formula (rmvdsl.runtime.rmtld3.facts), kept for later stages."""
         try:
             compiled = compile_formula(formula, Fraction(1), self.model.time_unit)
         except CompileError:
             return None  # a bound without a unit or a bad term: the names stage said so
+        self.info.formulas[name] = compiled
         found = facts(compiled)
         return Horizon(Fraction(found.future), Fraction(found.past))
 
