@@ -127,11 +127,16 @@ FILLS = ("none", "null", "previous", "linear")  # or a number
 ORDERS = ("asc", "desc")
 
 
-def function(name: str) -> Function:
+def _lookup(table: dict[str, Any], what: str, name: str) -> Any:
     try:
-        return FUNCTIONS[name]
+        return table[name]
     except KeyError:
-        raise UnknownBuiltin(f"function {name}") from None
+        raise UnknownBuiltin(f"{what} {name}") from None
+
+
+def function(name: str) -> Function:
+    found: Function = _lookup(FUNCTIONS, "function", name)
+    return found
 
 
 # ---- actions ----
@@ -202,10 +207,8 @@ ACTIONS: dict[str, ActionSpec] = {
 
 
 def action(name: str) -> ActionSpec:
-    try:
-        return ACTIONS[name]
-    except KeyError:
-        raise UnknownBuiltin(f"action {name}") from None
+    found: ActionSpec = _lookup(ACTIONS, "action", name)
+    return found
 
 
 # ---- settings of blocks ----
@@ -331,17 +334,13 @@ BLOCKS: dict[str, Block] = {
 
 
 def block(name: str) -> Block:
-    try:
-        return BLOCKS[name]
-    except KeyError:
-        raise UnknownBuiltin(f"block {name}") from None
+    found: Block = _lookup(BLOCKS, "block", name)
+    return found
 
 
 def setting(block_name: str, key: str) -> SettingSpec:
-    try:
-        return block(block_name).settings[key]
-    except KeyError:
-        raise UnknownBuiltin(f"setting {key} of {block_name}") from None
+    found: SettingSpec = _lookup(block(block_name).settings, f"setting of {block_name}:", key)
+    return found
 
 
 # ---- the reference tables of docs/language.md ----
