@@ -14,6 +14,8 @@ import re
 from decimal import Decimal, localcontext
 from fractions import Fraction
 
+from rmvdsl.runtime.values import exact_decimal
+
 MAX_DIGITS = 100
 MAX_MAGNITUDE = 300  # 10^300: doubles reach 1.8 x 10^308
 RANGE_TEXT = f"at most {MAX_DIGITS} digits, and a magnitude below 10^{MAX_MAGNITUDE}"
@@ -62,24 +64,12 @@ def _short(text: str) -> str:
 def decimal(value: Fraction) -> str:
     """A decimal text: exact for a fraction with a finite expansion, else rounded to
     17 significant digits (never through a float, which overflows)."""
-    if value.denominator == 1:
-        return str(value.numerator)
-    denominator = value.denominator
-    twos = fives = 0
-    while denominator % 2 == 0:
-        denominator //= 2
-        twos += 1
-    while denominator % 5 == 0:
-        denominator //= 5
-        fives += 1
-    if denominator != 1:
-        with localcontext() as context:
-            context.prec = 17
-            return str(Decimal(value.numerator) / Decimal(value.denominator))
-    digits = max(twos, fives)
-    text = f"{abs(value.numerator) * 10**digits // value.denominator:0{digits + 1}d}"
-    sign = "-" if value < 0 else ""
-    return f"{sign}{text[:-digits]}.{text[-digits:]}"
+    text = exact_decimal(value)
+    if text is not None:
+        return text
+    with localcontext() as context:
+        context.prec = 17
+        return str(Decimal(value.numerator) / Decimal(value.denominator))
 
 
 def exact_text(value: Fraction) -> str:

@@ -20,6 +20,7 @@ from fractions import Fraction
 from typing import Any, ClassVar
 
 from rmvdsl.runtime import formulas
+from rmvdsl.runtime.values import exact_decimal
 
 FORMAT = "rmvdsl.ir"
 VERSION = 1
@@ -478,7 +479,7 @@ def dump(spec: Spec, indent: int | None = 2) -> str:
     numbers: list[str] = []
 
     def number(value: Fraction) -> str:
-        text = _exact(value)
+        text = exact_decimal(value)
         if text is None:
             return f"{value.numerator}/{value.denominator}"
         numbers.append(text)
@@ -549,26 +550,6 @@ def load(text: str) -> Spec:
     except (TypeError, ValueError, KeyError, ZeroDivisionError) as exc:
         raise FormatError(f"malformed resolved spec: {exc}") from None
     return spec
-
-
-def _exact(value: Fraction) -> str | None:
-    denominator = value.denominator
-    digits = 0
-    while denominator % 10 == 0:
-        denominator //= 10
-        digits += 1
-    for factor in (2, 5):
-        while denominator % factor == 0:
-            denominator //= factor
-            digits += 1
-    if denominator != 1:
-        return None
-    if digits == 0:
-        return str(value.numerator)
-    scaled = abs(value.numerator) * 10**digits // value.denominator
-    text = f"{scaled:0{digits + 1}d}"
-    text = f"{text[:-digits]}.{text[-digits:]}".rstrip("0").rstrip(".")
-    return ("-" if value < 0 else "") + text
 
 
 def _encode(value: Any, number: Any) -> Any:

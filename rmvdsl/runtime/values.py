@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 import re
+from fractions import Fraction
 
 INT_BITS = 64
 INT_MIN = -(2 ** (INT_BITS - 1))
@@ -172,3 +173,23 @@ def binary(op: str, left: object, right: object) -> object:
     if op in ("&", "|", "^"):
         return bitwise(op, left, right)
     return compare(op, left, right)
+
+
+def exact_decimal(value: Fraction) -> str | None:
+    """The exact decimal text of a fraction whose expansion ends (`0.1`, `-2.5`,
+    `86400`), or None (`1/3`). rmvdsl.numbers and the resolved spec's JSON both
+    print numbers through it."""
+    if value.denominator == 1:
+        return str(value.numerator)
+    denominator, twos, fives = value.denominator, 0, 0
+    while denominator % 2 == 0:
+        denominator //= 2
+        twos += 1
+    while denominator % 5 == 0:
+        denominator //= 5
+        fives += 1
+    if denominator != 1:
+        return None
+    digits = max(twos, fives)
+    text = f"{abs(value.numerator) * 10**digits // value.denominator:0{digits + 1}d}"
+    return f"{'-' if value < 0 else ''}{text[:-digits]}.{text[-digits:]}"
