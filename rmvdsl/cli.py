@@ -101,6 +101,38 @@ exit codes: 0 built, 1 the spec has errors (shown on standard error), 2 usage or
     build_parser.add_argument("--no-color", action="store_true")
     _add_message_options(build_parser)
 
+    replay_parser = commands.add_parser(
+        "replay",
+        help="run a spec over recorded rosbags (.bag, .db3, .mcap)",
+        description="Check a spec, then run it over ROS 1 .bag and ROS 2 .db3/.mcap "
+        "recordings: verdicts, states, alerts and intrusions with recording times "
+        "(docs/replay.md).",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="""examples:
+  rmv replay examples/carla/abs.rmv examples/carla/braking.bag
+  rmv replay examples/carla/abs.rmv examples/carla/braking.mcap --format jsonl
+  rmv replay spec.rmv run.bag --from +10 --to +60 --report timeline.html
+exit codes: 0 every property held and no intrusion, 1 a violation or an intrusion (or the
+spec has errors), 2 usage or I/O problem""",
+    )
+    replay_parser.add_argument("spec", metavar="SPEC")
+    replay_parser.add_argument("recordings", nargs="+", metavar="RECORDING")
+    replay_parser.add_argument(
+        "--from", dest="start", metavar="T",
+        help="start at T seconds on the recording's clock (+T: T after its start)",
+    )  # fmt: skip
+    replay_parser.add_argument("--to", dest="stop", metavar="T", help="stop at T (as --from)")
+    replay_parser.add_argument("--format", choices=("text", "json", "jsonl"), default="text")
+    replay_parser.add_argument(
+        "--report", metavar="FILE", help="draw a timeline: FILE.png (matplotlib) or FILE.html"
+    )
+    replay_parser.add_argument(
+        "--run-actions", action="store_true",
+        help="really run exec, post and tcp actions (default: only report them)",
+    )  # fmt: skip
+    replay_parser.add_argument("--no-color", action="store_true")
+    _add_message_options(replay_parser)
+
     explain_parser = commands.add_parser(
         "explain",
         help="explain a diagnostic code",
@@ -264,6 +296,7 @@ def _run(args: argparse.Namespace) -> int:
         "eval": _eval,
         "graph": _graph,
         "sat": _sat,
+        "replay": _replay,
     }
     return commands[args.command](args)
 
@@ -282,6 +315,32 @@ def _message_options(args: argparse.Namespace) -> None:
     for folder in args.messages:
         if not os.path.isdir(folder):
             raise UsageError(f"--messages {folder}: no such folder")
+
+
+def _replay(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from rmvdsl import replay
+    from rmvdsl.ir import lower
+
+    _message_options(args)
+    if args.report and not args.report.endswith((".png", ".html")):
+        raise UsageError(f"--report {args.report}: the file must end in .png or .html")
+    result = check(args.spec, ros=args.ros, messages=tuple(args.messages))
+    if result.errors:
+        sys.stderr.write(render_text(result.errors, result.model.sources, False))
+        print(f"rmv replay: {args.spec}: {len(result.errors)} errors", file=sys.stderr)
+        return EXIT_ERRORS
+    progress = replay.progress_bar() if sys.stderr.isatty() else None
+    try:
+        summary = replay.run(
+            lower(result), [Path(p) for p in args.recordings], sys.stdout,
+            output=args.format, start=args.start, stop=args.stop, report=args.report,
+            run_actions=args.run_actions, progress=progress,
+        )  # fmt: skip
+    except (replay.ReplayError, ValueError, ZeroDivisionError) as exc:
+        raise UsageError(str(exc)) from None
+    return EXIT_ERRORS if summary.failed else EXIT_OK
 
 
 def _build(args: argparse.Namespace) -> int:

@@ -448,6 +448,19 @@ value. Aggregate it, `var Fastest = max(objects.objects[*].twist.linear.x)`, or
 pick an element, `objects.objects[0].twist.linear.x`.""",
     ),
     (
+        "RMV321",
+        "not a query InfluxDB runs",
+        """A value event is an InfluxQL continuous query, and InfluxDB refuses these
+shapes (so does the runtime, which computes events exactly as InfluxDB does):
+
+    event A = mean(Velocity)                             // no window: add `group by time(1s)`
+    event B = Velocity * 2 group by time(1s)             // a window but no aggregate
+    event C = derivative(Velocity) group by time(1s)     // write derivative(mean(Velocity))
+    event D = mean(Velocity) + Brake group by time(1s)   // Brake raw beside an aggregate
+    event E = mean(Velocity) * 3.6 group by time(1s)     // ok
+    event F = derivative(Velocity, 1s)                   // ok: over the raw points""",
+    ),
+    (
         "RMV500",
         "unreachable state",
         """No sequence of transitions leads from the transducer's initial state to this

@@ -87,10 +87,9 @@ def test_the_checker_accepts_every_function_and_lowering_keeps_it(tmp_path):
     ]
     for name, function in builtins.FUNCTIONS.items():
         args = "Speed" if function.most == 1 else f"Speed, {_SECOND[function.second]}"
-        if function.least == 2 or function.second is not None:
-            lines.append(f"event E_{name} = {name}({args}) group by time(1s)")
-        else:
-            lines.append(f"event E_{name} = {name}(Speed) group by time(1s)")
+        # Aggregates need a window; transformations run over the raw points (RMV321).
+        window = "" if function.group == "transformation" else " group by time(1s)"
+        lines.append(f"event E_{name} = {name}({args}){window}")
     path = tmp_path / "functions.rmv"
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     result = check(str(path))

@@ -126,8 +126,9 @@ def test_msg_parser_reads_every_form():
 def test_expression_rules_in_one_spec(tmp_path):
     spec = STATUS + (
         "var V = s.velocity\nvar H = s.control.hand_brake\nvar HN = number(s.control.hand_brake)\n"
-        "event Ok when derivative(mean(V), 1s) < -5 and HN = 1 and H = true and V * 3.6 > 10\n"
-        "event Bad when derivative(mean(V), 1s) > V\n"
+        "event D = derivative(mean(V), 1s) group by time(100ms)\n"
+        "event Ok when D < -5 and HN = 1 and H = true and V * 3.6 > 10\n"
+        "event Bad when D > V\n"
         "alert A { warn when Ok or Bad }\n"
     )
     result = check_text(spec, tmp_path, messages=(CARLA_MSGS,), ros="noetic")

@@ -10,9 +10,36 @@ from rmvdsl.check.model import EVENT_KINDS, Kind, Model, Symbol
 from rmvdsl.diagnostics import Diagnostic, did_you_mean, error
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
+from rmvdsl.source import Span
 
 INFLUX_FUNCTIONS = builtins.FUNCTIONS
 FILL_NAMES = builtins.FILLS
+
+
+_AGGREGATING = ("aggregation", "selector")
+
+
+def _group(call: ast.Call) -> str | None:
+    found = INFLUX_FUNCTIONS.get(call.func.name)
+    return found.group if found else None
+
+
+def _aggregated(node: ast.Node) -> bool:
+    """Whether an aggregate or selector call is inside node (or is node)."""
+    return any(isinstance(n, ast.Call) and _group(n) in _AGGREGATING for n in ast.walk(node))
+
+
+def _bare_reference(expr: ast.Node) -> ast.NameRef | None:
+    """The first name read outside every aggregate or selector call."""
+    stack = [expr]
+    while stack:
+        node = stack.pop()
+        if isinstance(node, ast.NameRef):
+            return node
+        if isinstance(node, ast.Call) and _group(node) in _AGGREGATING:
+            continue
+        stack.extend(reversed(list(node.children())))
+    return None
 
 
 class EventChecks:
@@ -37,6 +64,55 @@ class EventChecks:
             if first is not clause:
                 self.once_only(f"the `{clause.kind}` clause of `{decl.name.name}`", clause, first)
             self.check_clause(clause, allowed)
+        self.check_query_shape(decl)
+
+    def check_query_shape(self, decl: ast.EventDecl) -> None:
+        """What InfluxQL refuses in a continuous query, and the runtime cannot run:
+        an aggregate without `group by time`, `group by time` without one, a
+        transformation over windows with no aggregate inside, and a bare value
+        beside an aggregate (RMV321)."""
+        group = decl.clause("group")
+        calls = [n for n in ast.walk(decl.expr) if isinstance(n, ast.Call)]
+        aggregates = [c for c in calls if _group(c) in _AGGREGATING]
+        name = decl.name.name
+        if aggregates and group is None:
+            self.report_shape(
+                aggregates[0].func.span,
+                f"`{name}` aggregates with `{aggregates[0].func.name}` but has no window",
+                "an aggregate over no `group by time(...)`",
+                "add `group by time(1s)` (or the window the event needs)",
+            )
+            return
+        if group is None:
+            return
+        for call in calls:
+            if _group(call) == "transformation" and call.args and not _aggregated(call.args[0]):
+                self.report_shape(
+                    call.func.span,
+                    f"`{call.func.name}` over windows needs an aggregate inside",
+                    "a transformation of raw values beside `group by time`",
+                    f"write `{call.func.name}(mean(...))` or another aggregate",
+                )
+                return
+        if not aggregates:
+            self.report_shape(
+                group.span,
+                f"`{name}` is grouped by time but aggregates nothing",
+                "`group by time` needs an aggregate such as `mean(x)`",
+                "aggregate each value (`mean(x)`, `last(x)`) or remove the clause",
+            )
+            return
+        bare = _bare_reference(decl.expr)
+        if bare is not None:
+            self.report_shape(
+                bare.span,
+                f"`{bare.ident.name}` is used raw beside an aggregate in `{name}`",
+                "not inside an aggregate",
+                f"aggregate it as the window needs, e.g. `last({bare.ident.name})`",
+            )
+
+    def report_shape(self, span: Span, message: str, label: str, help: str) -> None:
+        self.report(error("RMV321", message, span, label=label, help=help))
 
     def check_clause(self, clause: ast.Clause, allowed: frozenset[Kind]) -> None:
         value = clause.value

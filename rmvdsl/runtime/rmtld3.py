@@ -33,6 +33,7 @@ from typing import Any, NamedTuple
 FALSE, UNKNOWN, TRUE = 0, 1, 2
 NAMES = {FALSE: "false", UNKNOWN: "unknown", TRUE: "true"}
 _INFINITY = float("inf")
+_NO_PULSES: frozenset[str] = frozenset()
 
 
 _EXACT_HALVES = 2**52  # below this, n + 0.5 is exact as a float
@@ -543,11 +544,12 @@ class Monitor:
         self.known: Any = None  # the input is known on [start, known)
         self.written: Any = None  # the atoms' signals are written up to here
         self.written_state: frozenset[str] = frozenset()  # the state at `written`
-        self.changes: list[tuple[Any, frozenset[str]]] = []  # since `written`
+        self.written_pulses: frozenset[str] = _NO_PULSES  # and what holds at that point only
+        self.changes: list[tuple[Any, frozenset[str], frozenset[str]]] = []  # since `written`
         self.state: frozenset[str] = frozenset()
         self.emitted: Any = None  # verdicts are out up to here
         self.emitted_point = False  # and for the point `emitted` itself
-        self.pending: list[tuple[Any, int, frozenset[str]]] = []
+        self.pending: list[tuple[Any, int, frozenset[str], frozenset[str]]] = []
         self.count = 0
         self.newest: Any = None
         self.late: list[Any] = []
@@ -556,13 +558,15 @@ class Monitor:
 
     # ---- input ----
 
-    def step(self, t: Any, state: Iterable[str]) -> None:
-        """The propositions that hold from time t on."""
+    def step(self, t: Any, state: Iterable[str], pulses: Iterable[str] = _NO_PULSES) -> None:
+        """The propositions that hold from time t on, and `pulses`: those that hold
+        at the instant t only (an event a transducer emits, which lasts no time)."""
         state = state if isinstance(state, frozenset) else frozenset(state)
+        pulses = pulses if isinstance(pulses, frozenset) else frozenset(pulses)
         if self.lateness:
-            self._hold(t, state)
+            self._hold(t, state, pulses)
         else:
-            self._advance(t, state)
+            self._advance(t, state, pulses)
 
     def feed(self, samples: Iterable[tuple[Any, Iterable[str]]]) -> None:
         """Many samples. One that repeats the current state only moves the known end
@@ -590,8 +594,8 @@ class Monitor:
     def end(self, t: Any) -> None:
         """The input ends at t: the last state held until t; nothing is known after."""
         while self.pending:
-            when, _, held = heapq.heappop(self.pending)
-            self._advance(when, held)
+            when, _, held, pulses = heapq.heappop(self.pending)
+            self._advance(when, held, pulses)
         if self.start is None:
             return
         if t > self.known:
@@ -611,24 +615,25 @@ class Monitor:
             tail.pop()
         return tail
 
-    def _hold(self, t: Any, state: frozenset[str]) -> None:
+    def _hold(self, t: Any, state: frozenset[str], pulses: frozenset[str]) -> None:
         self.count += 1
-        heapq.heappush(self.pending, (t, self.count, state))
+        heapq.heappush(self.pending, (t, self.count, state, pulses))
         self.newest = t if self.newest is None or t > self.newest else self.newest
         while self.pending and self.pending[0][0] <= self.newest - self.lateness:
-            when, _, held = heapq.heappop(self.pending)
-            self._advance(when, held)
+            when, _, held, pulsed = heapq.heappop(self.pending)
+            self._advance(when, held, pulsed)
 
-    def _advance(self, t: Any, state: frozenset[str]) -> None:
+    def _advance(self, t: Any, state: frozenset[str], pulses: frozenset[str] = _NO_PULSES) -> None:
         if self.start is None:
             self._begin(t, state)
+            self.written_pulses = pulses
         elif t < self.known:
             self._late_sample(t)
-        elif state == self.state:
+        elif state == self.state and not pulses:
             self.known = t
         else:
             self.known = t
-            self.changes.append((t, state))
+            self.changes.append((t, state, pulses))
             self.state = state
             if t - self.written > self.horizon:
                 self._flush()  # keeps what is held within about twice the horizon
@@ -653,13 +658,20 @@ class Monitor:
         begin = self.written
         for name, prop in self.props.items():
             value = TRUE if name in self.written_state else FALSE
+            point = TRUE if name in self.written_pulses else value
             signal = prop.signal
             signal.cut(begin)
-            signal.append(begin, value, value)
-            for when, state in self.changes:
+            signal.append(begin, point, value)
+            for when, state, pulses in self.changes:
                 value = TRUE if name in state else FALSE
-                signal.append(when, value, value)
+                signal.append(when, TRUE if name in pulses else value, value)
             signal.append(self.known, UNKNOWN, UNKNOWN)
+        last = self.changes[-1] if self.changes else None
+        self.written_pulses = (
+            last[2]
+            if last and last[0] == self.known
+            else (self.written_pulses if begin == self.known else _NO_PULSES)
+        )
         self.written, self.written_state = self.known, self.state
         self.changes.clear()
         self._update_nodes(begin)

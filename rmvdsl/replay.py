@@ -1,0 +1,346 @@
+"""`rmv replay`: a resolved spec run over recorded rosbags (docs/replay.md).
+
+Reads ROS 1 `.bag` and ROS 2 `.db3`/`.mcap` recordings through rosbags' AnyReader,
+with the recording's own message definitions; checks each topic the spec reads
+against them before the first message; feeds the runtime in recording order; and
+hands its records to the caller as they are decided.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from rmvdsl.runtime import spec as ir
+from rmvdsl.runtime.engine import Endpoint, Host, Record, RecordingHost, Runtime, seconds
+
+
+class ReplayError(Exception):
+    """A recording that cannot be read at all (the CLI exits 2)."""
+
+
+@dataclass
+class Plan:
+    """What the recording holds for the spec: the connections to read and what
+    was found wrong before reading."""
+
+    connections: list[Any] = field(default_factory=list)
+    problems: list[str] = field(default_factory=list)
+    skipped_variables: set[str] = field(default_factory=set)
+
+
+def _message_text(message: ir.Message) -> str:
+    return "\n".join(f"{f.type} {f.name}" for f in message.fields) + "\n"
+
+
+def _typestore(spec: ir.Spec) -> Any:
+    """The default types of the spec's ROS version plus every definition it
+    resolved (custom messages included), for recordings without their own."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC if spec.ros.version == 1 else Stores.ROS2_HUMBLE)
+    for message in spec.messages:
+        if message.name not in store.fielddefs:
+            try:
+                store.register(get_types_from_msg(_message_text(message), message.name))
+            except Exception:
+                continue
+    return store
+
+
+def _path_problem(store: Any, msgtype: str, variable: ir.Variable) -> str | None:
+    """Whether the recording's definition of `msgtype` has the variable's path."""
+    from rosbags.typesys.base import Nodetype
+
+    current: Any = (Nodetype.NAME, msgtype)
+    where = msgtype
+    for step in variable.path:
+        kind, detail = current
+        if isinstance(step, ir.FieldStep):
+            if kind != Nodetype.NAME:
+                return f"`{where}` is not a message, so it has no field `{step.name}`"
+            fields = dict(store.fielddefs[detail][1])
+            if step.read not in fields:
+                return f"{detail} has no field `{step.read}` (it has {', '.join(fields)})"
+            current, where = fields[step.read], f"{where}.{step.read}"
+        else:
+            if kind not in (Nodetype.ARRAY, Nodetype.SEQUENCE):
+                return f"`{where}` is not an array"
+            current = detail[0]
+    return None
+
+
+def plan(spec: ir.Spec, reader: Any) -> Plan:
+    """Match the spec's topics with the recording's connections."""
+    found = Plan()
+    by_topic: dict[str, list[Any]] = {}
+    for connection in reader.connections:
+        by_topic.setdefault(connection.topic, []).append(connection)
+    variables: dict[str, list[ir.Variable]] = {}
+    for variable in spec.variables:
+        variables.setdefault(variable.topic, []).append(variable)
+    for topic in spec.topics:
+        connections = by_topic.get(topic.ros_name, [])
+        if not connections:
+            found.problems.append(
+                f"topic `{topic.name}` ({topic.ros_name}) is not in the recording: "
+                "what it feeds stays without values"
+            )
+            continue
+        for connection in connections:
+            if connection.msgtype != topic.message_type:
+                found.problems.append(
+                    f"topic `{topic.name}` ({topic.ros_name}) is recorded as {connection.msgtype}, "
+                    f"the spec reads {topic.message_type}: its messages are skipped"
+                )
+                continue
+            found.connections.append(connection)
+            for variable in variables.get(topic.name, []):
+                problem = _path_problem(reader.typestore, connection.msgtype, variable)
+                if problem is not None and variable.name not in found.skipped_variables:
+                    found.skipped_variables.add(variable.name)
+                    found.problems.append(
+                        f"variable `{variable.name}` on {topic.ros_name}: {problem}"
+                    )
+    return found
+
+
+def open_reader(paths: Sequence[Path], spec: ir.Spec) -> Any:
+    from rosbags.highlevel import AnyReader, AnyReaderError
+
+    for path in paths:
+        if not path.exists():
+            raise ReplayError(f"{path}: no such file or directory")
+    try:
+        reader = AnyReader(list(paths), default_typestore=_typestore(spec))
+        reader.open()
+    except (AnyReaderError, OSError, ValueError, KeyError) as error:
+        raise ReplayError(
+            f"{', '.join(map(str, paths))}: cannot read the recording: {error}"
+        ) from None
+    return reader
+
+
+def _time(text: str | None, start: int) -> int | None:
+    """`--from`/`--to`: seconds on the recording's clock, or `+N` after its start."""
+    if text is None:
+        return None
+    from fractions import Fraction
+
+    relative = text.startswith("+")
+    value = Fraction(text[1:] if relative else text)
+    ns = int(value * 1_000_000_000)
+    return start + ns if relative else ns
+
+
+def replay(
+    spec: ir.Spec,
+    paths: Sequence[Path],
+    *,
+    host: Host | None = None,
+    start: str | None = None,
+    stop: str | None = None,
+    record: Sequence[str] = ("state", "event"),
+    progress: Callable[[int, int], None] | None = None,
+) -> Iterator[Record]:
+    """Every record of the spec over the recordings, as it is decided."""
+    reader = open_reader(paths, spec)
+    try:
+        found = plan(spec, reader)
+        for problem in found.problems:
+            yield {"kind": "diagnostic", "time": seconds(reader.start_time), "message": problem}
+        runtime = Runtime(spec, host, record=record, skip=found.skipped_variables)
+        low, high = _time(start, reader.start_time), _time(stop, reader.start_time)
+        endpoints: set[Endpoint] = set()
+        seen_connections: set[int] = set()
+        total = sum(c.msgcount for c in found.connections)
+        done = 0
+        for connection, timestamp, raw in reader.messages(
+            connections=found.connections, start=low, stop=high
+        ):
+            if connection.id not in seen_connections:
+                seen_connections.add(connection.id)
+                caller = getattr(connection.ext, "callerid", None)
+                if caller:
+                    endpoints.add(Endpoint(caller, connection.topic, "publisher"))
+                    runtime.graph(timestamp, endpoints)
+            try:
+                message = reader.deserialize(raw, connection.msgtype)
+            except Exception as error:
+                runtime.damaged(timestamp, connection.topic, str(error))
+                continue
+            runtime.message(timestamp, connection.topic, message)
+            done += 1
+            if progress is not None and done % 2000 == 0:
+                progress(done, total)
+            yield from runtime.records()
+        # rosbags' end_time is one nanosecond after the newest message.
+        runtime.end(high if high is not None else reader.end_time - 1)
+        if progress is not None:
+            progress(done, total)
+        yield from runtime.records()
+    finally:
+        reader.close()
+
+
+def progress_bar(stream: Any = sys.stderr) -> Callable[[int, int], None]:
+    """A one-line progress bar, redrawn in place."""
+
+    def draw(done: int, total: int) -> None:
+        fraction = done / total if total else 1.0
+        filled = int(fraction * 30)
+        stream.write(f"\r[{'#' * filled}{'.' * (30 - filled)}] {done:,}/{total:,} messages")
+        if done >= total:
+            stream.write("\n")
+        stream.flush()
+
+    return draw
+
+
+# ---- output ----
+
+
+@dataclass
+class Summary:
+    violations: int = 0
+    intrusions: int = 0
+
+    @property
+    def failed(self) -> bool:
+        return bool(self.violations or self.intrusions)
+
+
+def _decimal(value: Any) -> str:
+    from fractions import Fraction
+
+    from rmvdsl.runtime.values import exact_decimal
+
+    if isinstance(value, Fraction):
+        return exact_decimal(value) or f"{value.numerator}/{value.denominator}"
+    return str(value)
+
+
+def text_line(record: Record) -> str | None:
+    """One record as a line for a person, or None for records only JSON carries."""
+    kind = record["kind"]
+    if kind == "verdict":
+        open_, close = record["bounds"]
+        span = f"{open_}{_decimal(record['from'])}, {_decimal(record['to'])}{close}"
+        return f"verdict   {record['property']}: {record['verdict']} on {span}"
+    if kind == "alert":
+        values = ", ".join(f"{k}={_decimal(v)}" for k, v in record["values"].items())
+        return (
+            f"alert     {_decimal(record['time'])} {record['alert']}: {record['previous']} -> "
+            f"{record['level']}: {record['message']} ({values})"
+        )
+    if kind == "intrusion":
+        what = "intrusion" if record["phase"] == "start" else "ended"
+        return (
+            f"{what:<9} {_decimal(record['time'])} {record['node']} as {record['role']} of "
+            f"{record['topic']}: {record['reason']}"
+        )
+    if kind == "state":
+        return f"state     {_decimal(record['time'])} {record['transducer']} -> {record['state']}"
+    if kind == "action":
+        target = record.get("topic") or record.get("url") or record.get("address") or ""
+        level = record.get("level", "")
+        return (
+            f"action    {_decimal(record['time'])} {record['action']} {level}{target}: "
+            + (record["message"])
+        )
+    if kind == "diagnostic":
+        return f"warning   {_decimal(record['time'])} {record['message']}"
+    if kind == "counter":
+        return f"counter   {record['name']}: {record['value']}"
+    return None
+
+
+class ExecutingHost(RecordingHost):
+    """`--run-actions`: exec, post and tcp really run (exec with no shell, the
+    record as JSON on standard input); log and publish stay records."""
+
+    def act(self, action: ir.Action, context: Any) -> None:
+        import socket
+        import subprocess
+        import urllib.request
+
+        from rmvdsl.runtime.engine import action_record, to_json
+
+        record = action_record(action, context)
+        payload = to_json(context.record).encode()
+        try:
+            if isinstance(action, ir.Exec):
+                subprocess.run(
+                    [action.command, *action.args], input=payload, timeout=30, check=False
+                )
+            elif isinstance(action, ir.Post):
+                request = urllib.request.Request(
+                    action.url, data=payload, headers={"Content-Type": "application/json"}
+                )
+                urllib.request.urlopen(request, timeout=float(action.timeout)).close()
+            elif isinstance(action, ir.Tcp):
+                host, _, port = action.address.rpartition(":")
+                with socket.create_connection((host, int(port)), timeout=10) as connection:
+                    connection.sendall(payload + b"\n")
+        except (OSError, ValueError, subprocess.SubprocessError) as error:
+            record["error"] = str(error)
+        record["ran"] = isinstance(action, ir.Exec | ir.Post | ir.Tcp)
+        self.records.append(record)
+
+
+def run(
+    spec: ir.Spec,
+    paths: Sequence[Path],
+    out: Any,
+    *,
+    output: str = "text",
+    start: str | None = None,
+    stop: str | None = None,
+    report: str | None = None,
+    run_actions: bool = False,
+    progress: Callable[[int, int], None] | None = None,
+) -> Summary:
+    """Replay and print; return what decides the exit code."""
+    from rmvdsl.runtime.engine import to_json
+
+    summary = Summary()
+    kept: list[Record] = []
+    host = ExecutingHost() if run_actions else None
+    record = ("state", "event", "variable") if report else ("state", "event")
+    records = replay(
+        spec, paths, host=host, start=start, stop=stop,
+        record=record, progress=progress,
+    )  # fmt: skip
+    first = True
+    if output == "json":
+        out.write('{"records": [\n')
+    for item in records:
+        if item["kind"] == "verdict" and item["verdict"] == "false":
+            summary.violations += 1
+        elif item["kind"] == "intrusion" and item["phase"] == "start":
+            summary.intrusions += 1
+        if report:
+            kept.append(item)
+        if output == "text":
+            line = text_line(item)
+            if line is not None:
+                out.write(line + "\n")
+        elif item["kind"] != "variable":
+            separator = "" if first or output == "jsonl" else ",\n"
+            out.write(separator + to_json(item) + ("\n" if output == "jsonl" else ""))
+            first = False
+    if output == "json":
+        out.write("\n]}\n")
+    if output == "text":
+        out.write(
+            f"{'FAILED' if summary.failed else 'passed'}: {summary.violations} violations, "
+            f"{summary.intrusions} intrusions\n"
+        )
+    if report:
+        from rmvdsl import timeline
+
+        timeline.write(report, spec, kept)
+    return summary

@@ -1,0 +1,807 @@
+"""The whole spec, executable: messages in, records out (docs/runtime.md).
+
+Standard library only: the replay and the generated ROS 2 node both host this one
+implementation. Feed `message(time, topic, msg)` in time order (or out of order by
+at most the spec's lateness) and `graph(time, endpoints)` for intrusion detection;
+call `end(time)` when the input ends; read `records()`.
+
+Inside, every variable, event and transducer is a node of a dataflow in dependency
+order. Each node knows up to which time its output is final (a continuous query's
+window is final only when no later run reads it), and a node reads its inputs only
+up to the time all of them are final, so the result never depends on how the input
+was batched or how late a query ran.
+"""
+
+from __future__ import annotations
+
+import graphlib
+import heapq
+import json
+import math
+import re
+from collections import Counter
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Any, Protocol
+
+from rmvdsl.runtime import fields, influx
+from rmvdsl.runtime import spec as ir
+from rmvdsl.runtime.formulas import to_lists
+from rmvdsl.runtime.rmtld3 import Monitor
+from rmvdsl.runtime.values import exact_decimal
+
+NS = influx.NS
+_FOREVER = 1 << 126
+LEVELS = ("OK", "INFO", "WARNING", "CRITICAL")
+_SEVERITY = {"info": 1, "warn": 2, "crit": 3}
+
+Item = tuple[int, int, str, Any, str]  # time, sequence, name, value, source
+Record = dict[str, Any]
+
+
+def seconds(ns: int) -> Fraction:
+    return Fraction(ns, NS)
+
+
+class Host(Protocol):
+    """What a host (the replay, the ROS node) does with an action."""
+
+    def act(self, action: ir.Action, context: ActionContext) -> None: ...
+
+
+@dataclass(frozen=True)
+class ActionContext:
+    owner_kind: str  # property | alert | intrusion | whitelist | node
+    owner: str
+    level: str  # a log level: debug, info, warn, error, fatal
+    message: str  # the action's message, or the owner's
+    record: Record  # what happened, as the runtime reports it
+
+
+class RecordingHost:
+    """Actions as records only: nothing leaves the process."""
+
+    def __init__(self) -> None:
+        self.records: list[Record] = []
+
+    def act(self, action: ir.Action, context: ActionContext) -> None:
+        self.records.append(action_record(action, context))
+
+
+def action_record(action: ir.Action, context: ActionContext) -> Record:
+    out: Record = {
+        "kind": "action",
+        "action": action.TAG,
+        "owner": context.owner,
+        "owner_kind": context.owner_kind,
+        "time": context.record.get("time", context.record.get("from")),
+        "message": context.message,
+    }
+    if isinstance(action, ir.Log):
+        out["level"] = context.level
+    elif isinstance(action, ir.Publish):
+        out["topic"] = action.topic
+    elif isinstance(action, ir.Post):
+        out["url"] = action.url
+    elif isinstance(action, ir.Exec):
+        out["command"] = [action.command, *action.args]
+    elif isinstance(action, ir.Tcp):
+        out["address"] = action.address
+    return out
+
+
+def action_text(action: ir.Action, default: str) -> str:
+    message = getattr(action, "message", None)
+    return message if message is not None else default
+
+
+def action_level(action: ir.Action, default: str) -> str:
+    level = getattr(action, "level", None)
+    return level if level is not None else default
+
+
+# ---- nodes ----
+
+
+class Node:
+    """A step of the dataflow: reads items of `reads`, writes items of `writes`."""
+
+    name: str
+    reads: tuple[str, ...]
+    writes: tuple[str, ...]
+
+    def __init__(self) -> None:
+        self.inbox: list[Item] = []
+        self.final = -_FOREVER  # output before this time is final
+
+    def take(self, bound: int) -> list[Item]:
+        """The inbox's items before `bound`, oldest first (ties in arrival order)."""
+        if not self.inbox:
+            return []
+        self.inbox.sort()
+        cut = 0
+        for cut, item in enumerate(self.inbox):  # noqa: B007
+            if item[0] >= bound:
+                break
+        else:
+            cut = len(self.inbox)
+        taken, self.inbox = self.inbox[:cut], self.inbox[cut:]
+        return taken
+
+    def process(self, bound: int, emit: Callable[[int, str, Any, str], None]) -> None:
+        raise NotImplementedError
+
+
+def _instants(items: list[Item]) -> Iterable[tuple[int, list[Item]]]:
+    """Items grouped by time."""
+    start = 0
+    for i in range(1, len(items) + 1):
+        if i == len(items) or items[i][0] != items[start][0]:
+            yield items[start][0], items[start:i]
+            start = i
+
+
+def _rows(items: list[Item]) -> Iterable[influx.Row]:
+    """Items of one source at one time form one row (one message, one point)."""
+    rows: dict[tuple[int, str], influx.Row] = {}
+    for time, _, name, value, source in items:
+        row = rows.get((time, source))
+        if row is None:
+            row = rows[(time, source)] = influx.Row(time, {})
+        row.fields[name] = value
+    return sorted(rows.values(), key=lambda r: r.time)
+
+
+class RawEvent(Node):
+    def __init__(self, event: ir.Event) -> None:
+        super().__init__()
+        self.name, self.reads, self.writes = event.name, event.reads, (event.name,)
+        self.query = influx.RawQuery(event)
+
+    def process(self, bound: int, emit: Callable[[int, str, Any, str], None]) -> None:
+        for row in _rows(self.take(bound)):
+            value = self.query.row(row)
+            if value is not influx.MISSING:
+                emit(row.time, self.name, value, self.name)
+        self.final = bound
+
+
+class WindowedEvent(Node):
+    def __init__(self, event: ir.Event) -> None:
+        super().__init__()
+        self.name, self.reads, self.writes = event.name, event.reads, (event.name,)
+        self.state = influx.EventState(influx.WindowedQuery(event))
+        self.draining_until: int | None = None
+
+    def process(self, bound: int, emit: Callable[[int, str, Any, str], None]) -> None:
+        for row in _rows(self.take(bound)):
+            self.state.add(row)
+        if self.draining_until is not None and bound >= _FOREVER:
+            points = influx.drain(self.state, self.draining_until)
+        else:
+            points = self.state.advance(bound)
+        for time, value in points:
+            emit(time, self.name, value, self.name)
+        self.final = bound if bound >= _FOREVER else self.state.final_before(bound)
+
+
+class Condition(Node):
+    """A boolean event with no window: its condition over the newest value of each
+    name it reads, a signal that changes only when that value changes."""
+
+    def __init__(self, event: ir.Event) -> None:
+        super().__init__()
+        self.event = event
+        self.name, self.reads, self.writes = event.name, event.reads, (event.name,)
+        self.current: dict[str, Any] = {}
+        self.value = False
+
+    def holds(self) -> bool:
+        lookup = self.current.get
+        where = self.event.where
+        if where is not None and influx.evaluate(where, lookup) is not True:
+            return False
+        return influx.evaluate(self.event.expr, lookup) is True
+
+    def process(self, bound: int, emit: Callable[[int, str, Any, str], None]) -> None:
+        for time, items in _instants(self.take(bound)):
+            pulses = []
+            for _, _, name, value, _ in items:
+                if self.current.get(name) is True and value is False:
+                    pulses.append(name)  # held and released at one instant
+                self.current[name] = value
+            for name in pulses:
+                self.current[name] = True
+                self._set(time, emit)
+                self.current[name] = False
+            self._set(time, emit)
+        self.final = bound
+
+    def _set(self, time: int, emit: Callable[[int, str, Any, str], None]) -> None:
+        value = self.holds()
+        if value != self.value:
+            self.value = value
+            emit(time, self.name, value, self.name)
+
+
+class Transducer(Node):
+    """Level-triggered: at every instant an input changes, the transition of the
+    current state whose input holds is taken (the first declared); then the new
+    state's transitions are tried at the same instant, each transition at most once
+    per instant. Emitted events hold at that instant only."""
+
+    def __init__(self, transducer: ir.Transducer) -> None:
+        super().__init__()
+        self.transducer = transducer
+        self.name = transducer.name
+        self.reads = tuple(dict.fromkeys(t.input for t in transducer.transitions))
+        self.writes = (transducer.name, *transducer.emits)
+        self.state = transducer.initial
+        self.held: dict[str, bool] = {}
+        self.steps = 0
+
+    def process(self, bound: int, emit: Callable[[int, str, Any, str], None]) -> None:
+        for time, items in _instants(self.take(bound)):
+            pulsed = {name for _, _, name, value, _ in items if value is True}
+            for _, _, name, value, _ in items:
+                self.held[name] = value is True
+            self._step(time, pulsed, emit)
+        self.final = bound
+
+    def _step(
+        self, time: int, pulsed: set[str], emit: Callable[[int, str, Any, str], None]
+    ) -> None:
+        taken: set[int] = set()
+        while True:
+            for index, transition in enumerate(self.transducer.transitions):
+                if index in taken or transition.source != self.state:
+                    continue
+                if self.held.get(transition.input) or transition.input in pulsed:
+                    break
+            else:
+                return
+            taken.add(index)
+            self.state = transition.dest
+            self.steps += 1
+            emit(time, self.name, transition.dest, self.name)
+            if transition.emit is not None:
+                emit(time, transition.emit, True, self.name)
+                emit(time, transition.emit, False, self.name)
+
+
+# ---- consumers: properties and alerts ----
+
+
+class PropertyMonitor:
+    """One property: the state signal of its propositions, sampled at `rate` (or
+    at every change), fed to an RMTLD3 monitor while `trigger` holds."""
+
+    def __init__(self, prop: ir.Property, start: int, initial: frozenset[str]) -> None:
+        self.prop = prop
+        self.formula = to_lists(prop.formula)
+        self.names = frozenset(prop.propositions)
+        self.watch = self.names | ({prop.trigger} if prop.trigger != "always" else set())
+        self.true: set[str] = set(initial & self.watch)
+        self.period = None if prop.rate is None else influx.nanoseconds(1 / prop.rate)
+        self.next_tick = None if self.period is None else -(-start // self.period) * self.period
+        self.pending_pulses: set[str] = set()
+        self.monitor: Monitor | None = None
+        self.segments: list[tuple] = []
+        self.start = start
+        if self._triggered():
+            self._open(start)
+
+    def _triggered(self) -> bool:
+        return self.prop.trigger == "always" or self.prop.trigger in self.true
+
+    def _open(self, time: int) -> None:
+        self.monitor = Monitor(self.formula)
+        if self.period is None:
+            self.monitor.step(seconds(time), self.true & self.names)
+
+    def _close(self, time: int) -> None:
+        if self.monitor is not None:
+            self.monitor.end(seconds(time))
+            self.segments.extend(self.monitor.verdicts())
+            self.monitor = None
+
+    def instant(self, time: int, changes: list[tuple[str, Any]]) -> None:
+        self.ticks_before(time)
+        was = self._triggered()
+        pulses = set()
+        for name, value in changes:
+            if name not in self.watch:
+                continue
+            if value is True:
+                self.true.add(name)
+            else:
+                if name in self.true and any(n == name and v is True for n, v in changes):
+                    pulses.add(name)
+                self.true.discard(name)
+        now = self._triggered()
+        if was and not now:
+            self._close(time)
+        elif now and not was:
+            self._open(time)
+        if self.monitor is None:
+            return
+        if self.period is None:
+            self.monitor.step(seconds(time), self.true & self.names, pulses & self.names)
+        else:
+            self.pending_pulses |= pulses
+
+    def ticks_before(self, bound: int) -> None:
+        """Samples at the rate's ticks before `bound` (all that happened up to a
+        tick is known once the input is final past it)."""
+        if self.period is None or self.next_tick is None:
+            return
+        while self.next_tick < bound:
+            if self.monitor is not None:
+                state = self.true & self.names
+                self.monitor.step(seconds(self.next_tick), state, self.pending_pulses & self.names)
+            self.pending_pulses = set()
+            self.next_tick += self.period
+
+    def verdicts(self) -> list[tuple]:
+        if self.monitor is not None:
+            self.segments.extend(self.monitor.verdicts())
+        out, self.segments = self.segments, []
+        return out
+
+    def end(self, time: int) -> None:
+        self.ticks_before(time + 1)
+        self._close(time)
+
+
+def kapacitor_level(levels: Sequence[ir.AlertLevel], current: int, lookup: Any) -> int:
+    """Kapacitor's AlertNode.determineLevel: a level at or above the current one
+    whose condition holds; else the current one while its reset does not hold;
+    else the highest level below that holds; else OK."""
+    by_rank = {_SEVERITY[level.severity]: level for level in levels}
+
+    def holds(rank: int) -> bool:
+        level = by_rank.get(rank)
+        return level is not None and influx.evaluate(level.condition, lookup) is True
+
+    for rank in range(3, max(current, 1) - 1, -1):
+        if holds(rank):
+            return rank
+    reset = by_rank[current].reset if current in by_rank else None
+    if reset is not None and influx.evaluate(reset, lookup) is not True:
+        return current
+    for rank in range(current, 0, -1):
+        if holds(rank):
+            return rank
+    return 0
+
+
+class AlertState:
+    def __init__(self, alert: ir.Alert) -> None:
+        self.alert = alert
+        self.reads = frozenset(alert.reads)
+        self.current: dict[str, Any] = {}
+        self.level = 0
+
+    def instant(self, time: int, changes: list[tuple[str, Any]]) -> Record | None:
+        touched = False
+        for name, value in changes:
+            if name in self.reads:
+                self.current[name] = value
+                touched = True
+        if not touched:
+            return None
+        previous = self.level
+        self.level = kapacitor_level(self.alert.levels, previous, self.current.get)
+        if self.level == previous and (self.alert.state_changes_only or self.level == 0):
+            return None
+        if self.level == 0 and self.alert.no_recoveries:
+            return None
+        return {
+            "kind": "alert",
+            "alert": self.alert.name,
+            "id": self.alert.id,
+            "time": seconds(time),
+            "level": LEVELS[self.level],
+            "previous": LEVELS[previous],
+            "message": self.alert.message,
+            "values": {n: self.current[n] for n in self.alert.reads if n in self.current},
+        }
+
+
+# ---- intrusion detection ----
+
+
+@dataclass(frozen=True)
+class Endpoint:
+    node: str
+    topic: str
+    role: str  # publisher | subscriber
+
+
+def _matches(patterns: Iterable[ir.Pattern], name: str) -> bool:
+    return any(re.match(p.regex, name) for p in patterns)
+
+
+def verdict_of(spec: ir.Spec, endpoint: Endpoint) -> tuple[str, Any] | None:
+    """Why an endpoint is not allowed (and the rule that refused it), or None."""
+    if _matches(spec.intrusion.ignore_nodes, endpoint.node):
+        return None
+    publisher = endpoint.role == "publisher"
+    lists = [w for w in spec.whitelists if re.match(w.topic.regex, endpoint.topic)]
+    for rule in lists:
+        allowed = rule.publishers if publisher else rule.subscribers
+        if allowed is not None and not _matches(allowed, endpoint.node):
+            return f"not in the {endpoint.role}s allowed on {rule.topic.text}", rule
+    if not lists and spec.intrusion.default == "deny":
+        return f"no whitelist for {endpoint.topic}, and the default is deny", None
+    for node_rule in spec.nodes:
+        if re.match(node_rule.node.regex, endpoint.node):
+            allowed = node_rule.publishes if publisher else node_rule.subscribes
+            verb = "publish" if publisher else "subscribe"
+            if allowed is not None and not _matches(allowed, endpoint.topic):
+                return f"{node_rule.node.text} may not {verb} on {endpoint.topic}", node_rule
+    return None
+
+
+# ---- the runtime ----
+
+
+class Runtime:
+    """The executable spec. `record` chooses the optional record kinds: `state`
+    and `event` (value points and boolean changes) by default, `variable` too when
+    asked for."""
+
+    def __init__(
+        self,
+        spec: ir.Spec,
+        host: Host | None = None,
+        record: Iterable[str] = ("state", "event"),
+        skip: Iterable[str] = (),
+    ) -> None:
+        self.spec = spec
+        self.host: Host = host or RecordingHost()
+        self.recorded = frozenset(record)
+        self.counters: Counter[str] = Counter()
+        self.out: list[Record] = []
+        self.sequence = 0
+        self.started: int | None = None
+        self.now = -_FOREVER
+        self.lateness = max((influx.nanoseconds(p.lateness) for p in spec.properties), default=0)
+        self.held: list[tuple[int, int, str, Any]] = []
+        self.by_topic: dict[str, list[ir.Variable]] = {}
+        topic_names = {t.name: t.ros_name for t in spec.topics}
+        skipped = frozenset(skip)  # variables the input cannot give (the replay checked)
+        for variable in spec.variables:
+            variables = self.by_topic.setdefault(topic_names[variable.topic], [])
+            if variable.name not in skipped:
+                variables.append(variable)
+        self.nodes = _dataflow(spec)
+        self.subscribers: dict[str, list[Node]] = {}
+        for node in self.nodes:
+            for name in node.reads:
+                self.subscribers.setdefault(name, []).append(node)
+        self.producer: dict[str, Node] = {n: node for node in self.nodes for n in node.writes}
+        self.properties: list[PropertyMonitor] = []
+        self.alerts = [AlertState(a) for a in spec.alerts]
+        self.state_of = {s: t.name for t in spec.transducers for s in t.states}
+        self.current_states = {t.name: t.initial for t in spec.transducers}
+        wanted = (
+            {n for p in spec.properties for n in p.propositions}
+            | {p.trigger for p in spec.properties}
+            | {n for a in spec.alerts for n in a.reads}
+        )
+        # A state is read through its transducer, whose items carry the state's name.
+        self.consumed = frozenset(self.state_of.get(n, n) for n in wanted)
+        self.consumer_inbox: list[Item] = []
+        self.open_violations: dict[str, bool] = {}
+        self.pending_segments: dict[str, list[Any]] = {}
+        self.intrusions: dict[Endpoint, str] = {}
+        self.failed_fields: set[tuple[str, str]] = set()
+
+    # ---- input ----
+
+    def message(self, time: int, topic: str, message: Any) -> None:
+        """One message of a ROS topic at `time` (integer nanoseconds)."""
+        self.counters["messages"] += 1
+        if topic not in self.by_topic:
+            self.counters["messages on topics the spec does not read"] += 1
+            return
+        if self.lateness:
+            heapq.heappush(self.held, (time, self.sequence, topic, message))
+            self.sequence += 1
+            newest = max(self.now, time)
+            while self.held and self.held[0][0] <= newest - self.lateness:
+                when, _, held_topic, held_message = heapq.heappop(self.held)
+                self._ingest(when, held_topic, held_message)
+            return
+        self._ingest(time, topic, message)
+
+    def _ingest(self, time: int, topic: str, message: Any) -> None:
+        if time < self.now:
+            self.counters["late messages dropped"] += 1
+            self._note(time, f"a message on {topic} came later than the spec's lateness allows")
+            return
+        if self.started is None:
+            self._begin(time)
+        if time > self.now:
+            self._pump(time)
+            self.now = time
+        for variable in self.by_topic[topic]:
+            try:
+                value = fields.read(variable, message)
+            except fields.FieldError as error:
+                self._field_error(time, topic, variable, str(error))
+                continue
+            if value is fields.MISSING:
+                self.counters[f"no sample: {variable.name}"] += 1
+                continue
+            self._emit(time, variable.name, value, topic)
+
+    def damaged(self, time: int, topic: str, reason: str) -> None:
+        """A message that could not be decoded: counted, reported once per topic."""
+        self.counters[f"damaged messages: {topic}"] += 1
+        if (topic, "") not in self.failed_fields:
+            self.failed_fields.add((topic, ""))
+            self._note(time, f"{topic}: a message cannot be decoded: {reason}")
+
+    def _field_error(self, time: int, topic: str, variable: ir.Variable, reason: str) -> None:
+        self.counters[f"messages not matching the spec: {variable.name}"] += 1
+        if (topic, variable.name) not in self.failed_fields:
+            self.failed_fields.add((topic, variable.name))
+            self._note(time, f"{topic}: `{variable.name}` cannot be read: {reason}")
+
+    def _note(self, time: int, text: str) -> None:
+        self.out.append({"kind": "diagnostic", "time": seconds(time), "message": text})
+
+    def _begin(self, time: int) -> None:
+        self.started = time
+        initial = frozenset(t.initial for t in self.spec.transducers)
+        self.properties = [PropertyMonitor(p, time, initial) for p in self.spec.properties]
+        for transducer in self.spec.transducers:
+            if "state" in self.recorded:
+                self.out.append(
+                    {"kind": "state", "transducer": transducer.name, "time": seconds(time),
+                     "state": transducer.initial}
+                )  # fmt: skip
+
+    def graph(self, time: int, endpoints: Iterable[Endpoint]) -> None:
+        """A snapshot of the ROS graph: every endpoint present at `time`. An
+        intrusion is reported when it appears and when it ends."""
+        present: dict[Endpoint, str] = {}
+        rules: dict[Endpoint, Any] = {}
+        for endpoint in endpoints:
+            found = verdict_of(self.spec, endpoint)
+            if found is not None:
+                present[endpoint], rules[endpoint] = found
+        for endpoint, reason in present.items():
+            if endpoint not in self.intrusions:
+                self._intrusion(time, endpoint, reason, rules[endpoint], "start")
+        for endpoint, reason in list(self.intrusions.items()):
+            if endpoint not in present:
+                self._intrusion(time, endpoint, reason, None, "end")
+        self.intrusions = present
+
+    def _intrusion(self, time: int, endpoint: Endpoint, reason: str, rule: Any, phase: str) -> None:
+        record = {
+            "kind": "intrusion", "time": seconds(time), "phase": phase, "node": endpoint.node,
+            "topic": endpoint.topic, "role": endpoint.role, "reason": reason,
+        }  # fmt: skip
+        self.out.append(record)
+        if phase != "start":
+            return
+        self.counters["intrusions"] += 1
+        actions = (*(rule.actions if rule is not None else ()), *self.spec.intrusion.actions)
+        owner = "intrusion" if rule is None else type(rule).__name__.lower()
+        for action in actions:
+            text = action_text(action, f"intrusion: {endpoint.node} {reason}")
+            context = ActionContext(
+                owner, endpoint.node, action_level(action, "error"), text, record
+            )
+            self.host.act(action, context)
+
+    def end(self, time: int | None = None) -> None:
+        """The input ends at `time` (default: the newest message)."""
+        while self.held:
+            when, _, topic, message = heapq.heappop(self.held)
+            self._ingest(when, topic, message)
+        if self.started is None:
+            return
+        time = self.now if time is None else max(time, self.now)
+        for node in self.nodes:
+            if isinstance(node, WindowedEvent):
+                node.draining_until = time + 1
+        self._pump(_FOREVER)
+        for monitor in self.properties:
+            monitor.end(time)
+            self._verdicts(monitor)
+        for name in list(self.pending_segments):
+            self._flush_segment(name)
+        for name, value in sorted(self.counters.items()):
+            self.out.append({"kind": "counter", "name": name, "value": value})
+
+    def records(self) -> list[Record]:
+        """The records produced since the last call, in the order they were decided."""
+        if isinstance(self.host, RecordingHost):
+            self.out.extend(self.host.records)
+            self.host.records.clear()
+        out, self.out = self.out, []
+        return out
+
+    # ---- the dataflow ----
+
+    def _emit(self, time: int, name: str, value: Any, source: str) -> None:
+        self.sequence += 1
+        item = (time, self.sequence, name, value, source)
+        for node in self.subscribers.get(name, ()):
+            node.inbox.append(item)
+        if name in self.consumed:
+            self.consumer_inbox.append(item)
+        producer = self.producer.get(name)
+        if producer is None:
+            if "variable" in self.recorded:
+                self.out.append(
+                    {"kind": "variable", "time": seconds(time), "name": name, "value": value}
+                )
+        elif isinstance(producer, Transducer) and name == producer.name:
+            if "state" in self.recorded:
+                self.out.append(
+                    {"kind": "state", "transducer": name, "time": seconds(time), "state": value}
+                )
+        elif "event" in self.recorded:
+            self.out.append({"kind": "event", "time": seconds(time), "name": name, "value": value})
+
+    def _pump(self, input_final: int) -> None:
+        """Let every node compute what its inputs have made final."""
+        finals: dict[str, int] = {}
+        for node in self.nodes:
+            bound = min((finals.get(n, input_final) for n in node.reads), default=input_final)
+            node.process(bound, self._emit)
+            for name in node.writes:
+                finals[name] = node.final
+        bound = min((finals.get(n, input_final) for n in self.consumed), default=input_final)
+        self._consume(bound)
+
+    def _consume(self, bound: int) -> None:
+        inbox = self.consumer_inbox
+        if inbox:
+            inbox.sort()
+            cut = next((i for i, item in enumerate(inbox) if item[0] >= bound), len(inbox))
+            taken, self.consumer_inbox = inbox[:cut], inbox[cut:]
+            for time, items in _instants(taken):
+                changes = self._changes(items)
+                for monitor in self.properties:
+                    monitor.instant(time, changes)
+                for alert in self.alerts:
+                    record = alert.instant(time, changes)
+                    if record is not None:
+                        self._alert(alert.alert, record)
+        for monitor in self.properties:
+            if bound < _FOREVER:
+                monitor.ticks_before(bound)
+            self._verdicts(monitor)
+
+    def _changes(self, items: list[Item]) -> list[tuple[str, Any]]:
+        """Items as proposition changes: a transducer entering a state makes its
+        old state false and the new one true."""
+        changes: list[tuple[str, Any]] = []
+        for _, _, name, value, _ in items:
+            old = self.current_states.get(name)
+            if old is None:
+                changes.append((name, value))
+                continue
+            self.current_states[name] = value
+            changes.extend(((old, False), (value, True)))
+        return changes
+
+    def _alert(self, alert: ir.Alert, record: Record) -> None:
+        self.out.append(record)
+        self.counters[f"alerts: {alert.name}"] += 1
+        level = {"OK": "info", "INFO": "info", "WARNING": "warn", "CRITICAL": "error"}
+        for action in alert.actions:
+            text = action_text(action, alert.message)
+            context = ActionContext(
+                "alert", alert.name, action_level(action, level[record["level"]]), text, record
+            )
+            self.host.act(action, context)
+
+    def _verdicts(self, monitor: PropertyMonitor) -> None:
+        name = monitor.prop.name
+        for start, stop, start_closed, stop_closed, verdict in monitor.verdicts():
+            value = verdict.split(" ")[0]
+            segment = [start, stop, start_closed, stop_closed, value]
+            pending = self.pending_segments.get(name)
+            if (
+                pending is not None
+                and pending[4] == value
+                and pending[1] == start
+                and (pending[3] or start_closed)
+            ):
+                pending[1], pending[3] = stop, stop_closed
+                continue
+            if pending is not None:
+                self._flush_segment(name)
+            self.pending_segments[name] = segment
+            if value == "false":
+                self._violated(monitor.prop, segment)
+
+    def _violated(self, prop: ir.Property, segment: list[Any]) -> None:
+        self.counters[f"violations: {prop.name}"] += 1
+        record = {"kind": "violation", "property": prop.name, "from": segment[0]}
+        for action in prop.actions:
+            text = action_text(action, f"{prop.name} violated")
+            self.host.act(
+                action,
+                ActionContext("property", prop.name, action_level(action, "error"), text, record),
+            )
+
+    def _flush_segment(self, name: str) -> None:
+        start, stop, start_closed, stop_closed, value = self.pending_segments.pop(name)
+        bounds = ("[" if start_closed else "(") + ("]" if stop_closed else ")")
+        self.out.append(
+            {
+                "kind": "verdict", "property": name, "verdict": value, "from": start,
+                "to": stop, "bounds": bounds,
+            }
+        )  # fmt: skip
+
+    def flush(self) -> None:
+        """Write out the verdict segments still growing (a live host calls this
+        periodically; the replay lets them grow to their full length)."""
+        for name in list(self.pending_segments):
+            self._flush_segment(name)
+
+
+def _dataflow(spec: ir.Spec) -> list[Node]:
+    """Events and transducers as nodes, each after every node it reads."""
+    nodes: dict[str, Node] = {}
+    for event in spec.events:
+        if event.window is not None:
+            nodes[event.name] = WindowedEvent(event)
+        elif event.kind == "boolean":
+            nodes[event.name] = Condition(event)
+        else:
+            nodes[event.name] = RawEvent(event)
+    for transducer in spec.transducers:
+        nodes[transducer.name] = Transducer(transducer)
+    producer = {w: key for key, node in nodes.items() for w in node.writes}
+    sorter: graphlib.TopologicalSorter[str] = graphlib.TopologicalSorter()
+    for key, node in nodes.items():
+        sorter.add(key, *(producer[r] for r in node.reads if r in producer and producer[r] != key))
+    try:
+        order = list(sorter.static_order())
+    except graphlib.CycleError as error:
+        cycle = " -> ".join(error.args[1])
+        raise SpecError(f"events and transducers read each other in a cycle: {cycle}") from None
+    return [nodes[key] for key in order]
+
+
+class SpecError(ValueError):
+    """A resolved spec the runtime cannot run (a cycle through a transducer)."""
+
+
+def to_json(record: Record) -> str:
+    """One record as one line of JSON; times and other fractions as exact decimals
+    (a quotient such as "1/3" as a string where no decimal is exact)."""
+    numbers: list[str] = []
+
+    def plain(value: Any) -> Any:
+        if isinstance(value, Fraction):
+            text = exact_decimal(value)
+            if text is None:
+                return f"{value.numerator}/{value.denominator}"
+            numbers.append(text)
+            return f"\x00{len(numbers) - 1}\x00"
+        if isinstance(value, dict):
+            return {k: plain(v) for k, v in value.items()}
+        if isinstance(value, list | tuple):
+            return [plain(v) for v in value]
+        if isinstance(value, float) and not math.isfinite(value):
+            return repr(value)  # JSON has no NaN or infinity: "nan", "inf", "-inf"
+        return value
+
+    text = _ONE_LINE(plain(record))
+    return re.sub(r'"\\u0000(\d+)\\u0000"', lambda m: numbers[int(m.group(1))], text)
+
+
+_ONE_LINE = json.JSONEncoder(ensure_ascii=False, separators=(", ", ": ")).encode
