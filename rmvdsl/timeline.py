@@ -27,8 +27,7 @@ def _figure(spec: ir.Spec, records: Sequence[Record]) -> Any:
     matplotlib.use("Agg")
     from matplotlib import pyplot as plt
 
-    origin = min((r.get("from", r.get("time")) for r in records if "time" in r or "from" in r),
-                 default=0)  # fmt: skip
+    origin: Any = min((_when(r) for r in records if "time" in r or "from" in r), default=0)
     records = [_shifted(r, origin) for r in records]
     verdicts = [r for r in records if r["kind"] == "verdict"]
     states = [r for r in records if r["kind"] == "state"]
@@ -40,7 +39,7 @@ def _figure(spec: ir.Spec, records: Sequence[Record]) -> Any:
     booleans = [e.name for e in spec.events if e.kind == "boolean"]
     bands = [p.name for p in spec.properties] + [t.name for t in spec.transducers] + booleans
     timed = [r for r in records if r["kind"] in ("verdict", "state", "event", "variable")]
-    end = max((float(r.get("to", r.get("time", 0))) for r in timed), default=1.0)
+    end = max((float(r["to"] if "to" in r else r["time"]) for r in timed), default=1.0)
     lines = [name for name in series if name not in booleans][:6]
     figure, axes = plt.subplots(
         1 + len(lines), 1, sharex=True, squeeze=False,
@@ -72,6 +71,10 @@ def _figure(spec: ir.Spec, records: Sequence[Record]) -> Any:
     axes[-1][0].set_xlabel(f"seconds after {float(origin):.3f} on the recording's clock")
     figure.tight_layout()
     return figure
+
+
+def _when(record: Record) -> Any:
+    return record["from"] if "from" in record else record["time"]
 
 
 def _shifted(record: Record, origin: Any) -> Record:
