@@ -14,11 +14,13 @@ was batched or how late a query ran.
 
 from __future__ import annotations
 
+import bisect
 import graphlib
 import heapq
 import json
 import math
 import re
+from abc import ABC, abstractmethod
 from collections import Counter
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
@@ -104,7 +106,14 @@ def action_level(action: ir.Action, default: str) -> str:
 # ---- nodes ----
 
 
-class Node:
+def _take(inbox: list[Item], bound: int) -> tuple[list[Item], list[Item]]:
+    """The items before `bound`, oldest first (ties in arrival order), and the rest."""
+    inbox.sort()
+    cut = bisect.bisect_left(inbox, (bound,))
+    return inbox[:cut], inbox[cut:]
+
+
+class Node(ABC):
     """A step of the dataflow: reads items of `reads`, writes items of `writes`."""
 
     name: str
@@ -116,21 +125,14 @@ class Node:
         self.final = -_FOREVER  # output before this time is final
 
     def take(self, bound: int) -> list[Item]:
-        """The inbox's items before `bound`, oldest first (ties in arrival order)."""
         if not self.inbox:
             return []
-        self.inbox.sort()
-        cut = 0
-        for cut, item in enumerate(self.inbox):  # noqa: B007
-            if item[0] >= bound:
-                break
-        else:
-            cut = len(self.inbox)
-        taken, self.inbox = self.inbox[:cut], self.inbox[cut:]
+        taken, self.inbox = _take(self.inbox, bound)
         return taken
 
+    @abstractmethod
     def process(self, bound: int, emit: Callable[[int, str, Any, str], None]) -> None:
-        raise NotImplementedError
+        """Consume the inbox before `bound`, emit what that decides, set `final`."""
 
 
 def _instants(items: list[Item]) -> Iterable[tuple[int, list[Item]]]:
@@ -663,11 +665,8 @@ class Runtime:
         self._consume(bound)
 
     def _consume(self, bound: int) -> None:
-        inbox = self.consumer_inbox
-        if inbox:
-            inbox.sort()
-            cut = next((i for i, item in enumerate(inbox) if item[0] >= bound), len(inbox))
-            taken, self.consumer_inbox = inbox[:cut], inbox[cut:]
+        if self.consumer_inbox:
+            taken, self.consumer_inbox = _take(self.consumer_inbox, bound)
             for time, items in _instants(taken):
                 changes = self._changes(items)
                 for monitor in self.properties:

@@ -16,7 +16,8 @@ from __future__ import annotations
 import bisect
 import math
 import random
-from collections.abc import Callable, Iterable, Sequence
+import re
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
@@ -100,8 +101,6 @@ _REGEXES: dict[str, Any] = {}
 
 
 def _regex(text: str) -> Any:
-    import re
-
     found = _REGEXES.get(text)
     if found is None:
         found = _REGEXES[text] = re.compile(text)
@@ -715,7 +714,3 @@ def drain(state: EventState, limit: int) -> list[tuple[int, Any]]:
     while state.next_run is not None and (state.rows or state.written):
         out.extend(state.advance(state.next_run))
     return [p for p in out if p[0] < limit]
-
-
-def rows_of(time: int, fields: Iterable[tuple[str, Any]]) -> Row:
-    return Row(time, dict(fields))
