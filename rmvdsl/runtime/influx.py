@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
-from rmvdsl import builtins
+from rmvdsl.builtins import function as builtin
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime import values
 
@@ -357,7 +357,7 @@ STREAMS = frozenset(
 
 def _second(call: ir.Call) -> Any:
     """The constant second argument: a time in nanoseconds, or a number."""
-    fn = builtins.function(call.function)
+    fn = builtin(call.function)
     if len(call.args) < 2:
         if fn.second == "time":
             return 1 if call.function == "elapsed" else NS
@@ -371,7 +371,7 @@ def _second(call: ir.Call) -> Any:
 
 
 def _aggregating(call: ir.Call) -> bool:
-    return builtins.function(call.function).group in ("aggregation", "selector")
+    return builtin(call.function).group in ("aggregation", "selector")
 
 
 def _calls(expr: ir.Expr) -> list[ir.Call]:
