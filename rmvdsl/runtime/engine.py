@@ -607,9 +607,12 @@ class Runtime:
         while self.held:
             when, _, topic, message = heapq.heappop(self.held)
             self._ingest(when, topic, message)
-        if self.started is None:
-            return
-        time = self.now if time is None else max(time, self.now)
+        if self.started is not None:
+            self._finish(self.now if time is None else max(time, self.now))
+        for name, value in sorted(self.counters.items()):
+            self.out.append({"kind": "counter", "name": name, "value": value})
+
+    def _finish(self, time: int) -> None:
         for node in self.nodes:
             if isinstance(node, WindowedEvent):
                 node.draining_until = time + 1
@@ -619,8 +622,6 @@ class Runtime:
             self._verdicts(monitor)
         for name in list(self.pending_segments):
             self._flush_segment(name)
-        for name, value in sorted(self.counters.items()):
-            self.out.append({"kind": "counter", "name": name, "value": value})
 
     def records(self) -> list[Record]:
         """The records produced since the last call, in the order they were decided."""

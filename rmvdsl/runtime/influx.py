@@ -415,6 +415,8 @@ class RawQuery:
             stream = self.streams.get(id(expr))
             if stream is not None:
                 return stream.push(row.time, inner)
+            if expr.function == "atan2":
+                return _atan2(inner, self._value(expr.args[1], row))
             return elementwise(expr.function, inner, _second(expr))
         if isinstance(expr, ir.Binary):
             return _binary(expr, self._value(expr.left, row), lambda: self._value(expr.right, row))
@@ -490,6 +492,8 @@ class WindowedQuery:
             if _aggregating(expr):
                 return self._aggregate(expr, rows, windows)
             inner = self._series(expr.args[0], rows, windows)
+            if expr.function == "atan2":  # atan2(y, x): two series, joined on time
+                return _join(_atan2, inner, self._series(expr.args[1], rows, windows))
             if expr.function in STREAMS:
                 stream = Stream(expr.function, _second(expr))
                 out: Series = {}
@@ -504,7 +508,7 @@ class WindowedQuery:
         if isinstance(expr, ir.Binary):
             left = self._series(expr.left, rows, windows)
             right = self._series(expr.right, rows, windows)
-            return _join(expr, left, right)
+            return _join(_operator(expr), left, right)
         if isinstance(expr, ir.Unary):
             operand = self._series(expr.operand, rows, windows)
             if not isinstance(operand, dict):
@@ -534,17 +538,21 @@ class WindowedQuery:
                 grouped.setdefault(key, []).append(point)
             found = {w: reduce(call.function, ps, second) for w, ps in grouped.items()}
             found = {w: v for w, v in found.items() if v is not MISSING}
-        return _fill(self.event.fill, call.function, found, windows)
+        return _fill(self.event.fill, call, found, windows)
 
     def _multi_points(self, call: ir.Call, rows: list[Row], windows: range) -> list:
         points = self._points(call.args[0], rows)
         second = _second(call)
         n = int(second) if second is not None else 0
+        times = [t for t, _ in points]
+        # InfluxDB stamps distinct's points at the window's start (an interval
+        # iterator); top, bottom and sample keep their points' own times.
+        keep_time = call.function != "distinct"
         out: list[tuple[int, Any]] = []
         for window in windows:
-            inside = [p for p in points if window <= p[0] < window + self.interval]
-            chosen = multi(call.function, inside, n, window)
-            keep_time = call.function in ("top", "bottom")
+            low = bisect.bisect_left(times, window)
+            high = bisect.bisect_left(times, window + self.interval)
+            chosen = multi(call.function, points[low:high], n, window)
             out.extend((t if keep_time else window, v) for t, v in chosen)
         return out
 
@@ -553,35 +561,45 @@ def _nan(value: Any) -> bool:
     return isinstance(value, float) and math.isnan(value)
 
 
-def _join(expr: ir.Binary, left: Any, right: Any) -> Any:
-    """A binary operator over two series joined on time (InfluxQL's binary
-    iterator: a time missing on one side is null), or with a constant."""
+def _join(combine: Callable[[Any, Any], Any], left: Any, right: Any) -> Any:
+    """Two series joined on time (InfluxQL's binary iterator: a time missing on
+    one side is null), or a series with a constant."""
     if not isinstance(left, dict) and not isinstance(right, dict):
-        return _binary(expr, left, lambda: right)
+        return combine(left, right)
     if not isinstance(left, dict):
-        return {t: _binary(expr, left, _const(v)) for t, v in right.items()}
+        return {t: combine(left, v) for t, v in right.items()}
     if not isinstance(right, dict):
-        return {t: _binary(expr, v, _const(right)) for t, v in left.items()}
+        return {t: combine(v, right) for t, v in left.items()}
     times = sorted(set(left) | set(right))
-    return {t: _binary(expr, left.get(t, MISSING), _const(right.get(t, MISSING))) for t in times}
+    return {t: combine(left.get(t, MISSING), right.get(t, MISSING)) for t in times}
+
+
+def _operator(expr: ir.Binary) -> Callable[[Any, Any], Any]:
+    return lambda left, right: _binary(expr, left, _const(right))
+
+
+def _atan2(y: Any, x: Any) -> Any:
+    return MISSING if x is MISSING else elementwise("atan2", y, x)
 
 
 def _const(value: Any) -> Callable[[], Any]:
     return lambda: value
 
 
-def _fill(fill: ir.Fill, function: str, found: Series, windows: range) -> Series:
+def _fill(fill: ir.Fill, call: ir.Call, found: Series, windows: range) -> Series:
     """InfluxQL's fill iterator over the run's windows (query/iterator.gen.go):
     `count` fills 0 where others fill null; `previous` carries the last real value
     (none before the first); `linear` interpolates between real neighbours only."""
     mode = fill.mode
-    if mode == "null" and function == "count":
+    if mode == "null" and call.function == "count":
         return {w: found.get(w, 0) for w in windows}
     if mode in ("null", "none"):
         return found
     if mode == "number":
         assert fill.value is not None
-        number = _number(fill.value)
+        number = _fill_number(_number(fill.value), call.type.kind)
+        if number is MISSING:
+            return found
         return {w: found.get(w, number) for w in windows}
     out: Series = {}
     real = sorted(found)
@@ -598,6 +616,16 @@ def _fill(fill: ir.Fill, function: str, found: Series, windows: range) -> Series
                 following = real[index]
                 out[w] = _linear(w, previous, (following, found[following]), windows.step)
     return out
+
+
+def _fill_number(number: int | float, kind: str) -> Any:
+    """The fill value cast to the series' type, as the fill iterator casts it
+    (an integer series truncates 2.7 to 2); no fill for bools and strings."""
+    if kind == "int":
+        return int(number)
+    if kind in ("float", "time", "duration"):
+        return float(number)
+    return MISSING
 
 
 def _linear(w: int, previous: tuple[int, Any], following: tuple[int, Any], step: int) -> Any:
