@@ -340,7 +340,10 @@ def _replay(args: argparse.Namespace) -> int:
         )  # fmt: skip
     except (replay.ReplayError, ValueError, ZeroDivisionError) as exc:
         raise UsageError(str(exc)) from None
-    return EXIT_ERRORS if summary.failed else EXIT_OK
+    if summary.failed:
+        return EXIT_ERRORS
+    # Input lost to a mismatch with the spec: the verdicts cannot be trusted.
+    return EXIT_USAGE if summary.warnings else EXIT_OK
 
 
 def _build(args: argparse.Namespace) -> int:

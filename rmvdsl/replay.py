@@ -28,8 +28,9 @@ class Plan:
     was found wrong before reading."""
 
     connections: list[Any] = field(default_factory=list)
-    problems: list[str] = field(default_factory=list)
+    problems: list[tuple[str, str]] = field(default_factory=list)  # (origin, text)
     skipped_variables: set[str] = field(default_factory=set)
+    skipped_messages: dict[str, int] = field(default_factory=dict)  # counter -> count
 
 
 def _message_text(message: ir.Message) -> str:
@@ -85,27 +86,35 @@ def plan(spec: ir.Spec, reader: Any) -> Plan:
     for topic in spec.topics:
         connections = by_topic.get(topic.ros_name, [])
         if not connections:
-            found.problems.append(
+            found.problems.append((
+                topic.origin,
                 f"topic `{topic.name}` ({topic.ros_name}) is not in the recording: "
-                "what it feeds stays without values"
-            )
+                "what it feeds stays without values",
+            ))  # fmt: skip
             continue
         for connection in connections:
             if connection.msgtype != topic.message_type:
-                found.problems.append(
+                found.problems.append((
+                    topic.origin,
                     f"topic `{topic.name}` ({topic.ros_name}) is recorded as {connection.msgtype}, "
-                    f"the spec reads {topic.message_type}: its messages are skipped"
-                )
+                    f"the spec reads {topic.message_type}: its messages are skipped",
+                ))  # fmt: skip
+                key = f"messages of another type: {topic.ros_name}"
+                skipped = found.skipped_messages
+                skipped[key] = skipped.get(key, 0) + connection.msgcount
                 continue
             found.connections.append(connection)
             for variable in variables.get(topic.name, []):
                 problem = _path_problem(reader.typestore, connection.msgtype, variable)
                 if problem is not None and variable.name not in found.skipped_variables:
                     found.skipped_variables.add(variable.name)
-                    found.problems.append(
-                        f"variable `{variable.name}` on {topic.ros_name}: {problem}"
-                    )
+                    text = f"variable `{variable.name}` on {topic.ros_name}: {problem}"
+                    found.problems.append((variable.origin, text))
     return found
+
+
+def _watches_graph(spec: ir.Spec) -> bool:
+    return bool(spec.whitelists or spec.nodes or spec.intrusion.default == "deny")
 
 
 def open_reader(paths: Sequence[Path], spec: ir.Spec) -> Any:
@@ -150,16 +159,26 @@ def replay(
     reader = open_reader(paths, spec)
     try:
         found = plan(spec, reader)
-        for problem in found.problems:
-            yield {"kind": "diagnostic", "time": seconds(reader.start_time), "message": problem}
+        for origin, problem in found.problems:
+            yield {
+                "kind": "diagnostic", "time": seconds(reader.start_time), "origin": origin,
+                "message": problem,
+            }  # fmt: skip
         runtime = Runtime(spec, host, record=record, skip=found.skipped_variables)
+        runtime.counters.update(found.skipped_messages)
         low, high = _time(start, reader.start_time), _time(stop, reader.start_time)
         endpoints: set[Endpoint] = set()
         seen_connections: set[int] = set()
+        read = {c.id for c in found.connections}
+        # ROS 1 bags name each connection's publisher: every connection then
+        # counts for intrusion detection, from its first message on.
+        publishers = [c for c in reader.connections if getattr(c.ext, "callerid", None)]
+        watched = publishers if _watches_graph(spec) else []
+        connections = found.connections + [c for c in watched if c.id not in read]
         total = sum(c.msgcount for c in found.connections)
         done = 0
         for connection, timestamp, raw in reader.messages(
-            connections=found.connections, start=low, stop=high
+            connections=connections, start=low, stop=high
         ):
             if connection.id not in seen_connections:
                 seen_connections.add(connection.id)
@@ -167,6 +186,8 @@ def replay(
                 if caller:
                     endpoints.add(Endpoint(caller, connection.topic, "publisher"))
                     runtime.graph(timestamp, endpoints)
+            if connection.id not in read:
+                continue
             try:
                 message = reader.deserialize(raw, connection.msgtype)
             except Exception as error:
@@ -207,6 +228,7 @@ def progress_bar(stream: Any = sys.stderr) -> Callable[[int, int], None]:
 class Summary:
     violations: int = 0
     intrusions: int = 0
+    warnings: int = 0  # the recording did not match the spec: some input was lost
 
     @property
     def failed(self) -> bool:
@@ -252,7 +274,8 @@ def text_line(record: Record) -> str | None:
             + (record["message"])
         )
     if kind == "diagnostic":
-        return f"warning   {_decimal(record['time'])} {record['message']}"
+        where = f"{record['origin']}: " if record.get("origin") else ""
+        return f"warning   {_decimal(record['time'])} {where}{record['message']}"
     if kind == "counter":
         return f"counter   {record['name']}: {record['value']}"
     return None
@@ -322,6 +345,8 @@ def run(
             summary.violations += 1
         elif item["kind"] == "intrusion" and item["phase"] == "start":
             summary.intrusions += 1
+        elif item["kind"] == "diagnostic":
+            summary.warnings += 1
         if report:
             kept.append(item)
         if output == "text":
@@ -335,9 +360,11 @@ def run(
     if output == "json":
         out.write("\n]}\n")
     if output == "text":
+        verdict = "FAILED" if summary.failed else "incomplete" if summary.warnings else "passed"
         out.write(
-            f"{'FAILED' if summary.failed else 'passed'}: {summary.violations} violations, "
-            f"{summary.intrusions} intrusions\n"
+            f"{verdict}: {summary.violations} violations, {summary.intrusions} intrusions"
+            + (f", {summary.warnings} warnings about the recording" if summary.warnings else "")
+            + "\n"
         )
     if report:
         from rmvdsl import timeline

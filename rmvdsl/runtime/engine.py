@@ -14,7 +14,6 @@ was batched or how late a query ran.
 
 from __future__ import annotations
 
-import bisect
 import graphlib
 import heapq
 import json
@@ -40,6 +39,11 @@ _SEVERITY = {"info": 1, "warn": 2, "crit": 3}
 
 Item = tuple[int, int, str, Any, str]  # time, sequence, name, value, source
 Record = dict[str, Any]
+
+
+# The dataflow runs once per this many input instants (and on `decide()`): its output
+# does not depend on the batching, and a batch costs the per-run overhead once.
+PUMP_EVERY = 64
 
 
 def seconds(ns: int) -> Fraction:
@@ -106,11 +110,14 @@ def action_level(action: ir.Action, default: str) -> str:
 # ---- nodes ----
 
 
-def _take(inbox: list[Item], bound: int) -> tuple[list[Item], list[Item]]:
-    """The items before `bound`, oldest first (ties in arrival order), and the rest."""
-    inbox.sort()
-    cut = bisect.bisect_left(inbox, (bound,))
-    return inbox[:cut], inbox[cut:]
+def _take(inbox: list[Item], bound: int) -> list[Item]:
+    """Remove the items before `bound` from the heap `inbox`, oldest first (ties in
+    arrival order). A heap, because items wait in an inbox until the slowest input
+    of the node is final (a query running once a minute) while the others arrive."""
+    taken = []
+    while inbox and inbox[0][0] < bound:
+        taken.append(heapq.heappop(inbox))
+    return taken
 
 
 class Node(ABC):
@@ -119,16 +126,14 @@ class Node(ABC):
     name: str
     reads: tuple[str, ...]
     writes: tuple[str, ...]
+    reactive = True  # changes only when an input arrives (a query runs on a clock)
 
     def __init__(self) -> None:
         self.inbox: list[Item] = []
         self.final = -_FOREVER  # output before this time is final
 
     def take(self, bound: int) -> list[Item]:
-        if not self.inbox:
-            return []
-        taken, self.inbox = _take(self.inbox, bound)
-        return taken
+        return _take(self.inbox, bound) if self.inbox else []
 
     @abstractmethod
     def process(self, bound: int, emit: Callable[[int, str, Any, str], None]) -> None:
@@ -170,6 +175,8 @@ class RawEvent(Node):
 
 
 class WindowedEvent(Node):
+    reactive = False
+
     def __init__(self, event: ir.Event) -> None:
         super().__init__()
         self.name, self.reads, self.writes = event.name, event.reads, (event.name,)
@@ -468,22 +475,26 @@ class Runtime:
         self.out: list[Record] = []
         self.sequence = 0
         self.started: int | None = None
-        self.now = -_FOREVER
+        self.now = -_FOREVER  # the newest time fed to the dataflow
+        self.instants = 0  # distinct input times so far
+        self.newest = -_FOREVER  # the newest time seen (some may still be held)
         self.lateness = max((influx.nanoseconds(p.lateness) for p in spec.properties), default=0)
         self.held: list[tuple[int, int, str, Any]] = []
-        self.by_topic: dict[str, list[ir.Variable]] = {}
+        self.by_topic: dict[str, list[tuple[ir.Variable, Callable[[Any], Any]]]] = {}
         topic_names = {t.name: t.ros_name for t in spec.topics}
+        self.topic_origin = {t.ros_name: t.origin for t in spec.topics}
         skipped = frozenset(skip)  # variables the input cannot give (the replay checked)
         for variable in spec.variables:
             variables = self.by_topic.setdefault(topic_names[variable.topic], [])
             if variable.name not in skipped:
-                variables.append(variable)
+                variables.append((variable, fields.reader(variable)))
         self.nodes = _dataflow(spec)
         self.subscribers: dict[str, list[Node]] = {}
         for node in self.nodes:
             for name in node.reads:
                 self.subscribers.setdefault(name, []).append(node)
         self.producer: dict[str, Node] = {n: node for node in self.nodes for n in node.writes}
+        self.upstream = [(node, self._producers(node.reads)) for node in self.nodes]
         self.properties: list[PropertyMonitor] = []
         self.alerts = [AlertState(a) for a in spec.alerts]
         self.state_of = {s: t.name for t in spec.transducers for s in t.states}
@@ -496,6 +507,7 @@ class Runtime:
         # A state is read through its transducer, whose items carry the state's name.
         self.consumed = frozenset(self.state_of.get(n, n) for n in wanted)
         self.consumer_inbox: list[Item] = []
+        self.consumer_upstream = self._producers(self.consumed)
         self.open_violations: dict[str, bool] = {}
         self.pending_segments: dict[str, list[Any]] = {}
         self.intrusions: dict[Endpoint, str] = {}
@@ -512,8 +524,8 @@ class Runtime:
         if self.lateness:
             heapq.heappush(self.held, (time, self.sequence, topic, message))
             self.sequence += 1
-            newest = max(self.now, time)
-            while self.held and self.held[0][0] <= newest - self.lateness:
+            self.newest = max(self.newest, time)
+            while self.held and self.held[0][0] <= self.newest - self.lateness:
                 when, _, held_topic, held_message = heapq.heappop(self.held)
                 self._ingest(when, held_topic, held_message)
             return
@@ -521,17 +533,25 @@ class Runtime:
 
     def _ingest(self, time: int, topic: str, message: Any) -> None:
         if time < self.now:
-            self.counters["late messages dropped"] += 1
-            self._note(time, f"a message on {topic} came later than the spec's lateness allows")
+            self.counters[f"late messages dropped: {topic}"] += 1
+            if (topic, "late") not in self.failed_fields:  # once per topic; counted
+                self.failed_fields.add((topic, "late"))
+                late = exact_decimal(seconds(self.now - time)) or str(seconds(self.now - time))
+                self._note(
+                    time, f"{topic}: a message came {late} s late, later than the spec's "
+                    "lateness allows: dropped (set `lateness` on a property)", topic,
+                )  # fmt: skip
             return
         if self.started is None:
             self._begin(time)
         if time > self.now:
-            self._pump(time)
             self.now = time
-        for variable in self.by_topic[topic]:
+            self.instants += 1
+            if self.instants % PUMP_EVERY == 0:
+                self._pump(time)
+        for variable, read in self.by_topic[topic]:
             try:
-                value = fields.read(variable, message)
+                value = read(message)
             except fields.FieldError as error:
                 self._field_error(time, topic, variable, str(error))
                 continue
@@ -545,16 +565,23 @@ class Runtime:
         self.counters[f"damaged messages: {topic}"] += 1
         if (topic, "") not in self.failed_fields:
             self.failed_fields.add((topic, ""))
-            self._note(time, f"{topic}: a message cannot be decoded: {reason}")
+            self._note(time, f"{topic}: a message cannot be decoded: {reason}", topic)
 
     def _field_error(self, time: int, topic: str, variable: ir.Variable, reason: str) -> None:
         self.counters[f"messages not matching the spec: {variable.name}"] += 1
         if (topic, variable.name) not in self.failed_fields:
             self.failed_fields.add((topic, variable.name))
-            self._note(time, f"{topic}: `{variable.name}` cannot be read: {reason}")
+            self._note(
+                time, f"{topic}: `{variable.name}` cannot be read: {reason}", topic, variable.origin
+            )
 
-    def _note(self, time: int, text: str) -> None:
-        self.out.append({"kind": "diagnostic", "time": seconds(time), "message": text})
+    def _note(self, time: int, text: str, topic: str, origin: str = "") -> None:
+        """A diagnostic record, at the spec's declaration that the input disagrees
+        with (the topic's, unless a more precise one is given)."""
+        origin = origin or self.topic_origin.get(topic, "")
+        self.out.append(
+            {"kind": "diagnostic", "time": seconds(time), "origin": origin, "message": text}
+        )
 
     def _begin(self, time: int) -> None:
         self.started = time
@@ -633,13 +660,18 @@ class Runtime:
 
     # ---- the dataflow ----
 
+    def _producers(self, names: Iterable[str]) -> list[Node]:
+        """The nodes that write any of `names` (variables have none)."""
+        found = (self.producer[n] for n in names if n in self.producer)
+        return list(dict.fromkeys(found))
+
     def _emit(self, time: int, name: str, value: Any, source: str) -> None:
         self.sequence += 1
         item = (time, self.sequence, name, value, source)
         for node in self.subscribers.get(name, ()):
-            node.inbox.append(item)
+            heapq.heappush(node.inbox, item)
         if name in self.consumed:
-            self.consumer_inbox.append(item)
+            heapq.heappush(self.consumer_inbox, item)
         producer = self.producer.get(name)
         if producer is None:
             if "variable" in self.recorded:
@@ -655,19 +687,27 @@ class Runtime:
             self.out.append({"kind": "event", "time": seconds(time), "name": name, "value": value})
 
     def _pump(self, input_final: int) -> None:
-        """Let every node compute what its inputs have made final."""
-        finals: dict[str, int] = {}
-        for node in self.nodes:
-            bound = min((finals.get(n, input_final) for n in node.reads), default=input_final)
-            node.process(bound, self._emit)
-            for name in node.writes:
-                finals[name] = node.final
-        bound = min((finals.get(n, input_final) for n in self.consumed), default=input_final)
+        """Let every node compute what its inputs have made final (in dependency
+        order, so a node's upstream nodes are already up to date)."""
+        emit = self._emit
+        for node, upstream in self.upstream:
+            bound = input_final
+            for producer in upstream:
+                if producer.final < bound:
+                    bound = producer.final
+            if node.inbox or not node.reactive:
+                node.process(bound, emit)
+            else:
+                node.final = bound  # nothing to do until an input arrives
+        bound = input_final
+        for producer in self.consumer_upstream:
+            if producer.final < bound:
+                bound = producer.final
         self._consume(bound)
 
     def _consume(self, bound: int) -> None:
         if self.consumer_inbox:
-            taken, self.consumer_inbox = _take(self.consumer_inbox, bound)
+            taken = _take(self.consumer_inbox, bound)
             for time, items in _instants(taken):
                 changes = self._changes(items)
                 for monitor in self.properties:
@@ -745,6 +785,12 @@ class Runtime:
             }
         )  # fmt: skip
 
+    def decide(self) -> None:
+        """Compute everything the input so far decides (a live host calls this on a
+        timer, so output never waits for the next batch of input)."""
+        if self.started is not None:
+            self._pump(self.now)
+
     def flush(self) -> None:
         """Write out the verdict segments still growing (a live host calls this
         periodically; the replay lets them grow to their full length)."""
@@ -782,26 +828,30 @@ class SpecError(ValueError):
 
 def to_json(record: Record) -> str:
     """One record as one line of JSON; times and other fractions as exact decimals
-    (a quotient such as "1/3" as a string where no decimal is exact)."""
-    numbers: list[str] = []
-
-    def plain(value: Any) -> Any:
-        if isinstance(value, Fraction):
-            text = exact_decimal(value)
-            if text is None:
-                return f"{value.numerator}/{value.denominator}"
-            numbers.append(text)
-            return f"\x00{len(numbers) - 1}\x00"
-        if isinstance(value, dict):
-            return {k: plain(v) for k, v in value.items()}
-        if isinstance(value, list | tuple):
-            return [plain(v) for v in value]
-        if isinstance(value, float) and not math.isfinite(value):
-            return repr(value)  # JSON has no NaN or infinity: "nan", "inf", "-inf"
-        return value
-
-    text = _ONE_LINE(plain(record))
-    return re.sub(r'"\\u0000(\d+)\\u0000"', lambda m: numbers[int(m.group(1))], text)
+    (a quotient such as "1/3" as a string where no decimal is exact), floats that
+    JSON cannot hold as strings ("nan", "inf", "-inf")."""
+    return _json_value(record)
 
 
-_ONE_LINE = json.JSONEncoder(ensure_ascii=False, separators=(", ", ": ")).encode
+def _json_value(value: Any) -> str:
+    kind = type(value)
+    if kind is str:
+        return _json_string(value)
+    if kind is Fraction:
+        text = exact_decimal(value)
+        return text if text is not None else f'"{value.numerator}/{value.denominator}"'
+    if kind is bool or value is None:
+        return "true" if value is True else "false" if value is False else "null"
+    if kind is int:
+        return str(value)
+    if kind is float:
+        return repr(value) if math.isfinite(value) else f'"{value!r}"'
+    if isinstance(value, dict):
+        items = (f"{_json_string(str(k))}: {_json_value(v)}" for k, v in value.items())
+        return "{" + ", ".join(items) + "}"
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_json_value(v) for v in value) + "]"
+    return _json_string(str(value))
+
+
+_json_string = json.JSONEncoder(ensure_ascii=False).encode

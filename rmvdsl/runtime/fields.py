@@ -40,6 +40,37 @@ class FieldError(ValueError):
     an array where a value was expected): the recording and the spec disagree."""
 
 
+_SCALARS: dict[str, Any] = {"bool": bool, "int": int, "float": float}
+_PLAIN = frozenset({bool, int, float})
+
+
+def reader(variable: Variable) -> Any:
+    """`read` for one variable, with a fast path for the common shape: fields only,
+    down to a number or a bool, on objects with attributes. Anything else (a
+    mapping, a missing field, an array) takes `read`, which says what is wrong."""
+    convert = _SCALARS.get(variable.type.kind)
+    if (
+        variable.aggregate is not None
+        or convert is None
+        or not all(isinstance(step, FieldStep) for step in variable.path)
+    ):
+        return lambda message: read(variable, message)
+    names = tuple(step.read for step in variable.path if isinstance(step, FieldStep))
+
+    def fast(message: Any) -> Any:
+        value = message
+        try:
+            for name in names:
+                value = getattr(value, name)
+            if type(value) in _PLAIN:
+                return convert(value)
+            return read(variable, message)  # numpy scalars, arrays: the careful way
+        except (AttributeError, TypeError, ValueError):
+            return read(variable, message)
+
+    return fast
+
+
 def read(variable: Variable, message: Any) -> Any:
     """The variable's value in the message, as a Python bool, int, float, str, or
     exact seconds (a Fraction) for times and durations; MISSING when there is none."""

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import bisect
 import math
+import operator
 import random
 import re
 from collections.abc import Callable, Sequence
@@ -55,20 +56,70 @@ def evaluate(expr: ir.Expr, lookup: Callable[[str], Any]) -> Any:
     """The value of an expression with no function calls, or MISSING when a name it
     reads has no value (InfluxQL's null: arithmetic with null is null, and a
     comparison with null is false)."""
+    return compiled(expr)(lookup)
+
+
+Evaluator = Callable[[Callable[[str], Any]], Any]
+_COMPILED: dict[int, tuple[ir.Expr, Evaluator]] = {}
+
+
+def compiled(expr: ir.Expr) -> Evaluator:
+    """`evaluate` for one expression, as a closure built once: the runtime evaluates
+    a condition at every message."""
+    found = _COMPILED.get(id(expr))
+    if found is None or found[0] is not expr:
+        found = _COMPILED[id(expr)] = (expr, _compile(expr))
+    return found[1]
+
+
+def _compile(expr: ir.Expr) -> Evaluator:
     match expr:
         case ir.Number():
-            return _number(expr)
+            return _constant(_number(expr))
         case ir.String() | ir.Boolean():
-            return expr.value
+            return _constant(expr.value)
         case ir.Time():
-            return expr.seconds
+            return _constant(expr.seconds)
         case ir.Ref():
-            return lookup(expr.name)
+            name = expr.name
+            return lambda lookup: lookup(name)
         case ir.Unary():
-            return unary(expr.op, evaluate(expr.operand, lookup))
+            operand, op = _compile(expr.operand), expr.op
+            return lambda lookup: unary(op, operand(lookup))
         case ir.Binary():
-            return _binary(expr, evaluate(expr.left, lookup), lambda: evaluate(expr.right, lookup))
+            return _compile_binary(expr, _compile(expr.left), _compile(expr.right))
     raise ValueError(f"cannot evaluate {type(expr).__name__} here")
+
+
+def _constant(value: Any) -> Evaluator:
+    return lambda lookup: value
+
+
+def _compile_binary(expr: ir.Binary, left: Evaluator, right: Evaluator) -> Evaluator:
+    op = expr.op
+    if op == "and":
+        return lambda lookup: left(lookup) is True and right(lookup) is True
+    if op == "or":
+        return lambda lookup: left(lookup) is True or right(lookup) is True
+    if op in _ORDERING:
+        compare = _ORDERING[op]
+
+        def ordering(lookup: Callable[[str], Any]) -> Any:
+            a, b = left(lookup), right(lookup)
+            kinds = type(a), type(b)
+            if kinds == (float, float) or kinds == (int, int):
+                return compare(a, b)  # the common case: no conversion to decide
+            if a is MISSING or b is MISSING:
+                return False
+            return values.compare(op, a, b)
+
+        return ordering
+    return lambda lookup: _binary(expr, left(lookup), lambda: right(lookup))
+
+
+_ORDERING: dict[str, Callable[[Any, Any], bool]] = {
+    "<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge,
+}  # fmt: skip
 
 
 def unary(op: str, operand: Any) -> Any:
