@@ -109,11 +109,12 @@ exit codes: 0 built, 1 the spec has errors (shown on standard error), 2 usage or
         "(docs/replay.md).",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="""examples:
-  rmv replay examples/carla/abs.rmv examples/carla/braking.bag
-  rmv replay examples/carla/abs.rmv examples/carla/braking.mcap --format jsonl
+  rmv replay examples/carla/abs.rmv examples/carla/recordings/braking.bag
+  rmv replay examples/carla/abs.rmv examples/carla/recordings/braking_mcap --format jsonl
   rmv replay spec.rmv run.bag --from +10 --to +60 --report timeline.html
 exit codes: 0 every property held and no intrusion, 1 a violation or an intrusion (or the
-spec has errors), 2 usage or I/O problem""",
+spec has errors), 2 usage or I/O problem, or a recording that does not match the spec
+(a topic missing or of another type, a field missing, damaged or late messages)""",
     )
     replay_parser.add_argument("spec", metavar="SPEC")
     replay_parser.add_argument("recordings", nargs="+", metavar="RECORDING")

@@ -253,6 +253,8 @@ def text_line(record: Record) -> str | None:
         span = f"{open_}{_decimal(record['from'])}, {_decimal(record['to'])}{close}"
         return f"verdict   {record['property']}: {record['verdict']} on {span}"
     if kind == "alert":
+        if record["level"] == record["previous"]:
+            return None  # a repeat at the same level: JSON has every point, text the changes
         values = ", ".join(f"{k}={_decimal(v)}" for k, v in record["values"].items())
         return (
             f"alert     {_decimal(record['time'])} {record['alert']}: {record['previous']} -> "
@@ -279,6 +281,36 @@ def text_line(record: Record) -> str | None:
     if kind == "counter":
         return f"counter   {record['name']}: {record['value']}"
     return None
+
+
+class _Repeats:
+    """Text output for a person: an action repeated with nothing else between
+    (an alert's post at every point at its level) is one line and a count."""
+
+    def __init__(self) -> None:
+        self.key: tuple[Any, ...] | None = None
+        self.count = 0
+        self.last: Any = None
+
+    def write(self, record: Record, out: Any) -> None:
+        line = text_line(record)
+        if line is None:
+            return
+        key = None
+        if record["kind"] == "action":
+            key = tuple(v for k, v in record.items() if k != "time")
+            if key == self.key:
+                self.count += 1
+                self.last = record["time"]
+                return
+        self.flush(out)
+        self.key = key
+        out.write(line + "\n")
+
+    def flush(self, out: Any) -> None:
+        if self.count:
+            out.write(f"          (and {self.count} more, until {_decimal(self.last)})\n")
+        self.key, self.count = None, 0
 
 
 class ExecutingHost(RecordingHost):
@@ -338,6 +370,7 @@ def run(
         record=record, progress=progress,
     )  # fmt: skip
     first = True
+    repeats = _Repeats()
     if output == "json":
         out.write('{"records": [\n')
     for item in records:
@@ -350,9 +383,7 @@ def run(
         if report:
             kept.append(item)
         if output == "text":
-            line = text_line(item)
-            if line is not None:
-                out.write(line + "\n")
+            repeats.write(item, out)
         elif item["kind"] != "variable":
             separator = "" if first or output == "jsonl" else ",\n"
             out.write(separator + to_json(item) + ("\n" if output == "jsonl" else ""))
@@ -360,6 +391,7 @@ def run(
     if output == "json":
         out.write("\n]}\n")
     if output == "text":
+        repeats.flush(out)
         verdict = "FAILED" if summary.failed else "incomplete" if summary.warnings else "passed"
         out.write(
             f"{verdict}: {summary.violations} violations, {summary.intrusions} intrusions"

@@ -57,13 +57,16 @@ def _figure(spec: ir.Spec, records: Sequence[Record]) -> Any:
     _steps(top, row, states, "transducer", "state", end)
     _booleans(top, row, events, set(booleans), end)
     for r in records:
-        if r["kind"] in ("alert", "intrusion"):
-            colour = "#ef6c00" if r["kind"] == "alert" else "#6a1b9a"
-            top.axvline(float(r["time"]), color=colour, linewidth=0.8, alpha=0.6)
+        # An alert is marked where its level changes (not at every point at a level);
+        # an intrusion where it starts.
+        if r["kind"] == "alert" and r["level"] != r["previous"]:
+            top.axvline(float(r["time"]), color="#ef6c00", linewidth=0.8, alpha=0.6)
+        elif r["kind"] == "intrusion" and r["phase"] == "start":
+            top.axvline(float(r["time"]), color="#6a1b9a", linewidth=0.8, alpha=0.6)
     top.set_yticks(range(len(bands)), list(reversed(bands)))
     top.set_ylim(-0.6, len(bands) - 0.4)
     top.set_title(f"{spec.system.name}: verdicts (green true, red false, grey unknown), states, "
-                  "events; alerts orange, intrusions purple", fontsize=9)  # fmt: skip
+                  "events; alert level changes orange, intrusions purple", fontsize=9)  # fmt: skip
     for axis, name in zip((a[0] for a in axes[1:]), lines, strict=False):
         xs, ys = zip(*series[name], strict=True)
         axis.step(xs, ys, where="post", linewidth=1)

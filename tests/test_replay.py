@@ -31,6 +31,14 @@ def recordings(tmp_path_factory):
     return out
 
 
+def test_the_committed_recordings_are_what_the_script_writes(recordings):
+    committed = EXAMPLES / "carla" / "recordings"
+    written = sorted(p.relative_to(recordings) for p in recordings.rglob("*") if p.is_file())
+    assert written == sorted(p.relative_to(committed) for p in committed.rglob("*") if p.is_file())
+    for name in written:
+        assert (recordings / name).read_bytes() == (committed / name).read_bytes(), name
+
+
 def _replay(rmv, recording, *extra):
     result = rmv("replay", str(EXAMPLES / "carla" / "abs.rmv"), str(recording), *extra)
     return result

@@ -627,7 +627,7 @@ class Runtime:
             context = ActionContext(
                 owner, endpoint.node, action_level(action, "error"), text, record
             )
-            self.host.act(action, context)
+            self._act(action, context)
 
     def end(self, time: int | None = None) -> None:
         """The input ends at `time` (default: the newest message)."""
@@ -652,11 +652,14 @@ class Runtime:
 
     def records(self) -> list[Record]:
         """The records produced since the last call, in the order they were decided."""
-        if isinstance(self.host, RecordingHost):
-            self.out.extend(self.host.records)
-            self.host.records.clear()
         out, self.out = self.out, []
         return out
+
+    def _act(self, action: ir.Action, context: ActionContext) -> None:
+        self.host.act(action, context)
+        if isinstance(self.host, RecordingHost):  # its records go out in order
+            self.out.extend(self.host.records)
+            self.host.records.clear()
 
     # ---- the dataflow ----
 
@@ -743,7 +746,7 @@ class Runtime:
             context = ActionContext(
                 "alert", alert.name, action_level(action, level[record["level"]]), text, record
             )
-            self.host.act(action, context)
+            self._act(action, context)
 
     def _verdicts(self, monitor: PropertyMonitor) -> None:
         name = monitor.prop.name
@@ -770,7 +773,7 @@ class Runtime:
         record = {"kind": "violation", "property": prop.name, "from": segment[0]}
         for action in prop.actions:
             text = action_text(action, f"{prop.name} violated")
-            self.host.act(
+            self._act(
                 action,
                 ActionContext("property", prop.name, action_level(action, "error"), text, record),
             )
