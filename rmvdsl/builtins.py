@@ -303,6 +303,8 @@ BLOCKS: dict[str, Block] = {
         _s("liveliness", "names", "automatic", "how publishers show they are alive",
            "`automatic`", choices=("automatic", "manual_by_topic")),
         _s("liveliness_lease", "time", None, "the liveliness lease duration", "none"),
+        _s("time", "names", "receipt", "a message's time: when it arrived (`receipt`) or "
+           "its `header.stamp` (`header`)", "`receipt`", choices=("receipt", "header")),
     ),
     "alert": _block(
         "alert",

@@ -461,6 +461,17 @@ shapes (so does the runtime, which computes events exactly as InfluxDB does):
     event F = derivative(Velocity, 1s)                   // ok: over the raw points""",
     ),
     (
+        "RMV322",
+        "no header stamp",
+        """`time = header` in a topic's block stamps each message with its
+`header.stamp`, so the message type must have a `header` field of type
+std_msgs/Header. Use `time = receipt` (the default: the time the message arrives)
+for a type without one:
+
+    topic clock: std_msgs/Float64 = "/value" qos { time = header }   // RMV322
+    topic odom: nav_msgs/Odometry = "/odom" qos { time = header }     // ok""",
+    ),
+    (
         "RMV500",
         "unreachable state",
         """No sequence of transitions leads from the transducer's initial state to this

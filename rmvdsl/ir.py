@@ -154,12 +154,13 @@ class _Lowering:
 
     def topic(self, decl: ast.TopicDecl) -> ir.Topic:
         qos = self.settings("qos", decl.qos)
+        time_source = qos.pop("time")
         return ir.Topic(
             name=decl.name.name,
             ros_name=decl.path.value,
             message_type=canonical(decl.msg_type.text),
             qos=ir.Qos(**qos),
-            time_source="receipt",
+            time_source=time_source,
             origin=self.origin(decl.name),
             doc=decl.doc,
         )

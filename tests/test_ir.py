@@ -157,9 +157,11 @@ def _minimal(tmp_path: Path, text: str = _MINIMAL) -> ir.Spec:
 
 def test_every_default_comes_from_the_registry(tmp_path):
     spec = _minimal(tmp_path)
-    qos = spec.topics[0].qos
+    topic = spec.topics[0]
     for key, setting in builtins.block("qos").settings.items():
-        assert getattr(qos, key) == setting.default, key
+        # `time` is the topic's time source; the rest are ROS 2 QoS settings
+        value = topic.time_source if key == "time" else getattr(topic.qos, key)
+        assert value == setting.default, key
     prop = spec.properties[0]
     assert prop.rate is builtins.setting("property", "rate").default is None
     assert prop.trigger == builtins.setting("property", "trigger").default == "always"

@@ -487,3 +487,37 @@ def test_memory_is_bounded_by_the_spec_not_the_input(monkeypatch):
 
     short, long = peak(6), peak(24)
     assert long < short * 1.15, (short, long)
+
+
+def test_a_topic_timed_by_its_header_stamp(tmp_path):
+    """`time = header`: messages received 7 s after their stamps give the states at
+    the stamps' times; without it, at the times of receipt."""
+    from rosbags.typesys import Stores
+
+    from rmvdsl.runtime.engine import Runtime
+
+    text = (EXAMPLES / "carla" / "abs.rmv").read_text(encoding="utf-8")
+    text = text.replace('messages "msg"', f'messages "{EXAMPLES / "carla" / "msg"}"')
+    stamped = text.replace(
+        "    reliability = reliable\n", "    reliability = reliable\n    time = header\n"
+    )
+    objects = '"/carla/hero/objects"\n'
+    stamped = stamped.replace(objects, objects[:-1] + " qos { time = header }\n")
+    assert stamped.count("time = header") == 2
+    scenario = _scenario()
+    messages = scenario.messages(scenario.typestore(Stores.ROS1_NOETIC))
+
+    def states(source: str) -> list:
+        spec = tmp_path / "spec.rmv"
+        spec.write_text(source, encoding="utf-8")
+        runtime = Runtime(lower(check(str(spec))))
+        for time, topic, message in messages:
+            runtime.message(time + 7 * 10**9, topic, message)
+        runtime.end()
+        return [(r["time"] - START, r["state"]) for r in runtime.records() if r["kind"] == "state"]
+
+    assert states(stamped)[1:3] == [
+        (Fraction("10.1"), "HardBraking"),
+        (Fraction("12.5"), "Stopped"),
+    ]
+    assert states(text)[1:3] == [(Fraction("17.1"), "HardBraking"), (Fraction("19.5"), "Stopped")]

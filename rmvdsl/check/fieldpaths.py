@@ -31,6 +31,7 @@ class FieldPaths:
         registry = self.info.registry
         definition = registry.get(topic.msg_type.text)
         if definition is not None:
+            self.check_time_source(topic, definition)
             return definition
         if message_type_problem([p.name for p in topic.msg_type.parts]):
             return None  # not a type name at all: the names stage said so
@@ -54,6 +55,26 @@ class FieldPaths:
             )
         )
         return None
+
+    def check_time_source(self, topic: ast.TopicDecl, definition: MessageDef) -> None:
+        """`time = header` needs a `header` that is a std_msgs/Header."""
+        for setting in topic.qos:
+            value = setting.value
+            if setting.key.name != "time" or not isinstance(value, ast.NameValue):
+                continue
+            if value.ident.name != "header":
+                continue
+            header = definition.fields.get("header")
+            if header is None or header.array or canonical(header.base) != "std_msgs/msg/Header":
+                self.report(
+                    error(
+                        "RMV322",
+                        f"`{definition.name}` has no header stamp to take the time from",
+                        setting.value.span,
+                        label="its messages have no `header` field of type std_msgs/Header",
+                        help="use `time = receipt` (the time a message arrives)",
+                    )
+                )
 
     def type_variable(self, variable: ast.VarDecl) -> VType:
         topic = self.info.topics.get(variable.source.topic.name)

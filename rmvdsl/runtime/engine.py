@@ -483,6 +483,7 @@ class Runtime:
         self.by_topic: dict[str, list[tuple[ir.Variable, Callable[[Any], Any]]]] = {}
         topic_names = {t.name: t.ros_name for t in spec.topics}
         self.topic_origin = {t.ros_name: t.origin for t in spec.topics}
+        self.stamped = frozenset(t.ros_name for t in spec.topics if t.time_source == "header")
         skipped = frozenset(skip)  # variables the input cannot give (the replay checked)
         for variable in spec.variables:
             variables = self.by_topic.setdefault(topic_names[variable.topic], [])
@@ -516,11 +517,18 @@ class Runtime:
     # ---- input ----
 
     def message(self, time: int, topic: str, message: Any) -> None:
-        """One message of a ROS topic at `time` (integer nanoseconds)."""
+        """One message of a ROS topic received at `time` (integer nanoseconds); a
+        topic with `time = header` takes its time from the message's stamp."""
         self.counters["messages"] += 1
         if topic not in self.by_topic:
             self.counters["messages on topics the spec does not read"] += 1
             return
+        if topic in self.stamped:
+            try:
+                time = fields.stamp(message)
+            except fields.FieldError as error:
+                self.damaged(time, topic, str(error))
+                return
         if self.lateness:
             heapq.heappush(self.held, (time, self.sequence, topic, message))
             self.sequence += 1

@@ -185,3 +185,14 @@ def _seconds(value: Any) -> Fraction:
     if seconds is None or nanoseconds is None:
         raise TypeError(f"not a ROS time: {type(value).__name__}")
     return Fraction(int(seconds)) + Fraction(int(nanoseconds), 10**9)
+
+
+def stamp(message: Any) -> int:
+    """The message's `header.stamp` in integer nanoseconds (a topic with
+    `time = header`)."""
+    header = _field(message, FieldStep("header", "header", "std_msgs/msg/Header"))
+    value = _field(header, FieldStep("stamp", "stamp", "time"))
+    try:
+        return int(_seconds(value) * 1_000_000_000)
+    except TypeError as exc:
+        raise FieldError(f"`header.stamp`: {exc}") from None
