@@ -26,9 +26,10 @@ if TYPE_CHECKING:
     from rmvdsl.check.properties import PropertyReport
     from rmvdsl.logic.sat import Answer
     from rmvdsl.logic.traces import TraceFile
+    from rmvdsl.runtime import spec as ir_spec
 
 EXIT_OK, EXIT_ERRORS, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 70
-TARGETS = ("ir",)
+TARGETS = ("ir", "ros2")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -86,18 +87,26 @@ exit codes: 0 no errors, 1 errors (or warnings with --strict), 2 usage or I/O pr
 
     build_parser = commands.add_parser(
         "build",
-        help="generate a target from a spec (ir: the resolved spec as JSON)",
+        help="generate a target from a spec (ir: the resolved spec as JSON; ros2: a package)",
         description="Check a spec and, when it has no errors, generate a target from its "
-        "resolved model. `ir` writes the resolved spec as versioned JSON (docs/ir.md).",
+        "resolved model. `ir` writes the resolved spec as versioned JSON (docs/ir.md); "
+        "`ros2` an ament_python package with the monitor and intrusion nodes (docs/ros2.md).",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="""examples:
   rmv build --target ir examples/carla/abs.rmv
   rmv build --target ir examples/carla/abs.rmv -o abs.ir.json
+  rmv build --target ros2 examples/carla/abs.rmv -o src/carla_abs
 exit codes: 0 built, 1 the spec has errors (shown on standard error), 2 usage or I/O problem""",
     )
     build_parser.add_argument("spec", metavar="SPEC")
     build_parser.add_argument("--target", required=True, choices=TARGETS)
-    build_parser.add_argument("-o", "--output", metavar="OUT", help="write here (default: stdout)")
+    build_parser.add_argument(
+        "-o", "--output", metavar="OUT",
+        help="write here (ir: a file, default stdout; ros2: the package's folder, required)",
+    )  # fmt: skip
+    build_parser.add_argument(
+        "--package", metavar="NAME", help="ros2: the package's name (default: from `system`)"
+    )
     build_parser.add_argument("--no-color", action="store_true")
     _add_message_options(build_parser)
 
@@ -358,11 +367,32 @@ def _build(args: argparse.Namespace) -> int:
             f"rmv build: {args.spec}: {len(result.errors)} errors: nothing built", file=sys.stderr
         )
         return EXIT_ERRORS
-    text = dump(lower(result)) + "\n"
+    spec = lower(result)
+    if args.target == "ros2":
+        return _build_ros2(args, spec)
+    text = dump(spec) + "\n"
     if args.output:
         _write(args.output, text)
     else:
         sys.stdout.write(text)
+    return EXIT_OK
+
+
+def _build_ros2(args: argparse.Namespace, spec: ir_spec.Spec) -> int:
+    from pathlib import Path
+
+    from rmvdsl.codegen import ros2
+
+    if not args.output:
+        raise UsageError("--target ros2 needs -o OUT, the folder of the package to write")
+    try:
+        written = ros2.build(spec, Path(args.output), args.package)
+    except ros2.BuildError as exc:
+        raise UsageError(str(exc)) from None
+    except OSError as exc:
+        raise UsageError(f"{args.output}: {exc.strerror or exc}") from None
+    name = ros2.package_name(spec, args.package)
+    print(f"rmv build: wrote the ros2 package `{name}` to {args.output} ({len(written)} files)")
     return EXIT_OK
 
 

@@ -318,31 +318,15 @@ class ExecutingHost(RecordingHost):
     record as JSON on standard input); log and publish stay records."""
 
     def act(self, action: ir.Action, context: Any) -> None:
-        import socket
-        import subprocess
-        import urllib.request
-
-        from rmvdsl.runtime.engine import action_record, to_json
+        from rmvdsl.runtime.actions import leaves_the_process, perform
+        from rmvdsl.runtime.engine import action_record
 
         record = action_record(action, context)
-        payload = to_json(context.record).encode()
-        try:
-            if isinstance(action, ir.Exec):
-                subprocess.run(
-                    [action.command, *action.args], input=payload, timeout=30, check=False
-                )
-            elif isinstance(action, ir.Post):
-                request = urllib.request.Request(
-                    action.url, data=payload, headers={"Content-Type": "application/json"}
-                )
-                urllib.request.urlopen(request, timeout=float(action.timeout)).close()
-            elif isinstance(action, ir.Tcp):
-                host, _, port = action.address.rpartition(":")
-                with socket.create_connection((host, int(port)), timeout=10) as connection:
-                    connection.sendall(payload + b"\n")
-        except (OSError, ValueError, subprocess.SubprocessError) as error:
-            record["error"] = str(error)
-        record["ran"] = isinstance(action, ir.Exec | ir.Post | ir.Tcp)
+        if leaves_the_process(action):
+            error = perform(action, context.record)
+            if error is not None:
+                record["error"] = error
+        record["ran"] = leaves_the_process(action)
         self.records.append(record)
 
 

@@ -1,0 +1,151 @@
+"""`rmv build --target ros2`: an ament_python package that hosts the runtime.
+
+The package carries the resolved spec as JSON (`spec.json`) and a copy of
+`rmvdsl/runtime/` (standard library only, imports made package-relative), so it
+needs nothing beyond ROS 2. Every file is rendered from the templates beside this
+module; names reach Python and XML only through `py_string` and `xml_text`.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import jinja2
+
+from rmvdsl.runtime import spec as ir
+
+TEMPLATES = Path(__file__).resolve().parent / "templates"
+RUNTIME = Path(__file__).resolve().parents[2] / "runtime"
+BUILTINS = Path(__file__).resolve().parents[2] / "builtins.py"
+# Run dependencies every package has; the spec adds its message packages.
+BASE_DEPENDENCIES = ("rclpy", "std_msgs", "diagnostic_msgs")
+
+
+class BuildError(ValueError):
+    """A spec or a package name this target cannot build."""
+
+
+@dataclass(frozen=True)
+class Package:
+    name: str
+    spec: ir.Spec
+    dependencies: tuple[str, ...]
+
+
+def package_name(spec: ir.Spec, override: str | None = None) -> str:
+    """A ROS package name (REP 144: lower case letters, digits, underscores, a
+    letter first) from the spec's system name."""
+    name = override if override is not None else spec.system.name
+    candidate = re.sub(r"[^a-z0-9_]", "_", name.lower()).strip("_")
+    candidate = re.sub(r"_+", "_", candidate)
+    if override is not None and candidate != override:
+        raise BuildError(
+            f"`{override}` is not a ROS package name: lower case letters, digits and "
+            f"underscores, a letter first (`{candidate}` is)"
+        )
+    if not candidate or not candidate[0].isalpha():
+        candidate = f"rmv_{candidate}".rstrip("_")
+    return candidate
+
+
+def message_packages(spec: ir.Spec) -> tuple[str, ...]:
+    """The packages of every message type the topics carry (nested ones included),
+    which the node imports at run time."""
+    found = {m.name.split("/")[0] for m in spec.messages}
+    found |= {t.message_type.split("/")[0] for t in spec.topics}
+    found.discard("builtin_interfaces")  # comes with rclpy
+    return tuple(sorted(found - set(BASE_DEPENDENCIES)))
+
+
+def py_string(value: str) -> str:
+    """Any text as a Python string literal (the one quoting function for Python):
+    `repr`, in double quotes where the text has no quote of either kind."""
+    literal = repr(str(value))
+    if literal.startswith("'") and '"' not in value:
+        return f'"{literal[1:-1]}"'
+    return literal
+
+
+def xml_text(value: str) -> str:
+    """Any text as XML character data (the one quoting function for XML)."""
+    text = str(value).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+    return re.sub(r"[\x00-\x08\x0b\x0c\x0e-\x1f]", "", text)
+
+
+def yaml_string(value: str) -> str:
+    """Any text as a YAML double-quoted scalar (the one quoting function for YAML)."""
+    return json.dumps(str(value), ensure_ascii=True)
+
+
+def _environment() -> jinja2.Environment:
+    env = jinja2.Environment(
+        loader=jinja2.FileSystemLoader(str(TEMPLATES)),
+        autoescape=False,
+        keep_trailing_newline=True,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        undefined=jinja2.StrictUndefined,
+    )
+    env.filters["py"] = py_string
+    env.filters["xml"] = xml_text
+    env.filters["yaml"] = yaml_string
+    return env
+
+
+def _vendored(source: str) -> str:
+    """A runtime module with its imports made relative to the embedded package."""
+    text = re.sub(r"^from rmvdsl\.runtime import ", "from . import ", source, flags=re.M)
+    text = re.sub(r"^from rmvdsl\.runtime\.(\w+) import ", r"from .\1 import ", text, flags=re.M)
+    text = re.sub(r"^from rmvdsl\.builtins import ", "from .builtins import ", text, flags=re.M)
+    if re.search(r"^\s*(from|import) rmvdsl\b", text, flags=re.M):
+        raise BuildError("the runtime imports rmvdsl in a way the ros2 target cannot embed")
+    return re.sub(r"(?:^from \.\S* import .*\n)+", _sorted_block, text, flags=re.M)
+
+
+def _sorted_block(match: re.Match[str]) -> str:
+    """Relative imports in isort's order (`from . import` before `from .x import`)."""
+    lines = match.group(0).splitlines(keepends=True)
+    return "".join(sorted(lines, key=lambda line: line.split(" import ")[0]))
+
+
+def files(spec: ir.Spec, package: str | None = None) -> dict[str, str]:
+    """Every file of the package, by path relative to its folder."""
+    name = package_name(spec, package)
+    pkg = Package(name, spec, (*BASE_DEPENDENCIES, *message_packages(spec)))
+    env = _environment()
+    context = {"package": pkg, "spec": spec}
+    out: dict[str, str] = {}
+    rendered = {
+        "package.xml": "package.xml.j2",
+        "setup.py": "setup.py.j2",
+        "setup.cfg": "setup.cfg.j2",
+        "README.md": "README.md.j2",
+        f"resource/{name}": "resource.j2",
+        f"{name}/__init__.py": "init.py.j2",
+        f"{name}/monitor_node.py": "monitor_node.py.j2",
+        f"{name}/intrusion_node.py": "intrusion_node.py.j2",
+        "launch/monitor.launch.py": "launch/monitor.launch.py.j2",
+        "config/params.yaml": "config/params.yaml.j2",
+    }
+    for path, template in rendered.items():
+        out[path] = env.get_template(template).render(**context)
+    out[f"{name}/spec.json"] = ir.dump(spec) + "\n"
+    runtime = f"{name}/rmv_runtime"
+    for module in sorted(RUNTIME.glob("*.py")):
+        out[f"{runtime}/{module.name}"] = _vendored(module.read_text(encoding="utf-8"))
+    out[f"{runtime}/builtins.py"] = _vendored(BUILTINS.read_text(encoding="utf-8"))
+    return out
+
+
+def build(spec: ir.Spec, out: Path, package: str | None = None) -> list[Path]:
+    """Write the package into `out` (created; files it writes are replaced)."""
+    written = []
+    for relative, text in files(spec, package).items():
+        path = out / relative
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text, encoding="utf-8")
+        written.append(path)
+    return written
