@@ -18,8 +18,9 @@ from rmvdsl.check.loader import UsageError, read_stdin, read_text
 from rmvdsl.codes import CODES, explain
 from rmvdsl.deep import deep
 from rmvdsl.diagnostics import Diagnostic, Severity
-from rmvdsl.numbers import NumberError, exact_or_quotient, exact_text
+from rmvdsl.numbers import NumberError, exact_or_quotient
 from rmvdsl.render import render_json, render_sarif, render_text, summary
+from rmvdsl.runtime.values import exact_text
 from rmvdsl.source import SourceMap
 
 if TYPE_CHECKING:

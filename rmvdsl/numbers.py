@@ -72,10 +72,6 @@ def decimal(value: Fraction) -> str:
         return str(Decimal(value.numerator) / Decimal(value.denominator))
 
 
-def exact_text(value: Fraction) -> str:
-    """A decimal where one is exact, else the quotient (`1/3`): reads back equal."""
-    text = decimal(value)
-    return text if Fraction(text) == value else str(value)
 
 
 def exact_or_quotient(text: str) -> Fraction:

@@ -238,11 +238,9 @@ class Summary:
 def _decimal(value: Any) -> str:
     from fractions import Fraction
 
-    from rmvdsl.runtime.values import exact_decimal
+    from rmvdsl.runtime.values import exact_text
 
-    if isinstance(value, Fraction):
-        return exact_decimal(value) or f"{value.numerator}/{value.denominator}"
-    return str(value)
+    return exact_text(value) if isinstance(value, Fraction) else str(value)
 
 
 def text_line(record: Record) -> str | None:

@@ -13,8 +13,9 @@ from rmvdsl.grammar.parser import parse_formula
 from rmvdsl.logic.compile import CompileError, compile_formula
 from rmvdsl.logic.traces import TraceFile
 from rmvdsl.logic.validate import check_formula
-from rmvdsl.numbers import exact_text, to_json
+from rmvdsl.numbers import to_json
 from rmvdsl.runtime.rmtld3 import Monitor, Segment, merge
+from rmvdsl.runtime.values import exact_text
 
 
 @dataclass

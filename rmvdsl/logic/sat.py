@@ -32,8 +32,8 @@ from rmvdsl.logic.abstract import refute
 from rmvdsl.logic.bounded import BoundedTrace, EncodingTimeout
 from rmvdsl.logic.reference import TRUE, Reference, Trace
 from rmvdsl.logic.system import System
-from rmvdsl.numbers import exact_text as number
 from rmvdsl.runtime.rmtld3 import facts
+from rmvdsl.runtime.values import exact_text as number
 
 # Bump when an encoding changes: cached answers carry it in their key.
 ENCODING_VERSION = "2"  # 2: durations pinned by always/eventually in the refutation

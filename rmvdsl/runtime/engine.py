@@ -30,7 +30,7 @@ from rmvdsl.runtime import fields, influx
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.formulas import to_lists
 from rmvdsl.runtime.rmtld3 import Monitor
-from rmvdsl.runtime.values import exact_decimal
+from rmvdsl.runtime.values import exact_decimal, exact_text
 
 NS = influx.NS
 _FOREVER = 1 << 126
@@ -205,13 +205,15 @@ class Condition(Node):
         self.name, self.reads, self.writes = event.name, event.reads, (event.name,)
         self.current: dict[str, Any] = {}
         self.value = False
+        # evaluated at every change of an input: compiled once
+        self.where = None if event.where is None else influx.compiled(event.where)
+        self.condition = influx.compiled(event.expr)
 
     def holds(self) -> bool:
         lookup = self.current.get
-        where = self.event.where
-        if where is not None and influx.evaluate(where, lookup) is not True:
+        if self.where is not None and self.where(lookup) is not True:
             return False
-        return influx.evaluate(self.event.expr, lookup) is True
+        return self.condition(lookup) is True
 
     def process(self, bound: int, emit: Callable[[int, str, Any, str], None]) -> None:
         for time, items in _instants(self.take(bound)):
@@ -544,7 +546,7 @@ class Runtime:
             self.counters[f"late messages dropped: {topic}"] += 1
             if (topic, "late") not in self.failed_fields:  # once per topic; counted
                 self.failed_fields.add((topic, "late"))
-                late = exact_decimal(seconds(self.now - time)) or str(seconds(self.now - time))
+                late = exact_text(seconds(self.now - time))
                 self._note(
                     time, f"{topic}: a message came {late} s late, later than the spec's "
                     "lateness allows: dropped (set `lateness` on a property)", topic,
@@ -850,7 +852,7 @@ def _json_value(value: Any) -> str:
         return _json_string(value)
     if kind is Fraction:
         text = exact_decimal(value)
-        return text if text is not None else f'"{value.numerator}/{value.denominator}"'
+        return text if text is not None else f'"{value}"'
     if kind is bool or value is None:
         return "true" if value is True else "false" if value is False else "null"
     if kind is int:

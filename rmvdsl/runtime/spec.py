@@ -20,7 +20,7 @@ from fractions import Fraction
 from typing import Any, ClassVar
 
 from rmvdsl.runtime import formulas
-from rmvdsl.runtime.values import exact_decimal
+from rmvdsl.runtime.values import exact_text
 
 FORMAT = "rmvdsl.ir"
 VERSION = 1
@@ -479,9 +479,9 @@ def dump(spec: Spec, indent: int | None = 2) -> str:
     numbers: list[str] = []
 
     def number(value: Fraction) -> str:
-        text = exact_decimal(value)
-        if text is None:
-            return f"{value.numerator}/{value.denominator}"
+        text = exact_text(value)
+        if "/" in text:
+            return text  # a quotient is written as a string
         numbers.append(text)
         return f"\x00{len(numbers) - 1}\x00"
 

@@ -175,6 +175,12 @@ def binary(op: str, left: object, right: object) -> object:
     return compare(op, left, right)
 
 
+def exact_text(value: Fraction) -> str:
+    """A decimal where one is exact, else the quotient (`1/3`): reads back equal."""
+    text = exact_decimal(value)
+    return text if text is not None else str(value)
+
+
 def exact_decimal(value: Fraction) -> str | None:
     """The exact decimal text of a fraction whose expansion ends (`0.1`, `-2.5`,
     `86400`), or None (`1/3`). rmvdsl.numbers and the resolved spec's JSON both
