@@ -72,8 +72,6 @@ def decimal(value: Fraction) -> str:
         return str(Decimal(value.numerator) / Decimal(value.denominator))
 
 
-
-
 def exact_or_quotient(text: str) -> Fraction:
     """`exact`, or an exact quotient `p/q` as `rmv sat` writes a witness time."""
     if "/" in text:

@@ -15,7 +15,15 @@ from pathlib import Path
 from typing import Any
 
 from rmvdsl.runtime import spec as ir
-from rmvdsl.runtime.engine import Endpoint, Host, Record, RecordingHost, Runtime, seconds
+from rmvdsl.runtime.engine import (
+    Endpoint,
+    Host,
+    Record,
+    RecordingHost,
+    Runtime,
+    can_refuse,
+    seconds,
+)
 
 
 class ReplayError(Exception):
@@ -113,10 +121,6 @@ def plan(spec: ir.Spec, reader: Any) -> Plan:
     return found
 
 
-def _watches_graph(spec: ir.Spec) -> bool:
-    return bool(spec.whitelists or spec.nodes or spec.intrusion.default == "deny")
-
-
 def open_reader(paths: Sequence[Path], spec: ir.Spec) -> Any:
     from rosbags.highlevel import AnyReader, AnyReaderError
 
@@ -173,7 +177,7 @@ def replay(
         # ROS 1 bags name each connection's publisher: every connection then
         # counts for intrusion detection, from its first message on.
         publishers = [c for c in reader.connections if getattr(c.ext, "callerid", None)]
-        watched = publishers if _watches_graph(spec) else []
+        watched = publishers if can_refuse(spec) else []
         connections = found.connections + [c for c in watched if c.id not in read]
         total = sum(c.msgcount for c in found.connections)
         done = 0

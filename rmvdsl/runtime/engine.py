@@ -434,6 +434,11 @@ def _matches(patterns: Iterable[ir.Pattern], name: str) -> bool:
     return any(re.match(p.regex, name) for p in patterns)
 
 
+def can_refuse(spec: ir.Spec) -> bool:
+    """Whether any endpoint could be an intrusion (else the graph need not be read)."""
+    return bool(spec.whitelists or spec.nodes or spec.intrusion.default == "deny")
+
+
 def verdict_of(spec: ir.Spec, endpoint: Endpoint) -> tuple[str, Any] | None:
     """Why an endpoint is not allowed (and the rule that refused it), or None."""
     if _matches(spec.intrusion.ignore_nodes, endpoint.node):
