@@ -3,9 +3,8 @@ network namespace holding only loopback: nothing can leave the machine."""
 
 from __future__ import annotations
 
+import base64
 import json
-import os
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -17,7 +16,12 @@ from rmvdsl.check import check
 from rmvdsl.codegen import ros2
 from rmvdsl.ir import lower
 
-DRIVER = Path(__file__).resolve().parent / "ros2" / "drive_monitor.py"
+sys.path.insert(0, str(Path(__file__).resolve().parent / "ros2"))
+import rosenv
+
+HERE = Path(__file__).resolve().parent / "ros2"
+CARLA = ROOT / "examples" / "carla"
+
 START = 1_700_000_000 * 10**9
 SPEC = """system std_braking "braking, in standard ROS 2 types"
 time unit s
@@ -30,6 +34,24 @@ event Fast when Speed > 25
 event Stopped when Speed < 0.1
 /// Fast for less than 2 s of every 4 s.
 property NotFastLong: duration[4s](Fast) < 2s
+property NeverStops: not Stopped
+whitelist twist {
+    publishers: "/player"
+}
+intrusion {
+    poll = 200ms
+    action publish("/rmv/intrusion")
+}
+"""
+TWIST = "geometry_msgs/msg/TwistStamped"
+# A reader that keeps one message: a burst overflows it.
+LOSSY = """system lossy "a topic read with depth 1"
+time unit s
+topic twist: geometry_msgs/msg/TwistStamped = "/vehicle/twist" qos {
+    depth = 1
+}
+var Speed = twist.twist.linear.x
+event Stopped when Speed < 0.1
 property NeverStops: not Stopped
 """
 
@@ -46,110 +68,126 @@ def _speed(k: int) -> float:
 MESSAGES = [(START + k * 50_000_000, _speed(k)) for k in range(200)]
 
 
-@pytest.fixture(scope="module")
-def spec(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("spec")
-    path = folder / "std_braking.rmv"
-    path.write_text(SPEC, encoding="utf-8")
+def _carla_spec() -> str:
+    """examples/carla/abs.rmv with times from header stamps and 1 s of lateness: the
+    player sends two topics, and their messages may reach the node out of order."""
+    text = (CARLA / "abs.rmv").read_text(encoding="utf-8")
+    text = text.replace('messages "msg"', f"messages {json.dumps(str(CARLA / 'msg'))}")
+    reliable = "    reliability = reliable\n"
+    text = text.replace(reliable, f"{reliable}    time = header\n")
+    text = text.replace(
+        '"/carla/hero/objects"\n', '"/carla/hero/objects" qos {\n    time = header\n}\n'
+    )
+    return text.replace("    trigger = always\n", "    trigger = always\n    lateness = 1s\n")
+
+
+def _checked(path: Path, text: str) -> Path:
+    path.write_text(text, encoding="utf-8")
     result = check(str(path))
     assert not result.errors, [str(d) for d in result.errors]
-    return path, lower(result)
+    return path
 
 
-# The ROS 2 wheels live in a virtual environment of their own: ros-rosidl-parser
-# needs lark-parser 0.12, which installs over the `lark` 1.3 that rmvdsl's parser
-# needs. The generated package embeds a standard-library runtime, so it needs
-# nothing from rmvdsl's environment.
-ROS_WHEELS = (
-    "ros-rclpy==9.1.2", "ros-std-msgs==5.5.1", "ros-diagnostic-msgs==5.5.1",
-    "ros-geometry-msgs==5.5.1", "ros-rmw-fastrtps-cpp==9.3.3",
-)  # fmt: skip
-ROS_VENV = ROOT / ".ros-venv"
-
-
-@pytest.fixture(scope="session")
-def ros_python() -> str:
-    """The Python of .ros-venv, made (once) with the ROS 2 wheels from PyPI."""
-    python = ROS_VENV / "bin" / "python"
-    marker = ROS_VENV / "rmvdsl-wheels.txt"
-    wanted = "\n".join(ROS_WHEELS)
-    if not python.exists() or not marker.exists() or marker.read_text() != wanted:
-        subprocess.run([sys.executable, "-m", "venv", "--clear", str(ROS_VENV)], check=True)
-        install = subprocess.run(
-            [str(python), "-m", "pip", "install", "--quiet", *ROS_WHEELS],
-            capture_output=True, text=True, timeout=900,
-        )  # fmt: skip
-        assert install.returncode == 0, install.stderr[-3000:]
-        marker.write_text(wanted)
-    return str(python)
-
-
-def _in_namespace(command: list[str], domain: int) -> subprocess.CompletedProcess[str]:
-    """Run inside `unshare -rn` with loopback up, discovery confined to this host."""
-    if shutil.which("unshare") is None or shutil.which("ip") is None:
-        pytest.fail("the ROS 2 tests need unshare (util-linux) and ip (iproute2)")
-    env = {
-        **os.environ,
-        "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
-        "ROS_DOMAIN_ID": str(domain),
-        "RMW_IMPLEMENTATION": "rmw_fastrtps_cpp",
+@pytest.fixture(scope="module")
+def specs(tmp_path_factory) -> dict[str, Path]:
+    folder = tmp_path_factory.mktemp("specs")
+    return {
+        "std_braking": _checked(folder / "std_braking.rmv", SPEC),
+        "carla_abs": _checked(folder / "carla_abs.rmv", _carla_spec()),
+        "lossy": _checked(folder / "lossy.rmv", LOSSY),
     }
-    script = 'ip link set lo up && exec "$@"'
-    return subprocess.run(
-        ["unshare", "-rn", "sh", "-c", script, "sh", *command],
-        env=env, capture_output=True, text=True, timeout=180,
-    )  # fmt: skip
 
 
-def _record(path: Path) -> None:
-    from rosbags.rosbag2 import StoragePlugin, Writer
+@pytest.fixture(scope="module")
+def workspace(specs, tmp_path_factory) -> Path:
+    """A colcon workspace holding the generated packages and the CARLA message
+    packages (from examples/carla/msg), built with `colcon build` as a user would."""
+    python = rosenv.python()
+    assert python
+    root = tmp_path_factory.mktemp("ws")
+    src = root / "src"
+    for name, path in specs.items():
+        ros2.build(lower(check(str(path))), src / name)
+    rosenv.message_package(src, CARLA / "msg" / "carla_msgs", ["std_msgs", "geometry_msgs"])
+    rosenv.message_package(
+        src, CARLA / "msg" / "derived_object_msgs", ["std_msgs", "geometry_msgs", "shape_msgs"]
+    )
+    built = rosenv.colcon_build(root)
+    assert built.returncode == 0, (built.stdout + built.stderr)[-6000:]
+    return root
+
+
+def _executable(workspace: Path, package: str, name: str) -> str:
+    """A node's console script, where colcon installed it (what `ros2 run` starts)."""
+    path = workspace / "install" / package / "lib" / package / name
+    assert path.exists(), f"colcon did not install {path}"
+    return str(path)
+
+
+def _drive(workspace: Path, scenario: dict, tmp_path: Path, domain: int) -> dict:
+    file = tmp_path / "scenario.json"
+    file.write_text(json.dumps(scenario), encoding="utf-8")
+    run = rosenv.run(
+        [rosenv.python(), str(HERE / "drive_monitor.py"), str(file)], domain, workspace
+    )
+    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-6000:]
+    seen = json.loads(run.stdout)
+    assert seen["code"] == 0, seen["log"]
+    return seen
+
+
+def _twist_cdr(stamp: int, speed: float) -> bytes:
     from rosbags.typesys import Stores, get_typestore
 
     store = get_typestore(Stores.ROS2_HUMBLE)
     types = store.types
-    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
-        connection = writer.add_connection(
-            "/vehicle/twist", "geometry_msgs/msg/TwistStamped", typestore=store
-        )
-        for stamp, speed in MESSAGES:
-            message = types["geometry_msgs/msg/TwistStamped"](
-                header=types["std_msgs/msg/Header"](
-                    stamp=types["builtin_interfaces/msg/Time"](*divmod(stamp, 10**9)),
-                    frame_id="",
-                ),
-                twist=types["geometry_msgs/msg/Twist"](
-                    linear=types["geometry_msgs/msg/Vector3"](speed, 0.0, 0.0),
-                    angular=types["geometry_msgs/msg/Vector3"](0.0, 0.0, 0.0),
-                ),
-            )
-            data = store.serialize_cdr(message, "geometry_msgs/msg/TwistStamped")
-            writer.write(connection, stamp, data)
-
-
-def test_the_node_publishes_the_replays_verdicts(spec, tmp_path, rmv, ros_python):
-    path, resolved = spec
-    package = tmp_path / "package"
-    ros2.build(resolved, package)
-    scenario = tmp_path / "scenario.json"
-    scenario.write_text(json.dumps({"topic": "/vehicle/twist", "messages": MESSAGES}))
-    run = _in_namespace(
-        [ros_python, str(DRIVER), str(package), "std_braking", str(scenario)], domain=57
+    message = types[TWIST](
+        header=types["std_msgs/msg/Header"](
+            stamp=types["builtin_interfaces/msg/Time"](*divmod(stamp, 10**9)), frame_id=""
+        ),
+        twist=types["geometry_msgs/msg/Twist"](
+            linear=types["geometry_msgs/msg/Vector3"](speed, 0.0, 0.0),
+            angular=types["geometry_msgs/msg/Vector3"](0.0, 0.0, 0.0),
+        ),
     )
-    assert run.returncode == 0, run.stdout + run.stderr
-    seen = json.loads(run.stdout)
-    assert seen["code"] == 0, seen["log"]
+    return bytes(store.serialize_cdr(message, TWIST))
+
+
+def _record(path: Path, messages: list[tuple[int, float]], stamps: list[int]) -> None:
+    """The twist messages as a ROS 2 bag, logged at `stamps`."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        connection = writer.add_connection("/vehicle/twist", TWIST, typestore=store)
+        for (stamp, speed), logged in zip(messages, stamps, strict=True):
+            writer.write(connection, logged, _twist_cdr(stamp, speed))
+
+
+def _verdicts(replay_out: str) -> list[dict]:
+    return [json.loads(line) for line in replay_out.splitlines() if '"kind": "verdict"' in line]
+
+
+def _publish(topic: str, data: bytes) -> list[str]:
+    return ["publish", topic, base64.b64encode(data).decode("ascii")]
+
+
+def test_the_node_publishes_the_replays_verdicts(specs, workspace, tmp_path, rmv):
+    seen = _drive(workspace, {
+        "monitor": [_executable(workspace, "std_braking", "monitor")],
+        "publishers": {"/vehicle/twist": TWIST},
+        "steps": [_publish("/vehicle/twist", _twist_cdr(t, v)) for t, v in MESSAGES],
+    }, tmp_path, rosenv.DOMAIN)  # fmt: skip
     from_node = [json.loads(v) for v in seen["verdicts"]]
 
     recording = tmp_path / "twist"
-    _record(recording)
-    replay = rmv("replay", str(path), str(recording), "--format", "jsonl")
+    _record(recording, MESSAGES, [t for t, _ in MESSAGES])
+    replay = rmv("replay", str(specs["std_braking"]), str(recording), "--format", "jsonl")
     assert replay.code == 1, replay.err
-    from_replay = [
-        json.loads(line) for line in replay.out.splitlines() if '"kind": "verdict"' in line
-    ]
+    from_replay = _verdicts(replay.out)
     assert len(from_replay) >= 4
     assert from_node == from_replay
-    # Fast from 2 s to 5 s: more than 2 s of 4 s from 0 s (2 + ...) to 3 s
     violated = [v for v in from_node if v["verdict"] == "false"]
     assert {v["property"] for v in violated} == {"NotFastLong", "NeverStops"}
     diagnostics = seen["diagnostics"]
@@ -157,8 +195,116 @@ def test_the_node_publishes_the_replays_verdicts(spec, tmp_path, rmv, ros_python
     assert diagnostics["rmv_monitor: property NotFastLong"]["formula"]
 
 
-def test_generated_python_is_lint_clean_and_names_are_quoted(spec, tmp_path):
-    _, resolved = spec
+def test_carla_types_the_abs_example_on_ros2(specs, workspace, tmp_path, rmv):
+    """The README's CARLA recording, played as raw CDR bytes of carla_msgs and
+    derived_object_msgs (built by colcon from examples/carla/msg): the node decodes
+    them and its verdicts are the replay's."""
+    from rosbags.highlevel import AnyReader
+
+    recording = CARLA / "recordings" / "braking_mcap"
+    steps, publishers = [], {}
+    with AnyReader([recording]) as reader:
+        for connection, _, data in reader.messages():
+            publishers[connection.topic] = connection.msgtype
+            steps.append(_publish(connection.topic, data))
+    assert publishers["/carla/hero/vehicle_status"] == "carla_msgs/msg/CarlaEgoVehicleStatus"
+    seen = _drive(workspace, {
+        "monitor": [_executable(workspace, "carla_abs", "monitor")],
+        "publishers": publishers, "steps": steps, "pace": 0.003,
+    }, tmp_path, rosenv.DOMAIN + 1)  # fmt: skip
+    replay = rmv("replay", str(specs["carla_abs"]), str(recording), "--format", "jsonl")
+    assert replay.code == 1, replay.err
+    from_replay = _verdicts(replay.out)
+    assert [json.loads(v) for v in seen["verdicts"]] == from_replay
+    violated = {v["property"] for v in from_replay if v["verdict"] == "false"}
+    assert violated == {"ABSCheck"}
+    counters = seen["diagnostics"]["rmv_monitor: monitor"]
+    assert counters["messages"] == str(len(steps))
+    assert counters["violations: ABSCheck"] == "1"
+    assert not [k for k in counters if "late" in k or "damaged" in k]
+
+
+def test_sim_time_and_parameters_override_the_spec(specs, workspace, tmp_path, rmv):
+    """`use_sim_time`: times of `receipt` topics come from /clock; `time.twist` turns
+    the spec's `time = header` into receipt and `topics.twist` reads another topic.
+    The stamps in the messages are 0: were they used, every verdict would start at 0."""
+    moving, stopped = [(0, 20.0)] * 5, [(0, 0.0)] * 5
+    clocks = (100 * 10**9, 110 * 10**9, 120 * 10**9)
+    phases = list(zip(clocks, (moving, stopped, stopped[:1]), strict=True))
+    command = [
+        _executable(workspace, "std_braking", "monitor"), "--ros-args",
+        "-p", "use_sim_time:=true", "-p", "time.twist:=receipt",
+        "-p", "topics.twist:=/other/twist",
+    ]  # fmt: skip
+    steps: list[list] = []
+    for clock, messages in phases:
+        steps.append(["clock", clock])
+        steps.extend(_publish("/other/twist", _twist_cdr(t, v)) for t, v in messages)
+    seen = _drive(workspace, {
+        "monitor": command, "publishers": {"/other/twist": TWIST}, "steps": steps,
+    }, tmp_path, rosenv.DOMAIN + 2)  # fmt: skip
+    from_node = [json.loads(v) for v in seen["verdicts"]]
+
+    receipt = tmp_path / "receipt.rmv"
+    receipt.write_text(SPEC.replace("    time = header\n", ""), encoding="utf-8")
+    recording = tmp_path / "twist"
+    played = [m for _, messages in phases for m in messages]
+    _record(recording, played, [clock for clock, messages in phases for _ in messages])
+    replay = rmv("replay", str(receipt), str(recording), "--format", "jsonl")
+    assert from_node == _verdicts(replay.out)
+    never_stops = [(v["verdict"], v["from"], v["to"]) for v in from_node
+                   if v["property"] == "NeverStops"]  # fmt: skip
+    assert never_stops == [("true", 100, 110), ("false", 110, 120)]
+
+
+def test_messages_the_reader_loses_are_counted(workspace, tmp_path):
+    """3,000 messages as fast as rclpy sends them to a reader of depth 1: what the
+    reader loses shows as gaps in the publisher's sequence numbers, and every
+    message is either read or counted lost, with one warning in the log."""
+    burst = [_publish("/vehicle/twist", _twist_cdr(START + k, 20.0)) for k in range(3000)]
+    seen = _drive(workspace, {
+        "monitor": [_executable(workspace, "lossy", "monitor")],
+        "publishers": {"/vehicle/twist": TWIST},
+        "steps": [burst[0], ["settle"], *burst[1:]], "pace": 0,
+    }, tmp_path, rosenv.DOMAIN + 4)  # fmt: skip
+    counters = seen["diagnostics"]["rmv_monitor: monitor"]
+    lost = int(counters.get("lost messages: /vehicle/twist", "0"))
+    assert lost > 0, counters
+    assert int(counters["messages"]) + lost == 3000
+    assert seen["log"].count("messages lost before the monitor could read them") == 1
+
+
+def test_intruders_are_reported_within_two_seconds(workspace, tmp_path):
+    """A rogue ROS node and a DDS writer that is no ROS node publish on a topic whose
+    whitelist allows only /player: each is reported within 2 s; /player never is;
+    both leave the diagnostics when they leave the graph."""
+    scenario = {
+        "intrusion_node": [_executable(workspace, "std_braking", "intrusion")],
+        "topic": "/vehicle/twist", "intrusions": "/rmv/intrusion", "allowed_for": 2.0,
+    }  # fmt: skip
+    file = tmp_path / "scenario.json"
+    file.write_text(json.dumps(scenario), encoding="utf-8")
+    run = rosenv.run(
+        [rosenv.python(), str(HERE / "drive_intrusion.py"), str(file)],
+        rosenv.DOMAIN + 3, workspace,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-6000:]
+    seen = json.loads(run.stdout)
+    assert seen["allowed_reports"] == []
+    assert not [r for r in seen["reports"] if "/player" in r]
+    assert set(seen["latencies"]) == {"/rogue", "_CREATED_BY_BARE_DDS_APP_"}
+    assert all(latency < 2.0 for latency in seen["latencies"].values()), seen["latencies"]
+    present = seen["while_present"]["values"]
+    assert sorted(present) == [
+        "/rogue publisher /vehicle/twist",
+        "_CREATED_BY_BARE_DDS_APP_ publisher /vehicle/twist",
+    ]
+    assert seen["after"]["message"] == "no intrusion"
+    assert seen["code"] == 0, seen["log"]
+
+
+def test_generated_python_is_lint_clean_and_names_are_quoted(specs, tmp_path):
+    resolved = lower(check(str(specs["std_braking"])))
     package = tmp_path / "package"
     ros2.build(resolved, package)
     lint = subprocess.run(

@@ -112,6 +112,7 @@ def messages(store: Any) -> list[tuple[int, str, Any]]:
     for k in range(300):  # 10 Hz
         t = START + k * 100_000_000 + 25_000_000
         array = default(store, OBJECTS_TYPE)
+        array.header.stamp.sec, array.header.stamp.nanosec = divmod(t, 10**9)
         for i in range(3):
             item = default(store, "derived_object_msgs/msg/Object")
             item.id = i

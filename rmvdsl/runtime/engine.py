@@ -345,14 +345,19 @@ class PropertyMonitor:
     def ticks_before(self, bound: int) -> None:
         """Samples at the rate's ticks before `bound` (all that happened up to a
         tick is known once the input is final past it)."""
-        if self.period is None or self.next_tick is None:
+        if self.period is None or self.next_tick is None or self.next_tick >= bound:
             return
-        while self.next_tick < bound:
-            if self.monitor is not None:
-                state = self.true & self.names
-                self.monitor.step(seconds(self.next_tick), state, self.pending_pulses & self.names)
-            self.pending_pulses = set()
-            self.next_tick += self.period
+        state = self.true & self.names
+        if self.monitor is not None:
+            self.monitor.step(seconds(self.next_tick), state, self.pending_pulses & self.names)
+        self.pending_pulses = set()
+        # The later ticks repeat that state without pulses, which only tells the
+        # monitor that time has passed: the last of them says it for all (a gap of
+        # years between two stamps costs one step, not a step per tick).
+        last = self.next_tick + (bound - 1 - self.next_tick) // self.period * self.period
+        if last > self.next_tick and self.monitor is not None:
+            self.monitor.step(seconds(last), state, frozenset())
+        self.next_tick = last + self.period
 
     def verdicts(self) -> list[tuple]:
         if self.monitor is not None:
@@ -581,6 +586,17 @@ class Runtime:
         if (topic, "") not in self.failed_fields:
             self.failed_fields.add((topic, ""))
             self._note(time, f"{topic}: a message cannot be decoded: {reason}", topic)
+
+    def lost(self, time: int, topic: str, count: int) -> None:
+        """Messages the transport lost (a host that sees gaps in the publishers'
+        sequence numbers reports them): counted, reported once per topic."""
+        self.counters[f"lost messages: {topic}"] += count
+        if (topic, "lost") not in self.failed_fields:
+            self.failed_fields.add((topic, "lost"))
+            self._note(
+                time, f"{topic}: {count} messages lost before the monitor could read them "
+                "(a deeper `depth` in the topic's qos block keeps more waiting)", topic,
+            )  # fmt: skip
 
     def _field_error(self, time: int, topic: str, variable: ir.Variable, reason: str) -> None:
         self.counters[f"messages not matching the spec: {variable.name}"] += 1

@@ -1,91 +1,138 @@
-"""Run inside a private network namespace (tests/test_ros2.py starts it): start the
-generated monitor node as its own process, play TwistStamped messages to it, collect
-what it publishes on /rmv/verdicts and /diagnostics, stop it, print them as JSON.
+"""Play a scenario to a generated monitor node and collect what it publishes. Runs
+inside a private network namespace (tests/test_ros2.py starts it through rosenv):
 
-    python drive_monitor.py PACKAGE_DIR PACKAGE SCENARIO.json
+    python drive_monitor.py SCENARIO.json
+
+The scenario (JSON) names the monitor's command line, the topics to publish with their
+types, and the steps: `["publish", topic, base64 CDR bytes]` sends recorded bytes as
+they are (any type, decoded only by the node), `["clock", ns]` publishes /clock and
+waits until the node's clock has reached it, `["settle"]` waits until the node has
+counted every message sent so far. Prints, as JSON, the node's verdict
+segments, its last diagnostics, its log and its exit code.
 """
 
 from __future__ import annotations
 
+import base64
+import importlib
 import json
-import os
 import signal
 import subprocess
 import sys
 import time
+from typing import Any
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import TwistStamped
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rosgraph_msgs.msg import Clock
 from std_msgs.msg import String
 
 DEADLINE = 30.0  # seconds for discovery and for each wait: discovery is racy on 2 cores
 
 
-def wait_for(condition, node, what: str, seen: object = None) -> None:
-    start = time.monotonic()
-    while not condition():
-        if time.monotonic() - start > DEADLINE:
-            raise SystemExit(f"timed out waiting for {what} (seen: {seen})")
-        rclpy.spin_once(node, timeout_sec=0.05)
+def message_class(name: str) -> Any:
+    package, _, type_name = name.split("/")
+    return getattr(importlib.import_module(f"{package}.msg"), type_name)
 
 
-def main(folder: str, package: str, scenario_path: str) -> int:
-    with open(scenario_path, encoding="utf-8") as file:
-        scenario = json.load(file)
-    env = {**os.environ, "PYTHONPATH": folder + os.pathsep + os.environ.get("PYTHONPATH", "")}
-    monitor = subprocess.Popen(
-        [sys.executable, "-m", f"{package}.monitor_node"], env=env,
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-    )  # fmt: skip
-    rclpy.init()
-    node = Node("player")
-    verdicts: list[str] = []
-    statuses: dict[str, dict[str, str]] = {}
-    node.create_subscription(String, "/rmv/verdicts", lambda m: verdicts.append(m.data), 1000)
+class Player:
+    def __init__(self, scenario: dict[str, Any]) -> None:
+        self.node = Node("player")
+        self.verdicts: list[str] = []
+        self.statuses: dict[str, dict[str, str]] = {}
+        self.clock_ns = -1
+        self.node.create_subscription(
+            String, "/rmv/verdicts", lambda m: self.verdicts.append(m.data), 1000
+        )
+        self.node.create_subscription(DiagnosticArray, "/diagnostics", self.on_diagnostics, 10)
+        qos = QoSProfile(depth=1000, history=HistoryPolicy.KEEP_LAST,
+                         reliability=ReliabilityPolicy.RELIABLE)  # fmt: skip
+        self.publishers = {
+            topic: self.node.create_publisher(message_class(kind), topic, qos)
+            for topic, kind in scenario["publishers"].items()
+        }
+        self.clock = self.node.create_publisher(Clock, "/clock", 10)
 
-    def on_diagnostics(array: DiagnosticArray) -> None:
+    def on_diagnostics(self, array: DiagnosticArray) -> None:
+        stamp = array.header.stamp.sec * 10**9 + array.header.stamp.nanosec
         for status in array.status:
             values = {v.key: v.value for v in status.values}
-            statuses[status.name] = {"message": status.message, **values}
+            self.statuses[status.name] = {"message": status.message, **values}
+            if status.name == "rmv_monitor: monitor":
+                self.clock_ns = stamp
 
-    node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 10)
-    qos = QoSProfile(depth=1000, history=HistoryPolicy.KEEP_LAST,
-                     reliability=ReliabilityPolicy.RELIABLE)  # fmt: skip
-    publisher = node.create_publisher(TwistStamped, scenario["topic"], qos)
-    try:
-        wait_for(lambda: publisher.get_subscription_count() > 0, node, "the monitor")
-        wait_for(lambda: node.count_publishers("/rmv/verdicts") > 0, node, "its verdicts")
-        for stamp, speed in scenario["messages"]:
-            message = TwistStamped()
-            message.header.stamp.sec, message.header.stamp.nanosec = divmod(stamp, 10**9)
-            message.twist.linear.x = float(speed)
-            publisher.publish(message)
-            rclpy.spin_once(node, timeout_sec=0.001)
-        count = str(len(scenario["messages"]))
-        wait_for(
-            lambda: statuses.get("rmv_monitor: monitor", {}).get("messages") == count,
-            node, "the monitor to count every message", statuses,
+    def wait_for(self, condition: Any, what: str, during: Any = None) -> None:
+        start = time.monotonic()
+        while not condition():
+            if time.monotonic() - start > DEADLINE:
+                raise SystemExit(f"timed out waiting for {what} (seen: {self.statuses})")
+            if during is not None:
+                during()
+            rclpy.spin_once(self.node, timeout_sec=0.05)
+
+    def set_clock(self, nanoseconds: int) -> None:
+        message = Clock()
+        message.clock.sec, message.clock.nanosec = divmod(nanoseconds, 10**9)
+        self.wait_for(lambda: self.clock.get_subscription_count() > 0, "a /clock subscriber")
+        self.wait_for(
+            lambda: self.clock_ns >= nanoseconds, f"the node's clock to reach {nanoseconds}",
+            during=lambda: self.clock.publish(message),
         )  # fmt: skip
+
+    def counted(self) -> int:
+        """The messages the monitor has read or knows it lost."""
+        counters = self.statuses.get("rmv_monitor: monitor", {})
+        lost = sum(int(v) for k, v in counters.items() if k.startswith("lost messages: "))
+        return int(counters.get("messages", "0")) + lost
+
+    def play(self, steps: list[list[Any]], pace: float) -> int:
+        published = 0
+        for step in steps:
+            if step[0] == "clock":
+                self.set_clock(step[1])
+                continue
+            if step[0] == "settle":  # until the monitor has counted all sent so far
+                self.wait_for(lambda n=published: self.counted() >= n, "the monitor to settle")
+                continue
+            self.publishers[step[1]].publish(base64.b64decode(step[2]))
+            published += 1
+            deadline = time.monotonic() + pace
+            rclpy.spin_once(self.node, timeout_sec=0)
+            while time.monotonic() < deadline:
+                rclpy.spin_once(self.node, timeout_sec=max(0.0, deadline - time.monotonic()))
+        return published
+
+
+def main(scenario_path: str) -> int:
+    with open(scenario_path, encoding="utf-8") as file:
+        scenario = json.load(file)
+    monitor = subprocess.Popen(
+        scenario["monitor"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
+    )
+    rclpy.init()
+    player = Player(scenario)
+    try:
+        for topic, publisher in player.publishers.items():
+            player.wait_for(lambda p=publisher: p.get_subscription_count() > 0, f"{topic}'s reader")
+        player.wait_for(lambda: player.node.count_publishers("/rmv/verdicts") > 0, "verdicts")
+        count = player.play(scenario["steps"], scenario.get("pace", 0.001))
+        player.wait_for(lambda: player.counted() == count, f"the monitor to count all {count}")
         monitor.send_signal(signal.SIGINT)
-        wait_for(lambda: monitor.poll() is not None, node, "the monitor to stop")
+        player.wait_for(lambda: monitor.poll() is not None, "the monitor to stop")
         end = time.monotonic()
-        while time.monotonic() - end < 1.0:
-            rclpy.spin_once(node, timeout_sec=0.05)
-    except SystemExit:
-        monitor.kill()
-        print(monitor.communicate()[0], file=sys.stderr)
-        raise
+        while time.monotonic() - end < 1.0:  # the last segments may still be in flight
+            rclpy.spin_once(player.node, timeout_sec=0.05)
     finally:
         if monitor.poll() is None:
             monitor.kill()
         log = monitor.communicate()[0]
-        node.destroy_node()
+        print(f"the monitor's log:\n{log}", file=sys.stderr)
+        player.node.destroy_node()
         rclpy.shutdown()
-    print(json.dumps({"verdicts": verdicts, "diagnostics": statuses, "log": log,
-                      "code": monitor.returncode}))  # fmt: skip
+    print(json.dumps({"verdicts": player.verdicts, "diagnostics": player.statuses,
+                      "log": log, "code": monitor.returncode}))  # fmt: skip
     return 0
 
 
