@@ -456,6 +456,24 @@ def test_a_message_later_than_the_lateness_is_counted_and_reported(tmp_path):
     assert counters["late messages dropped: /t"] == 1 and counters["messages"] == 4
 
 
+def test_a_gap_of_decades_between_two_messages_costs_no_more_than_a_short_one(tmp_path):
+    """A sampled property (10 Hz) over messages 31 years apart, as an unstamped
+    message (stamp 0) followed by stamped ones gives: the ticks in between repeat
+    one state and cost one monitor step, not 10 billion."""
+    from rmvdsl.runtime.engine import Runtime
+
+    path = tmp_path / "gap.rmv"
+    path.write_text(LATE.replace("lateness = 500ms", "rate = 10Hz"), encoding="utf-8")
+    runtime = Runtime(lower(check(str(path))))
+    for seconds, value in (("1", 1.0), ("1000000000", 7.0), ("1000000001", 1.0)):
+        runtime.message(int(seconds) * 10**9, "/t", {"data": value})
+        runtime.decide()
+    runtime.end()
+    verdicts = [(r["verdict"], r["from"], r["to"]) for r in runtime.records()
+                if r["kind"] == "verdict"]  # fmt: skip
+    assert verdicts[:2] == [("true", 1, 10**9), ("false", 10**9, 10**9 + 1)]
+
+
 def test_memory_is_bounded_by_the_spec_not_the_input(monkeypatch):
     """Six cycles of the scenario (5,400 messages, 3 minutes: past every window,
     query range and horizon of the spec) and twenty-four (21,600): the peak memory

@@ -27,6 +27,7 @@ SPEC = """system std_braking "braking, in standard ROS 2 types"
 time unit s
 topic twist: geometry_msgs/msg/TwistStamped = "/vehicle/twist" qos {
     depth = 1000
+    durability = transient_local
     time = header
 }
 var Speed = twist.twist.linear.x
@@ -69,15 +70,17 @@ MESSAGES = [(START + k * 50_000_000, _speed(k)) for k in range(200)]
 
 
 def _carla_spec() -> str:
-    """examples/carla/abs.rmv with times from header stamps and 1 s of lateness: the
-    player sends two topics, and their messages may reach the node out of order."""
+    """examples/carla/abs.rmv with times from header stamps and 1 s of lateness (the
+    player sends two topics, whose messages may reach the node out of order), and
+    readers that keep what was sent before they matched (discovery is not symmetric:
+    the player may see the node's reader before the reader sees the player)."""
     text = (CARLA / "abs.rmv").read_text(encoding="utf-8")
     text = text.replace('messages "msg"', f"messages {json.dumps(str(CARLA / 'msg'))}")
-    reliable = "    reliability = reliable\n"
-    text = text.replace(reliable, f"{reliable}    time = header\n")
-    text = text.replace(
-        '"/carla/hero/objects"\n', '"/carla/hero/objects" qos {\n    time = header\n}\n'
-    )
+    qos = "    depth = 1000\n    durability = transient_local\n    time = header\n"
+    text = text.replace("    depth = 10\n    reliability = reliable\n", qos)
+    objects = '"/carla/hero/objects"\n'
+    text = text.replace(objects, f"{objects[:-1]} qos {{\n{qos}}}\n")
+    assert text.count("transient_local") == 2
     return text.replace("    trigger = always\n", "    trigger = always\n    lateness = 1s\n")
 
 

@@ -488,6 +488,7 @@ class Runtime:
         self.sequence = 0
         self.started: int | None = None
         self.now = -_FOREVER  # the newest time fed to the dataflow
+        self.complete_before = -_FOREVER  # a live host said no input comes before this
         self.instants = 0  # distinct input times so far
         self.newest = -_FOREVER  # the newest time seen (some may still be held)
         self.lateness = max((influx.nanoseconds(p.lateness) for p in spec.properties), default=0)
@@ -552,11 +553,11 @@ class Runtime:
         self._ingest(time, topic, message)
 
     def _ingest(self, time: int, topic: str, message: Any) -> None:
-        if time < self.now:
+        if time < self.now or time < self.complete_before:
             self.counters[f"late messages dropped: {topic}"] += 1
             if (topic, "late") not in self.failed_fields:  # once per topic; counted
                 self.failed_fields.add((topic, "late"))
-                late = exact_text(seconds(self.now - time))
+                late = exact_text(seconds(max(self.now, self.complete_before) - time))
                 self._note(
                     time, f"{topic}: a message came {late} s late, later than the spec's "
                     "lateness allows: dropped (set `lateness` on a property)", topic,
@@ -819,11 +820,21 @@ class Runtime:
             }
         )  # fmt: skip
 
-    def decide(self) -> None:
+    def decide(self, complete_before: int | None = None) -> None:
         """Compute everything the input so far decides (a live host calls this on a
-        timer, so output never waits for the next batch of input)."""
-        if self.started is not None:
-            self._pump(self.now)
+        timer and after messages, so output never waits for the next batch).
+
+        A live host that times messages by its own clock (every topic timed by
+        receipt, no lateness) knows more: no message can come before its clock's
+        `complete_before`, so the input up to there is final even in silence (a
+        property waiting 2 s for something fails when 2 s pass with no message)."""
+        if self.started is None:
+            return
+        bound = self.now
+        if complete_before is not None and not self.stamped and not self.lateness:
+            self.complete_before = max(self.complete_before, complete_before)
+            bound = max(bound, self.complete_before)
+        self._pump(bound)
 
     def flush(self) -> None:
         """Write out the verdict segments still growing (a live host calls this

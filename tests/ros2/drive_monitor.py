@@ -25,7 +25,7 @@ from typing import Any
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import String
 
@@ -47,8 +47,10 @@ class Player:
             String, "/rmv/verdicts", lambda m: self.verdicts.append(m.data), 1000
         )
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self.on_diagnostics, 10)
-        qos = QoSProfile(depth=1000, history=HistoryPolicy.KEEP_LAST,
-                         reliability=ReliabilityPolicy.RELIABLE)  # fmt: skip
+        # Transient local: a reader that matches late still gets every message.
+        qos = QoSProfile(depth=10000, history=HistoryPolicy.KEEP_LAST,
+                         reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)  # fmt: skip
         self.publishers = {
             topic: self.node.create_publisher(message_class(kind), topic, qos)
             for topic, kind in scenario["publishers"].items()

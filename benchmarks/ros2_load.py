@@ -1,0 +1,253 @@
+"""The load side of benchmarks/bench_ros2.py: runs inside a private network namespace
+with the ROS 2 wheels (bench_ros2.py starts it through tests/ros2/rosenv.py).
+
+    python ros2_load.py rate monitor|bare NODE_COMMAND_JSON COUNT
+    python ros2_load.py latency monitor|bare NODE_COMMAND_JSON COUNT HZ
+    python ros2_load.py workload monitor NODE_COMMAND_JSON SECONDS SCALE PAYLOADS_JSON
+
+The node under test is a generated monitor or the bare subscriber (`bare` below,
+started as `python ros2_load.py bare count|echo`), each its own process. Prints JSON.
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from typing import Any
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import TwistStamped
+from rclpy.node import Node
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from std_msgs.msg import String
+
+TOPIC = "/bench/status"
+DEADLINE = 60.0
+QOS = QoSProfile(depth=1000, history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE)
+
+
+def braking(k: int) -> TwistStamped:
+    """A braking cycle of 100 messages: cruise, hard brake, ABS, stop, accelerate."""
+    message = TwistStamped()
+    phase = k % 100
+    speed, brake = 20.0, 0.0
+    if 50 <= phase < 70:
+        speed, brake = 20.0 - (phase - 50), 0.9
+    elif 70 <= phase < 80:
+        speed, brake = 2.0, 0.6
+    elif 80 <= phase < 90:
+        speed, brake = 0.0, 0.9
+    elif phase >= 90:
+        speed = 5.0
+    message.twist.linear.x, message.twist.angular.z = speed, brake
+    return message
+
+
+def bare_subscriber(mode: str) -> None:
+    """The ceiling: an rclpy subscriber that only counts (`count`, reported every
+    50 ms on /bench/count) or answers each message at once (`echo`, on /bench/echo)."""
+    rclpy.init()
+    node = Node("bare_subscriber")
+    count = [0]
+    out = node.create_publisher(String, "/bench/echo" if mode == "echo" else "/bench/count", 1000)
+
+    def on_message(message: TwistStamped) -> None:
+        count[0] += 1
+        if mode == "echo":
+            out.publish(String(data=str(count[0])))
+
+    node.create_subscription(TwistStamped, TOPIC, on_message, QOS)
+    if mode == "count":
+        node.create_timer(0.05, lambda: out.publish(String(data=str(count[0]))))
+    stop = []
+    signal.signal(signal.SIGINT, lambda *_: stop.append(1))
+    while not stop:
+        rclpy.spin_once(node, timeout_sec=0.05)
+    node.destroy_node()
+    rclpy.shutdown()
+
+
+class Load:
+    def __init__(self, command: list[str]) -> None:
+        self.process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+        self.node = Node("load")
+        self.counters: dict[str, str] = {}
+        self.count = 0
+        self.node.create_subscription(DiagnosticArray, "/diagnostics", self.on_diagnostics, 10)
+        self.node.create_subscription(String, "/bench/count", self.on_count, 10)
+
+    def on_diagnostics(self, array: DiagnosticArray) -> None:
+        for status in array.status:
+            if status.name == "rmv_monitor: monitor":
+                self.counters = {v.key: v.value for v in status.values}
+                self.count = int(self.counters.get("messages", "0"))
+
+    def on_count(self, message: String) -> None:
+        self.count = int(message.data)
+
+    def until(self, condition: Any, what: str) -> None:
+        start = time.monotonic()
+        while not condition():
+            if time.monotonic() - start > DEADLINE:
+                raise SystemExit(f"timed out waiting for {what}")
+            rclpy.spin_once(self.node, timeout_sec=0.01)
+
+    def usage(self) -> dict[str, float]:
+        """CPU seconds and peak resident memory of the node under test."""
+        with open(f"/proc/{self.process.pid}/stat", encoding="ascii") as file:
+            fields = file.read().rsplit(")", 1)[1].split()
+        ticks = os.sysconf("SC_CLK_TCK")
+        with open(f"/proc/{self.process.pid}/status", encoding="ascii") as file:
+            peak = next(int(line.split()[1]) for line in file if line.startswith("VmHWM"))
+        return {"cpu_s": (int(fields[11]) + int(fields[12])) / ticks, "peak_rss_mb": peak / 1024}
+
+    def stop(self) -> str:
+        self.process.send_signal(signal.SIGINT)
+        try:
+            out = self.process.communicate(timeout=20)[0]
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            out = self.process.communicate()[0]
+        self.node.destroy_node()
+        return out.decode(errors="replace")[-2000:]
+
+
+def rate(command: list[str], count: int, bare: bool) -> dict[str, Any]:
+    """Messages per second: `count` messages sent as fast as rclpy sends them over a
+    reliable keep-all topic (the writer waits for the reader), until all are read."""
+    load = Load(command)
+    publisher = load.node.create_publisher(TwistStamped, TOPIC, QOS)
+    load.until(lambda: publisher.get_subscription_count() > 0, "the reader")
+    messages = [braking(k) for k in range(count)]
+    start = time.monotonic()
+    for message in messages:
+        publisher.publish(message)
+        rclpy.spin_once(load.node, timeout_sec=0)
+    load.until(lambda: load.count >= count, f"{count} messages to be read")
+    elapsed = time.monotonic() - start
+    usage = load.usage()
+    counters = dict(load.counters)
+    log = load.stop()
+    return {"messages": load.count, "seconds": elapsed, "per_second": count / elapsed,
+            "counters": counters, **usage, "log": log}  # fmt: skip
+
+
+def latency(command: list[str], count: int, hz: float, bare: bool) -> dict[str, Any]:
+    """Receipt-to-verdict: messages at `hz` whose value flips a verdict each time; the
+    time from sending message k+1 to receiving the segment it completes (or, for the
+    bare subscriber, its echo of message k)."""
+    load = Load(command)
+    received: list[int] = []
+    for topic in ("/rmv/verdicts", "/bench/echo"):
+        load.node.create_subscription(
+            String, topic, lambda _m: received.append(time.monotonic_ns()), 1000
+        )
+    publisher = load.node.create_publisher(TwistStamped, TOPIC, QOS)
+    load.until(lambda: publisher.get_subscription_count() > 0, "the reader")
+    period = int(1e9 / hz)
+    sent: list[int] = []
+    next_at = time.monotonic_ns() + 200_000_000
+    for k in range(count):
+        message = TwistStamped()
+        message.twist.linear.x = 7.0 if k % 2 else 1.0
+        while time.monotonic_ns() < next_at:
+            rclpy.spin_once(load.node, timeout_sec=0)
+        sent.append(time.monotonic_ns())
+        publisher.publish(message)
+        next_at += period
+    wanted = count if bare else count - 1  # the last segment is still open
+    load.until(lambda: len(received) >= wanted, f"{wanted} answers")
+    usage = load.usage()
+    log = load.stop()
+    answered = sent if bare else sent[1:]
+    delays = sorted((r - s) / 1e6 for r, s in zip(received, answered, strict=False))
+    return {"answers": len(received), "p50_ms": delays[len(delays) // 2],
+            "p99_ms": delays[int(len(delays) * 0.99)], "max_ms": delays[-1], **usage,
+            "log": log}  # fmt: skip
+
+
+# Table 4.1 of the thesis: the CARLA bridge's topics and messages in 100 s.
+THESIS_TOPICS = (
+    ("/carla/actor_list", "carla_msgs/msg/CarlaActorList", 1),
+    ("/carla/hero/gnss/front/fix", "sensor_msgs/msg/NavSatFix", 2006),
+    ("/carla/hero/objects", "derived_object_msgs/msg/ObjectArray", 1820),
+    ("/carla/hero/odometry", "nav_msgs/msg/Odometry", 1820),
+    ("/carla/hero/vehicle_info", "carla_msgs/msg/CarlaEgoVehicleInfo", 1),
+    ("/carla/hero/vehicle_status", "carla_msgs/msg/CarlaEgoVehicleStatus", 1820),
+    ("/carla/marker", "visualization_msgs/msg/Marker", 3640),
+    ("/carla/objects", "derived_object_msgs/msg/ObjectArray", 1818),
+    ("/carla/status", "carla_msgs/msg/CarlaStatus", 1820),
+    ("/carla/world_info", "carla_msgs/msg/CarlaWorldInfo", 1),
+    ("/clock", "rosgraph_msgs/msg/Clock", 1821),
+    ("/rosout", "rcl_interfaces/msg/Log", 5),
+    # tf2_msgs has no wheel on PyPI: one transform a message instead of an array
+    ("/tf", "geometry_msgs/msg/TransformStamped", 1818),
+)
+
+
+def _class(name: str) -> Any:
+    import importlib
+
+    package, _, type_name = name.split("/")
+    return getattr(importlib.import_module(f"{package}.msg"), type_name)
+
+
+def workload(command: list[str], seconds: float, scale: float, recorded: str) -> dict[str, Any]:
+    """The thesis's 13 topics at their rates times `scale` for `seconds`; the ego
+    vehicle's status and objects are the braking recording's bytes, cycled."""
+    with open(recorded, encoding="utf-8") as file:
+        payloads = {t: [base64.b64decode(d) for d in data] for t, data in json.load(file).items()}
+    load = Load(command)
+    publishers, schedule = {}, []
+    for topic, kind, per_100s in THESIS_TOPICS:
+        publishers[topic] = load.node.create_publisher(_class(kind), topic, 10)
+        count = max(1, round(per_100s * scale * seconds / 100))
+        schedule.extend((k * seconds / count, topic) for k in range(count))
+    schedule.sort()
+    defaults = {t: _class(k)() for t, k, _ in THESIS_TOPICS}
+    for topic in payloads:
+        load.until(lambda t=topic: publishers[t].get_subscription_count() > 0, f"{topic}'s reader")
+    before = load.usage()
+    sent, start = {t: 0 for t in publishers}, time.monotonic()
+    for at, topic in schedule:
+        while time.monotonic() - start < at:
+            rclpy.spin_once(load.node, timeout_sec=max(0.0, at - (time.monotonic() - start)))
+        data = payloads.get(topic)
+        publishers[topic].publish(data[sent[topic] % len(data)] if data else defaults[topic])
+        sent[topic] += 1
+    wall = time.monotonic() - start
+    read = sum(sent[t] for t in payloads)
+    load.until(lambda: load.count >= read, f"the monitor to read {read}")
+    after = load.usage()
+    counters = dict(load.counters)
+    log = load.stop()
+    return {"messages_sent": sum(sent.values()), "messages_read": read, "seconds": wall,
+            "cpu_share": (after["cpu_s"] - before["cpu_s"]) / wall,
+            "peak_rss_mb": after["peak_rss_mb"], "counters": counters, "log": log}  # fmt: skip
+
+
+def main(argv: list[str]) -> int:
+    if argv[0] == "bare":
+        bare_subscriber(argv[1])
+        return 0
+    rclpy.init()
+    kind, bare, command = argv[0], argv[1] == "bare", json.loads(argv[2])
+    if kind == "rate":
+        result = rate(command, int(argv[3]), bare)
+    elif kind == "latency":
+        result = latency(command, int(argv[3]), float(argv[4]), bare)
+    else:
+        result = workload(command, float(argv[3]), float(argv[4]), argv[5])
+    rclpy.shutdown()
+    print(json.dumps(result))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
