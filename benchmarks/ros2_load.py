@@ -12,11 +12,13 @@ started as `python ros2_load.py bare count|echo`), each its own process. Prints 
 from __future__ import annotations
 
 import base64
+import itertools
 import json
 import os
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from typing import Any
 
@@ -75,7 +77,10 @@ def bare_subscriber(mode: str) -> None:
 
 class Load:
     def __init__(self, command: list[str]) -> None:
-        self.process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+        # The node's log goes to a file: a pipe nobody reads while the node runs
+        # would fill and stop the node mid-run.
+        self.log = tempfile.TemporaryFile()  # noqa: SIM115 (lives as long as the node)
+        self.process = subprocess.Popen(command, stdout=self.log, stderr=subprocess.STDOUT)
         self.node = Node("load")
         self.counters: dict[str, str] = {}
         self.count = 0
@@ -91,11 +96,15 @@ class Load:
     def on_count(self, message: String) -> None:
         self.count = int(message.data)
 
-    def until(self, condition: Any, what: str) -> None:
+    def until(self, condition: Any, what: str, seen: Any = None, during: Any = None) -> None:
         start = time.monotonic()
         while not condition():
             if time.monotonic() - start > DEADLINE:
-                raise SystemExit(f"timed out waiting for {what}")
+                found = f" (have {seen()})" if seen is not None else ""
+                raise SystemExit(f"timed out waiting for {what}{found}: {self.stop()}")
+            if during is not None:
+                during()
+                time.sleep(0.05)  # a retry every 50 ms, spinning in between
             rclpy.spin_once(self.node, timeout_sec=0.01)
 
     def usage(self) -> dict[str, float]:
@@ -110,32 +119,39 @@ class Load:
     def stop(self) -> str:
         self.process.send_signal(signal.SIGINT)
         try:
-            out = self.process.communicate(timeout=20)[0]
+            self.process.wait(timeout=20)
         except subprocess.TimeoutExpired:
             self.process.kill()
-            out = self.process.communicate()[0]
+            self.process.wait()
         self.node.destroy_node()
-        return out.decode(errors="replace")[-2000:]
+        self.log.seek(0)
+        return self.log.read().decode(errors="replace")[-2000:]
 
 
 def rate(command: list[str], count: int, bare: bool) -> dict[str, Any]:
-    """Messages per second: `count` messages sent as fast as rclpy sends them over a
-    reliable keep-all topic (the writer waits for the reader), until all are read."""
+    """`count` messages sent at once by a reliable writer that keeps them all, read by
+    a keep-all reader: messages per second of wall time until all are read (bounded
+    by the sender where it is the slower), and per CPU second of the reader (what
+    the reader could take with a core of its own: its ceiling)."""
     load = Load(command)
-    publisher = load.node.create_publisher(TwistStamped, TOPIC, QOS)
+    writer = QoSProfile(depth=count, history=HistoryPolicy.KEEP_LAST,
+                        reliability=ReliabilityPolicy.RELIABLE)  # fmt: skip
+    publisher = load.node.create_publisher(TwistStamped, TOPIC, writer)
     load.until(lambda: publisher.get_subscription_count() > 0, "the reader")
     messages = [braking(k) for k in range(count)]
+    before = load.usage()
     start = time.monotonic()
-    for message in messages:
+    for message in messages:  # the writer keeps them all: the reader gets every one
         publisher.publish(message)
-        rclpy.spin_once(load.node, timeout_sec=0)
     load.until(lambda: load.count >= count, f"{count} messages to be read")
     elapsed = time.monotonic() - start
     usage = load.usage()
+    cpu = usage["cpu_s"] - before["cpu_s"]
     counters = dict(load.counters)
     log = load.stop()
     return {"messages": load.count, "seconds": elapsed, "per_second": count / elapsed,
-            "counters": counters, **usage, "log": log}  # fmt: skip
+            "cpu_s": cpu, "per_cpu_second": count / cpu, "peak_rss_mb": usage["peak_rss_mb"],
+            "counters": counters, "log": log}  # fmt: skip
 
 
 def latency(command: list[str], count: int, hz: float, bare: bool) -> dict[str, Any]:
@@ -143,10 +159,10 @@ def latency(command: list[str], count: int, hz: float, bare: bool) -> dict[str, 
     time from sending message k+1 to receiving the segment it completes (or, for the
     bare subscriber, its echo of message k)."""
     load = Load(command)
-    received: list[int] = []
+    received: list[tuple[int, str]] = []
     for topic in ("/rmv/verdicts", "/bench/echo"):
         load.node.create_subscription(
-            String, topic, lambda _m: received.append(time.monotonic_ns()), 1000
+            String, topic, lambda m: received.append((time.monotonic_ns(), m.data)), 1000
         )
     publisher = load.node.create_publisher(TwistStamped, TOPIC, QOS)
     load.until(lambda: publisher.get_subscription_count() > 0, "the reader")
@@ -156,17 +172,24 @@ def latency(command: list[str], count: int, hz: float, bare: bool) -> dict[str, 
     for k in range(count):
         message = TwistStamped()
         message.twist.linear.x = 7.0 if k % 2 else 1.0
-        while time.monotonic_ns() < next_at:
-            rclpy.spin_once(load.node, timeout_sec=0)
+        while (wait := next_at - time.monotonic_ns()) > 0:
+            rclpy.spin_once(load.node, timeout_sec=wait / 1e9)
         sent.append(time.monotonic_ns())
         publisher.publish(message)
         next_at += period
-    wanted = count if bare else count - 1  # the last segment is still open
-    load.until(lambda: len(received) >= wanted, f"{wanted} answers")
+    # The bare subscriber answers every message; the monitor completes a segment with
+    # every message but the first (which opens one) and the last (its segment stays
+    # open), so its answers line up with the messages from the end.
+    wanted = count if bare else count - 2
+    load.until(lambda: len(received) >= wanted, f"{wanted} answers", lambda: len(received))
     usage = load.usage()
     log = load.stop()
-    answered = sent if bare else sent[1:]
-    delays = sorted((r - s) / 1e6 for r, s in zip(received, answered, strict=False))
+    if not bare:
+        verdicts = [json.loads(data)["verdict"] for _, data in received]
+        if any(a == b for a, b in itertools.pairwise(verdicts)):
+            raise SystemExit("the monitor's segments do not alternate: one was lost or merged")
+    answered = sent[len(sent) - len(received) - (0 if bare else 1) :][: len(received)]
+    delays = sorted((r - s) / 1e6 for (r, _), s in zip(received, answered, strict=True))
     return {"answers": len(received), "p50_ms": delays[len(delays) // 2],
             "p99_ms": delays[int(len(delays) * 0.99)], "max_ms": delays[-1], **usage,
             "log": log}  # fmt: skip
@@ -191,6 +214,11 @@ THESIS_TOPICS = (
 )
 
 
+def lost(counters: dict[str, str]) -> int:
+    """The messages the monitor counted as lost (gaps in sequence numbers)."""
+    return sum(int(v) for k, v in counters.items() if k.startswith("lost messages: "))
+
+
 def _class(name: str) -> Any:
     import importlib
 
@@ -206,13 +234,17 @@ def workload(command: list[str], seconds: float, scale: float, recorded: str) ->
     load = Load(command)
     publishers, schedule = {}, []
     for topic, kind, per_100s in THESIS_TOPICS:
-        publishers[topic] = load.node.create_publisher(_class(kind), topic, 10)
+        publishers[topic] = load.node.create_publisher(_class(kind), topic, 1000)
         count = max(1, round(per_100s * scale * seconds / 100))
         schedule.extend((k * seconds / count, topic) for k in range(count))
     schedule.sort()
     defaults = {t: _class(k)() for t, k, _ in THESIS_TOPICS}
-    for topic in payloads:
+    for topic in payloads:  # until the node reads each topic (matching is not symmetric)
         load.until(lambda t=topic: publishers[t].get_subscription_count() > 0, f"{topic}'s reader")
+        base = load.count
+        load.until(lambda b=base: load.count > b, f"a first message of {topic}",
+                   during=lambda t=topic: publishers[t].publish(payloads[t][0]))  # fmt: skip
+    warmed = load.count
     before = load.usage()
     sent, start = {t: 0 for t in publishers}, time.monotonic()
     for at, topic in schedule:
@@ -222,12 +254,16 @@ def workload(command: list[str], seconds: float, scale: float, recorded: str) ->
         publishers[topic].publish(data[sent[topic] % len(data)] if data else defaults[topic])
         sent[topic] += 1
     wall = time.monotonic() - start
-    read = sum(sent[t] for t in payloads)
-    load.until(lambda: load.count >= read, f"the monitor to read {read}")
+    read = warmed + sum(sent[t] for t in payloads)
+    load.until(
+        lambda: load.count + lost(load.counters) >= read,
+        f"the monitor to account for {read}", lambda: load.counters,
+    )  # fmt: skip
     after = load.usage()
     counters = dict(load.counters)
     log = load.stop()
-    return {"messages_sent": sum(sent.values()), "messages_read": read, "seconds": wall,
+    return {"messages_sent": sum(sent.values()), "messages_to_read": read,
+            "messages_lost": lost(counters), "seconds": wall,
             "cpu_share": (after["cpu_s"] - before["cpu_s"]) / wall,
             "peak_rss_mb": after["peak_rss_mb"], "counters": counters, "log": log}  # fmt: skip
 

@@ -16,6 +16,7 @@ import json
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -79,9 +80,8 @@ class Watcher:
 def main(scenario_path: str) -> int:
     with open(scenario_path, encoding="utf-8") as file:
         scenario = json.load(file)
-    node = subprocess.Popen(
-        scenario["intrusion_node"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
-    )
+    log_file = tempfile.TemporaryFile(mode="w+")  # noqa: SIM115 (never a pipe nobody reads)
+    node = subprocess.Popen(scenario["intrusion_node"], stdout=log_file, stderr=subprocess.STDOUT)
     rclpy.init()
     watcher = Watcher(scenario)
     intruders = []
@@ -105,10 +105,12 @@ def main(scenario_path: str) -> int:
                 intruder.kill()
         node.send_signal(signal.SIGINT)
         try:
-            log = node.communicate(timeout=10)[0]
+            node.wait(timeout=10)
         except subprocess.TimeoutExpired:
             node.kill()
-            log = node.communicate()[0]
+            node.wait()
+        log_file.seek(0)
+        log = log_file.read()
         watcher.node.destroy_node()
         rclpy.shutdown()
     print(json.dumps({

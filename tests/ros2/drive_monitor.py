@@ -19,6 +19,7 @@ import json
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from typing import Any
 
@@ -110,9 +111,10 @@ class Player:
 def main(scenario_path: str) -> int:
     with open(scenario_path, encoding="utf-8") as file:
         scenario = json.load(file)
-    monitor = subprocess.Popen(
-        scenario["monitor"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
-    )
+    # The node's log goes to a file: a pipe nobody reads while the node runs would
+    # fill and stop the node mid-run.
+    log_file = tempfile.TemporaryFile(mode="w+")  # noqa: SIM115 (lives as long as the node)
+    monitor = subprocess.Popen(scenario["monitor"], stdout=log_file, stderr=subprocess.STDOUT)
     rclpy.init()
     player = Player(scenario)
     try:
@@ -129,7 +131,9 @@ def main(scenario_path: str) -> int:
     finally:
         if monitor.poll() is None:
             monitor.kill()
-        log = monitor.communicate()[0]
+        monitor.wait()
+        log_file.seek(0)
+        log = log_file.read()
         print(f"the monitor's log:\n{log}", file=sys.stderr)
         player.node.destroy_node()
         rclpy.shutdown()
