@@ -474,6 +474,29 @@ def test_a_gap_of_decades_between_two_messages_costs_no_more_than_a_short_one(tm
     assert verdicts[:2] == [("true", 1, 10**9), ("false", 10**9, 10**9 + 1)]
 
 
+def test_a_live_host_s_clock_decides_in_silence(tmp_path):
+    """`decide(complete_before=CLOCK)`: a host timing messages by its own clock knows
+    that no message comes earlier, so 3 s of silence falsify a sampled `eventually
+    within 2 s` with no further message; one that still comes earlier is late."""
+    from rmvdsl.runtime.engine import Runtime
+
+    path = tmp_path / "silence.rmv"
+    text = LATE.replace("property Low: not High {\n    lateness = 500ms\n}",
+                        "property Soon: eventually[<=2s] High { rate = 10Hz }")  # fmt: skip
+    path.write_text(text, encoding="utf-8")
+    runtime = Runtime(lower(check(str(path))))
+    runtime.message(0, "/t", {"data": 1.0})
+    runtime.decide()
+    assert runtime.pending_segments.get("Soon") is None  # nothing known yet
+    runtime.decide(complete_before=3 * 10**9)
+    segment = runtime.pending_segments["Soon"]
+    assert segment[0] == 0 and segment[4] == "false"  # no High within 2 s of the start
+    runtime.message(2 * 10**9, "/t", {"data": 7.0})
+    runtime.end()
+    counters = {r["name"]: r["value"] for r in runtime.records() if r["kind"] == "counter"}
+    assert counters["late messages dropped: /t"] == 1
+
+
 def test_memory_is_bounded_by_the_spec_not_the_input(monkeypatch):
     """Six cycles of the scenario (5,400 messages, 3 minutes: past every window,
     query range and horizon of the spec) and twenty-four (21,600): the peak memory

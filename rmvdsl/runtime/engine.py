@@ -827,7 +827,8 @@ class Runtime:
         A live host that times messages by its own clock (every topic timed by
         receipt, no lateness) knows more: no message can come before its clock's
         `complete_before`, so the input up to there is final even in silence (a
-        property waiting 2 s for something fails when 2 s pass with no message)."""
+        property sampled at a rate, waiting 2 s for something, fails when 2 s pass
+        with no message)."""
         if self.started is None:
             return
         bound = self.now
