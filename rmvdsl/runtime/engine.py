@@ -36,6 +36,7 @@ NS = influx.NS
 _FOREVER = 1 << 126
 LEVELS = ("OK", "INFO", "WARNING", "CRITICAL")
 _SEVERITY = {"info": 1, "warn": 2, "crit": 3}
+_LOG_LEVEL = {"OK": "info", "INFO": "info", "WARNING": "warn", "CRITICAL": "error"}
 
 Item = tuple[int, int, str, Any, str]  # time, sequence, name, value, source
 Record = dict[str, Any]
@@ -522,10 +523,9 @@ class Runtime:
         self.consumed = frozenset(self.state_of.get(n, n) for n in wanted)
         self.consumer_inbox: list[Item] = []
         self.consumer_upstream = self._producers(self.consumed)
-        self.open_violations: dict[str, bool] = {}
         self.pending_segments: dict[str, list[Any]] = {}
         self.intrusions: dict[Endpoint, str] = {}
-        self.failed_fields: set[tuple[str, str]] = set()
+        self.reported: set[str] = set()  # counters of lost input already reported
 
     # ---- input ----
 
@@ -554,14 +554,12 @@ class Runtime:
 
     def _ingest(self, time: int, topic: str, message: Any) -> None:
         if time < self.now or time < self.complete_before:
-            self.counters[f"late messages dropped: {topic}"] += 1
-            if (topic, "late") not in self.failed_fields:  # once per topic; counted
-                self.failed_fields.add((topic, "late"))
-                late = exact_text(seconds(max(self.now, self.complete_before) - time))
-                self._note(
-                    time, f"{topic}: a message came {late} s late, later than the spec's "
-                    "lateness allows: dropped (set `lateness` on a property)", topic,
-                )  # fmt: skip
+            late = exact_text(seconds(max(self.now, self.complete_before) - time))
+            text = (
+                f"{topic}: a message came {late} s late, later than the spec's lateness "
+                "allows: dropped (set `lateness` on a property)"
+            )
+            self._input_lost(time, topic, f"late messages dropped: {topic}", 1, text)
             return
         if self.started is None:
             self._begin(time)
@@ -582,30 +580,33 @@ class Runtime:
             self._emit(time, variable.name, value, topic)
 
     def damaged(self, time: int, topic: str, reason: str) -> None:
-        """A message that could not be decoded: counted, reported once per topic."""
-        self.counters[f"damaged messages: {topic}"] += 1
-        if (topic, "") not in self.failed_fields:
-            self.failed_fields.add((topic, ""))
-            self._note(time, f"{topic}: a message cannot be decoded: {reason}", topic)
+        """A message that could not be decoded."""
+        text = f"{topic}: a message cannot be decoded: {reason}"
+        self._input_lost(time, topic, f"damaged messages: {topic}", 1, text)
 
     def lost(self, time: int, topic: str, count: int) -> None:
         """Messages the transport lost (a host that sees gaps in the publishers'
-        sequence numbers reports them): counted, reported once per topic."""
-        self.counters[f"lost messages: {topic}"] += count
-        if (topic, "lost") not in self.failed_fields:
-            self.failed_fields.add((topic, "lost"))
-            self._note(
-                time, f"{topic}: {count} messages lost before the monitor could read them "
-                "(a deeper `depth` in the topic's qos block keeps more waiting)", topic,
-            )  # fmt: skip
+        sequence numbers reports them)."""
+        text = (
+            f"{topic}: {count} messages lost before the monitor could read them "
+            "(a deeper `depth` in the topic's qos block keeps more waiting)"
+        )
+        self._input_lost(time, topic, f"lost messages: {topic}", count, text)
 
     def _field_error(self, time: int, topic: str, variable: ir.Variable, reason: str) -> None:
-        self.counters[f"messages not matching the spec: {variable.name}"] += 1
-        if (topic, variable.name) not in self.failed_fields:
-            self.failed_fields.add((topic, variable.name))
-            self._note(
-                time, f"{topic}: `{variable.name}` cannot be read: {reason}", topic, variable.origin
-            )
+        text = f"{topic}: `{variable.name}` cannot be read: {reason}"
+        counter = f"messages not matching the spec: {variable.name}"
+        self._input_lost(time, topic, counter, 1, text, variable.origin)
+
+    def _input_lost(
+        self, time: int, topic: str, counter: str, count: int, text: str, origin: str = ""
+    ) -> None:
+        """Input the runtime could not use: always counted, reported once per
+        counter (a topic's, or a variable's)."""
+        self.counters[counter] += count
+        if counter not in self.reported:
+            self.reported.add(counter)
+            self._note(time, text, topic, origin)
 
     def _note(self, time: int, text: str, topic: str, origin: str = "") -> None:
         """A diagnostic record, at the spec's declaration that the input disagrees
@@ -772,12 +773,10 @@ class Runtime:
     def _alert(self, alert: ir.Alert, record: Record) -> None:
         self.out.append(record)
         self.counters[f"alerts: {alert.name}"] += 1
-        level = {"OK": "info", "INFO": "info", "WARNING": "warn", "CRITICAL": "error"}
         for action in alert.actions:
             text = action_text(action, alert.message)
-            context = ActionContext(
-                "alert", alert.name, action_level(action, level[record["level"]]), text, record
-            )
+            level = action_level(action, _LOG_LEVEL[record["level"]])
+            context = ActionContext("alert", alert.name, level, text, record)
             self._act(action, context)
 
     def _verdicts(self, monitor: PropertyMonitor) -> None:
@@ -836,12 +835,6 @@ class Runtime:
             self.complete_before = max(self.complete_before, complete_before)
             bound = max(bound, self.complete_before)
         self._pump(bound)
-
-    def flush(self) -> None:
-        """Write out the verdict segments still growing (a live host calls this
-        periodically; the replay lets them grow to their full length)."""
-        for name in list(self.pending_segments):
-            self._flush_segment(name)
 
 
 def _dataflow(spec: ir.Spec) -> list[Node]:

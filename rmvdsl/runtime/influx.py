@@ -209,9 +209,7 @@ def _stddev(vals: list[Any]) -> Any:
     if len(vals) < 2:
         return MISSING  # InfluxDB gives NaN, which it cannot write: no point
     numbers = [float(v) for v in vals if not (isinstance(v, float) and math.isnan(v))]
-    mean = 0.0
-    for count, value in enumerate(numbers, 1):
-        mean += (value - mean) / count
+    mean = _mean(numbers)
     variance = sum((v - mean) ** 2 for v in numbers)
     return math.sqrt(variance / (len(numbers) - 1))
 
@@ -447,10 +445,10 @@ class RawQuery:
 
     def __init__(self, event: ir.Event) -> None:
         self.event = event
+        calls = [c for c in _calls(event.expr) if c.function != "atan2"]  # its y: a series
+        self.seconds = {id(c): _second(c) for c in calls}
         self.streams: dict[int, Stream] = {
-            id(c): Stream(c.function, _second(c))
-            for c in _calls(event.expr)
-            if c.function in STREAMS
+            id(c): Stream(c.function, self.seconds[id(c)]) for c in calls if c.function in STREAMS
         }
 
     def row(self, row: Row) -> Any:
@@ -468,7 +466,7 @@ class RawQuery:
                 return stream.push(row.time, inner)
             if expr.function == "atan2":
                 return _atan2(inner, self._value(expr.args[1], row))
-            return elementwise(expr.function, inner, _second(expr))
+            return elementwise(expr.function, inner, self.seconds[id(expr)])
         if isinstance(expr, ir.Binary):
             return _binary(expr, self._value(expr.left, row), lambda: self._value(expr.right, row))
         if isinstance(expr, ir.Unary):
@@ -518,10 +516,11 @@ class WindowedQuery:
         return now + self.every
 
     def execute(self, run: Run, rows: Sequence[Row]) -> list[tuple[int, Any]]:
-        """The points the run writes, in time order (several at one time: the last
-        written wins, as InfluxDB overwrites a point of the same series and time)."""
+        """The points the run writes from `rows` (those of its range, oldest first),
+        in time order (several at one time: the last written wins, as InfluxDB
+        overwrites a point of the same series and time)."""
         event = self.event
-        selected = [r for r in rows if run.start <= r.time < run.end]
+        selected = list(rows)
         if event.where is not None:
             selected = [r for r in selected if evaluate(event.where, r.fields.get) is True]
         windows = range(run.start, run.end, self.interval)
