@@ -207,6 +207,8 @@ def main(argv: list[str] | None = None) -> int:
     for name, result in (("bare echo", bare_latency), ("monitor verdict", latency)):
         print(f"  {name:<21} {result['p50_ms']:.3f} / {result['p99_ms']:.3f} / "
               f"{result['max_ms']:.3f}")  # fmt: skip
+    print(f"  inside the node, arrival to verdict published: {latency['node_p50_ms']:.3f} / "
+          f"{latency['node_p99_ms']:.3f} ms p50 / p99 (goal p99 < 1 ms)")  # fmt: skip
     print("thesis workload (13 topics, table 4.1), the node reading 2 of them:")
     for name, result in (("1x", one), ("10x", ten)):
         print(

@@ -84,12 +84,14 @@ class Load:
         self.node = Node("load")
         self.counters: dict[str, str] = {}
         self.count = 0
+        self.reports = 0
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self.on_diagnostics, 10)
         self.node.create_subscription(String, "/bench/count", self.on_count, 10)
 
     def on_diagnostics(self, array: DiagnosticArray) -> None:
         for status in array.status:
             if status.name == "rmv_monitor: monitor":
+                self.reports += 1
                 self.counters = {v.key: v.value for v in status.values}
                 self.count = int(self.counters.get("messages", "0"))
 
@@ -183,6 +185,12 @@ def latency(command: list[str], count: int, hz: float, bare: bool) -> dict[str, 
     wanted = count if bare else count - 2
     load.until(lambda: len(received) >= wanted, f"{wanted} answers", lambda: len(received))
     usage = load.usage()
+    inside: dict[str, float] = {}
+    if not bare:  # the node's own figures: from a message's arrival to its verdict
+        reports = load.reports
+        load.until(lambda: load.reports > reports, "the next diagnostics")
+        inside = {f"node_{k}_ms": float(load.counters[f"verdict latency {k} (ms)"])
+                  for k in ("p50", "p99")}  # fmt: skip
     log = load.stop()
     if not bare:
         verdicts = [json.loads(data)["verdict"] for _, data in received]
@@ -191,7 +199,7 @@ def latency(command: list[str], count: int, hz: float, bare: bool) -> dict[str, 
     answered = sent[len(sent) - len(received) - (0 if bare else 1) :][: len(received)]
     delays = sorted((r - s) / 1e6 for (r, _), s in zip(received, answered, strict=True))
     return {"answers": len(received), "p50_ms": delays[len(delays) // 2],
-            "p99_ms": delays[int(len(delays) * 0.99)], "max_ms": delays[-1], **usage,
+            "p99_ms": delays[int(len(delays) * 0.99)], "max_ms": delays[-1], **inside, **usage,
             "log": log}  # fmt: skip
 
 
