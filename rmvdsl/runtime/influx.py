@@ -278,12 +278,13 @@ def reduce(name: str, points: list[tuple[int, Any]], second: Any) -> Any:
 def multi(name: str, points: list[tuple[int, Any]], n: int, seed: int) -> list[tuple[int, Any]]:
     """The functions that select several points: `top`/`bottom` (the N greatest or
     smallest, at their own times, ties to the oldest), `distinct` (each value once,
-    ascending) and `sample` (N at random, by a generator seeded with the window)."""
+    in the order of its first time, ties by value: query/functions.gen.go sorts the
+    points so) and `sample` (N at random, by a generator seeded with the window)."""
     if name == "distinct":
         seen: dict[Any, int] = {}
         for time, value in points:
             seen.setdefault(value, time)
-        return [(-1, v) for v in sorted(seen)]
+        return [(-1, v) for v, _ in sorted(seen.items(), key=lambda item: (item[1], item[0]))]
     if name in ("top", "bottom"):
         ranked = sorted(points, key=lambda p: ((-p[1] if name == "top" else p[1]), p[0]))
         return sorted(ranked[:n])
@@ -419,6 +420,15 @@ def _second(call: ir.Call) -> Any:
     raise ValueError(f"the second argument of {call.function} is not a constant")
 
 
+# Transformations for which InfluxDB reads one window more, before a query's time
+# range, so that a run's first window has a predecessor (query/select.go moves the
+# input's StartTime back one interval for them; cumulative_sum is not among them).
+LOOKBACK = frozenset(
+    {"derivative", "non_negative_derivative", "difference", "non_negative_difference",
+     "elapsed", "moving_average"}
+)  # fmt: skip
+
+
 def _aggregating(call: ir.Call) -> bool:
     return builtin(call.function).group in ("aggregation", "selector")
 
@@ -498,6 +508,9 @@ class WindowedQuery:
         every = event.resample_every or event.window.interval
         self.every = nanoseconds(every)
         self.span = nanoseconds(event.resample_for or max(every, event.window.interval))
+        # How far before a run's range its rows reach (one window for LOOKBACK).
+        looks_back = any(c.function in LOOKBACK for c in _calls(event.expr))
+        self.lookback = self.interval if looks_back else 0
 
     def run_at(self, now: int) -> Run:
         """InfluxDB's continuous querier, services/continuous_querier/service.go:
@@ -516,7 +529,8 @@ class WindowedQuery:
         return now + self.every
 
     def execute(self, run: Run, rows: Sequence[Row]) -> list[tuple[int, Any]]:
-        """The points the run writes from `rows` (those of its range, oldest first),
+        """The points the run writes from `rows` (those of its range and `lookback`
+        before it, oldest first),
         in time order (several at one time: the last written wins, as InfluxDB
         overwrites a point of the same series and time)."""
         event = self.event
@@ -541,7 +555,11 @@ class WindowedQuery:
         if isinstance(expr, ir.Call):
             if _aggregating(expr):
                 return self._aggregate(expr, rows, windows)
-            inner = self._series(expr.args[0], rows, windows)
+            if expr.function in LOOKBACK:
+                before = range(windows.start - self.interval, windows.stop, windows.step)
+                inner = self._series(expr.args[0], rows, before)
+            else:
+                inner = self._series(expr.args[0], rows, windows)
             if expr.function == "atan2":  # atan2(y, x): two series, joined on time
                 return _join(_atan2, inner, self._series(expr.args[1], rows, windows))
             if expr.function in STREAMS:
@@ -550,7 +568,7 @@ class WindowedQuery:
                 for t in sorted(inner):
                     if inner[t] is not MISSING:
                         result = stream.push(t, inner[t])
-                        if result is not MISSING:
+                        if result is not MISSING and t >= windows.start:
                             out[t] = result
                 return out
             second = _second(expr)
@@ -587,7 +605,8 @@ class WindowedQuery:
                 key = _window_start(point[0], self.interval, self.offset)
                 grouped.setdefault(key, []).append(point)
             found = {w: reduce(call.function, ps, second) for w, ps in grouped.items()}
-            found = {w: v for w, v in found.items() if v is not MISSING}
+        # rows reach `lookback` before the range: only a LOOKBACK caller asks for it
+        found = {w: v for w, v in found.items() if v is not MISSING and w in windows}
         return _fill(self.event.fill, call, found, windows)
 
     def _multi_points(self, call: ir.Call, rows: list[Row], windows: range) -> list:
@@ -637,12 +656,12 @@ def _const(value: Any) -> Callable[[], Any]:
 
 
 def _fill(fill: ir.Fill, call: ir.Call, found: Series, windows: range) -> Series:
-    """InfluxQL's fill iterator over the run's windows (query/iterator.gen.go):
-    `count` fills 0 where others fill null; `previous` carries the last real value
-    (none before the first); `linear` interpolates between real neighbours only."""
+    """InfluxQL's fill iterator over the run's windows (query/iterator.gen.go). A
+    continuous query writes INTO a measurement, and InfluxDB then turns `fill(null)`
+    into `fill(none)` (query/iterator.go): no point for an empty window, even for
+    `count`. `previous` carries the last real value (none before the first);
+    `linear` interpolates between real neighbours only."""
     mode = fill.mode
-    if mode == "null" and call.function == "count":
-        return {w: found.get(w, 0) for w in windows}
     if mode in ("null", "none"):
         return found
     if mode == "number":
@@ -753,7 +772,7 @@ class EventState:
         while self.next_run is not None and self.next_run <= now:
             run = query.run_at(self.next_run)
             if run.end > run.start:
-                low = bisect.bisect_left(self.times, run.start)
+                low = bisect.bisect_left(self.times, run.start - query.lookback)
                 high = bisect.bisect_left(self.times, run.end)
                 if high > low:
                     for time, value in query.execute(run, self.rows[low:high]):
@@ -770,7 +789,8 @@ class EventState:
     def _settle(self, boundary: int) -> list[tuple[int, Any]]:
         """Points before `boundary` are final: no later run reads their window."""
         self.final = boundary
-        cut = bisect.bisect_left(self.times, boundary)
+        # the next run reads from `lookback` before its range
+        cut = bisect.bisect_left(self.times, boundary - self.query.lookback)
         if cut:
             del self.times[:cut]
             del self.rows[:cut]
