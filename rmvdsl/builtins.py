@@ -257,7 +257,7 @@ BLOCKS: dict[str, Block] = {
         _s("url", "string", DERIVED, "the server's URL", "`http://HOST:PORT`"),
         _s("host", "string", "127.0.0.1", "the server's host", '`"127.0.0.1"`'),
         _s("port", "int", 8086, "the server's port", "`8086`", low=1, high=65535),
-        _s("name", "string", None, "the database name (required)", "required"),
+        _s("name", "influx_name", None, "the database name (required)", "required"),
         _s("precision", "names", "ns", "the time stamp precision of writes (the thesis's "
            "`epoch`)", "`ns`", choices=INFLUX_PRECISIONS),
         _s("username", "string_or_env", None, 'a string or `env("...")`', "none"),

@@ -457,6 +457,7 @@ shapes (so does the runtime, which computes events exactly as InfluxDB does):
     event B = Velocity * 2 group by time(1s)             // a window but no aggregate
     event C = derivative(Velocity) group by time(1s)     // write derivative(mean(Velocity))
     event D = mean(Velocity) + Brake group by time(1s)   // Brake raw beside an aggregate
+    event G = mean(Velocity) group by time(2s) resample for 1s   // a run reads < a window
     event E = mean(Velocity) * 3.6 group by time(1s)     // ok
     event F = derivative(Velocity, 1s)                   // ok: over the raw points""",
     ),

@@ -110,6 +110,28 @@ class EventChecks:
                 "not inside an aggregate",
                 f"aggregate it as the window needs, e.g. `last({bare.ident.name})`",
             )
+            return
+        self.check_resample_span(decl, group)
+
+    def check_resample_span(self, decl: ast.EventDecl, group: ast.Clause) -> None:
+        """InfluxDB refuses a continuous query that reads less than one window per
+        run ("FOR duration must be >= GROUP BY time duration")."""
+        resample = decl.clause("resample")
+        if resample is None or not isinstance(resample.value, ast.Resample):
+            return
+        span = resample.value.for_
+        interval = group.value.interval if isinstance(group.value, ast.GroupBy) else None
+        if span is None or interval is None:
+            return
+        reads, window = span.time.seconds(), interval.time.seconds()
+        if reads is not None and window is not None and reads < window:
+            self.report_shape(
+                span.span,
+                f"`{decl.name.name}` reads {span.time.text} per run, less than its "
+                f"{interval.time.text} window: InfluxDB refuses the continuous query",
+                "shorter than the window",
+                f"write `for {interval.time.text}` or longer",
+            )
 
     def report_shape(self, span: Span, message: str, label: str, help: str) -> None:
         self.report(error("RMV321", message, span, label=label, help=help))

@@ -25,6 +25,17 @@ def _string(value: ast.Value) -> str | None:
     return None if isinstance(value, ast.StringLit) else "expected a string in double quotes"
 
 
+def _influx_name(value: ast.Value) -> str | None:
+    """A database name InfluxDB 1.x accepts (meta.ValidName): printable, not empty,
+    `.` or `..`, with no `/` or `\\` (it names a folder on the server)."""
+    if not isinstance(value, ast.StringLit):
+        return "expected a string in double quotes"
+    name = value.value
+    if name in ("", ".", "..") or any(c in "/\\" or not c.isprintable() for c in name):
+        return "InfluxDB refuses this name: printable characters, no `/` or `\\`"
+    return None
+
+
 def _secret(value: ast.Value) -> str | None:
     return None if isinstance(value, ast.EnvRef) else 'expected env("VARIABLE")'
 
@@ -87,6 +98,7 @@ def _string_list(value: ast.Value) -> str | None:
 
 _VALIDATORS: dict[str, Validator] = {
     "string": _string,
+    "influx_name": _influx_name,
     "secret": _secret,
     "string_or_env": _string_or_env,
     "bool": _bool,
