@@ -30,7 +30,7 @@ if TYPE_CHECKING:
     from rmvdsl.runtime import spec as ir_spec
 
 EXIT_OK, EXIT_ERRORS, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 70
-TARGETS = ("ir", "ros2")
+TARGETS = ("ir", "ros2", "kapacitor")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -88,28 +88,54 @@ exit codes: 0 no errors, 1 errors (or warnings with --strict), 2 usage or I/O pr
 
     build_parser = commands.add_parser(
         "build",
-        help="generate a target from a spec (ir: the resolved spec as JSON; ros2: a package)",
+        help="generate a target from a spec (ir: the resolved spec as JSON; ros2: a package; "
+        "kapacitor: InfluxDB queries and TICKscripts)",
         description="Check a spec and, when it has no errors, generate a target from its "
         "resolved model. `ir` writes the resolved spec as versioned JSON (docs/ir.md); "
-        "`ros2` an ament_python package with the monitor and intrusion nodes (docs/ros2.md).",
+        "`ros2` an ament_python package with the monitor and intrusion nodes (docs/ros2.md); "
+        "`kapacitor` InfluxDB's schema and continuous queries and one TICKscript per alert, "
+        "with a report of what only the ros2 monitor computes (docs/kapacitor.md).",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="""examples:
   rmv build --target ir examples/carla/abs.rmv
   rmv build --target ir examples/carla/abs.rmv -o abs.ir.json
   rmv build --target ros2 examples/carla/abs.rmv -o src/carla_abs
+  rmv build --target kapacitor examples/carla/abs.rmv -o build/kapacitor
 exit codes: 0 built, 1 the spec has errors (shown on standard error), 2 usage or I/O problem""",
     )
     build_parser.add_argument("spec", metavar="SPEC")
     build_parser.add_argument("--target", required=True, choices=TARGETS)
     build_parser.add_argument(
         "-o", "--output", metavar="OUT",
-        help="write here (ir: a file, default stdout; ros2: the package's folder, required)",
+        help="write here (ir: a file, default stdout; ros2, kapacitor: a folder, required)",
     )  # fmt: skip
     build_parser.add_argument(
         "--package", metavar="NAME", help="ros2: the package's name (default: from `system`)"
     )
     build_parser.add_argument("--no-color", action="store_true")
     _add_message_options(build_parser)
+
+    deploy_parser = commands.add_parser(
+        "deploy",
+        help="apply a kapacitor build to InfluxDB and Kapacitor over their HTTP APIs",
+        description="Apply what `rmv build --target kapacitor` wrote: the database, "
+        "retention policies and continuous queries over InfluxDB's /query, the alert "
+        "tasks over Kapacitor's /kapacitor/v1/tasks. Changes only what differs; removes "
+        "the system's continuous queries and tasks the build no longer has. Credentials "
+        "come from the environment only (docs/kapacitor.md).",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="""examples:
+  rmv deploy --target kapacitor build/kapacitor
+  rmv deploy --target kapacitor build/kapacitor --influx http://127.0.0.1:8086 --kapacitor http://127.0.0.1:9092
+exit codes: 0 deployed (or nothing to change), 1 a server refused something or cannot be
+reached (the message says what was applied before), 2 usage or I/O problem""",
+    )  # fmt: skip
+    deploy_parser.add_argument("out", metavar="OUT", help="the folder of the build")
+    deploy_parser.add_argument("--target", required=True, choices=("kapacitor",))
+    deploy_parser.add_argument("--influx", metavar="URL", help="InfluxDB (default: the spec's)")
+    deploy_parser.add_argument(
+        "--kapacitor", metavar="URL", help="Kapacitor (default: http://127.0.0.1:9092)"
+    )
 
     replay_parser = commands.add_parser(
         "replay",
@@ -301,6 +327,7 @@ def _run(args: argparse.Namespace) -> int:
     commands = {
         "build": _build,
         "check": _check,
+        "deploy": _deploy,
         "explain": lambda a: _explain(a.code),
         "fmt": _fmt,
         "import": _import,
@@ -371,6 +398,8 @@ def _build(args: argparse.Namespace) -> int:
     spec = lower(result)
     if args.target == "ros2":
         return _build_ros2(args, spec)
+    if args.target == "kapacitor":
+        return _build_kapacitor(args, spec)
     text = dump(spec) + "\n"
     if args.output:
         _write(args.output, text)
@@ -394,6 +423,51 @@ def _build_ros2(args: argparse.Namespace, spec: ir_spec.Spec) -> int:
         raise UsageError(f"{args.output}: {exc.strerror or exc}") from None
     name = ros2.package_name(spec, args.package)
     print(f"rmv build: wrote the ros2 package `{name}` to {args.output} ({len(written)} files)")
+    return EXIT_OK
+
+
+def _build_kapacitor(args: argparse.Namespace, spec: ir_spec.Spec) -> int:
+    from pathlib import Path
+
+    from rmvdsl.codegen import kapacitor
+
+    if not args.output:
+        raise UsageError("--target kapacitor needs -o OUT, the folder to write")
+    try:
+        written, report = kapacitor.write(spec, Path(args.output))
+    except kapacitor.BuildError as exc:
+        raise UsageError(f"{args.spec}: {exc}") from None
+    except OSError as exc:
+        raise UsageError(f"{args.output}: {exc.strerror or exc}") from None
+    for line in report:
+        print(f"rmv build: {line}", file=sys.stderr)
+    print(
+        f"rmv build: wrote the kapacitor target to {args.output} ({len(written)} files; "
+        f"{len(report)} parts of the spec left to the ros2 monitor, listed in README.md)"
+    )
+    return EXIT_OK
+
+
+def _deploy(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from rmvdsl import deploy
+
+    out = Path(args.out)
+    if not (out / deploy.MANIFEST).is_file():
+        raise UsageError(
+            f"{out}: no {deploy.MANIFEST}: not a build of `rmv build --target kapacitor`"
+        )
+    try:
+        report = deploy.deploy(out, args.influx, args.kapacitor)
+    except deploy.DeployError as exc:
+        print(f"rmv deploy: {exc}", file=sys.stderr)
+        return EXIT_ERRORS
+    for line in report.applied:
+        print(f"rmv deploy: {line}")
+    print(
+        f"rmv deploy: {len(report.applied)} changes, {len(report.unchanged)} parts already as built"
+    )
     return EXIT_OK
 
 

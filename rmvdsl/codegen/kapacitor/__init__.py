@@ -1,0 +1,552 @@
+"""`rmv build --target kapacitor`: the thesis's rostopicmon, generated.
+
+InfluxDB stores the variables (one measurement per spec, docs/kapacitor.md), its
+continuous queries compute the value events exactly as the runtime does, and one
+Kapacitor TICKscript per alert raises it. What InfluxDB and Kapacitor cannot compute
+as the runtime does (boolean events, transducers, properties, events with no
+window) is named in the build report, never dropped in silence.
+
+Every file is rendered from the templates beside this module. Names and strings
+reach InfluxQL only through `influxql_identifier`/`influxql_string`, and TICKscript
+only through `tick_string`/`tick_reference`; durations through `*_duration`.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from fractions import Fraction
+from pathlib import Path
+from typing import Any
+
+import jinja2
+
+from rmvdsl.codegen.ros2 import py_string
+from rmvdsl.runtime import lineproto
+from rmvdsl.runtime import spec as ir
+
+TEMPLATES = Path(__file__).resolve().parent / "templates"
+# The file every alert handler that writes a log appends to (Kapacitor's `.log`).
+LOG_FOLDER = "/var/log/kapacitor"
+KAPACITOR_URL = "http://127.0.0.1:9092"  # Kapacitor's own default
+
+
+class BuildError(ValueError):
+    """A spec this target cannot express."""
+
+
+class Unsupported(Exception):
+    """An expression with no exact InfluxQL or TICKscript counterpart."""
+
+
+# ---- InfluxQL ----
+
+
+def influxql_identifier(name: str) -> str:
+    """Any name as an InfluxQL identifier: double quotes, with `\\`, `"` and a
+    newline escaped (influxql's scanner reads quoted identifiers as strings)."""
+    text = name.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n")
+    return f'"{text}"'
+
+
+def influxql_string(value: str) -> str:
+    """Any text as an InfluxQL string literal: single quotes, `\\`, `'` and a
+    newline escaped."""
+    text = value.replace("\\", "\\\\").replace("'", "\\'").replace("\n", "\\n")
+    return f"'{text}'"
+
+
+# Units from the largest: a duration is written as a whole number of one unit.
+_INFLUXQL_UNITS = (("w", 604800), ("d", 86400), ("h", 3600), ("m", 60), ("s", 1),
+                   ("ms", Fraction(1, 10**3)), ("u", Fraction(1, 10**6)),
+                   ("ns", Fraction(1, 10**9)))  # fmt: skip
+
+
+def _whole(seconds: Fraction, units: tuple[tuple[str, int | Fraction], ...]) -> str | None:
+    """The duration as a whole number of the largest unit that divides it."""
+    for unit, size in units:
+        count = Fraction(seconds) / size
+        if count.denominator == 1 and count >= 1:
+            return f"{count.numerator}{unit}"
+    return None
+
+
+def influxql_duration(seconds: Fraction | None) -> str:
+    """A duration as InfluxQL writes it (`90s`, `100ms`); `INF` for forever."""
+    if seconds is None:
+        return "INF"
+    if seconds == 0:
+        return "0s"
+    text = _whole(Fraction(seconds), _INFLUXQL_UNITS)
+    if text is None:
+        raise BuildError(f"{seconds} s is not a whole number of nanoseconds")
+    return text
+
+
+_INFLUXQL_OPS = {"=": "=", "!=": "!=", "<": "<", "<=": "<=", ">": ">", ">=": ">=",
+                 "+": "+", "-": "-", "*": "*", "/": "/", "%": "%", "&": "&", "|": "|",
+                 "^": "^", "and": "AND", "or": "OR"}  # fmt: skip
+
+
+def influxql_expression(expr: ir.Expr) -> str:
+    """An event's expression (or `where` condition) in InfluxQL, parenthesised so
+    the tree is the one the spec holds whatever InfluxQL's precedence."""
+    match expr:
+        case ir.Number():
+            return expr.text
+        case ir.String():
+            return influxql_string(expr.value)
+        case ir.Boolean():
+            return "true" if expr.value else "false"
+        case ir.Time():
+            return influxql_duration(expr.seconds)
+        case ir.Ref():
+            return influxql_identifier(expr.name)
+        case ir.Unary(op="-"):
+            return f"-{_influxql_operand(expr.operand)}"
+        case ir.Unary():
+            raise Unsupported(f"InfluxQL has no `{expr.op}`")
+        case ir.Binary():
+            op = _INFLUXQL_OPS.get(expr.op)
+            if op is None:
+                raise Unsupported(f"InfluxQL has no `{expr.op}`")
+            left, right = _influxql_operand(expr.left), _influxql_operand(expr.right)
+            return f"{left} {op} {right}"
+        case ir.Call():
+            args = ", ".join(influxql_expression(a) for a in expr.args)
+            return f"{expr.function}({args})"
+    raise Unsupported(f"no InfluxQL for {type(expr).__name__}")
+
+
+def _influxql_operand(expr: ir.Expr) -> str:
+    text = influxql_expression(expr)
+    return f"({text})" if isinstance(expr, (ir.Binary, ir.Unary)) else text
+
+
+# ---- TICKscript ----
+
+
+def tick_string(value: str) -> str:
+    """Any text as a TICKscript string literal, as Kapacitor's lexer reads one
+    (tick/ast/lex.go): single quotes where only `\\'` is an escape; a text that
+    ends in a backslash cannot end a single-quoted literal, so it takes triple
+    quotes (no escapes at all), unless it also holds `'''` or ends in a quote."""
+    if not value.endswith("\\"):
+        return "'" + value.replace("'", "\\'") + "'"
+    if "'''" not in value and not value.endswith("'"):
+        return f"'''{value}'''"
+    raise BuildError(f"{value!r} cannot be written as a TICKscript string")
+
+
+def tick_reference(name: str) -> str:
+    """A field or tag as a TICKscript reference (double quotes, `\\"` escaped)."""
+    if name.endswith("\\") or "\n" in name:
+        raise BuildError(f"{name!r} cannot be a TICKscript reference")
+    return '"' + name.replace('"', '\\"') + '"'
+
+
+def go_template_text(text: str) -> str:
+    """Text that Kapacitor's `.message()` and `.id()` (Go templates) print as is:
+    every `{{` becomes an action printing `{{`; a trailing backslash is followed by
+    an empty action, so the literal around it can end."""
+    text = text.replace("{{", '{{ "{{" }}')
+    return text + '{{ "" }}' if text.endswith("\\") else text
+
+
+_TICK_UNITS = (("w", 604800), ("d", 86400), ("h", 3600), ("m", 60), ("s", 1),
+               ("ms", Fraction(1, 10**3)), ("u", Fraction(1, 10**6)))  # fmt: skip
+
+
+def tick_duration(seconds: Fraction) -> str:
+    """A TICKscript duration literal: one integer and one unit (`90s`, never
+    `1m30s` or `1.5m`); TICKscript has no nanoseconds."""
+    text = _whole(Fraction(seconds), _TICK_UNITS)
+    if text is None:
+        raise BuildError(f"{seconds} s is not a whole number of microseconds")
+    return text
+
+
+_TICK_OPS = {"=": "==", "!=": "!=", "<": "<", "<=": "<=", ">": ">", ">=": ">=",
+             "+": "+", "-": "-", "*": "*", "and": "AND", "or": "OR"}  # fmt: skip
+
+
+def tick_expression(expr: ir.Expr) -> str:
+    """An alert condition as a TICKscript lambda expression. InfluxQL's `/` (always
+    a division of doubles) divides two `float()`s; what has no exact counterpart
+    (functions, `%`, bitwise operators) is Unsupported."""
+    match expr:
+        case ir.Number():
+            return expr.text
+        case ir.String():
+            return tick_string(expr.value)
+        case ir.Boolean():
+            return "TRUE" if expr.value else "FALSE"
+        case ir.Time():
+            return tick_duration(expr.seconds)
+        case ir.Ref():
+            return tick_reference(expr.name)
+        case ir.Unary():
+            sign = "-" if expr.op == "-" else "!"
+            return f"{sign}{_tick_operand(expr.operand)}"
+        case ir.Binary(op="/"):
+            left, right = tick_expression(expr.left), tick_expression(expr.right)
+            return f"float({left}) / float({right})"
+        case ir.Binary():
+            op = _TICK_OPS.get(expr.op)
+            if op is None:
+                raise Unsupported(f"TICKscript has no exact `{expr.op}`")
+            return f"{_tick_operand(expr.left)} {op} {_tick_operand(expr.right)}"
+    raise Unsupported(f"TICKscript lambdas have no `{getattr(expr, 'function', expr)}`")
+
+
+def _tick_operand(expr: ir.Expr) -> str:
+    text = tick_expression(expr)
+    return f"({text})" if isinstance(expr, (ir.Binary, ir.Unary)) else text
+
+
+# ---- the build ----
+
+
+@dataclass(frozen=True)
+class Query:
+    """A continuous query: its name and the parts of its SELECT."""
+
+    name: str
+    select: str
+    into: str
+    source: str
+    where: str | None
+    group_by: str
+    fill: str | None
+    order: str | None
+    limit: int | None
+    resample_every: str | None
+    resample_for: str | None
+
+
+@dataclass(frozen=True)
+class Handler:
+    method: str
+    args: tuple[str, ...]  # TICKscript literals
+
+
+@dataclass(frozen=True)
+class TickAlert:
+    name: str
+    task: str  # the Kapacitor task's id
+    file: str
+    measurement: str
+    present: tuple[str, ...]  # references every point of the alert carries
+    levels: tuple[tuple[str, str, str | None], ...]  # severity, lambda, reset lambda
+    id: str
+    message: str
+    details: str
+    state_changes_only: bool
+    no_recoveries: bool
+    handlers: tuple[Handler, ...]
+
+
+@dataclass
+class Build:
+    spec: ir.Spec
+    database: ir.Database
+    measurement: str
+    handler_path: Path
+    queries: list[Query] = field(default_factory=list)
+    alerts: list[TickAlert] = field(default_factory=list)
+    report: list[str] = field(default_factory=list)
+    publishes: bool = False
+
+
+def _database(spec: ir.Spec) -> ir.Database:
+    if spec.database is None:
+        raise BuildError(
+            "the kapacitor target stores the variables in InfluxDB: the spec needs a "
+            "`database` block (docs/language.md)"
+        )
+    return spec.database
+
+
+def _target(database: ir.Database, retention: str, measurement: str) -> str:
+    return ".".join(influxql_identifier(n) for n in (database.name, retention, measurement))
+
+
+def _event_query(build: Build, event: ir.Event) -> Query:
+    assert event.window is not None
+    database, retention = build.database, build.database.default_retention
+    window = influxql_duration(event.window.interval)
+    if event.window.offset:
+        window += f", {influxql_duration(event.window.offset)}"
+    fill = None
+    if event.fill.mode == "number" and event.fill.value is not None:
+        fill = influxql_expression(event.fill.value)
+    elif event.fill.mode != "null":
+        fill = event.fill.mode
+    resample_for = event.resample_for
+    return Query(
+        name=f"{build.spec.system.name}.{event.name}",
+        select=f"{influxql_expression(event.expr)} AS {influxql_identifier(event.name)}",
+        into=_target(database, retention, build.measurement),
+        source=_target(database, retention, build.measurement),
+        where=None if event.where is None else influxql_expression(event.where),
+        group_by=f"time({window})",
+        fill=fill,
+        order="DESC" if event.order == "desc" else None,
+        limit=event.limit,
+        resample_every=(
+            None if event.resample_every is None else influxql_duration(event.resample_every)
+        ),
+        resample_for=None if resample_for is None else influxql_duration(resample_for),
+    )
+
+
+def _numeric_fields(spec: ir.Spec) -> dict[str, ir.ValueType]:
+    found: dict[str, ir.ValueType] = {v.name: v.type for v in spec.variables}
+    found.update({e.name: e.type for e in spec.events if e.kind == "value" and e.window})
+    return {n: t for n, t in found.items() if t.kind in ("int", "float")}
+
+
+def _downsample_query(build: Build, downsample: ir.Downsample) -> Query:
+    numeric = _numeric_fields(build.spec)
+    names = downsample.measurements if downsample.measurements is not None else tuple(numeric)
+    for name in names:
+        if name not in numeric:
+            build.report.append(
+                f"downsample {downsample.name}: `{name}` is not a stored number "
+                f"(`{downsample.aggregate}` needs one): not downsampled"
+            )
+    columns = [
+        f"{downsample.aggregate}({influxql_identifier(n)}) AS {influxql_identifier(n)}"
+        for n in names
+        if n in numeric
+    ]
+    if not columns:
+        raise Unsupported("nothing to downsample")
+    return Query(
+        name=f"{build.spec.system.name}.downsample.{downsample.name}",
+        select=", ".join(columns),
+        into=_target(build.database, downsample.into, build.measurement),
+        source=_target(build.database, downsample.source, build.measurement),
+        where=None,
+        # `*` keeps the `topic` tag: each topic's points stay their own series.
+        group_by=f"time({influxql_duration(downsample.every)}), *",
+        fill=None,
+        order=None,
+        limit=None,
+        resample_every=influxql_duration(downsample.every),
+        resample_for=influxql_duration(downsample.lookback),
+    )
+
+
+def _handlers(build: Build, owner: str, actions: tuple[ir.Action, ...]) -> tuple[Handler, ...]:
+    handlers = []
+    for action in actions:
+        if isinstance(action, ir.Log):
+            path = f"{LOG_FOLDER}/{build.spec.system.name}.{owner}.log"
+            handlers.append(Handler("log", (tick_string(path),)))
+            if action.message is not None:
+                build.report.append(
+                    f"alert {owner}: Kapacitor's log handler writes the alert's message, "
+                    f"not the action's own {action.message!r}"
+                )
+        elif isinstance(action, ir.Publish):
+            build.publishes = True
+            args: tuple[str, ...] = (
+                "/usr/bin/env", "python3", str(build.handler_path), "--topic", action.topic
+            )  # fmt: skip
+            if action.message is not None:
+                args += ("--message", action.message)
+            handlers.append(Handler("exec", tuple(tick_string(a) for a in args)))
+        elif isinstance(action, ir.Post):
+            handlers.append(Handler("post", (tick_string(action.url),)))
+        elif isinstance(action, ir.Tcp):
+            handlers.append(Handler("tcp", (tick_string(action.address),)))
+        elif isinstance(action, ir.Exec):
+            args = (action.command, *action.args)
+            handlers.append(Handler("exec", tuple(tick_string(a) for a in args)))
+    return tuple(handlers)
+
+
+def _sources(spec: ir.Spec) -> dict[str, str]:
+    """Which point carries each stored name: a topic's ROS name, or the event."""
+    topics = {t.name: t.ros_name for t in spec.topics}
+    found = {v.name: topics[v.topic] for v in spec.variables}
+    found.update({e.name: e.name for e in spec.events if e.kind == "value" and e.window})
+    return found
+
+
+def _alert(build: Build, alert: ir.Alert) -> TickAlert:
+    sources = _sources(build.spec)
+    unstored = [n for n in alert.reads if n not in sources]
+    if unstored:
+        raise Unsupported(f"it reads {', '.join(unstored)}, which InfluxDB does not hold")
+    if len({sources[n] for n in alert.reads}) > 1:
+        # The runtime combines the newest value of each; a Kapacitor stream sees one
+        # point at a time, and points of two sources are two points.
+        raise Unsupported("it reads values of more than one topic or event")
+    levels = tuple(
+        (
+            level.severity,
+            tick_expression(level.condition),
+            None if level.reset is None else tick_expression(level.reset),
+        )
+        for level in alert.levels
+    )
+    return TickAlert(
+        name=alert.name,
+        task=task_id(build.spec, alert.name),
+        file=f"tickscripts/{alert.name}.tick",
+        measurement=build.measurement,
+        present=tuple(tick_reference(n) for n in alert.reads),
+        levels=levels,
+        id=tick_string(go_template_text(alert.id)),
+        message=tick_string(go_template_text(alert.message)),
+        details=tick_string(go_template_text(alert.details)) if alert.details else "",
+        state_changes_only=alert.state_changes_only,
+        no_recoveries=alert.no_recoveries,
+        handlers=_handlers(build, alert.name, alert.actions),
+    )
+
+
+def plan(spec: ir.Spec, handlers: Path) -> Build:
+    """What the target writes for a spec, and the report of what it leaves to the
+    ros2 target's monitor. `handlers`: the folder the publish handler is run from."""
+    database = _database(spec)
+    build = Build(spec, database, lineproto.measurement_name(spec), handlers / "publish_alert.py")
+    for event in spec.events:
+        if event.kind == "boolean":
+            build.report.append(
+                f"event {event.name}: a boolean event (a condition over the newest values) "
+                "is not stored; transducers and properties read it in the ros2 monitor"
+            )
+        elif event.window is None:
+            build.report.append(
+                f"event {event.name}: no `group by time(...)`: a continuous query needs a "
+                "window; the ros2 monitor computes it"
+            )
+        else:
+            _add_query(build, f"event {event.name}", lambda e=event: _event_query(build, e))
+            if event.range is not None:
+                build.report.append(
+                    f"event {event.name}: `range` is left out: each run of a continuous "
+                    "query reads its own time range (the runtime does the same)"
+                )
+            if event.tags:
+                build.report.append(
+                    f"event {event.name}: tags are left out of GROUP BY, as the runtime "
+                    "ignores them (a ROS message is one series)"
+                )
+    for downsample in database.downsamples:
+        _add_query(build, f"downsample {downsample.name}",
+                   lambda d=downsample: _downsample_query(build, d))  # fmt: skip
+    for alert in spec.alerts:
+        try:
+            build.alerts.append(_alert(build, alert))
+        except Unsupported as why:
+            build.report.append(f"alert {alert.name}: not a TICKscript ({why}): "
+                                "the ros2 monitor raises it")  # fmt: skip
+    for transducer in spec.transducers:
+        build.report.append(
+            f"transducer {transducer.name}: Kapacitor has no state transducers: the "
+            "ros2 monitor runs it"
+        )
+    for prop in spec.properties:
+        build.report.append(
+            f"property {prop.name}: an RMTLD3 property over transducer states and "
+            "boolean events needs the ros2 target's monitor (no stateDuration/"
+            "stateCount pipeline computes it exactly)"
+        )
+    if spec.whitelists or spec.nodes:
+        build.report.append("whitelists: intrusion detection reads the ROS graph: the ros2 "
+                            "target's intrusion node")  # fmt: skip
+    return build
+
+
+def _add_query(build: Build, what: str, make: object) -> None:
+    try:
+        build.queries.append(make())  # type: ignore[operator]
+    except Unsupported as why:
+        build.report.append(f"{what}: no continuous query ({why}): the ros2 monitor "
+                            "computes it")  # fmt: skip
+
+
+def task_id(spec: ir.Spec, alert: str) -> str:
+    """A Kapacitor task's id: the system's name and the alert's (both identifiers,
+    so within Kapacitor's `^[-._\\p{L}0-9]+$`)."""
+    return f"{spec.system.name}.{alert}"
+
+
+def manifest(build: Build) -> dict[str, Any]:
+    """What `rmv deploy` needs beside the files: where the servers are, which
+    environment variables hold the credentials (never their values), the tasks."""
+    database = build.database
+    username, password = database.username, database.password
+    return {
+        "format": "rmvdsl.kapacitor",
+        "version": 1,
+        "prefix": f"{build.spec.system.name}.",
+        "influx_url": database.url,
+        "kapacitor_url": KAPACITOR_URL,
+        "database": database.name,
+        "username_env": username.env if username is not None else None,
+        "password_env": password.env if password is not None else None,
+        "tasks": [
+            {
+                "id": alert.task,
+                "file": alert.file,
+                "type": "stream",
+            }
+            for alert in build.alerts
+        ],
+    }
+
+
+def _environment() -> jinja2.Environment:
+    env = jinja2.Environment(
+        loader=jinja2.FileSystemLoader(str(TEMPLATES)),
+        autoescape=False,
+        keep_trailing_newline=True,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        undefined=jinja2.StrictUndefined,
+    )
+    env.filters["ident"] = influxql_identifier
+    env.filters["iql_string"] = influxql_string
+    env.filters["duration"] = influxql_duration
+    env.filters["tick"] = tick_string
+    env.filters["tick_ref"] = tick_reference
+    env.filters["tick_present"] = lambda reference: f"isPresent({reference})"
+    env.filters["py"] = py_string
+    return env
+
+
+def files(spec: ir.Spec, out: Path) -> tuple[dict[str, str], list[str]]:
+    """Every file of the build by path relative to `out`, and the report."""
+    build = plan(spec, out.resolve() / "handlers")
+    env = _environment()
+    context = {"build": build, "spec": spec, "database": build.database,
+               "kapacitor_url": KAPACITOR_URL}  # fmt: skip
+    written = {"influxdb.iql": env.get_template("influxdb.iql.j2").render(**context)}
+    for alert in build.alerts:
+        written[alert.file] = env.get_template("alert.tick.j2").render(alert=alert, **context)
+    if build.publishes:
+        written["handlers/publish_alert.py"] = env.get_template("publish_alert.py.j2").render(
+            **context
+        )
+    written["deploy.json"] = json.dumps(manifest(build), indent=2) + "\n"
+    written["README.md"] = env.get_template("README.md.j2").render(
+        files=sorted(written), report=build.report, **context
+    )
+    return written, build.report
+
+
+def write(spec: ir.Spec, out: Path) -> tuple[list[Path], list[str]]:
+    """Write the build into `out`; the paths written and the report."""
+    texts, report = files(spec, out)
+    paths = []
+    for relative, text in texts.items():
+        path = out / relative
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text, encoding="utf-8")
+        paths.append(path)
+    return paths, report
