@@ -18,7 +18,10 @@ process and the load in another (benchmarks/ros2_load.py):
 - workload: the thesis's (table 4.1: 13 topics, 18,391 messages in 100 s) with
             examples/carla/abs.rmv, and the same at 10x the rate: CPU share (of one
             core) and peak memory of the node, and the messages its readers (depth
-            10, as abs.rmv says) lost, each counted by the node.
+            10, as abs.rmv says) lost, each counted by the node;
+- collector: the kapacitor target's collector of abs.rmv on the same workload
+            (1x), writing to a real influxd in the same namespace: CPU, memory, and
+            the delay from a message's arrival to InfluxDB's answer, p50 and p99.
 
 Before a figure is printed, every message must have been read (the node's counters:
 none lost, none late) and every verdict answered.
@@ -41,7 +44,8 @@ sys.path.insert(0, str(ROOT / "tests" / "ros2"))
 import rosenv  # noqa: E402
 
 from rmvdsl.check import check  # noqa: E402
-from rmvdsl.codegen import ros2  # noqa: E402
+from rmvdsl.codegen import kapacitor, ros2  # noqa: E402
+from rmvdsl.deploy import split_statements  # noqa: E402
 from rmvdsl.ir import lower  # noqa: E402
 
 LOAD = Path(__file__).resolve().parent / "ros2_load.py"
@@ -99,7 +103,10 @@ def _workspace(root: Path) -> Path:
         if result.errors:
             raise SystemExit(f"{name}: {[str(d) for d in result.errors]}")
         ros2.build(lower(result), src / name)
-    ros2.build(lower(check(str(CARLA / "abs.rmv"))), src / "carla_abs")
+    carla = lower(check(str(CARLA / "abs.rmv")))
+    ros2.build(carla, src / "carla_abs")
+    collector = kapacitor.collector_files(kapacitor.plan(carla, root / "handlers"))
+    ros2.write(collector, src / "carla_abs_kapacitor")
     rosenv.message_package(src, CARLA / "msg" / "carla_msgs", ["std_msgs", "geometry_msgs"])
     rosenv.message_package(
         src, CARLA / "msg" / "derived_object_msgs", ["std_msgs", "geometry_msgs", "shape_msgs"]
@@ -150,6 +157,29 @@ def _all_read(result: dict[str, Any], what: str, lost_allowed: bool = False) -> 
         raise SystemExit(f"{what}: the node lost messages: {bad}")
 
 
+def _collector(
+    workspace: Path, domain: int, folder: Path, payloads: Path, seconds: float
+) -> dict[str, Any]:
+    """The kapacitor target's collector on the thesis's workload, writing to a real
+    influxd started inside the same namespace (its schema from influxdb.iql)."""
+    carla = lower(check(str(CARLA / "abs.rmv")))
+    texts, _ = kapacitor.files(carla, folder / "kapacitor")
+    statements = [s for s in split_statements(texts["influxdb.iql"])
+                  if not s.startswith("CREATE CONTINUOUS QUERY")]  # fmt: skip
+    schema = folder / "schema.json"
+    schema.write_text(json.dumps(statements), encoding="utf-8")
+    (folder / "influxd").mkdir()
+    script = workspace / "install" / "carla_abs_collector" / "lib" / "carla_abs_collector"
+    command = json.dumps(
+        [str(script / "collector"), "--ros-args", "-p", "diagnostics_period:=0.05"]
+    )
+    stored = _load(workspace, domain, "workload", "collector", command, str(seconds), "1",
+                   str(payloads), str(folder / "influxd"), str(schema),
+                   timeout=seconds + 300)  # fmt: skip
+    _all_read(stored, "collector", lost_allowed=True)
+    return stored
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--count", type=int, default=5_000, help="messages for the rate")
@@ -160,7 +190,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--json", help="write the figures to this file")
     args = parser.parse_args(argv)
 
-    total = 7
+    total = 8
     _progress(0, total, "ROS 2 wheels and colcon build")
     rosenv.python()
     with tempfile.TemporaryDirectory(prefix="rmv-bench-ros2-") as folder:
@@ -190,7 +220,9 @@ def main(argv: list[str] | None = None) -> int:
         ten = _load(workspace, domain, "workload", "monitor", carla, str(args.seconds_10x),
                     "10", str(payloads), timeout=args.seconds_10x + 300)  # fmt: skip
         _all_read(ten, "workload 10x", lost_allowed=True)
-        _progress(7, total, "done")
+        _progress(7, total, f"collector, workload 1x ({args.seconds:g} s)")
+        stored = _collector(workspace, domain, Path(folder), payloads, args.seconds)
+        _progress(8, total, "done")
         print(file=sys.stderr)
 
     if rate["messages"] != args.count or bare_rate["messages"] != args.count:
@@ -216,8 +248,16 @@ def main(argv: list[str] | None = None) -> int:
             f"CPU {result['cpu_share']:.1%} of a core, peak RSS {result['peak_rss_mb']:.0f} MB, "
             f"lost {result['messages_lost']} of {result['messages_to_read']:,} (counted)"
         )
+    counters = stored["counters"]
+    print(
+        f"collector, thesis workload 1x: {stored['messages_to_read']:,} messages read, "
+        f"{counters.get('points written', 0)} points written, CPU {stored['cpu_share']:.1%} of "
+        f"a core, peak RSS {stored['peak_rss_mb']:.0f} MB, storage delay p50 / p99 "
+        f"{counters.get('storage delay p50 (ms)')} / {counters.get('storage delay p99 (ms)')} ms"
+    )
     figures = {
         "rate": {"bare": bare_rate, "monitor": rate, "share": share},
+        "collector": stored,
         "latency": {"bare": bare_latency, "monitor": latency},
         "workload": {"1x": one, "10x": ten},
     }

@@ -4,6 +4,8 @@ with the ROS 2 wheels (bench_ros2.py starts it through tests/ros2/rosenv.py).
     python ros2_load.py rate monitor|bare NODE_COMMAND_JSON COUNT
     python ros2_load.py latency monitor|bare NODE_COMMAND_JSON COUNT HZ
     python ros2_load.py workload monitor NODE_COMMAND_JSON SECONDS SCALE PAYLOADS_JSON
+    python ros2_load.py workload collector NODE_COMMAND_JSON SECONDS SCALE PAYLOADS_JSON \
+        INFLUXD_ROOT STATEMENTS_JSON
 
 The node under test is a generated monitor or the bare subscriber (`bare` below,
 started as `python ros2_load.py bare count|echo`), each its own process. Prints JSON.
@@ -20,6 +22,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from pathlib import Path
 from typing import Any
 
 import rclpy
@@ -90,7 +93,7 @@ class Load:
 
     def on_diagnostics(self, array: DiagnosticArray) -> None:
         for status in array.status:
-            if status.name == "rmv_monitor: monitor":
+            if status.name in ("rmv_monitor: monitor", "rmv_collector: influxdb"):
                 self.reports += 1
                 self.counters = {v.key: v.value for v in status.values}
                 self.count = int(self.counters.get("messages", "0"))
@@ -227,6 +230,24 @@ def lost(counters: dict[str, str]) -> int:
     return sum(int(v) for k, v in counters.items() if k.startswith("lost messages: "))
 
 
+def _stored(counters: dict[str, str]) -> int:
+    """Points the collector wrote, or dropped and counted."""
+    kept = ("points dropped", "points refused")
+    return sum(int(v) for k, v in counters.items() if k == "points written" or k.startswith(kept))
+
+
+def _influxd(root: str, statements: str) -> Any:
+    """A real influxd in this namespace, its database made."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    from influx.server import Influxd
+
+    server = Influxd(Path(root), run_interval="1h")
+    with open(statements, encoding="utf-8") as file:
+        for statement in json.load(file):
+            server.query(statement)
+    return server
+
+
 def _class(name: str) -> Any:
     import importlib
 
@@ -234,11 +255,17 @@ def _class(name: str) -> Any:
     return getattr(importlib.import_module(f"{package}.msg"), type_name)
 
 
-def workload(command: list[str], seconds: float, scale: float, recorded: str) -> dict[str, Any]:
+def workload(
+    command: list[str], seconds: float, scale: float, recorded: str, influx: Any = None
+) -> dict[str, Any]:
     """The thesis's 13 topics at their rates times `scale` for `seconds`; the ego
-    vehicle's status and objects are the braking recording's bytes, cycled."""
+    vehicle's status and objects are the braking recording's bytes, cycled. With
+    `influx` (an Influxd) the node is the collector and the run waits until every
+    point is written."""
     with open(recorded, encoding="utf-8") as file:
         payloads = {t: [base64.b64decode(d) for d in data] for t, data in json.load(file).items()}
+    if influx is not None:
+        command = [*command, "-p", f"influx_url:={influx.url}"]
     load = Load(command)
     publishers, schedule = {}, []
     for topic, kind, per_100s in THESIS_TOPICS:
@@ -267,6 +294,9 @@ def workload(command: list[str], seconds: float, scale: float, recorded: str) ->
         lambda: load.count + lost(load.counters) >= read,
         f"the monitor to account for {read}", lambda: load.counters,
     )  # fmt: skip
+    if influx is not None:  # every point written, or dropped and counted
+        load.until(lambda: _stored(load.counters) >= read - lost(load.counters),
+                   "the collector to write every point", lambda: load.counters)  # fmt: skip
     after = load.usage()
     counters = dict(load.counters)
     log = load.stop()
@@ -286,6 +316,14 @@ def main(argv: list[str]) -> int:
         result = rate(command, int(argv[3]), bare)
     elif kind == "latency":
         result = latency(command, int(argv[3]), float(argv[4]), bare)
+    elif bare:
+        raise SystemExit("a workload runs a generated node")
+    elif argv[1] == "collector":
+        influx = _influxd(argv[6], argv[7])
+        try:
+            result = workload(command, float(argv[3]), float(argv[4]), argv[5], influx)
+        finally:
+            influx.stop()
     else:
         result = workload(command, float(argv[3]), float(argv[4]), argv[5])
     rclpy.shutdown()

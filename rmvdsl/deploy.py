@@ -247,35 +247,36 @@ def _shown_queries(influx: Influx, db: str, report: Report) -> dict[str, str]:
     return {r["name"]: r["query"] for r in rows if r["series"] == db}
 
 
-def _canonical(influx: Influx, statement: str, name: str, report: Report) -> str:
-    """The query as InfluxDB stores it (SHOW reformats what CREATE was given),
+_TAIL = re.compile(r"(?: RESAMPLE(?: EVERY \S+)?(?: FOR \S+)?)? BEGIN SELECT .*$", re.S)
+
+
+def _tail(shown: str) -> str:
+    """A query as SHOW prints it, without its name and database: the resample
+    clause and the body."""
+    match = _TAIL.search(shown)
+    return match.group(0) if match else shown
+
+
+def _canonical(influx: Influx, statement: str, report: Report) -> str:
+    """The query as InfluxDB prints it (SHOW reformats what CREATE was given),
     found by creating it once in a scratch database."""
+    head = _QUERY.match(statement)
+    assert head is not None
     scratch = statement.replace(
-        _QUERY.match(statement).group(0),  # type: ignore[union-attr]
-        f'CREATE CONTINUOUS QUERY "{SCRATCH}" ON "{SCRATCH}" ',
-        1,
+        head.group(0), f'CREATE CONTINUOUS QUERY "{SCRATCH}" ON "{SCRATCH}" ', 1
     )
     _run(report, f"CREATE DATABASE {SCRATCH}", influx.query, f'CREATE DATABASE "{SCRATCH}"')
     try:
         _run(report, statement, influx.query, scratch)
-        shown = _shown_queries(influx, SCRATCH, report)[SCRATCH]
+        return _tail(_shown_queries(influx, SCRATCH, report)[SCRATCH])
     finally:
         influx.query(f'DROP DATABASE "{SCRATCH}"')
-    return shown.split(" BEGIN ", 1)[1] if " BEGIN " in shown else shown
 
 
 def _continuous_query(influx: Influx, statement: str, db: str, name: str, report: Report) -> None:
     existing = _shown_queries(influx, db, report).get(name)
     if existing is not None:
-        body = existing.split(" BEGIN ", 1)[1] if " BEGIN " in existing else existing
-        head = existing.split(" BEGIN ", 1)[0]
-        ours = _canonical(influx, statement, name, report)
-        resample = re.search(r"RESAMPLE.*$", head)
-        our_head = re.search(r"RESAMPLE[^\n]*", statement)
-        same_resample = (resample.group(0) if resample else "") == (
-            our_head.group(0) if our_head else ""
-        )
-        if body == ours and same_resample:
+        if _tail(existing) == _canonical(influx, statement, report):
             report.unchanged.append(f"continuous query {name}")
             return
         drop = f"DROP CONTINUOUS QUERY {_quote(name)} ON {_quote(db)}"

@@ -13,7 +13,7 @@ import pytest
 from conftest import ROOT
 
 from rmvdsl.check import check
-from rmvdsl.codegen import ros2
+from rmvdsl.codegen import kapacitor, ros2
 from rmvdsl.ir import lower
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "ros2"))
@@ -54,6 +54,23 @@ topic twist: geometry_msgs/msg/TwistStamped = "/vehicle/twist" qos {
 var Speed = twist.twist.linear.x
 event Stopped when Speed < 0.1
 property NeverStops: not Stopped
+"""
+
+
+# The kapacitor target's collector: std_braking's topic and variable, into InfluxDB.
+COLLECTED = """system collected "the twist topic, stored in InfluxDB"
+database {
+    name = "collected"
+    batch_size = 20
+    flush_interval = 100ms
+}
+topic twist: geometry_msgs/msg/TwistStamped = "/vehicle/twist" qos {
+    depth = 1000
+    durability = transient_local
+    time = header
+}
+var Speed = twist.twist.linear.x
+event MeanSpeed = mean(Speed) group by time(1s)
 """
 
 
@@ -98,6 +115,7 @@ def specs(tmp_path_factory) -> dict[str, Path]:
         "std_braking": _checked(folder / "std_braking.rmv", SPEC),
         "carla_abs": _checked(folder / "carla_abs.rmv", _carla_spec()),
         "lossy": _checked(folder / "lossy.rmv", LOSSY),
+        "collected": _checked(folder / "collected.rmv", COLLECTED),
     }
 
 
@@ -110,7 +128,12 @@ def workspace(specs, tmp_path_factory) -> Path:
     root = tmp_path_factory.mktemp("ws")
     src = root / "src"
     for name, path in specs.items():
-        ros2.build(lower(check(str(path))), src / name)
+        resolved = lower(check(str(path)))
+        if name == "collected":  # the kapacitor target's collector
+            build = kapacitor.plan(resolved, root / "handlers")
+            ros2.write(kapacitor.collector_files(build), src / f"{name}_kapacitor")
+        else:
+            ros2.build(resolved, src / name)
     rosenv.message_package(src, CARLA / "msg" / "carla_msgs", ["std_msgs", "geometry_msgs"])
     rosenv.message_package(
         src, CARLA / "msg" / "derived_object_msgs", ["std_msgs", "geometry_msgs", "shape_msgs"]
@@ -324,3 +347,53 @@ def test_generated_python_is_lint_clean_and_names_are_quoted(specs, tmp_path):
         assert json.loads(ros2.yaml_string(hostile)) == hostile
     with pytest.raises(ros2.BuildError):
         ros2.package_name(resolved, "Bad-Name")
+
+
+def test_the_collector_writes_every_message_and_survives_influxd_stopping(
+    specs, workspace, tmp_path
+):
+    """The kapacitor target's collector against a real influxd inside the same
+    namespace: 100 messages arrive as points; with influxd stopped, 150 more wait
+    in a buffer of 100 points, the 50 oldest are dropped and counted; influxd
+    started again gets the rest."""
+    resolved = lower(check(str(specs["collected"])))
+    texts, _ = kapacitor.files(resolved, tmp_path / "build")
+    from rmvdsl.deploy import split_statements
+
+    statements = [  # the schema, not the continuous queries: the collector's part only
+        s for s in split_statements(texts["influxdb.iql"])
+        if not s.startswith("CREATE CONTINUOUS QUERY")
+    ]  # fmt: skip
+    package = "collected_collector"
+    scenario = {
+        "influx_root": str(tmp_path / "influxd"),
+        "statements": statements,
+        "database": "collected",
+        "command": [_executable(workspace, package, "collector"), "--ros-args",
+                    "-p", "buffer:=100", "-p", "diagnostics_period:=0.2"],
+        "before": 100,
+        "during": 150,
+    }  # fmt: skip
+    (tmp_path / "influxd").mkdir()
+    file = tmp_path / "collector.json"
+    file.write_text(json.dumps(scenario), encoding="utf-8")
+    run = rosenv.run(
+        [rosenv.python(), str(HERE / "drive_collector.py"), str(file)],
+        rosenv.DOMAIN + 5, workspace, timeout=240,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-6000:]
+    seen = json.loads(run.stdout)
+    assert seen["code"] == 0, seen["log"]
+    assert seen["while_down"]["_message"].startswith("retrying"), seen["while_down"]
+    status = seen["status"]
+    assert status["messages"] == "250"
+    assert status["points dropped: buffer full"] == "50"
+    assert status["points written"] == "200"
+    assert float(status["storage delay p99 (ms)"]) > 0
+    stored = {int(t): v for t, v in seen["stored"]}
+    start, step = 1_700_000_000 * 10**9, 50_000_000
+    kept = {(t - start) // step for t in stored}
+    assert len(kept) == 200 and all(stored[start + k * step] == k for k in kept)
+    assert set(range(100)) <= kept  # written before influxd stopped
+    assert set(range(170, 250)) <= kept  # the newest stay; the oldest waiting went
+    assert "InfluxDB cannot keep up" in seen["log"]

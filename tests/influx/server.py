@@ -69,11 +69,14 @@ class Influxd:
         config.write_text(
             CONFIG.format(root=root, rpc=free_port(), http=self.port, run_interval=run_interval)
         )
-        self.log = (root / "influxd.log").open("w")
-        self.process = subprocess.Popen(
-            [executable, "-config", str(config)], stdout=self.log, stderr=subprocess.STDOUT
-        )
+        self.command = [executable, "-config", str(config)]
         self.url = f"http://127.0.0.1:{self.port}"
+        self.start()
+
+    def start(self) -> None:
+        """Start influxd (again: its data stays in `root`)."""
+        self.log = (self.root / "influxd.log").open("a")
+        self.process = subprocess.Popen(self.command, stdout=self.log, stderr=subprocess.STDOUT)
         self._wait()
 
     def _wait(self) -> None:

@@ -346,9 +346,15 @@ NODES: dict[str, dict[str, tuple[tuple[str, ...], str | None]]] = {
         "tcp": ((STRING,), None), "header": ((STRING, STRING), None),
         "timeout": ((DURATION,), None), "mode": ((INT,), None),
     },
+    "influxDBOut": {
+        "database": ((STRING,), None), "retentionPolicy": ((STRING,), None),
+        "measurement": ((STRING,), None), "tag": ((STRING, STRING), None),
+        "create": ((), None), "precision": ((STRING,), None), "buffer": ((INT,), None),
+        "flushInterval": ((DURATION,), None), "writeConsistency": ((STRING,), None),
+    },
 }  # fmt: skip
 CHILDREN = {"stream": ("from",), "batch": ("query",), "from": ("alert", "where", "eval",
-            "window"), "alert": ()}  # fmt: skip
+            "window"), "alert": ("influxDBOut",), "influxDBOut": ()}  # fmt: skip
 LAMBDA_FUNCTIONS = {"isPresent": 1, "float": 1, "int": 1, "bool": 1, "string": 1, "abs": 1,
                     "sqrt": 1, "floor": 1, "ceil": 1, "pow": 2, "if": 3}  # fmt: skip
 
@@ -404,16 +410,8 @@ def _check_property(node: str, call: Call) -> None:
             _check_lambda(arg.expr, where)
 
 
-def check(text: str) -> list[Any]:
-    """Parse and validate a script; its statements."""
-    statements = parse(text)
-    pipelines = [s for s in statements if s[0] == "expr" and isinstance(s[1], Chain)]
-    if len(pipelines) != 1:
-        raise TickError("a task script holds one pipeline")
-    chain = pipelines[0][1]
-    if chain.head not in ("stream", "batch"):
-        raise TickError(f"a pipeline starts with stream or batch, not {chain.head}")
-    node = chain.head
+def _follow(chain: Chain, node: str) -> str:
+    """Check a chain's steps from the node it starts at; the node it ends at."""
     for sign, call in chain.steps:
         if sign == "|":
             if call.name not in CHILDREN.get(node, ()):
@@ -425,6 +423,31 @@ def check(text: str) -> list[Any]:
             _check_property(node, call)
         else:
             raise TickError(f"{call.line}:{call.column}: no user-defined functions here")
+    return node
+
+
+def check(text: str) -> list[Any]:
+    """Parse and validate a script; its statements. A pipeline starts at `stream`
+    or `batch`, or at a variable holding one (`var alert = stream|...`)."""
+    statements = parse(text)
+    nodes: dict[str, str] = {}  # variables holding a pipeline: the node they end at
+    pipelines = 0
+    for statement in statements:
+        chain = statement[-1]
+        if statement[0] not in ("var", "expr") or not isinstance(chain, Chain):
+            continue
+        if chain.head in ("stream", "batch"):
+            pipelines += 1
+            start = chain.head
+        elif chain.head in nodes:
+            start = nodes[chain.head]
+        else:
+            raise TickError(f"a pipeline starts with stream, batch or a variable, not {chain.head}")
+        end = _follow(chain, start)
+        if statement[0] == "var":
+            nodes[statement[1]] = end
+    if pipelines != 1:
+        raise TickError("a task script holds one pipeline from stream or batch")
     return statements
 
 
@@ -432,7 +455,7 @@ def strings(statements: list[Any]) -> list[str]:
     """Every string argument's value, as Kapacitor reads it (for quoting tests)."""
     out: list[str] = []
     for statement in statements:
-        if statement[0] == "expr" and isinstance(statement[1], Chain):
-            for _, call in statement[1].steps:
+        if statement[0] in ("expr", "var") and isinstance(statement[-1], Chain):
+            for _, call in statement[-1].steps:
                 out.extend(a.value for a in call.args if isinstance(a, Expr) and a.kind == "string")
     return out

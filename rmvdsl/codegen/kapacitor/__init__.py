@@ -14,6 +14,7 @@ only through `tick_string`/`tick_reference`; durations through `*_duration`.
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path
@@ -21,6 +22,8 @@ from typing import Any
 
 import jinja2
 
+from rmvdsl.codegen import ros2
+from rmvdsl.codegen.kapacitor import dashboards
 from rmvdsl.codegen.ros2 import py_string
 from rmvdsl.runtime import lineproto
 from rmvdsl.runtime import spec as ir
@@ -252,6 +255,7 @@ class Build:
     database: ir.Database
     measurement: str
     handler_path: Path
+    alerts_measurement: str
     queries: list[Query] = field(default_factory=list)
     alerts: list[TickAlert] = field(default_factory=list)
     report: list[str] = field(default_factory=list)
@@ -412,7 +416,10 @@ def plan(spec: ir.Spec, handlers: Path) -> Build:
     """What the target writes for a spec, and the report of what it leaves to the
     ros2 target's monitor. `handlers`: the folder the publish handler is run from."""
     database = _database(spec)
-    build = Build(spec, database, lineproto.measurement_name(spec), handlers / "publish_alert.py")
+    measurement = lineproto.measurement_name(spec)
+    build = Build(
+        spec, database, measurement, handlers / "publish_alert.py", f"{measurement}_alerts"
+    )
     for event in spec.events:
         if event.kind == "boolean":
             build.report.append(
@@ -520,6 +527,52 @@ def _environment() -> jinja2.Environment:
     return env
 
 
+def dashboard_files(build: Build, env: jinja2.Environment) -> dict[str, str]:
+    """A Grafana dashboard and a Chronograf dashboard export over the stored data."""
+    database = build.database
+    sources = dashboards.Sources(
+        points=_target(database, database.default_retention, build.measurement),
+        alerts=_target(database, database.default_retention, build.alerts_measurement),
+        ident=influxql_identifier,
+        string=influxql_string,
+    )
+    found = dashboards.panels(build.spec, sources)
+    name = build.spec.system.name
+    context = {"spec": build.spec, "panels": found, "title": build.spec.system.title or name}
+    uid = "rmv-" + re.sub(r"[^A-Za-z0-9_-]", "-", name)[:36]
+    return {
+        "dashboards/grafana.json": env.get_template("grafana.json.j2").render(
+            uid=uid, placeholders=dashboards.GRAFANA, **context
+        ),
+        "dashboards/chronograf.json": env.get_template("chronograf.json.j2").render(
+            placeholders=dashboards.CHRONOGRAF, **context
+        ),
+    }
+
+
+COLLECTOR = (ros2.NodeEntry("collector", "collector_node", "rmv_collector"),)
+
+
+def collector_files(build: Build) -> dict[str, str]:
+    """The collector: an ament_python package, `collector/` in the build, sharing
+    the ros2 target's ROS I/O (ros_io.py) and embedding the runtime's reading of
+    variables and its line protocol."""
+    spec = build.spec
+    name = f"{ros2.package_name(spec)}_collector"
+    package = ros2.Package(
+        name, spec, (*ros2.BASE_DEPENDENCIES, *ros2.message_packages(spec)),
+        "InfluxDB collector", "kapacitor", COLLECTOR, "launch/collector.launch.py",
+    )  # fmt: skip
+    templates = {
+        "README.md": "collector_README.md.j2",
+        f"{name}/collector_node.py": "collector_node.py.j2",
+        "config/params.yaml": "collector_params.yaml.j2",
+    }
+    env = ros2.environment(TEMPLATES)
+    found = ros2.ament_package(package, env, templates, database=build.database)
+    return {f"collector/{path}": text for path, text in found.items()}
+
+
 def files(spec: ir.Spec, out: Path) -> tuple[dict[str, str], list[str]]:
     """Every file of the build by path relative to `out`, and the report."""
     build = plan(spec, out.resolve() / "handlers")
@@ -533,6 +586,8 @@ def files(spec: ir.Spec, out: Path) -> tuple[dict[str, str], list[str]]:
         written["handlers/publish_alert.py"] = env.get_template("publish_alert.py.j2").render(
             **context
         )
+    written.update(dashboard_files(build, env))
+    written.update(collector_files(build))
     written["deploy.json"] = json.dumps(manifest(build), indent=2) + "\n"
     written["README.md"] = env.get_template("README.md.j2").render(
         files=sorted(written), report=build.report, **context
@@ -543,10 +598,4 @@ def files(spec: ir.Spec, out: Path) -> tuple[dict[str, str], list[str]]:
 def write(spec: ir.Spec, out: Path) -> tuple[list[Path], list[str]]:
     """Write the build into `out`; the paths written and the report."""
     texts, report = files(spec, out)
-    paths = []
-    for relative, text in texts.items():
-        path = out / relative
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(text, encoding="utf-8")
-        paths.append(path)
-    return paths, report
+    return ros2.write(texts, out), report

@@ -29,10 +29,21 @@ class BuildError(ValueError):
 
 
 @dataclass(frozen=True)
+class NodeEntry:
+    executable: str  # the console script
+    module: str  # the package's module with `main`
+    name: str  # the ROS node's name
+
+
+@dataclass(frozen=True)
 class Package:
     name: str
     spec: ir.Spec
     dependencies: tuple[str, ...]
+    description: str
+    target: str  # the `rmv build` target that writes it
+    nodes: tuple[NodeEntry, ...]
+    launch: str  # the launch file, relative to the package
 
 
 def package_name(spec: ir.Spec, override: str | None = None) -> str:
@@ -80,9 +91,11 @@ def yaml_string(value: str) -> str:
     return json.dumps(str(value), ensure_ascii=True)
 
 
-def _environment() -> jinja2.Environment:
+def environment(*folders: Path) -> jinja2.Environment:
+    """The templates of `folders`, then this target's (a package of another target
+    finds the shared ones here), with the quoting filters."""
     env = jinja2.Environment(
-        loader=jinja2.FileSystemLoader(str(TEMPLATES)),
+        loader=jinja2.FileSystemLoader([*(str(f) for f in folders), str(TEMPLATES)]),
         autoescape=False,
         keep_trailing_newline=True,
         trim_blocks=True,
@@ -111,28 +124,32 @@ def _sorted_block(match: re.Match[str]) -> str:
     return "".join(sorted(lines, key=lambda line: line.split(" import ")[0]))
 
 
-def files(spec: ir.Spec, package: str | None = None) -> dict[str, str]:
-    """Every file of the package, by path relative to its folder."""
-    name = package_name(spec, package)
-    pkg = Package(name, spec, (*BASE_DEPENDENCIES, *message_packages(spec)))
-    env = _environment()
-    context = {"package": pkg, "spec": spec}
-    out: dict[str, str] = {}
+MONITOR_NODES = (
+    NodeEntry("monitor", "monitor_node", "rmv_monitor"),
+    NodeEntry("intrusion", "intrusion_node", "rmv_intrusion"),
+)
+
+
+def ament_package(
+    package: Package, env: jinja2.Environment, templates: dict[str, str], **context: object
+) -> dict[str, str]:
+    """Every file of an ament_python package that hosts the runtime: the package's
+    own `templates` (path -> template) beside what every such package holds
+    (package.xml, setup.py, the launch file, ros_io.py, the spec and the runtime)."""
+    name = package.name
+    context = {"package": package, "spec": package.spec, **context}
     rendered = {
         "package.xml": "package.xml.j2",
         "setup.py": "setup.py.j2",
         "setup.cfg": "setup.cfg.j2",
-        "README.md": "README.md.j2",
         f"resource/{name}": "resource.j2",
         f"{name}/__init__.py": "init.py.j2",
-        f"{name}/monitor_node.py": "monitor_node.py.j2",
-        f"{name}/intrusion_node.py": "intrusion_node.py.j2",
-        "launch/monitor.launch.py": "launch/monitor.launch.py.j2",
-        "config/params.yaml": "config/params.yaml.j2",
+        f"{name}/ros_io.py": "ros_io.py.j2",
+        package.launch: "launch/nodes.launch.py.j2",
+        **templates,
     }
-    for path, template in rendered.items():
-        out[path] = env.get_template(template).render(**context)
-    out[f"{name}/spec.json"] = ir.dump(spec) + "\n"
+    out = {path: env.get_template(t).render(**context) for path, t in rendered.items()}
+    out[f"{name}/spec.json"] = ir.dump(package.spec) + "\n"
     runtime = f"{name}/rmv_runtime"
     for module in sorted(RUNTIME.glob("*.py")):
         out[f"{runtime}/{module.name}"] = _vendored(module.read_text(encoding="utf-8"))
@@ -140,12 +157,36 @@ def files(spec: ir.Spec, package: str | None = None) -> dict[str, str]:
     return out
 
 
-def build(spec: ir.Spec, out: Path, package: str | None = None) -> list[Path]:
-    """Write the package into `out` (created; files it writes are replaced)."""
+def files(spec: ir.Spec, package: str | None = None) -> dict[str, str]:
+    """Every file of the package, by path relative to its folder."""
+    name = package_name(spec, package)
+    pkg = Package(
+        name, spec, (*BASE_DEPENDENCIES, *message_packages(spec)),
+        "Runtime monitor", "ros2", MONITOR_NODES, "launch/monitor.launch.py",
+    )  # fmt: skip
+    return ament_package(
+        pkg,
+        environment(),
+        {
+            "README.md": "README.md.j2",
+            f"{name}/monitor_node.py": "monitor_node.py.j2",
+            f"{name}/intrusion_node.py": "intrusion_node.py.j2",
+            "config/params.yaml": "config/params.yaml.j2",
+        },
+    )
+
+
+def write(files: dict[str, str], out: Path) -> list[Path]:
+    """Write files (path relative to `out` -> text); the paths written."""
     written = []
-    for relative, text in files(spec, package).items():
+    for relative, text in files.items():
         path = out / relative
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(text, encoding="utf-8")
         written.append(path)
     return written
+
+
+def build(spec: ir.Spec, out: Path, package: str | None = None) -> list[Path]:
+    """Write the package into `out` (created; files it writes are replaced)."""
+    return write(files(spec, package), out)
