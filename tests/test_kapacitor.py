@@ -175,7 +175,8 @@ def test_cli_builds_the_target_and_reports_what_it_leaves(rmv, tmp_path):
         if p.is_file() and not str(p.relative_to(out)).startswith("collector/")
     )  # fmt: skip
     assert names == [
-        "README.md", "deploy.json", "handlers/publish_alert.py", "influxdb.iql",
+        "README.md", "dashboards/chronograf.json", "dashboards/grafana.json", "deploy.json",
+        "handlers/publish_alert.py", "influxdb.iql",
         "tickscripts/FastTraffic.tick", "tickscripts/LossOfAcceleration.tick",
         "tickscripts/MaxVelocity.tick",
     ]  # fmt: skip
@@ -325,10 +326,11 @@ def _every_dashboard_query_runs(
     queries = [(p["title"], p["targets"][0]["query"]
                 .replace("$timeFilter", f"time >= {first} AND time <= {last}")
                 .replace("$__interval", "1s")) for p in grafana["panels"]]  # fmt: skip
+    cells = chronograf["dashboard"]["cells"]
     queries += [(c["name"], c["queries"][0]["query"]
                  .replace(":dashboardTime:", str(first - 1))
                  .replace(":upperDashboardTime:", str(last + 1))
-                 .replace(":interval:", "1s")) for c in chronograf["dashboard"]["cells"]]  # fmt: skip
+                 .replace(":interval:", "1s")) for c in cells]  # fmt: skip
     assert len(queries) == 14
     for title, query in queries:
         assert "$" not in query and ":" not in query.replace("http:", ""), query
