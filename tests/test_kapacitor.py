@@ -17,6 +17,7 @@ import base64
 import dataclasses
 import json
 import math
+import os
 import re
 import subprocess
 import sys
@@ -555,3 +556,26 @@ def test_generated_python_is_lint_clean(tmp_path):
             )  # fmt: skip
             assert lint.returncode == 0, (path.name, lint.stdout + lint.stderr)
     assert (tmp_path / "abs" / "collector" / "carla_abs_collector" / "ros_io.py").exists()
+
+
+GOLDEN = ROOT / "tests" / "golden" / "kapacitor"
+
+
+@pytest.mark.parametrize("path", SPECS, ids=[p.stem for p in SPECS])
+def test_build_matches_golden(path):
+    """The queries, scripts and dashboards of each example, exactly. Regenerate with
+    `UPDATE_GOLDEN=1 pytest tests/test_kapacitor.py -k golden` after a deliberate
+    change, and read `git diff tests/golden/kapacitor` as code. (The collector
+    package and the handler carry the build's folder, so they are left out.)"""
+    texts, report = kapacitor.files(_spec(path), Path("/build"))
+    kept = {k: v for k, v in texts.items() if k.startswith(("influxdb", "tickscripts/",
+                                                            "dashboards/"))}  # fmt: skip
+    kept["report.txt"] = "\n".join(report) + "\n"
+    folder = GOLDEN / path.stem
+    if os.environ.get("UPDATE_GOLDEN"):
+        for relative, text in kept.items():
+            (folder / relative).parent.mkdir(parents=True, exist_ok=True)
+            (folder / relative).write_text(text, encoding="utf-8")
+    found = {str(p.relative_to(folder)): p.read_text(encoding="utf-8")
+             for p in folder.rglob("*") if p.is_file()}  # fmt: skip
+    assert found == kept
