@@ -163,6 +163,16 @@ def _same(actual: Any, expected: Any, ulps: int = 0) -> bool:
     return actual == expected and type(actual) is type(expected)
 
 
+def _fresh_schema(server: Influxd, spec: ir.Spec, tmp_path: Path) -> str:
+    """The build's influxdb.iql, applied to a database dropped first."""
+    iql = _build(spec, tmp_path)["influxdb.iql"]
+    assert spec.database is not None
+    server.query(f"DROP DATABASE {kapacitor.influxql_identifier(spec.database.name)}")
+    for statement in statements(iql):
+        server.query(statement)
+    return iql
+
+
 # ---- the tests ----
 
 
@@ -196,12 +206,9 @@ def test_cli_builds_the_target_and_reports_what_it_leaves(rmv, tmp_path):
 @pytest.mark.parametrize("path", SPECS, ids=[p.stem for p in SPECS])
 def test_every_continuous_query_is_created_and_explained(server, path, tmp_path):
     spec = _spec(path)
-    iql = _build(spec, tmp_path)["influxdb.iql"]
+    iql = _fresh_schema(server, spec, tmp_path)
     database = spec.database
     assert database is not None
-    server.query(f"DROP DATABASE {kapacitor.influxql_identifier(database.name)}")
-    for statement in statements(iql):
-        server.query(statement)
     shown = server.query("SHOW CONTINUOUS QUERIES")[0]["series"]
     created = {row[0] for s in shown if s["name"] == database.name for row in s["values"]}
     bodies = continuous_queries(iql)
@@ -274,12 +281,9 @@ def test_braking_events_in_influxdb_equal_the_replay(server, tmp_path):
     spec = dataclasses.replace(
         spec, database=dataclasses.replace(spec.database, retentions=forever)
     )
-    iql = _build(spec, tmp_path)["influxdb.iql"]
+    iql = _fresh_schema(server, spec, tmp_path)
     database = spec.database
     assert database is not None
-    server.query(f"DROP DATABASE {kapacitor.influxql_identifier(database.name)}")
-    for statement in statements(iql):
-        server.query(statement)
     writer = lineproto.PointWriter(spec)
     reader = open_reader([BRAKING], spec)
     try:

@@ -39,39 +39,34 @@ def _position(text: str, index: int) -> tuple[int, int]:
     return line, index - (text.rfind("\n", 0, index) + 1) + 1
 
 
+def _delimited(text: str, start: int, quote: str, what: str) -> tuple[str, int]:
+    """The text between `quote`s from `start`, where only a backslash before the
+    quote escapes (lex.go's rule; newString and newReference unescape only that)."""
+    index = start + 1
+    while index < len(text):
+        char = text[index]
+        if char == "\\" and text.startswith(quote, index + 1):
+            index += 2
+            continue
+        if char == quote:
+            return text[start + 1 : index].replace("\\" + quote, quote), index + 1
+        index += 1
+    raise TickError(f"unterminated {what}")
+
+
 def _string(text: str, start: int) -> tuple[str, int]:
-    """A string literal at `start` as lex.go reads it; its value as newString
-    unescapes it (only `\\'` in single quotes; nothing in triple quotes)."""
+    """A string literal at `start`: single quotes, or triple quotes with no escapes
+    (lex.go ends those at the first three quotes in a row)."""
     if text.startswith("'''", start):
         end = text.find("'''", start + 3)
         if end < 0:
             raise TickError("unterminated string")
-        # lex.go ends a triple-quoted string at the first three quotes in a row
         return text[start + 3 : end], end + 3
-    index = start + 1
-    while index < len(text):
-        char = text[index]
-        if char == "\\" and index + 1 < len(text) and text[index + 1] == "'":
-            index += 2
-            continue
-        if char == "'":
-            literal = text[start + 1 : index]
-            return re.sub(r"\\'", "'", literal), index + 1
-        index += 1
-    raise TickError("unterminated string")
+    return _delimited(text, start, "'", "string")
 
 
 def _reference(text: str, start: int) -> tuple[str, int]:
-    index = start + 1
-    while index < len(text):
-        char = text[index]
-        if char == "\\" and index + 1 < len(text) and text[index + 1] == '"':
-            index += 2
-            continue
-        if char == '"':
-            return text[start + 1 : index].replace('\\"', '"'), index + 1
-        index += 1
-    raise TickError("unterminated field reference")
+    return _delimited(text, start, '"', "field reference")
 
 
 def tokens(text: str) -> list[Token]:

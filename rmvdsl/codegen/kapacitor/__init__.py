@@ -349,14 +349,9 @@ def manifest(build: Build) -> dict[str, Any]:
 
 
 def _environment() -> jinja2.Environment:
-    env = jinja2.Environment(
-        loader=jinja2.FileSystemLoader(str(TEMPLATES)),
-        autoescape=False,
-        keep_trailing_newline=True,
-        trim_blocks=True,
-        lstrip_blocks=True,
-        undefined=jinja2.StrictUndefined,
-    )
+    """This target's templates (and, for the collector, the ros2 target's), with
+    the quoting filters of both."""
+    env = ros2.environment(TEMPLATES)
     env.filters["ident"] = influxql_identifier
     env.filters["iql_string"] = influxql_string
     env.filters["duration"] = influxql_duration
@@ -408,8 +403,7 @@ def collector_files(build: Build) -> dict[str, str]:
         f"{name}/collector_node.py": "collector_node.py.j2",
         "config/params.yaml": "collector_params.yaml.j2",
     }
-    env = ros2.environment(TEMPLATES)
-    found = ros2.ament_package(package, env, templates, database=build.database)
+    found = ros2.ament_package(package, _environment(), templates, database=build.database)
     return {f"collector/{path}": text for path, text in found.items()}
 
 
