@@ -137,6 +137,14 @@ reached (the message says what was applied before), 2 usage or I/O problem""",
         "--kapacitor", metavar="URL", help="Kapacitor (default: http://127.0.0.1:9092)"
     )
 
+    commands.add_parser(
+        "lsp",
+        help="serve the language server over stdio (for editors: docs/editor.md)",
+        description="The Language Server Protocol over standard input and output: the "
+        "diagnostics of `rmv check` as you type, hover, go to definition, references, "
+        "the outline and formatting (docs/editor.md).",
+    )
+
     replay_parser = commands.add_parser(
         "replay",
         help="run a spec over recorded rosbags (.bag, .db3, .mcap)",
@@ -328,6 +336,7 @@ def _run(args: argparse.Namespace) -> int:
         "build": _build,
         "check": _check,
         "deploy": _deploy,
+        "lsp": _lsp,
         "explain": lambda a: _explain(a.code),
         "fmt": _fmt,
         "import": _import,
@@ -448,6 +457,13 @@ def _build_kapacitor(args: argparse.Namespace, spec: ir_spec.Spec) -> int:
     return EXIT_OK
 
 
+def _lsp(args: argparse.Namespace) -> int:
+    from rmvdsl.lsp.server import main
+
+    main()
+    return EXIT_OK
+
+
 def _deploy(args: argparse.Namespace) -> int:
     from pathlib import Path
 
@@ -477,9 +493,12 @@ def _check(args: argparse.Namespace) -> int:
     sources = SourceMap()
     usage_problem = False
     checked: list[str] = []
+    from rmvdsl.workspace import Workspace
+
+    workspace = Workspace()  # as `rmv lsp` checks, with no document open
     for path in args.files:
         try:
-            result = check(
+            result = workspace.check(
                 path, ros=args.ros, messages=tuple(args.messages), solver_timeout=args.timeout
             )
         except UsageError as exc:

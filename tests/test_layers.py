@@ -71,3 +71,14 @@ def test_only_targets_and_the_command_line_read_the_lowering():
     for folder in ("grammar", "check", "logic", "runtime"):
         for path in _modules(folder):
             assert "rmvdsl.ir" not in _imports(path), f"{path.relative_to(ROOT)} imports rmvdsl.ir"
+
+
+def test_the_language_server_is_a_layer_over_the_workspace():
+    """lsp/ reads the checker through rmvdsl.workspace only (thin over the library),
+    and nothing below imports lsp/."""
+    for path in _modules("lsp"):
+        direct = {m for m in _imports(path) if m.startswith(("rmvdsl.check", "rmvdsl.logic"))}
+        assert not direct - {"rmvdsl.check.model"}, f"{path.relative_to(ROOT)} imports {direct}"
+    for path in sorted(PACKAGE.rglob("*.py")):
+        if "lsp" not in path.parts and path.name != "cli.py":  # `rmv lsp` starts it
+            assert not any(m.startswith("rmvdsl.lsp") for m in _imports(path)), path

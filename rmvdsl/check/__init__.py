@@ -18,7 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, cast
 
-from rmvdsl.check.loader import UsageError, load
+from rmvdsl.check.loader import Reader, UsageError, load, read_text
 from rmvdsl.check.model import Model
 from rmvdsl.check.msgtypes import DISTROS
 from rmvdsl.check.names import check_names
@@ -70,8 +70,14 @@ def check(
     messages: tuple[str, ...] = (),
     use_environment: bool = True,
     solver_timeout: float | None = None,
+    read: Reader = read_text,
+    solver: bool = True,
 ) -> CheckResult:
     """Check the spec at `path` (its text may be given, as the editor does).
+
+    `read` reads the files (rmvdsl.workspace reads an editor's open documents
+    first). Without `solver`, only the fast stages run (loading, names, types),
+    so an editor shows their diagnostics while the solver stages still run.
 
     `ros` and `messages` come from the command line and win over the spec's own
     `ros` and `messages` declarations, which win over an rmv.toml beside the spec.
@@ -79,7 +85,7 @@ def check(
     `solver_timeout` of rmv.toml (docs/verification.md).
     Raises UsageError only when the root file itself cannot be read. Runs on a deep
     stack (rmvdsl.deep): a generated spec's formulas can nest 100,000 levels."""
-    return deep(_check, path, text, ros, messages, use_environment, solver_timeout)
+    return deep(_check, path, text, ros, messages, use_environment, solver_timeout, read, solver)
 
 
 def _check(
@@ -89,8 +95,10 @@ def _check(
     messages: tuple[str, ...],
     use_environment: bool,
     solver_timeout: float | None,
+    read: Reader,
+    solver: bool,
 ) -> CheckResult:
-    loaded = load(path, text)
+    loaded = load(path, text, read)
     model, name_diagnostics = check_names(
         loaded.specs, loaded.sources, loaded.damaged_names, loaded.damaged_ranges
     )
@@ -104,18 +112,22 @@ def _check(
         use_environment=use_environment,
     )
     types, type_diagnostics = check_types(model, config, folder)
+    if not solver:
+        fast = _quieted(
+            model, [*loaded.diagnostics, *config_diagnostics], name_diagnostics, type_diagnostics
+        )
+        return CheckResult(model, sorted(fast, key=sort_key), types)
     # networkx and z3 load only when a check runs, not for `rmv --version` or `fmt`.
     from rmvdsl.check.analysis import analyze
 
     with SOLVER_LOCK:
         analysis, analysis_diagnostics = analyze(model, types)
-    # Inside a declaration with syntax errors parts may be missing: what follows from
-    # a missing part is not reported, the syntax error is.
-    names = [
-        d for d in name_diagnostics if not (d.code in CONSEQUENTIAL and model.in_damaged(d.span))
-    ]
-    later = [d for d in [*type_diagnostics, *analysis_diagnostics] if not model.in_damaged(d.span)]
-    earlier = [*loaded.diagnostics, *config_diagnostics, *names, *later]
+    earlier = _quieted(
+        model,
+        [*loaded.diagnostics, *config_diagnostics],
+        name_diagnostics,
+        [*type_diagnostics, *analysis_diagnostics],
+    )
     from rmvdsl.check.properties import analyze_properties
 
     skip = broken_declarations(model, earlier)
@@ -123,6 +135,16 @@ def _check(
         report = analyze_properties(model, types, analysis, skip, limits)
     diagnostics = sorted([*earlier, *report.diagnostics], key=sort_key)
     return CheckResult(model, diagnostics, types, analysis, report)
+
+
+def _quieted(
+    model: Model, kept: list[Diagnostic], names: list[Diagnostic], later: list[Diagnostic]
+) -> list[Diagnostic]:
+    """Inside a declaration with syntax errors parts may be missing: what follows
+    from a missing part is not reported (the consequential name findings, and
+    everything the type and solver stages found there), the syntax error is."""
+    names = [d for d in names if not (d.code in CONSEQUENTIAL and model.in_damaged(d.span))]
+    return [*kept, *names, *[d for d in later if not model.in_damaged(d.span)]]
 
 
 def broken_declarations(model: Model, diagnostics: list[Diagnostic]) -> set[str]:

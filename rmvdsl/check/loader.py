@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from rmvdsl.diagnostics import Diagnostic, closest, error
@@ -48,6 +49,10 @@ def decode(data: bytes, path: str) -> str:
     return text.removeprefix("\ufeff")
 
 
+# Reads a file's text by its path (raises UsageError when it cannot).
+Reader = Callable[[str], str]
+
+
 @dataclass
 class Loaded:
     sources: SourceMap
@@ -58,13 +63,15 @@ class Loaded:
     # Each file by what it is (its resolved path): one file imported by a relative
     # and an absolute path, or through a symbolic link, is read once.
     read: set[str] = field(default_factory=set)
+    read_file: Reader = field(default=read_text, repr=False)
 
 
-def load(path: str, text: str | None = None) -> Loaded:
-    """Parse `path` (or the given text for it) and, depth first, its imports."""
+def load(path: str, text: str | None = None, read: Reader = read_text) -> Loaded:
+    """Parse `path` (or the given text for it) and, depth first, its imports; files
+    are read with `read` (an editor's reads its open documents before the disk)."""
     sources = SourceMap()
-    loaded = Loaded(sources, [], [])
-    root_text = read_text(path) if text is None else text
+    loaded = Loaded(sources, [], [], read_file=read)
+    root_text = read(path) if text is None else text
     _load_file(os.path.normpath(path), root_text, loaded, active=[])
     return loaded
 
@@ -115,7 +122,7 @@ def _load_import(importer: str, item: ast.ImportDecl, loaded: Loaded, active: li
         )
         return
     try:
-        text = read_text(target)
+        text = loaded.read_file(target)
     except UsageError as exc:
         missing = not os.path.exists(target)
         loaded.diagnostics.append(

@@ -1,0 +1,241 @@
+"""`rmv lsp`: a language server over stdio (pygls 2), thin over rmvdsl.workspace.
+
+Every feature is registered in `build()`. Diagnostics are exactly `rmv check`'s:
+the fast stages (loading, names, types) are published as soon as a change is read,
+the solver stages after the text has rested for `DEBOUNCE` seconds; a result that
+a newer change has overtaken is never published.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import functools
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+
+from lsprotocol import types
+from pygls.lsp.server import LanguageServer
+from pygls.workspace import TextDocument
+
+from rmvdsl import __version__
+from rmvdsl.check.model import Kind, Model, Symbol
+from rmvdsl.lsp import convert
+from rmvdsl.source import Span
+from rmvdsl.workspace import CheckResult, Workspace, formatted, references, symbol_at
+
+DEBOUNCE = 0.3  # seconds of quiet before the solver stages run
+SYMBOL_KINDS = {
+    Kind.TOPIC: types.SymbolKind.Interface,
+    Kind.VARIABLE: types.SymbolKind.Variable,
+    Kind.VALUE_EVENT: types.SymbolKind.Event,
+    Kind.BOOL_EVENT: types.SymbolKind.Event,
+    Kind.EMITTED_EVENT: types.SymbolKind.Event,
+    Kind.ALERT: types.SymbolKind.Constant,
+    Kind.TRANSDUCER: types.SymbolKind.Class,
+    Kind.STATE: types.SymbolKind.EnumMember,
+    Kind.PROPERTY: types.SymbolKind.Property,
+}
+
+
+@dataclass
+class State:
+    """The server's view: the workspace, each document's change count, and the
+    newest check of each document."""
+
+    workspace: Workspace = field(default_factory=Workspace)
+    generation: dict[str, int] = field(default_factory=dict)
+    results: dict[str, CheckResult] = field(default_factory=dict)
+    pool: ThreadPoolExecutor = field(default_factory=lambda: ThreadPoolExecutor(2))
+    published: dict[str, set[str]] = field(default_factory=dict)  # root -> paths shown
+
+
+class RmvServer(LanguageServer):
+    def __init__(self) -> None:
+        super().__init__(
+            "rmv-lsp", __version__, text_document_sync_kind=types.TextDocumentSyncKind.Incremental
+        )
+        self.state = State()
+
+    def document(self, uri: str) -> TextDocument:
+        return self.workspace.get_text_document(uri)
+
+    def open_documents(self) -> dict[str, TextDocument]:
+        return {d.path: d for d in self.workspace.text_documents.values()}
+
+    async def refresh(self, uri: str) -> None:
+        """Check a document: the fast stages, then (if nothing changed meanwhile)
+        the solver stages; publish each unless a newer change overtook it."""
+        document = self.document(uri)
+        path, state = document.path, self.state
+        state.workspace.open(path, document.source)
+        generation = state.generation[path] = state.generation.get(path, 0) + 1
+        loop = asyncio.get_running_loop()
+        fast = functools.partial(state.workspace.check, path, solver=False)
+        result = await loop.run_in_executor(state.pool, fast)
+        if state.generation.get(path) != generation:
+            return
+        self.publish(path, result)
+        await asyncio.sleep(DEBOUNCE)
+        if state.generation.get(path) != generation:
+            return
+        result = await loop.run_in_executor(state.pool, state.workspace.check, path)
+        if state.generation.get(path) == generation:
+            self.publish(path, result)
+
+    def publish(self, root: str, result: CheckResult) -> None:
+        """The diagnostics of a check, per file (an import's show in that file)."""
+        self.state.results[root] = result
+        documents = self.open_documents()
+        by_path: dict[str, list[types.Diagnostic]] = {root: []}
+        for found in result.diagnostics:
+            converted = convert.diagnostic(found, result.model.sources, documents)
+            if converted is not None:
+                by_path.setdefault(found.span.path, []).append(converted)
+        for stale in self.state.published.get(root, set()) - set(by_path):
+            by_path[stale] = []
+        self.state.published[root] = {p for p, items in by_path.items() if items}
+        for path, items in by_path.items():
+            version = documents[path].version if path in documents else None
+            self.text_document_publish_diagnostics(
+                types.PublishDiagnosticsParams(
+                    uri=convert.uri_of(path), diagnostics=items, version=version
+                )
+            )
+
+    def location(self, model: Model, span: Span) -> types.Location | None:
+        source = model.sources.get(span.path)
+        if source is None:
+            return None
+        document = self.open_documents().get(span.path)
+        return types.Location(convert.uri_of(span.path), convert.lsp_range(source, span, document))
+
+    def found_at(self, uri: str, position: types.Position) -> tuple[Model, Symbol] | None:
+        document = self.document(uri)
+        result = self.state.results.get(document.path)
+        if result is None:
+            return None
+        source = result.model.sources.get(document.path)
+        if source is None or source.text != document.source:
+            return None  # a check of this text has not finished yet
+        offset = convert.offset_at(source, document, position)
+        found = symbol_at(result.model, document.path, offset)
+        return None if found is None else (result.model, found.symbol)
+
+
+def build() -> RmvServer:
+    """The server with every feature registered."""
+    server = RmvServer()
+
+    @server.feature(types.TEXT_DOCUMENT_DID_OPEN)
+    async def did_open(ls: RmvServer, params: types.DidOpenTextDocumentParams) -> None:
+        await ls.refresh(params.text_document.uri)
+
+    @server.feature(types.TEXT_DOCUMENT_DID_CHANGE)
+    async def did_change(ls: RmvServer, params: types.DidChangeTextDocumentParams) -> None:
+        await ls.refresh(params.text_document.uri)
+
+    @server.feature(types.TEXT_DOCUMENT_DID_SAVE)
+    async def did_save(ls: RmvServer, params: types.DidSaveTextDocumentParams) -> None:
+        await ls.refresh(params.text_document.uri)
+
+    @server.feature(types.TEXT_DOCUMENT_DID_CLOSE)
+    def did_close(ls: RmvServer, params: types.DidCloseTextDocumentParams) -> None:
+        path = ls.document(params.text_document.uri).path
+        ls.state.workspace.close(path)
+        ls.state.generation[path] = ls.state.generation.get(path, 0) + 1
+
+    @server.feature(types.TEXT_DOCUMENT_HOVER)
+    def hover(ls: RmvServer, params: types.HoverParams) -> types.Hover | None:
+        found = ls.found_at(params.text_document.uri, params.position)
+        if found is None:
+            return None
+        model, symbol = found
+        text = hover_text(model, symbol)
+        return types.Hover(contents=types.MarkupContent(types.MarkupKind.Markdown, text))
+
+    @server.feature(types.TEXT_DOCUMENT_DEFINITION)
+    def definition(ls: RmvServer, params: types.DefinitionParams) -> types.Location | None:
+        found = ls.found_at(params.text_document.uri, params.position)
+        if found is None:
+            return None
+        return ls.location(found[0], found[1].span)
+
+    @server.feature(types.TEXT_DOCUMENT_REFERENCES)
+    def find_references(ls: RmvServer, params: types.ReferenceParams) -> list[types.Location]:
+        found = ls.found_at(params.text_document.uri, params.position)
+        if found is None:
+            return []
+        model, symbol = found
+        spans = references(model, symbol, params.context.include_declaration)
+        return [location for span in spans if (location := ls.location(model, span))]
+
+    @server.feature(types.TEXT_DOCUMENT_DOCUMENT_SYMBOL)
+    def document_symbols(
+        ls: RmvServer, params: types.DocumentSymbolParams
+    ) -> list[types.DocumentSymbol]:
+        document = ls.document(params.text_document.uri)
+        result = ls.state.results.get(document.path)
+        if result is None:
+            return []
+        return outline(result.model, document)
+
+    @server.feature(types.TEXT_DOCUMENT_FORMATTING)
+    def formatting(ls: RmvServer, params: types.DocumentFormattingParams) -> list[types.TextEdit]:
+        document = ls.document(params.text_document.uri)
+        text = formatted(document.path, document.source)
+        if text is None or text == document.source:
+            return []
+        end = types.Position(line=len(document.lines), character=0)
+        whole = types.Range(start=types.Position(line=0, character=0), end=end)
+        return [types.TextEdit(range=whole, new_text=text)]
+
+    return server
+
+
+def hover_text(model: Model, symbol: Symbol) -> str:
+    """What a hover shows: the kind and name, the declaration's first line, the
+    state's transducer, and the doc comment."""
+    lines = [f"**{symbol.kind.value}** `{symbol.name}`"]
+    if symbol.owner:
+        lines[0] += f" of transducer `{symbol.owner}`"
+    source = model.sources.get(symbol.span.path)
+    if source is not None:
+        declared = source.line_text(source.position(symbol.span.start).line).strip()
+        lines.append(f"```rmv\n{declared}\n```")
+    doc = str(getattr(symbol.decl, "doc", "") or "")
+    if doc:
+        lines.append(doc)
+    return "\n\n".join(lines)
+
+
+def outline(model: Model, document: TextDocument) -> list[types.DocumentSymbol]:
+    """The document's declarations, with each transducer's states inside it."""
+    source = model.sources.get(document.path)
+    if source is None:
+        return []
+    mine = [s for s in model.symbols.values() if s.span.path == document.path]
+
+    def entry(symbol: Symbol, children: list[types.DocumentSymbol]) -> types.DocumentSymbol:
+        where = convert.lsp_range(source, symbol.span, document)
+        decl_span = getattr(symbol.decl, "span", None)
+        whole = where if decl_span is None else convert.lsp_range(source, decl_span, document)
+        if not (whole.start.line <= where.start.line and whole.end.line >= where.end.line):
+            whole = where
+        return types.DocumentSymbol(
+            name=symbol.name, kind=SYMBOL_KINDS[symbol.kind], range=whole,
+            selection_range=where, detail=symbol.kind.value, children=children or None,
+        )  # fmt: skip
+
+    states: dict[str, list[types.DocumentSymbol]] = {}
+    for symbol in mine:
+        if symbol.kind is Kind.STATE and symbol.owner:
+            states.setdefault(symbol.owner, []).append(entry(symbol, []))
+    return [
+        entry(s, states.get(s.name, []) if s.kind is Kind.TRANSDUCER else [])
+        for s in sorted(mine, key=lambda s: s.span.start)
+        if s.kind is not Kind.STATE
+    ]
+
+
+def main() -> None:
+    build().start_io()

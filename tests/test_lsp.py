@@ -1,0 +1,247 @@
+"""`rmv lsp` end to end through a real client (pytest-lsp over stdio), in the
+position encodings a client may negotiate: UTF-16 (the default) and UTF-8."""
+
+from __future__ import annotations
+
+import asyncio
+import random
+import sys
+from pathlib import Path
+
+import pytest
+import pytest_lsp
+from conftest import EXAMPLES, ROOT
+from lsprotocol import types
+from pytest_lsp import ClientServerConfig, LanguageClient
+
+from rmvdsl.workspace import Workspace, formatted
+
+ENCODINGS = [types.PositionEncodingKind.Utf16, types.PositionEncodingKind.Utf8]
+WAIT = 120.0  # seconds for a check, solver stages included, on a loaded machine
+
+
+@pytest_lsp.fixture(
+    config=ClientServerConfig(server_command=[sys.executable, "-m", "rmvdsl.cli", "lsp"]),
+    params=ENCODINGS,
+)
+async def client(lsp_client: LanguageClient, request: pytest.FixtureRequest):
+    capabilities = pytest_lsp.client_capabilities("visual-studio-code")
+    capabilities.general = types.GeneralClientCapabilities(position_encodings=[request.param])
+    answer = await lsp_client.initialize_session(
+        types.InitializeParams(capabilities=capabilities, root_uri=ROOT.as_uri())
+    )
+    assert answer.capabilities.position_encoding == request.param
+    lsp_client.encoding = request.param  # type: ignore[attr-defined]
+    yield
+    await lsp_client.shutdown_session()
+
+
+def _open(client: LanguageClient, path: Path, text: str | None = None) -> str:
+    uri = path.resolve().as_uri()
+    client.text_document_did_open(
+        types.DidOpenTextDocumentParams(
+            types.TextDocumentItem(
+                uri=uri, language_id="rmv", version=1,
+                text=path.read_text(encoding="utf-8") if text is None else text,
+            )
+        )
+    )  # fmt: skip
+    return uri
+
+
+async def _diagnostics_until(client: LanguageClient, uri: str, wanted) -> list[types.Diagnostic]:
+    """Wait for published diagnostics of `uri` for which `wanted` holds."""
+
+    async def wait() -> list[types.Diagnostic]:
+        while True:
+            found = list(client.diagnostics.get(uri, []))
+            if uri in client.diagnostics and wanted(found):
+                return found
+            await client.wait_for_notification(types.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS)
+
+    return await asyncio.wait_for(wait(), WAIT)
+
+
+def _expected(path: Path) -> list[tuple[str, int, int]]:
+    """`rmv check`'s diagnostics of the file: code, 0-based line and column."""
+    result = Workspace().check(str(path.resolve()))
+    source = result.model.sources.get(str(path.resolve()))
+    assert source is not None
+    out = []
+    for found in result.diagnostics:
+        if found.span.path == source.path:
+            where = source.position(found.span.start)
+            out.append((found.code, where.line - 1, where.column - 1))
+    return sorted(out)
+
+
+def _seen(diagnostics: list[types.Diagnostic]) -> list[tuple[str, int, int]]:
+    return sorted((str(d.code), d.range.start.line, d.range.start.character) for d in diagnostics)
+
+
+@pytest.mark.parametrize("name", ["syntax.rmv", "queries.rmv", "analysis.rmv"])
+async def test_diagnostics_are_exactly_rmv_checks(client: LanguageClient, name: str):
+    path = EXAMPLES / "errors" / name
+    expected = _expected(path)
+    uri = _open(client, path)
+    found = await _diagnostics_until(client, uri, lambda d: _seen(d) == expected)
+    assert _seen(found) == expected
+    first = found[0]
+    assert first.source == "rmv" and first.message
+    assert first.code_description is not None
+    assert first.code_description.href.endswith(f"#{str(first.code).lower()}")
+
+
+async def test_a_change_is_checked_as_typed(client: LanguageClient, tmp_path: Path):
+    path = tmp_path / "typed.rmv"
+    text = 'system typed\ntopic t: std_msgs/msg/Float64 = "/t"\nvar x = t.data\n'
+    text += "event High when x > 1\nproperty P: not High\n"
+    path.write_text(text, encoding="utf-8")
+    uri = _open(client, path)
+    await _diagnostics_until(client, uri, lambda d: d == [])
+    # rename the use of High on the last line, as a user types: incremental sync
+    line = text.splitlines().index("property P: not High")
+    edit = types.TextDocumentContentChangePartial(
+        range=types.Range(types.Position(line, 16), types.Position(line, 20)), text="Hgih"
+    )
+    client.text_document_did_change(
+        types.DidChangeTextDocumentParams(
+            types.VersionedTextDocumentIdentifier(uri=uri, version=2), [edit]
+        )
+    )
+    found = await _diagnostics_until(client, uri, lambda d: any(x.code == "RMV200" for x in d))
+    wrong = next(d for d in found if d.code == "RMV200")
+    assert (wrong.range.start.line, wrong.range.start.character) == (line, 16)
+    assert "did you mean `High`" in wrong.message
+    fix = types.TextDocumentContentChangePartial(
+        range=types.Range(types.Position(line, 16), types.Position(line, 20)), text="High"
+    )
+    client.text_document_did_change(
+        types.DidChangeTextDocumentParams(
+            types.VersionedTextDocumentIdentifier(uri=uri, version=3), [fix]
+        )
+    )
+    await _diagnostics_until(client, uri, lambda d: d == [])
+
+
+async def test_positions_follow_the_negotiated_encoding(client: LanguageClient, tmp_path: Path):
+    """Two cars (each one code point, two UTF-16 units, four UTF-8 bytes) before an
+    undefined name on the same line."""
+    path = tmp_path / "cars.rmv"
+    text = (
+        'system cars\ntopic t: std_msgs/msg/Float64 = "/t"\nvar x = t.data\n'
+        'alert A { message "\U0001f697\U0001f697" warn when Nope > 1 }\n'
+    )
+    path.write_text(text, encoding="utf-8")
+    uri = _open(client, path)
+    found = await _diagnostics_until(client, uri, lambda d: any(x.code == "RMV200" for x in d))
+    wrong = next(d for d in found if d.code == "RMV200")
+    units = {types.PositionEncodingKind.Utf16: 2, types.PositionEncodingKind.Utf8: 4}
+    before = 'alert A { message "'
+    column = len(before) + 2 * units[client.encoding] + len('" warn when ')  # type: ignore[attr-defined]
+    assert (wrong.range.start.line, wrong.range.start.character) == (3, column)
+    assert wrong.range.end.character == column + len("Nope")
+
+
+async def _checked(client: LanguageClient, path: Path) -> str:
+    uri = _open(client, path)
+    await _diagnostics_until(client, uri, lambda d: True)
+    return uri
+
+
+async def test_hover_definition_references(client: LanguageClient):
+    path = EXAMPLES / "carla" / "abs.rmv"
+    lines = path.read_text(encoding="utf-8").splitlines()
+    uri = await _checked(client, path)
+    use_line = next(i for i, s in enumerate(lines) if s.startswith("event HardBrake when"))
+    column = lines[use_line].index("BrakePedal")
+    where = types.Position(use_line, column + 2)
+    document = types.TextDocumentIdentifier(uri)
+    hover = await client.text_document_hover_async(types.HoverParams(document, where))
+    assert hover is not None
+    text = hover.contents.value  # type: ignore[union-attr]
+    assert "**variable** `BrakePedal`" in text and "vehicle_status.control.brake" in text
+    found = await client.text_document_definition_async(types.DefinitionParams(document, where))
+    declared = next(i for i, s in enumerate(lines) if s.startswith("var BrakePedal"))
+    assert isinstance(found, types.Location) and found.range.start.line == declared
+    assert found.range.start.character == len("var ")
+    spans = await client.text_document_references_async(
+        types.ReferenceParams(
+            text_document=document, position=where,
+            context=types.ReferenceContext(include_declaration=True),
+        )
+    )  # fmt: skip
+    uses = sum(s.count("BrakePedal") for s in lines if not s.lstrip().startswith("//"))
+    assert spans is not None and len(spans) == uses
+    state_line = next(i for i, s in enumerate(lines) if "Cruising -> HardBraking" in s)
+    on_state = types.Position(state_line, lines[state_line].index("Cruising") + 1)
+    hover = await client.text_document_hover_async(
+        types.HoverParams(text_document=document, position=on_state)
+    )
+    assert hover is not None and "of transducer `Braking`" in hover.contents.value  # type: ignore[union-attr]
+
+
+async def test_outline_and_formatting(client: LanguageClient, tmp_path: Path):
+    path = EXAMPLES / "carla" / "abs.rmv"
+    uri = await _checked(client, path)
+    symbols = await client.text_document_document_symbol_async(
+        types.DocumentSymbolParams(types.TextDocumentIdentifier(uri))
+    )
+    assert symbols is not None
+    by_name = {s.name: s for s in symbols}  # type: ignore[union-attr]
+    braking = by_name["Braking"]
+    assert braking.kind == types.SymbolKind.Class  # type: ignore[union-attr]
+    states = [c.name for c in braking.children or []]  # type: ignore[union-attr]
+    assert states == ["Cruising", "HardBraking", "AntiLockBrake", "Stopped"]
+    assert {"Velocity", "ABSCheck", "EVelocityinKMH", "MaxVelocity"} <= set(by_name)
+
+    messy = tmp_path / "messy.rmv"
+    text = 'system   messy\ntopic t:std_msgs/msg/Float64="/t"\nvar x=t.data\n'
+    messy.write_text(text, encoding="utf-8")
+    uri = await _checked(client, messy)
+    edits = await client.text_document_formatting_async(
+        types.DocumentFormattingParams(
+            types.TextDocumentIdentifier(uri), types.FormattingOptions(4, True)
+        )
+    )
+    assert edits is not None and len(edits) == 1
+    assert edits[0].new_text == formatted(str(messy), text)
+    assert edits[0].range.start == types.Position(0, 0)
+
+
+async def test_the_server_survives_any_text(client: LanguageClient, tmp_path: Path):
+    """Random edits of the CARLA spec (deletions, insertions of any character,
+    surrogate-pair emoji included), each followed by requests at random places:
+    every answer arrives and the server keeps publishing."""
+    path = tmp_path / "fuzz.rmv"
+    text = (EXAMPLES / "carla" / "abs.rmv").read_text(encoding="utf-8")
+    text = text.replace('messages "msg"', f'messages "{EXAMPLES / "carla" / "msg"}"')
+    path.write_text(text, encoding="utf-8")
+    uri = await _checked(client, path)
+    document = types.TextDocumentIdentifier(uri)
+    pieces = ["{", "}", "(", '"', "\U0001f697", "é", "\n", "->", "event", "\\", "//", "\x00"]
+    rng = random.Random(7)
+    for version in range(2, 32):
+        lines = text.split("\n")
+        line = rng.randrange(len(lines))
+        start = rng.randrange(len(lines[line]) + 1)
+        end = min(len(lines[line]), start + rng.randrange(4))
+        new = rng.choice(pieces) if rng.random() < 0.7 else ""
+        lines[line] = lines[line][:start] + new + lines[line][end:]
+        text = "\n".join(lines)
+        change = types.TextDocumentContentChangeWholeDocument(text=text)
+        client.text_document_did_change(
+            types.DidChangeTextDocumentParams(
+                types.VersionedTextDocumentIdentifier(uri=uri, version=version), [change]
+            )
+        )
+        where = types.Position(rng.randrange(len(lines) + 3), rng.randrange(120))
+        await asyncio.wait_for(
+            client.text_document_hover_async(types.HoverParams(document, where)),
+            WAIT,
+        )
+        await asyncio.wait_for(
+            client.text_document_definition_async(types.DefinitionParams(document, where)),
+            WAIT,
+        )
+    await _diagnostics_until(client, uri, lambda d: True)
