@@ -10,6 +10,7 @@ and may be abandoned when the text changes again (the editor's `generation`).
 from __future__ import annotations
 
 import os
+import re
 import threading
 from dataclasses import dataclass
 from typing import Any
@@ -19,7 +20,10 @@ from rmvdsl.check.loader import read_text
 from rmvdsl.check.model import Model, Symbol
 from rmvdsl.source import Span
 
-__all__ = ["CheckResult", "Found", "Workspace", "formatted", "references", "symbol_at"]
+__all__ = [
+    "CheckResult", "Completion", "Found", "Workspace", "completions", "formatted",
+    "keywords", "quick_fix", "references", "rename", "symbol_at",
+]  # fmt: skip
 
 
 def _key(path: str) -> str:
@@ -93,3 +97,106 @@ def formatted(path: str, text: str) -> str | None:
     if any(d.is_error for d in parsed.diagnostics):
         return None
     return format_spec(parsed.spec, source)
+
+
+# ---- completion ----
+
+DECLARATIONS = (
+    "system", "import", "time unit", "ros", "messages", "database", "topic", "var", "event",
+    "transducer", "property", "alert", "whitelist", "node", "intrusion",
+)  # fmt: skip
+CLAUSES = ("when", "where", "group by time", "fill", "order", "limit", "resample every", "range",
+           "and", "or", "not", "always", "eventually", "until", "since", "historically", "once",
+           "duration", "action", "emit", "on")  # fmt: skip
+_OPENER = re.compile(r"^\s*(\w+)")
+_SETTING_VALUE = re.compile(r"^\s*(\w+)\s*=\s*\w*$")
+
+
+@dataclass(frozen=True)
+class Completion:
+    label: str
+    kind: str  # keyword | function | setting | value | a name's kind (topic, variable, ...)
+    detail: str = ""
+    doc: str = ""
+
+
+def _enclosing_block(before: str) -> str | None:
+    """The kind of block the cursor is in (`database`, `qos`, `property`, ...):
+    the word that opens the line of the innermost unclosed `{`."""
+    depth = 0
+    for index in range(len(before) - 1, -1, -1):
+        char = before[index]
+        if char == "}":
+            depth += 1
+        elif char == "{":
+            if depth == 0:
+                line = before[before.rfind("\n", 0, index) + 1 : index]
+                if re.search(r"\bqos\s*$", line):
+                    return "qos"
+                opener = _OPENER.match(line)
+                return opener.group(1) if opener else None
+            depth -= 1
+    return None
+
+
+def completions(model: Model | None, text: str, offset: int) -> list[Completion]:
+    """What may be written at `offset`: a setting's values after `key =` inside a
+    block, the block's settings at the start of a line in it, the declarations at
+    the start of a line outside blocks, else the names in scope (by kind), the
+    functions of the registry and the clause and formula keywords."""
+    from rmvdsl import builtins
+
+    before = text[:offset]
+    line = before[before.rfind("\n") + 1 :]
+    block = _enclosing_block(before)
+    settings = builtins.BLOCKS.get(block) if block else None
+    at_start = re.fullmatch(r"\s*\w*", line) is not None
+    if settings is not None:
+        value = _SETTING_VALUE.match(line)
+        if value and value.group(1) in settings.settings:
+            spec = settings.settings[value.group(1)]
+            return [Completion(c, "value", spec.doc) for c in spec.choices]
+        if at_start:
+            return [Completion(s.key, "setting", f"default {s.shown}", s.doc)
+                    for s in settings.settings.values()]  # fmt: skip
+    if block is None and at_start:
+        return [Completion(word, "keyword", "declaration") for word in DECLARATIONS]
+    found = [Completion(w, "keyword", "clause") for w in CLAUSES]
+    found += [Completion(f.name, "function", f.group, f.doc) for f in builtins.FUNCTIONS.values()]
+    if model is not None:
+        found += [Completion(s.name, s.kind.value, s.kind.described())
+                  for s in model.symbols.values()]  # fmt: skip
+    return found
+
+
+# ---- rename and quick fixes ----
+
+_IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+_DID_YOU_MEAN = re.compile(r"did you mean `([^`]+)`\?")
+
+
+def keywords() -> frozenset[str]:
+    """Every word the grammar reserves (a name cannot be one)."""
+    from pathlib import Path
+
+    folder = Path(__file__).resolve().parent / "grammar"
+    text = "".join(p.read_text(encoding="utf-8") for p in folder.glob("*.lark"))
+    return frozenset(re.findall(r'"([A-Za-z_]+)"i?', text))
+
+
+def rename(model: Model, symbol: Symbol, new: str) -> list[Span]:
+    """The spans to rewrite to rename `symbol` to `new`; ValueError says why not."""
+    if not _IDENTIFIER.fullmatch(new):
+        raise ValueError(f"`{new}` is not a name: a letter or `_`, then letters, digits, `_`")
+    if new in keywords():
+        raise ValueError(f"`{new}` is a keyword of the language")
+    if new != symbol.name and new in model.symbols:
+        other = model.symbols[new]
+        raise ValueError(f"`{new}` is already {other.kind.described()}")
+    return references(model, symbol, declaration=True)
+
+
+def quick_fix(message: str | None) -> str | None:
+    """The replacement a diagnostic's help proposes (`did you mean `X`?`)."""
+    found = _DID_YOU_MEAN.search(message or "")
+    return found.group(1) if found else None

@@ -245,3 +245,73 @@ async def test_the_server_survives_any_text(client: LanguageClient, tmp_path: Pa
             WAIT,
         )
     await _diagnostics_until(client, uri, lambda d: True)
+
+
+async def test_completion_offers_what_may_stand_there(client: LanguageClient, tmp_path: Path):
+    path = tmp_path / "complete.rmv"
+    text = (
+        'system complete\ndatabase {\n    name = "db"\n    precision = \n}\n'
+        'topic t: std_msgs/msg/Float64 = "/t" qos {\n    \n}\nvar Speed = t.data\n'
+        "event Fast = \n\n"
+    )
+    path.write_text(text, encoding="utf-8")
+    uri = await _checked(client, path)
+    lines = text.split("\n")
+
+    async def labels(line: int, character: int) -> dict[str, types.CompletionItem]:
+        answer = await client.text_document_completion_async(
+            types.CompletionParams(
+                types.TextDocumentIdentifier(uri), types.Position(line, character)
+            )
+        )
+        assert isinstance(answer, types.CompletionList)
+        return {item.label: item for item in answer.items}
+
+    values = await labels(3, len(lines[3]))  # after `precision = `
+    assert set(values) == {"ns", "u", "us", "ms", "s", "m", "h"}
+    qos = await labels(6, 4)  # an empty line inside `qos { }`
+    assert {"depth", "reliability", "durability", "time"} <= set(qos)
+    assert qos["depth"].kind == types.CompletionItemKind.Property
+    top = await labels(len(lines) - 2, 0)  # an empty line at the top level
+    assert {"topic", "event", "transducer", "property"} <= set(top)
+    expression = await labels(9, len(lines[9]))  # after `event Fast = `
+    assert expression["Speed"].detail == "a variable"
+    assert expression["mean"].kind == types.CompletionItemKind.Function
+    assert expression["mean"].documentation == "the arithmetic mean of the window"
+
+
+async def test_rename_and_quick_fix(client: LanguageClient, tmp_path: Path):
+    path = tmp_path / "rename.rmv"
+    text = (
+        'system rename\ntopic t: std_msgs/msg/Float64 = "/t"\nvar Speed = t.data\n'
+        "event Fast when Speed > 1\nevent Slow when Sped < 1\nproperty P: not Fast\n"
+    )
+    path.write_text(text, encoding="utf-8")
+    uri = _open(client, path)
+    found = await _diagnostics_until(client, uri, lambda d: any(x.code == "RMV200" for x in d))
+    document = types.TextDocumentIdentifier(uri)
+    typo = next(d for d in found if d.code == "RMV200")
+    actions = await client.text_document_code_action_async(
+        types.CodeActionParams(
+            text_document=document, range=typo.range,
+            context=types.CodeActionContext(diagnostics=[typo]),
+        )
+    )  # fmt: skip
+    assert actions is not None and len(actions) == 1
+    fix = actions[0]
+    assert isinstance(fix, types.CodeAction) and fix.title == "Replace with `Speed`"
+    assert fix.edit is not None and fix.edit.changes is not None
+    assert fix.edit.changes[uri][0].range == typo.range
+
+    on_speed = types.Position(2, len("var ") + 1)
+    answer = await client.text_document_rename_async(
+        types.RenameParams(text_document=document, position=on_speed, new_name="Velocity")
+    )
+    assert answer is not None and answer.changes is not None
+    edits = answer.changes[uri]
+    assert len(edits) == 2 and {e.range.start.line for e in edits} == {2, 3}
+    for refused in ("Fast", "event", "9lives"):
+        with pytest.raises(Exception, match=r"already a boolean event|keyword|not a name"):
+            await client.text_document_rename_async(
+                types.RenameParams(text_document=document, position=on_speed, new_name=refused)
+            )

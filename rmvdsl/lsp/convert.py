@@ -41,6 +41,13 @@ def offset_at(source: SourceFile, document: TextDocument, position: types.Positi
     return source.offset(where.line + 1, where.character + 1)
 
 
+def document_offset(document: TextDocument, position: types.Position) -> int:
+    """The code-point offset of an LSP position in the document's own text (its
+    lines keep their line ends)."""
+    where = document.position_codec.position_from_client_units(document.lines, position)
+    return sum(len(line) for line in document.lines[: where.line]) + where.character
+
+
 def diagnostic(
     found: Diagnostic, sources: SourceMap, documents: dict[str, TextDocument]
 ) -> types.Diagnostic | None:

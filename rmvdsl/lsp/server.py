@@ -14,6 +14,7 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 from lsprotocol import types
+from pygls.exceptions import JsonRpcInvalidParams
 from pygls.lsp.server import LanguageServer
 from pygls.workspace import TextDocument
 
@@ -21,9 +22,33 @@ from rmvdsl import __version__
 from rmvdsl.check.model import Kind, Model, Symbol
 from rmvdsl.lsp import convert
 from rmvdsl.source import Span
-from rmvdsl.workspace import CheckResult, Workspace, formatted, references, symbol_at
+from rmvdsl.workspace import (
+    CheckResult,
+    Workspace,
+    completions,
+    formatted,
+    quick_fix,
+    references,
+    rename,
+    symbol_at,
+)
 
 DEBOUNCE = 0.3  # seconds of quiet before the solver stages run
+COMPLETION_KINDS = {
+    "keyword": types.CompletionItemKind.Keyword,
+    "function": types.CompletionItemKind.Function,
+    "setting": types.CompletionItemKind.Property,
+    "value": types.CompletionItemKind.EnumMember,
+    Kind.TOPIC.value: types.CompletionItemKind.Interface,
+    Kind.VARIABLE.value: types.CompletionItemKind.Variable,
+    Kind.VALUE_EVENT.value: types.CompletionItemKind.Event,
+    Kind.BOOL_EVENT.value: types.CompletionItemKind.Event,
+    Kind.EMITTED_EVENT.value: types.CompletionItemKind.Event,
+    Kind.ALERT.value: types.CompletionItemKind.Constant,
+    Kind.TRANSDUCER.value: types.CompletionItemKind.Class,
+    Kind.STATE.value: types.CompletionItemKind.EnumMember,
+    Kind.PROPERTY.value: types.CompletionItemKind.Property,
+}
 SYMBOL_KINDS = {
     Kind.TOPIC: types.SymbolKind.Interface,
     Kind.VARIABLE: types.SymbolKind.Variable,
@@ -178,6 +203,67 @@ def build() -> RmvServer:
         if result is None:
             return []
         return outline(result.model, document)
+
+    @server.feature(
+        types.TEXT_DOCUMENT_COMPLETION, types.CompletionOptions(trigger_characters=["=", " "])
+    )
+    def complete(ls: RmvServer, params: types.CompletionParams) -> types.CompletionList:
+        document = ls.document(params.text_document.uri)
+        result = ls.state.results.get(document.path)
+        where = document.position_codec.position_from_client_units(document.lines, params.position)
+        offset = sum(len(line) for line in document.lines[: where.line]) + where.character
+        model = result.model if result is not None else None
+        items = [
+            types.CompletionItem(
+                label=c.label,
+                kind=COMPLETION_KINDS.get(c.kind),
+                detail=c.detail,
+                documentation=c.doc or None,
+            )
+            for c in completions(model, document.source, offset)
+        ]
+        return types.CompletionList(is_incomplete=False, items=items)
+
+    @server.feature(types.TEXT_DOCUMENT_RENAME)
+    def rename_symbol(ls: RmvServer, params: types.RenameParams) -> types.WorkspaceEdit | None:
+        found = ls.found_at(params.text_document.uri, params.position)
+        if found is None:
+            return None
+        model, symbol = found
+        try:
+            spans = rename(model, symbol, params.new_name)
+        except ValueError as why:
+            raise JsonRpcInvalidParams(str(why)) from None
+        changes: dict[str, list[types.TextEdit]] = {}
+        for span in spans:
+            location = ls.location(model, span)
+            if location is not None:
+                edit = types.TextEdit(range=location.range, new_text=params.new_name)
+                changes.setdefault(location.uri, []).append(edit)
+        return types.WorkspaceEdit(changes=changes)
+
+    @server.feature(
+        types.TEXT_DOCUMENT_CODE_ACTION,
+        types.CodeActionOptions(code_action_kinds=[types.CodeActionKind.QuickFix]),
+    )
+    def code_actions(ls: RmvServer, params: types.CodeActionParams) -> list[types.CodeAction]:
+        """A quick fix for each diagnostic in the range whose help names the fix."""
+        actions = []
+        for found in params.context.diagnostics:
+            replacement = quick_fix(found.message)
+            if replacement is None:
+                continue
+            edit = types.TextEdit(range=found.range, new_text=replacement)
+            actions.append(
+                types.CodeAction(
+                    title=f"Replace with `{replacement}`",
+                    kind=types.CodeActionKind.QuickFix,
+                    diagnostics=[found],
+                    edit=types.WorkspaceEdit(changes={params.text_document.uri: [edit]}),
+                    is_preferred=True,
+                )
+            )
+        return actions
 
     @server.feature(types.TEXT_DOCUMENT_FORMATTING)
     def formatting(ls: RmvServer, params: types.DocumentFormattingParams) -> list[types.TextEdit]:
