@@ -1,0 +1,173 @@
+"""`rmv lsp` as an editor feels it: a 2,000-line spec, edited a line at a time.
+
+Starts the server as its own process and talks to it over stdio (pygls's client),
+then measures in one run:
+
+- change:     didChange -> the first publishDiagnostics of that version (the fast
+              stages: load, names, types), p50 and p95 over --edits edits;
+- completion: a completion request in an expression, p50 and p95;
+- bare:       lark's bare parse of the same text in this process (the floor);
+- memory:     the server's resident memory after the first 100 edits and after all
+              of them (goal: flat).
+
+Machines here are shared and noisy: the figures are printed beside the bare parse of
+the same run. Goals: change p95 <= 50 ms, completion likewise, memory flat.
+
+    python benchmarks/bench_lsp.py [--edits 300] [--json out.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from bench_check import write_messages
+from lsprotocol import types
+from pygls.lsp.client import LanguageClient
+
+from rmvdsl.grammar.parser import bare_spec_parser
+
+
+def generate() -> str:
+    """About 2,000 lines in the shapes of bench_check.py's spec."""
+    lines = ["system editing", "time unit s", 'messages "msg"', ""]
+    topics, variables = 100, 600
+    lines += [f'topic T{t}: pkg_msgs/Msg{t % 50} = "/robot/sensor{t}"' for t in range(topics)]
+    lines += [f"var V{v} = T{v % topics}.field{v % 7}.value" for v in range(variables)]
+    for e in range(200):
+        lines += [f"event E{e} = mean(V{e}) * 3.6", "    group by time(100ms)", "    fill previous"]
+    lines += [f"event B{b} when V{200 + b} > 0.8 and E{b} < 5" for b in range(200)]
+    for d in range(20):
+        names = [f"S{d}_{s}" for s in range(10)]
+        lines += [
+            f"transducer D{d} {{",
+            "    states " + ", ".join(names),
+            f"    initial {names[0]}",
+        ]
+        lines += [f"    {names[s]} -> {names[(s + 1) % 10]} on B{d * 10 + s}" for s in range(10)]
+        lines.append("}")
+    lines += [f"alert A{a} {{ warn when V{400 + a} > 10 reset when V{400 + a} < 5 }}"
+              for a in range(200)]  # fmt: skip
+    lines += [f"property P{p}: S{p % 20}_0 -> eventually[<=10s] S{p % 20}_1 {{ rate = 10Hz }}"
+              for p in range(100)]  # fmt: skip
+    return "\n".join(lines) + "\n"
+
+
+def percentile(values: list[float], fraction: float) -> float:
+    ordered = sorted(values)
+    return ordered[min(len(ordered) - 1, int(len(ordered) * fraction))]
+
+
+def resident_mb(pid: int) -> float:
+    with open(f"/proc/{pid}/status", encoding="ascii") as status:
+        kb = next(int(line.split()[1]) for line in status if line.startswith("VmRSS"))
+    return kb / 1024
+
+
+async def run(edits: int) -> dict[str, Any]:
+    folder = Path(tempfile.mkdtemp(prefix="rmv-bench-lsp-"))
+    write_messages(str(folder))
+    text = generate()
+    path = folder / "editing.rmv"
+    path.write_text(text, encoding="utf-8")
+    uri = path.as_uri()
+
+    parser = bare_spec_parser()
+    bare = min(_timed(lambda: parser.parse(text, start="start")) for _ in range(5))
+
+    client = LanguageClient("bench-lsp", "1")
+    await client.start_io(sys.executable, "-m", "rmvdsl.cli", "lsp")
+    await client.initialize_async(types.InitializeParams(capabilities=types.ClientCapabilities()))
+    client.initialized(types.InitializedParams())
+    published: dict[int, float] = {}
+
+    @client.feature(types.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS)
+    def on_diagnostics(params: types.PublishDiagnosticsParams) -> None:
+        if params.version is not None:
+            published.setdefault(params.version, time.perf_counter())
+
+    client.text_document_did_open(types.DidOpenTextDocumentParams(
+        types.TextDocumentItem(uri=uri, language_id="rmv", version=1, text=text)))  # fmt: skip
+    await _until(lambda: 1 in published)
+    lines = text.split("\n")
+    target = next(i for i, line in enumerate(lines) if line.startswith("event B0 when"))
+    changes, memory = [], {}
+    pid = client._server.pid  # type: ignore[union-attr]
+    for version in range(2, edits + 2):
+        digit = str(version % 10)
+        edit = types.TextDocumentContentChangePartial(
+            range=types.Range(types.Position(target, 22), types.Position(target, 23)), text=digit
+        )
+        start = time.perf_counter()
+        client.text_document_did_change(types.DidChangeTextDocumentParams(
+            types.VersionedTextDocumentIdentifier(uri=uri, version=version), [edit]))  # fmt: skip
+        await _until(lambda v=version: v in published)
+        changes.append(published[version] - start)
+        if version == 101:
+            memory["after_100_mb"] = resident_mb(pid)
+    memory["after_all_mb"] = resident_mb(pid)
+    where = types.Position(target, len(lines[target]))
+    completions = []
+    for _ in range(100):
+        start = time.perf_counter()
+        await client.text_document_completion_async(
+            types.CompletionParams(types.TextDocumentIdentifier(uri), where)
+        )
+        completions.append(time.perf_counter() - start)
+    await client.shutdown_async(None)
+    client.exit(None)
+    await client.stop()
+    ms = 1000.0
+    return {
+        "lines": len(lines), "edits": edits, "bare_parse_ms": bare * ms,
+        "change_p50_ms": percentile(changes, 0.5) * ms,
+        "change_p95_ms": percentile(changes, 0.95) * ms,
+        "completion_p50_ms": percentile(completions, 0.5) * ms,
+        "completion_p95_ms": percentile(completions, 0.95) * ms, **memory,
+    }  # fmt: skip
+
+
+def _timed(action: Any) -> float:
+    start = time.perf_counter()
+    action()
+    return time.perf_counter() - start
+
+
+async def _until(condition: Any, timeout: float = 120.0) -> None:
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > deadline:
+            raise SystemExit("the server did not answer in time")
+        await asyncio.sleep(0.001)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--edits", type=int, default=300)
+    parser.add_argument("--json", help="write the figures to this file")
+    args = parser.parse_args(argv)
+    figures = asyncio.run(run(args.edits))
+    print(f"{figures['lines']:,} lines, {figures['edits']:,} edits; bare parse "
+          f"{figures['bare_parse_ms']:.1f} ms")  # fmt: skip
+    print(f"  didChange -> diagnostics p50 / p95: {figures['change_p50_ms']:.1f} / "
+          f"{figures['change_p95_ms']:.1f} ms (goal p95 <= 50 ms)")  # fmt: skip
+    print(f"  completion p50 / p95: {figures['completion_p50_ms']:.1f} / "
+          f"{figures['completion_p95_ms']:.1f} ms")  # fmt: skip
+    print(f"  server memory after 100 edits {figures['after_100_mb']:.0f} MB, after all "
+          f"{figures['after_all_mb']:.0f} MB")  # fmt: skip
+    if args.json:
+        Path(args.json).write_text(json.dumps(figures, indent=2) + "\n", encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
