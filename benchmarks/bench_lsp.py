@@ -103,10 +103,14 @@ async def run(edits: int) -> dict[str, Any]:
     changes, memory = [], {}
     pid = client._server.pid  # type: ignore[union-attr]
     for version in range(2, edits + 2):
-        digit = str(version % 10)
-        edit = types.TextDocumentContentChangePartial(
-            range=types.Range(types.Position(target, 22), types.Position(target, 23)), text=digit
-        )
+        # Typing and erasing in turn: a digit inserted, then removed, so that every
+        # later declaration moves by one character and back.
+        at = types.Position(target, 22)
+        if version % 2 == 0:
+            edit = types.TextDocumentContentChangePartial(range=types.Range(at, at), text="7")
+        else:
+            after = types.Position(target, 23)
+            edit = types.TextDocumentContentChangePartial(range=types.Range(at, after), text="")
         start = time.perf_counter()
         client.text_document_did_change(types.DidChangeTextDocumentParams(
             types.VersionedTextDocumentIdentifier(uri=uri, version=version), [edit]))  # fmt: skip

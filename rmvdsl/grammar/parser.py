@@ -14,6 +14,8 @@ import dataclasses
 import functools
 import itertools
 import re
+import threading
+from collections import OrderedDict
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from importlib import resources
@@ -398,6 +400,73 @@ def _last_unclosed(text: str, start: int, end: int) -> int | None:
     return stack[-1] if stack else None
 
 
+@dataclass(frozen=True)
+class _Chunk:
+    """One declaration chunk's parse, as parsed at `start`."""
+
+    start: int
+    decls: tuple[ast.Decl, ...] | None
+    diagnostics: tuple[Diagnostic, ...]  # the chunk's own and the builder's
+    damaged: bool
+
+
+# An editor re-parses a file at every keystroke; most of its declarations have not
+# changed. Chunks are kept by their file and text (a bounded, least recently used
+# cache) and reused with their spans moved to where the chunk now starts.
+_CHUNK_CACHE: OrderedDict[tuple[str, str], _Chunk] = OrderedDict()
+_CHUNK_CACHE_SIZE = 50_000
+_CHUNK_LOCK = threading.Lock()
+
+
+def _parsed_chunk(
+    source: SourceFile, start: int, end: int, line: int, builder: AstBuilder
+) -> _Chunk:
+    key = (source.path, source.text[start:end])
+    with _CHUNK_LOCK:
+        cached = _CHUNK_CACHE.get(key)
+        if cached is not None:
+            _CHUNK_CACHE.move_to_end(key)
+    if cached is None:
+        before = len(builder.diagnostics)
+        parser = _ChunkParser(source, start, end, line)
+        decls = parser.parse()
+        found = (*parser.diagnostics, *builder.diagnostics[before:])
+        damaged = bool(parser.diagnostics) or decls is None
+        cached = _Chunk(start, None if decls is None else tuple(decls), found, damaged)
+        with _CHUNK_LOCK:
+            _CHUNK_CACHE[key] = cached
+            if len(_CHUNK_CACHE) > _CHUNK_CACHE_SIZE:
+                _CHUNK_CACHE.popitem(last=False)
+    delta = start - cached.start
+    if delta == 0:
+        return cached
+    return _Chunk(start, shifted(cached.decls, delta), shifted(cached.diagnostics, delta),
+                  cached.damaged)  # fmt: skip
+
+
+def shifted(value: Any, delta: int) -> Any:
+    """A tree (syntax nodes, diagnostics, and what they hold) with every span, and
+    every offset of a string literal, moved by `delta` characters."""
+    if isinstance(value, Span):
+        return value.shifted(delta)
+    if isinstance(value, tuple):
+        return tuple(shifted(item, delta) for item in value)
+    if isinstance(value, list):
+        return [shifted(item, delta) for item in value]
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        changes = {}
+        for item in dataclasses.fields(value):
+            old = getattr(value, item.name)
+            if item.name == "offsets":
+                new = tuple(offset + delta for offset in old)
+            else:
+                new = shifted(old, delta)
+            if new is not old:
+                changes[item.name] = new
+        return dataclasses.replace(value, **changes) if changes else value
+    return value
+
+
 def parse_source(source: SourceFile) -> ParsedSpec:
     """Parse a whole file: every declaration, every syntax error."""
     _, builder = _spec_parser()
@@ -409,15 +478,13 @@ def parse_source(source: SourceFile) -> ParsedSpec:
     ranges: list[tuple[int, int]] = []
     bounds = [*scanned.chunks, (len(source.text), 0)]
     for (start, line), (end, _) in itertools.pairwise(bounds):
-        chunk = _ChunkParser(source, start, end, line)
-        decls = chunk.parse()
-        if decls:
-            items.extend(decls)
-        if chunk.diagnostics or decls is None:
-            diagnostics.extend(chunk.diagnostics)
+        chunk = _parsed_chunk(source, start, end, line, builder)
+        if chunk.decls:
+            items.extend(chunk.decls)
+        diagnostics.extend(chunk.diagnostics)
+        if chunk.damaged:
             damaged.update(_IDENTIFIER.findall(source.text, start, end))
             ranges.append((start, end))
-    diagnostics.extend(builder.diagnostics)
     items = _attach_docs(items, scanned.comments, source)
     items, latex_diagnostics = _parse_latex_bodies(items)
     diagnostics.extend(latex_diagnostics)

@@ -1,0 +1,73 @@
+"""The parser keeps each declaration's tree by its text and reuses it, moved to
+where the declaration now starts (an editor re-parses at every keystroke). A parse
+that reuses trees must equal a fresh parse in everything: the trees, every span,
+every string literal's offsets, every diagnostic and where it points."""
+
+from __future__ import annotations
+
+import dataclasses
+import random
+from typing import Any
+
+import pytest
+from conftest import EXAMPLES
+
+from rmvdsl.grammar import parser as parsing
+from rmvdsl.source import SourceFile, Span
+
+SPECS = sorted(p for p in EXAMPLES.rglob("*.rmv") if p.name != "latin1.rmv")  # not UTF-8
+PIECES = ["", "x", "\n", "  ", "{", "}", '"', "\U0001f697", "event E when a > 1\n", "//", "->"]
+
+
+def _positions(value: Any, into: list[Any]) -> list[Any]:
+    """Every span and offset in a tree, in order."""
+    if isinstance(value, Span):
+        into.append(value)
+    elif isinstance(value, (tuple, list)):
+        for item in value:
+            _positions(item, into)
+    elif dataclasses.is_dataclass(value) and not isinstance(value, type):
+        for item in dataclasses.fields(value):
+            inner = getattr(value, item.name)
+            into.append(inner) if item.name == "offsets" else _positions(inner, into)
+    return into
+
+
+def _parse(path: str, text: str) -> parsing.ParsedSpec:
+    return parsing.parse_source(SourceFile(path, text))
+
+
+def _same(a: parsing.ParsedSpec, b: parsing.ParsedSpec) -> None:
+    assert a.spec == b.spec
+    assert _positions(a.spec, []) == _positions(b.spec, [])
+    assert sorted(map(repr, a.diagnostics)) == sorted(map(repr, b.diagnostics))
+    assert a.damaged_names == b.damaged_names
+    assert sorted(a.damaged_ranges) == sorted(b.damaged_ranges)
+
+
+@pytest.mark.parametrize("spec", SPECS, ids=lambda p: str(p.relative_to(EXAMPLES)))
+def test_a_parse_reusing_trees_equals_a_fresh_one(spec):
+    text = spec.read_text(encoding="utf-8")
+    rng = random.Random(spec.name)
+    for _ in range(8):
+        at = rng.randrange(len(text) + 1)
+        cut = min(len(text), at + rng.randrange(3))
+        edited = text[:at] + rng.choice(PIECES) + text[cut:]
+        parsing._CHUNK_CACHE.clear()
+        _parse(str(spec), text)  # the trees of the text before the edit
+        reused = _parse(str(spec), edited)
+        parsing._CHUNK_CACHE.clear()
+        _same(reused, _parse(str(spec), edited))
+        text = edited
+
+
+def test_the_cache_is_used_and_bounded():
+    spec = EXAMPLES / "carla" / "abs.rmv"
+    text = spec.read_text(encoding="utf-8")
+    parsing._CHUNK_CACHE.clear()
+    _parse(str(spec), text)
+    size = len(parsing._CHUNK_CACHE)
+    assert size > 20
+    _parse(str(spec), "\n" + text)  # every declaration moved by one character
+    assert len(parsing._CHUNK_CACHE) <= size + 1  # the first chunk grew; all others reused
+    assert parsing._CHUNK_CACHE_SIZE >= 10_000
