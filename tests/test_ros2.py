@@ -397,3 +397,24 @@ def test_the_collector_writes_every_message_and_survives_influxd_stopping(
     assert set(range(100)) <= kept  # written before influxd stopped
     assert set(range(170, 250)) <= kept  # the newest stay; the oldest waiting went
     assert "InfluxDB cannot keep up" in seen["log"]
+
+
+def test_the_alert_handler_publishes_any_alert_text_as_data(tmp_path):
+    """The kapacitor target's publish handler, run as Kapacitor's `.exec` runs it:
+    an alert whose text would break out of a shell arrives on the topic as written."""
+    spec = lower(check(str(HERE.parent / "fixtures" / "kapacitor" / "hostile.rmv")))
+    texts, _ = kapacitor.files(spec, tmp_path / "build")
+    handler = tmp_path / "publish_alert.py"
+    handler.write_text(texts["handlers/publish_alert.py"], encoding="utf-8")
+    message = "it's \"bad\" $(touch /tmp/pwned); `id` \\ '''\nnext line \U0001f697"
+    alert = tmp_path / "alert.json"
+    alert.write_text(json.dumps({"id": "A", "message": message, "level": "WARNING"}))
+    run = rosenv.run(
+        [rosenv.python(), str(HERE / "drive_alert_handler.py"), str(handler), str(alert),
+         "/rmv/alerts"],
+        rosenv.DOMAIN + 6, None, timeout=120,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
+    seen = json.loads(run.stdout)
+    assert seen["code"] == 0, seen["output"]
+    assert seen["received"] == [message]
