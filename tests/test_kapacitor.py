@@ -304,7 +304,12 @@ def test_braking_events_in_influxdb_equal_the_replay(server, tmp_path):
         server.write(database.name, lines[start : start + 5000], database.default_retention)
     runs = run_queries(server, spec, iql, min(times), max(times))
     assert runs > 0
-    records = list(replay(spec, [BRAKING], record=("event",)))
+    records = list(replay(spec, [BRAKING], record=("event", "state")))
+    states = [lineproto.state_point(spec, r["transducer"], r["state"],
+                                    int(Fraction(r["time"]) * NS))
+              for r in records if r["kind"] == "state"]  # fmt: skip
+    assert states  # as the collector writes them, for the dashboards
+    server.write(database.name, states, database.default_retention)
     value_events = [e.name for e in spec.events if e.kind == "value"]
     for name in value_events:
         ours = [(int(Fraction(r["time"]) * NS), r["value"]) for r in records
@@ -336,7 +341,7 @@ def _every_dashboard_query_runs(
                  .replace(":dashboardTime:", str(first - 1))
                  .replace(":upperDashboardTime:", str(last + 1))
                  .replace(":interval:", "1s")) for c in cells]  # fmt: skip
-    assert len(queries) == 14
+    assert len(queries) == 16
     for title, query in queries:
         assert "$" not in query and ":" not in query.replace("http:", ""), query
         rows = server.points(query, spec.database.name)  # type: ignore[union-attr]

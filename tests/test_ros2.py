@@ -71,6 +71,12 @@ topic twist: geometry_msgs/msg/TwistStamped = "/vehicle/twist" qos {
 }
 var Speed = twist.twist.linear.x
 event MeanSpeed = mean(Speed) group by time(1s)
+event Fast when Speed > 50
+transducer Motion {
+    states Slow, Quick
+    initial Slow
+    Slow -> Quick on Fast
+}
 """
 
 
@@ -373,6 +379,7 @@ def test_the_collector_writes_every_message_and_survives_influxd_stopping(
                     "-p", "buffer:=100", "-p", "diagnostics_period:=0.2"],
         "before": 100,
         "during": 150,
+        "states": 2,
     }  # fmt: skip
     (tmp_path / "influxd").mkdir()
     file = tmp_path / "collector.json"
@@ -386,12 +393,15 @@ def test_the_collector_writes_every_message_and_survives_influxd_stopping(
     assert seen["code"] == 0, seen["log"]
     assert seen["while_down"]["_message"].startswith("retrying"), seen["while_down"]
     status = seen["status"]
+    start, step = 1_700_000_000 * 10**9, 50_000_000
     assert status["messages"] == "250"
     assert status["points dropped: buffer full"] == "50"
-    assert status["points written"] == "200"
+    # 200 of the messages, and 2 states: Slow from the first message, Quick at k = 51
+    assert status["points written"] == "202"
+    assert [s for _, s, _ in seen["states"]] == ["Slow", "Quick"]
+    assert [int(t) for t, _, _ in seen["states"]] == [start, start + 51 * step]
     assert float(status["storage delay p99 (ms)"]) > 0
     stored = {int(t): v for t, v in seen["stored"]}
-    start, step = 1_700_000_000 * 10**9, 50_000_000
     kept = {(t - start) // step for t in stored}
     assert len(kept) == 200 and all(stored[start + k * step] == k for k in kept)
     assert set(range(100)) <= kept  # written before influxd stopped

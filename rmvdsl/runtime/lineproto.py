@@ -28,6 +28,17 @@ def measurement_name(spec: ir.Spec) -> str:
     return spec.system.name
 
 
+def states_measurement(spec: ir.Spec) -> str:
+    """The measurement of the transducers' states: a point per state entered."""
+    return f"{spec.system.name}_states"
+
+
+def state_point(spec: ir.Spec, transducer: str, state: str, time: int) -> str:
+    """The line of a state entered at `time` (ns): tagged with its transducer."""
+    measurement = measurement_text(states_measurement(spec))
+    return f"{measurement},transducer={key_text(transducer)} state={field_value(state)} {time}"
+
+
 def _escape(text: str, special: str) -> str:
     """Line protocol escapes only its separators in names; a backslash is read as
     an escape before them and as itself elsewhere, so a name holding one (or a

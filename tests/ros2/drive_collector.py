@@ -97,8 +97,13 @@ def main() -> None:
         influxd.start()
         kept = total - int(player.status.get("points dropped: buffer full", "0"))
         player.until(lambda: len(stored(influxd, database)) == kept, f"{kept} points")
-        player.until(lambda: player.status.get("points written") == str(kept), "the counters")
+        states = scenario.get("states", 0)
+        player.until(lambda: player.status.get("points written") == str(kept + states),
+                     "the counters")  # fmt: skip
         result["stored"] = stored(influxd, database)
+        result["states"] = influxd.points(
+            'SELECT "state", "transducer" FROM "collected_states"', database
+        )
         result["status"] = dict(player.status)
     finally:
         node.send_signal(signal.SIGINT)

@@ -295,7 +295,8 @@ def plan(spec: ir.Spec, handlers: Path) -> Build:
     for transducer in spec.transducers:
         build.report.append(
             f"transducer {transducer.name}: Kapacitor has no state transducers: the "
-            "ros2 monitor runs it"
+            "collector runs it in the runtime and stores its states (for the dashboards); "
+            "properties over them need the ros2 monitor"
         )
     for prop in spec.properties:
         build.report.append(
@@ -368,6 +369,9 @@ def dashboard_files(build: Build, env: jinja2.Environment) -> dict[str, str]:
     sources = dashboards.Sources(
         points=_target(database, database.default_retention, build.measurement),
         alerts=_target(database, database.default_retention, build.alerts_measurement),
+        states=_target(
+            database, database.default_retention, lineproto.states_measurement(build.spec)
+        ),
         ident=influxql_identifier,
         string=influxql_string,
     )

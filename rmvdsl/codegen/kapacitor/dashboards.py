@@ -1,6 +1,7 @@
 """Dashboards of a spec's stored data, for Grafana and for Chronograf: one panel per
 topic with its numeric variables, a table of the newest value of its boolean and
-text variables, one panel per value event, and the alerts Kapacitor raised. The
+text variables, one panel per value event, the states the collector's runtime
+entered, and the alerts Kapacitor raised. The
 queries are the same for both tools; each has its own placeholders for the
 dashboard's time range and the group-by interval."""
 
@@ -39,6 +40,7 @@ class Sources:
 
     points: str
     alerts: str
+    states: str
     ident: Callable[[str], str]
     string: Callable[[str], str]
 
@@ -69,6 +71,10 @@ def panels(spec: ir.Spec, sources: Sources) -> list[Panel]:
         if event.kind == "value" and event.window is not None:
             query = f"SELECT {ident(event.name)} FROM {sources.points} WHERE {TIME_RANGE}"
             out.append(Panel(f"event {event.name}", "timeseries", query))
+    if spec.transducers:
+        query = (f"SELECT {ident('state')} FROM {sources.states} WHERE {TIME_RANGE} "
+                 f"GROUP BY {ident('transducer')}")  # fmt: skip
+        out.append(Panel("states", "table", query))
     if spec.alerts:
         query = (f"SELECT {ident('level')}, {ident('message')} FROM {sources.alerts} "
                  f"WHERE {TIME_RANGE} GROUP BY {ident('alert')}")  # fmt: skip
