@@ -87,8 +87,12 @@ def main() -> None:
     try:
         player.until(lambda: player.publisher.get_subscription_count() > 0, "the collector")
         before, during = scenario["before"], scenario["during"]
+        states = scenario.get("states", 0)
         player.send(0, before)
         player.until(lambda: len(stored(influxd, database)) == before, "the first points")
+        # the states too (the runtime decides some on its timer), before influxd stops
+        player.until(lambda: player.status.get("points written") == str(before + states),
+                     "the first states")  # fmt: skip
         influxd.stop()
         player.send(before, during)
         total = before + during
@@ -97,7 +101,6 @@ def main() -> None:
         influxd.start()
         kept = total - int(player.status.get("points dropped: buffer full", "0"))
         player.until(lambda: len(stored(influxd, database)) == kept, f"{kept} points")
-        states = scenario.get("states", 0)
         player.until(lambda: player.status.get("points written") == str(kept + states),
                      "the counters")  # fmt: skip
         result["stored"] = stored(influxd, database)
