@@ -21,8 +21,8 @@ from rmvdsl.check.model import Model, Symbol
 from rmvdsl.source import Span
 
 __all__ = [
-    "CheckResult", "Completion", "Found", "Workspace", "completions", "formatted",
-    "keywords", "quick_fix", "references", "rename", "symbol_at",
+    "CheckResult", "Completion", "Found", "Workspace", "completions", "details", "folds",
+    "formatted", "keywords", "quick_fix", "references", "rename", "symbol_at",
 ]  # fmt: skip
 
 
@@ -200,3 +200,64 @@ def quick_fix(message: str | None) -> str | None:
     """The replacement a diagnostic's help proposes (`did you mean `X`?`)."""
     found = _DID_YOU_MEAN.search(message or "")
     return found.group(1) if found else None
+
+
+# ---- hover ----
+
+
+def details(result: CheckResult, symbol: Symbol) -> list[str]:
+    """What a check knows of a symbol, as Markdown lines: a variable's kind, ROS type
+    and unit; a topic's message type and its fields; an event's type; a property's
+    horizon and what the analyses found."""
+    from rmvdsl.check.model import Kind
+
+    types, name = result.types, symbol.name
+    lines: list[str] = []
+    if types is not None and symbol.kind is Kind.VARIABLE and name in types.variables:
+        lines.append(_value_type(types.variables[name]))
+    elif types is not None and symbol.kind is Kind.TOPIC and types.topics.get(name):
+        message = types.topics[name]
+        assert message is not None
+        fields = ", ".join(f"`{f}: {t.base}{'[]' if t.array else ''}`"
+                           for f, t in list(message.fields.items())[:12])  # fmt: skip
+        lines.append(f"message `{message.name}` ({message.origin}): {fields}")
+    elif types is not None and symbol.kind.value.endswith("event") and name in types.events:
+        lines.append(_value_type(types.events[name]))
+    elif symbol.kind is Kind.PROPERTY:
+        lines.extend(_property_lines(result, name))
+    return lines
+
+
+def _value_type(vtype: Any) -> str:
+    unit = {-1: " per second", 1: " times seconds"}.get(vtype.rate, "")
+    ros = f" (ROS `{vtype.ros}`)" if vtype.ros else ""
+    return f"type: {vtype.kind}{unit}{ros}"
+
+
+def _property_lines(result: CheckResult, name: str) -> list[str]:
+    lines = []
+    if result.types is not None and name in result.types.horizons:
+        horizon = result.types.horizons[name]
+        lines.append(f"horizon: {float(horizon.future):g} s ahead, {float(horizon.past):g} s back")
+    facts = result.properties.facts.get(name) if result.properties is not None else None
+    if facts is not None:
+        for what, answer in (("can hold", facts.satisfiable), ("always holds", facts.valid)):
+            if answer is not None:
+                lines.append(f"{what}: {answer.value}{'' if answer.exact else ' (bounded)'}")
+    return lines
+
+
+def folds(model: Model, path: str) -> list[tuple[int, int]]:
+    """The 0-based first and last lines of each declaration of `path` that spans
+    more than one line (an editor folds them)."""
+    source = model.sources.get(path)
+    spec = next((s for s in model.specs if s.path == path), None)
+    if source is None or spec is None:
+        return []
+    out = []
+    for item in spec.items:
+        first = source.position(item.span.start).line - 1
+        last = source.position(max(item.span.start, item.span.end - 1)).line - 1
+        if last > first:
+            out.append((first, last))
+    return out

@@ -161,6 +161,17 @@ async def test_hover_definition_references(client: LanguageClient):
     assert hover is not None
     text = hover.contents.value  # type: ignore[union-attr]
     assert "**variable** `BrakePedal`" in text and "vehicle_status.control.brake" in text
+    assert "type: float (ROS `float32`)" in text
+    topic_line = next(i for i, s in enumerate(lines) if s.startswith("topic vehicle_status"))
+    on_topic = types.Position(topic_line, len("topic ") + 2)
+    hover = await client.text_document_hover_async(types.HoverParams(document, on_topic))
+    assert hover is not None
+    assert "message `carla_msgs/msg/CarlaEgoVehicleStatus`" in hover.contents.value  # type: ignore[union-attr]
+    assert "`velocity: float32`" in hover.contents.value  # type: ignore[union-attr]
+    property_line = next(i for i, s in enumerate(lines) if s.startswith("property ABSCheck"))
+    on_property = types.Position(property_line, len("property ") + 1)
+    hover = await client.text_document_hover_async(types.HoverParams(document, on_property))
+    assert hover is not None and "horizon: 10 s ahead" in hover.contents.value  # type: ignore[union-attr]
     found = await client.text_document_definition_async(types.DefinitionParams(document, where))
     declared = next(i for i, s in enumerate(lines) if s.startswith("var BrakePedal"))
     assert isinstance(found, types.Location) and found.range.start.line == declared
@@ -315,3 +326,22 @@ async def test_rename_and_quick_fix(client: LanguageClient, tmp_path: Path):
             await client.text_document_rename_async(
                 types.RenameParams(text_document=document, position=on_speed, new_name=refused)
             )
+
+
+async def test_folding_and_workspace_symbols(client: LanguageClient):
+    path = EXAMPLES / "carla" / "abs.rmv"
+    lines = path.read_text(encoding="utf-8").splitlines()
+    uri = await _checked(client, path)
+    ranges = await client.text_document_folding_range_async(
+        types.FoldingRangeParams(types.TextDocumentIdentifier(uri))
+    )
+    assert ranges is not None
+    transducer = next(i for i, s in enumerate(lines) if s.startswith("transducer Braking"))
+    closing = next(i for i in range(transducer, len(lines)) if lines[i] == "}")
+    assert (transducer, closing) in {(r.start_line, r.end_line) for r in ranges}
+    assert all(r.end_line > r.start_line for r in ranges)
+    found = await client.workspace_symbol_async(types.WorkspaceSymbolParams(query="brak"))
+    assert found is not None
+    names = {s.name for s in found}
+    assert {"Braking", "HardBraking", "BrakePedal", "BrakeReleased"} <= names
+    assert all("brak" in n.lower() for n in names)

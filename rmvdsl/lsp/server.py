@@ -26,6 +26,8 @@ from rmvdsl.workspace import (
     CheckResult,
     Workspace,
     completions,
+    details,
+    folds,
     formatted,
     quick_fix,
     references,
@@ -175,7 +177,8 @@ def build() -> RmvServer:
         if found is None:
             return None
         model, symbol = found
-        text = hover_text(model, symbol)
+        result = ls.state.results[ls.document(params.text_document.uri).path]
+        text = hover_text(model, symbol, details(result, symbol))
         return types.Hover(contents=types.MarkupContent(types.MarkupKind.Markdown, text))
 
     @server.feature(types.TEXT_DOCUMENT_DEFINITION)
@@ -265,6 +268,37 @@ def build() -> RmvServer:
             )
         return actions
 
+    @server.feature(types.TEXT_DOCUMENT_FOLDING_RANGE)
+    def folding(ls: RmvServer, params: types.FoldingRangeParams) -> list[types.FoldingRange]:
+        document = ls.document(params.text_document.uri)
+        result = ls.state.results.get(document.path)
+        if result is None:
+            return []
+        return [
+            types.FoldingRange(start_line=first, end_line=last)
+            for first, last in folds(result.model, document.path)
+        ]
+
+    @server.feature(types.WORKSPACE_SYMBOL)
+    def workspace_symbols(
+        ls: RmvServer, params: types.WorkspaceSymbolParams
+    ) -> list[types.SymbolInformation]:
+        """Every declared name of the checked documents (and what they import)
+        that contains the query, ignoring case."""
+        query, seen, out = params.query.lower(), set(), []
+        for result in list(ls.state.results.values()):
+            for symbol in result.model.symbols.values():
+                key = (symbol.name, symbol.span.path, symbol.span.start)
+                if query in symbol.name.lower() and key not in seen:
+                    location = ls.location(result.model, symbol.span)
+                    if location is not None:
+                        seen.add(key)
+                        kind = SYMBOL_KINDS[symbol.kind]
+                        out.append(
+                            types.SymbolInformation(location=location, name=symbol.name, kind=kind)
+                        )
+        return out
+
     @server.feature(types.TEXT_DOCUMENT_FORMATTING)
     def formatting(ls: RmvServer, params: types.DocumentFormattingParams) -> list[types.TextEdit]:
         document = ls.document(params.text_document.uri)
@@ -278,9 +312,9 @@ def build() -> RmvServer:
     return server
 
 
-def hover_text(model: Model, symbol: Symbol) -> str:
-    """What a hover shows: the kind and name, the declaration's first line, the
-    state's transducer, and the doc comment."""
+def hover_text(model: Model, symbol: Symbol, known: list[str]) -> str:
+    """What a hover shows: the kind and name, the declaration's first line, what
+    the check knows of it (`known`), the state's transducer, and the doc comment."""
     lines = [f"**{symbol.kind.value}** `{symbol.name}`"]
     if symbol.owner:
         lines[0] += f" of transducer `{symbol.owner}`"
@@ -288,6 +322,7 @@ def hover_text(model: Model, symbol: Symbol) -> str:
     if source is not None:
         declared = source.line_text(source.position(symbol.span.start).line).strip()
         lines.append(f"```rmv\n{declared}\n```")
+    lines.extend(known)
     doc = str(getattr(symbol.decl, "doc", "") or "")
     if doc:
         lines.append(doc)
