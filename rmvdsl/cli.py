@@ -536,17 +536,15 @@ def _explain(code: str) -> int:
 
 
 def _fmt(args: argparse.Namespace) -> int:
-    from rmvdsl.grammar.formatter import format_spec
-    from rmvdsl.grammar.parser import parse_source
+    from rmvdsl.grammar.formatter import format_source
     from rmvdsl.source import SourceFile
 
     status = EXIT_OK
     for path in args.files:
         text = read_stdin() if path == "-" else read_text(path)
         source = SourceFile("<stdin>" if path == "-" else path, text)
-        parsed = parse_source(source)
-        errors = [d for d in parsed.diagnostics if d.is_error]
-        if errors:
+        formatted, errors = format_source(source)
+        if formatted is None:
             sources = SourceMap()
             sources.add(source)
             sys.stderr.write(render_text(errors, sources, _use_color(args) and sys.stderr.isatty()))
@@ -556,7 +554,6 @@ def _fmt(args: argparse.Namespace) -> int:
             )
             status = EXIT_ERRORS
             continue
-        formatted = format_spec(parsed.spec, source)
         if path == "-":
             sys.stdout.write(formatted)
         elif formatted != text:

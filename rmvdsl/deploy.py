@@ -78,7 +78,8 @@ _QUERY = re.compile(rf"CREATE CONTINUOUS QUERY (?P<name>{_IDENT}) ON (?P<db>{_ID
 _DATABASE = re.compile(rf"CREATE DATABASE (?P<db>{_IDENT})$")
 
 
-def _unquote(identifier: str) -> str:
+def unquote_identifier(identifier: str) -> str:
+    """The name a double-quoted InfluxQL identifier stands for."""
     escapes = {"n": "\n"}
     return re.sub(r"\\(.)", lambda m: escapes.get(m.group(1), m.group(1)), identifier[1:-1])
 
@@ -195,7 +196,7 @@ def deploy_influx(influx: Influx, iql: str, prefix: str, report: Report) -> None
     wanted_queries: dict[str, set[str]] = {}
     for statement in statements:
         if match := _DATABASE.match(statement):
-            db = _unquote(match.group("db"))
+            db = unquote_identifier(match.group("db"))
             if db in databases:
                 report.unchanged.append(f"database {db}")
             else:
@@ -205,7 +206,8 @@ def deploy_influx(influx: Influx, iql: str, prefix: str, report: Report) -> None
         elif match := _RETENTION.match(statement):
             _retention(influx, statement, match, report)
         elif match := _QUERY.match(statement):
-            db, name = _unquote(match.group("db")), _unquote(match.group("name"))
+            db = unquote_identifier(match.group("db"))
+            name = unquote_identifier(match.group("name"))
             wanted_queries.setdefault(db, set()).add(name)
             _continuous_query(influx, statement, db, name, report)
         else:
@@ -216,7 +218,7 @@ def deploy_influx(influx: Influx, iql: str, prefix: str, report: Report) -> None
 
 
 def _retention(influx: Influx, statement: str, match: re.Match[str], report: Report) -> None:
-    db, name = _unquote(match.group("db")), _unquote(match.group("name"))
+    db, name = unquote_identifier(match.group("db")), unquote_identifier(match.group("name"))
     quoted_db = match.group("db")
     shown = _run(report, statement, influx.rows, f"SHOW RETENTION POLICIES ON {quoted_db}")
     existing = {r["name"]: r for r in shown}

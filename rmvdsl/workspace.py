@@ -18,11 +18,11 @@ from typing import Any
 from rmvdsl.check import CheckResult, check
 from rmvdsl.check.loader import read_text
 from rmvdsl.check.model import Model, Symbol
-from rmvdsl.source import Span
+from rmvdsl.source import SourceFile, Span
 
 __all__ = [
     "CheckResult", "Completion", "Found", "Workspace", "completions", "details", "folds",
-    "formatted", "keywords", "quick_fix", "references", "rename", "symbol_at",
+    "formatted", "quick_fix", "references", "rename", "symbol_at",
 ]  # fmt: skip
 
 
@@ -88,15 +88,9 @@ def references(model: Model, symbol: Symbol, declaration: bool = True) -> list[S
 
 def formatted(path: str, text: str) -> str | None:
     """`rmv fmt` of a text, or None when it has syntax errors (nothing to format)."""
-    from rmvdsl.grammar.formatter import format_spec
-    from rmvdsl.grammar.parser import parse_source
-    from rmvdsl.source import SourceFile
+    from rmvdsl.grammar.formatter import format_source
 
-    source = SourceFile(path, text)
-    parsed = parse_source(source)
-    if any(d.is_error for d in parsed.diagnostics):
-        return None
-    return format_spec(parsed.spec, source)
+    return format_source(SourceFile(path, text))[0]
 
 
 # ---- completion ----
@@ -175,19 +169,12 @@ _IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _DID_YOU_MEAN = re.compile(r"did you mean `([^`]+)`\?")
 
 
-def keywords() -> frozenset[str]:
-    """Every word the grammar reserves (a name cannot be one)."""
-    from pathlib import Path
-
-    folder = Path(__file__).resolve().parent / "grammar"
-    text = "".join(p.read_text(encoding="utf-8") for p in folder.glob("*.lark"))
-    return frozenset(re.findall(r'"([A-Za-z_]+)"i?', text))
-
-
 def rename(model: Model, symbol: Symbol, new: str) -> list[Span]:
     """The spans to rewrite to rename `symbol` to `new`; ValueError says why not."""
     if not _IDENTIFIER.fullmatch(new):
         raise ValueError(f"`{new}` is not a name: a letter or `_`, then letters, digits, `_`")
+    from rmvdsl.grammar.parser import keywords
+
     if new in keywords():
         raise ValueError(f"`{new}` is a keyword of the language")
     if new != symbol.name and new in model.symbols:

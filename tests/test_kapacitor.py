@@ -36,6 +36,7 @@ from test_functions import INPUT as WORKED_INPUT
 
 from rmvdsl.check import check
 from rmvdsl.codegen import kapacitor
+from rmvdsl.deploy import split_statements, unquote_identifier
 from rmvdsl.ir import lower
 from rmvdsl.replay import open_reader, plan, replay
 from rmvdsl.runtime import influx, lineproto
@@ -81,14 +82,8 @@ _CQ = re.compile(
 )
 
 
-def statements(iql: str) -> list[str]:
-    from rmvdsl.deploy import split_statements
-
-    return split_statements(iql)
-
-
-def _unquote(identifier: str) -> str:
-    return re.sub(r"\\(.)", lambda m: "\n" if m.group(1) == "n" else m.group(1), identifier[1:-1])
+statements = split_statements
+_unquote = unquote_identifier
 
 
 def continuous_queries(iql: str) -> dict[str, str]:

@@ -12,6 +12,7 @@ import bisect
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
+from rmvdsl.diagnostics import Diagnostic
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import printer as p
 from rmvdsl.source import SourceFile
@@ -317,3 +318,13 @@ def _blank(out: list[str], wanted: bool) -> None:
     """One blank line, never at the start, after a `{` or twice in a row."""
     if wanted and out and out[-1] and not out[-1].endswith("{"):
         out.append("")
+
+
+def format_source(source: SourceFile) -> tuple[str | None, list[Diagnostic]]:
+    """`rmv fmt` of a file: its formatted text, or None and the syntax errors that
+    keep it from being formatted (`rmv fmt` and the editor both call this)."""
+    from rmvdsl.grammar.parser import parse_source
+
+    parsed = parse_source(source)
+    errors = [d for d in parsed.diagnostics if d.is_error]
+    return (None, errors) if errors else (format_spec(parsed.spec, source), [])

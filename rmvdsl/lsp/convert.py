@@ -20,40 +20,39 @@ SEVERITY = {
 _EXPLANATIONS = Path(__file__).resolve().parents[2] / "docs" / "diagnostics.md"
 
 
-def lsp_range(source: SourceFile, span: Span, document: TextDocument | None) -> types.Range:
-    """A span as an LSP range, in the document's position encoding."""
+def lsp_range(source: SourceFile, span: Span, encoding: str) -> types.Range:
+    """A span as an LSP range, in the encoding the client negotiated, counted on
+    the text that was checked (open in the editor or not)."""
     return types.Range(
-        start=_position(source, span.start, document), end=_position(source, span.end, document)
+        start=_position(source, span.start, encoding), end=_position(source, span.end, encoding)
     )
 
 
-def _position(source: SourceFile, offset: int, document: TextDocument | None) -> types.Position:
+def _position(source: SourceFile, offset: int, encoding: str) -> types.Position:
     where = source.position(offset)
-    position = types.Position(line=where.line - 1, character=where.column - 1)
-    if document is None:
-        return position
-    return document.position_codec.position_to_client_units(document.lines, position)
+    before = source.line_text(where.line)[: where.column - 1]
+    return types.Position(line=where.line - 1, character=code_units(before, encoding))
 
 
-def offset_at(source: SourceFile, document: TextDocument, position: types.Position) -> int:
-    """The code-point offset of an LSP position in the document."""
-    where = document.position_codec.position_from_client_units(document.lines, position)
-    return source.offset(where.line + 1, where.character + 1)
+def code_units(text: str, encoding: str) -> int:
+    """The length of a text in the encoding's code units (UTF-32: code points)."""
+    if encoding == types.PositionEncodingKind.Utf8:
+        return len(text.encode("utf-8", "surrogatepass"))
+    if encoding == types.PositionEncodingKind.Utf16:
+        return len(text.encode("utf-16-le", "surrogatepass")) // 2
+    return len(text)
 
 
-def document_offset(document: TextDocument, position: types.Position) -> int:
-    """The code-point offset of an LSP position in the document's own text (its
-    lines keep their line ends)."""
+def offset_at(document: TextDocument, position: types.Position) -> int:
+    """The code-point offset of an LSP position in the document's text (its lines
+    keep their line ends)."""
     where = document.position_codec.position_from_client_units(document.lines, position)
     return sum(len(line) for line in document.lines[: where.line]) + where.character
 
 
-def diagnostic(
-    found: Diagnostic, sources: SourceMap, documents: dict[str, TextDocument]
-) -> types.Diagnostic | None:
+def diagnostic(found: Diagnostic, sources: SourceMap, encoding: str) -> types.Diagnostic | None:
     """One of `rmv check`'s diagnostics, with its secondary labels as related
-    information and its code linked to its explanation; `documents` are the open
-    ones by path (their positions follow the client's encoding)."""
+    information and its code linked to its explanation."""
     source = sources.get(found.span.path)
     if source is None:
         return None
@@ -61,7 +60,7 @@ def diagnostic(
     for label in found.secondary:
         other = sources.get(label.span.path)
         if other is not None:
-            where = lsp_range(other, label.span, documents.get(label.span.path))
+            where = lsp_range(other, label.span, encoding)
             location = types.Location(uri=uri_of(label.span.path), range=where)
             related.append(types.DiagnosticRelatedInformation(location, label.message))
     message = found.message
@@ -75,7 +74,7 @@ def diagnostic(
     if _EXPLANATIONS.exists():
         description = types.CodeDescription(href=f"{_EXPLANATIONS.as_uri()}#{found.code.lower()}")
     return types.Diagnostic(
-        range=lsp_range(source, found.span, documents.get(found.span.path)),
+        range=lsp_range(source, found.span, encoding),
         message=message,
         severity=SEVERITY[found.severity],
         code=found.code,

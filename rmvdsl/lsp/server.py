@@ -89,6 +89,11 @@ class RmvServer(LanguageServer):
     def open_documents(self) -> dict[str, TextDocument]:
         return {d.path: d for d in self.workspace.text_documents.values()}
 
+    @property
+    def encoding(self) -> str:
+        """The position encoding the client negotiated."""
+        return str(self.workspace.position_encoding or types.PositionEncodingKind.Utf16)
+
     async def refresh(self, uri: str) -> None:
         """Check a document: the fast stages, then (if nothing changed meanwhile)
         the solver stages; publish each unless a newer change overtook it."""
@@ -115,7 +120,7 @@ class RmvServer(LanguageServer):
         documents = self.open_documents()
         by_path: dict[str, list[types.Diagnostic]] = {root: []}
         for found in result.diagnostics:
-            converted = convert.diagnostic(found, result.model.sources, documents)
+            converted = convert.diagnostic(found, result.model.sources, self.encoding)
             if converted is not None:
                 by_path.setdefault(found.span.path, []).append(converted)
         for stale in self.state.published.get(root, set()) - set(by_path):
@@ -133,8 +138,9 @@ class RmvServer(LanguageServer):
         source = model.sources.get(span.path)
         if source is None:
             return None
-        document = self.open_documents().get(span.path)
-        return types.Location(convert.uri_of(span.path), convert.lsp_range(source, span, document))
+        return types.Location(
+            convert.uri_of(span.path), convert.lsp_range(source, span, self.encoding)
+        )
 
     def found_at(self, uri: str, position: types.Position) -> tuple[Model, Symbol] | None:
         document = self.document(uri)
@@ -144,7 +150,7 @@ class RmvServer(LanguageServer):
         source = result.model.sources.get(document.path)
         if source is None or source.text != document.source:
             return None  # a check of this text has not finished yet
-        offset = convert.offset_at(source, document, position)
+        offset = convert.offset_at(document, position)
         found = symbol_at(result.model, document.path, offset)
         return None if found is None else (result.model, found.symbol)
 
@@ -205,7 +211,7 @@ def build() -> RmvServer:
         result = ls.state.results.get(document.path)
         if result is None:
             return []
-        return outline(result.model, document)
+        return outline(result.model, document.path, ls.encoding)
 
     @server.feature(
         types.TEXT_DOCUMENT_COMPLETION, types.CompletionOptions(trigger_characters=["=", " "])
@@ -329,17 +335,17 @@ def hover_text(model: Model, symbol: Symbol, known: list[str]) -> str:
     return "\n\n".join(lines)
 
 
-def outline(model: Model, document: TextDocument) -> list[types.DocumentSymbol]:
-    """The document's declarations, with each transducer's states inside it."""
-    source = model.sources.get(document.path)
+def outline(model: Model, path: str, encoding: str) -> list[types.DocumentSymbol]:
+    """The file's declarations, with each transducer's states inside it."""
+    source = model.sources.get(path)
     if source is None:
         return []
-    mine = [s for s in model.symbols.values() if s.span.path == document.path]
+    mine = [s for s in model.symbols.values() if s.span.path == path]
 
     def entry(symbol: Symbol, children: list[types.DocumentSymbol]) -> types.DocumentSymbol:
-        where = convert.lsp_range(source, symbol.span, document)
+        where = convert.lsp_range(source, symbol.span, encoding)
         decl_span = getattr(symbol.decl, "span", None)
-        whole = where if decl_span is None else convert.lsp_range(source, decl_span, document)
+        whole = where if decl_span is None else convert.lsp_range(source, decl_span, encoding)
         if not (whole.start.line <= where.start.line and whole.end.line >= where.end.line):
             whole = where
         return types.DocumentSymbol(

@@ -80,19 +80,13 @@ def tokens(text: str) -> list[Token]:
         elif text.startswith("//", index):
             end = text.find("\n", index)
             index = len(text) if end < 0 else end
-        elif char == "'":
+        elif char in "'\"":
+            kind, scan = ("string", _string) if char == "'" else ("reference", _reference)
             try:
-                value, end = _string(text, index)
+                value, end = scan(text, index)
             except TickError as error:
                 raise TickError(f"{line}:{column}: {error}") from None
-            out.append(Token("string", text[index:end], line, column, value))
-            index = end
-        elif char == '"':
-            try:
-                value, end = _reference(text, index)
-            except TickError as error:
-                raise TickError(f"{line}:{column}: {error}") from None
-            out.append(Token("reference", text[index:end], line, column, value))
+            out.append(Token(kind, text[index:end], line, column, value))
             index = end
         elif char.isdigit() or (
             char == "." and index + 1 < len(text) and text[index + 1].isdigit()

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -37,7 +38,6 @@ from rmvdsl.codegen.kapacitor.quoting import (
     tick_reference,
     tick_string,
 )
-from rmvdsl.codegen.ros2 import py_string
 from rmvdsl.runtime import lineproto
 from rmvdsl.runtime import spec as ir
 
@@ -126,7 +126,6 @@ def _event_query(build: Build, event: ir.Event) -> Query:
         fill = influxql_expression(event.fill.value)
     elif event.fill.mode != "null":
         fill = event.fill.mode
-    resample_for = event.resample_for
     return Query(
         name=f"{build.spec.system.name}.{event.name}",
         select=f"{influxql_expression(event.expr)} AS {influxql_identifier(event.name)}",
@@ -140,7 +139,9 @@ def _event_query(build: Build, event: ir.Event) -> Query:
         resample_every=(
             None if event.resample_every is None else influxql_duration(event.resample_every)
         ),
-        resample_for=None if resample_for is None else influxql_duration(resample_for),
+        resample_for=(
+            None if event.resample_for is None else influxql_duration(event.resample_for)
+        ),
     )
 
 
@@ -272,7 +273,7 @@ def plan(spec: ir.Spec, handlers: Path) -> Build:
                 "window; the ros2 monitor computes it"
             )
         else:
-            _add_query(build, f"event {event.name}", lambda e=event: _event_query(build, e))
+            _add_query(build, f"event {event.name}", _event_query, event)
             if event.range is not None:
                 build.report.append(
                     f"event {event.name}: `range` is left out: each run of a continuous "
@@ -284,8 +285,7 @@ def plan(spec: ir.Spec, handlers: Path) -> Build:
                     "ignores them (a ROS message is one series)"
                 )
     for downsample in database.downsamples:
-        _add_query(build, f"downsample {downsample.name}",
-                   lambda d=downsample: _downsample_query(build, d))  # fmt: skip
+        _add_query(build, f"downsample {downsample.name}", _downsample_query, downsample)
     for alert in spec.alerts:
         try:
             build.alerts.append(_alert(build, alert))
@@ -310,9 +310,11 @@ def plan(spec: ir.Spec, handlers: Path) -> Build:
     return build
 
 
-def _add_query(build: Build, what: str, make: object) -> None:
+def _add_query(build: Build, what: str, make: Callable[[Build, Any], Query], part: Any) -> None:
+    """The continuous query of an event or a downsample, or a line in the report
+    saying why there is none."""
     try:
-        build.queries.append(make())  # type: ignore[operator]
+        build.queries.append(make(build, part))
     except Unsupported as why:
         build.report.append(f"{what}: no continuous query ({why}): the ros2 monitor "
                             "computes it")  # fmt: skip
@@ -359,7 +361,6 @@ def _environment() -> jinja2.Environment:
     env.filters["tick"] = tick_string
     env.filters["tick_ref"] = tick_reference
     env.filters["tick_present"] = lambda reference: f"isPresent({reference})"
-    env.filters["py"] = py_string
     return env
 
 
@@ -392,7 +393,7 @@ def dashboard_files(build: Build, env: jinja2.Environment) -> dict[str, str]:
 COLLECTOR = (ros2.NodeEntry("collector", "collector_node", "rmv_collector"),)
 
 
-def collector_files(build: Build) -> dict[str, str]:
+def collector_files(build: Build, env: jinja2.Environment | None = None) -> dict[str, str]:
     """The collector: an ament_python package, `collector/` in the build, sharing
     the ros2 target's ROS I/O (ros_io.py) and embedding the runtime's reading of
     variables and its line protocol."""
@@ -407,7 +408,8 @@ def collector_files(build: Build) -> dict[str, str]:
         f"{name}/collector_node.py": "collector_node.py.j2",
         "config/params.yaml": "collector_params.yaml.j2",
     }
-    found = ros2.ament_package(package, _environment(), templates, database=build.database)
+    env = env or _environment()
+    found = ros2.ament_package(package, env, templates, database=build.database)
     return {f"collector/{path}": text for path, text in found.items()}
 
 
@@ -425,7 +427,7 @@ def files(spec: ir.Spec, out: Path) -> tuple[dict[str, str], list[str]]:
             **context
         )
     written.update(dashboard_files(build, env))
-    written.update(collector_files(build))
+    written.update(collector_files(build, env))
     written["deploy.json"] = json.dumps(manifest(build), indent=2) + "\n"
     written["README.md"] = env.get_template("README.md.j2").render(
         files=sorted(written), report=build.report, **context
