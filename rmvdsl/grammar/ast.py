@@ -19,12 +19,21 @@ class Node:
     span: Span
 
     def children(self) -> Iterator[Node]:
-        for item in fields(self):  # type: ignore[arg-type]
-            value = getattr(self, item.name)
-            if isinstance(value, Node):
-                yield value
-            elif isinstance(value, tuple):
-                yield from (v for v in value if isinstance(v, Node))
+        return iter(_children(self))
+
+
+_CHILD_FIELDS: dict[type, tuple[str, ...]] = {}
+
+
+def _child_fields(kind: type) -> tuple[str, ...]:
+    """The fields of a node class that may hold nodes (an editor walks the tree at
+    every keystroke: `dataclasses.fields` per visit was a tenth of a check)."""
+    names = _CHILD_FIELDS.get(kind)
+    if names is None:
+        leaves = {"span", "offsets", "doc", "text"}
+        names = tuple(f.name for f in fields(kind) if f.name not in leaves)
+        _CHILD_FIELDS[kind] = names
+    return names
 
 
 @dataclass(frozen=True)
@@ -429,13 +438,27 @@ class Spec(Node):
     span: Span = field(default=NO_SPAN, compare=False)
 
 
-def walk(*roots: Node) -> Iterator[Node]:
+def walk(*roots: Node) -> list[Node]:
     """Every node below the roots, parents first, left to right."""
+    out: list[Node] = []
     stack = list(reversed(roots))
     while stack:
         current = stack.pop()
-        yield current
-        stack.extend(reversed(list(current.children())))
+        out.append(current)
+        stack.extend(reversed(_children(current)))
+    return out
+
+
+def _children(node: Node) -> list[Node]:
+    out: list[Node] = []
+    values = node.__dict__
+    for name in _child_fields(type(node)):
+        value = values[name]
+        if isinstance(value, Node):
+            out.append(value)
+        elif type(value) is tuple:
+            out.extend([v for v in value if isinstance(v, Node)])
+    return out
 
 
 def names_in(node: Node) -> set[str]:
