@@ -282,6 +282,21 @@ keyword, so nothing could refer to it. Rename it.
     event Always when Velocity > 1     // ok: names are case-sensitive""",
     ),
     (
+        "RMV222",
+        "the whitelists disagree",
+        """(warning) A node's declaration and a topic's whitelist disagree about an
+endpoint the spec itself describes: the node is declared to publish (or subscribe
+to) a topic whose whitelist does not allow it, or a topic's whitelist allows a node
+whose declaration does not list the topic. When the system runs as declared, the
+monitor reports an intrusion. Add the name where it is missing (an editor offers
+the edit), or remove it where it is wrong.
+
+    whitelist "/cmd" { publishers: "/planner" }
+    node "/teleop" { publishes: "/cmd" }        // RMV222: /cmd does not allow /teleop
+
+Only exact names are compared: a pattern on both sides may or may not overlap.""",
+    ),
+    (
         "RMV300",
         "unknown message type",
         """A topic's message type is not among the definitions rmvdsl knows: the

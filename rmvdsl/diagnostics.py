@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import re
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
@@ -28,6 +29,16 @@ class Label:
 
 
 @dataclass(frozen=True)
+class Fix:
+    """An edit that does what a diagnostic's help says: replace `span` with `text`
+    (an empty span inserts). An editor offers it as a quick fix."""
+
+    title: str
+    span: Span
+    text: str
+
+
+@dataclass(frozen=True)
 class Diagnostic:
     code: str
     severity: Severity
@@ -37,6 +48,7 @@ class Diagnostic:
     secondary: tuple[Label, ...] = ()
     help: str | None = None
     notes: tuple[str, ...] = field(default=())
+    fixes: tuple[Fix, ...] = field(default=(), compare=False)
 
     def __post_init__(self) -> None:
         if self.code not in CODES:
@@ -59,8 +71,11 @@ def error(
     label: str = "",
     secondary: Iterable[Label] = (),
     help: str | None = None,
+    fixes: Iterable[Fix] = (),
 ) -> Diagnostic:
-    return Diagnostic(code, Severity.ERROR, message, span, label, tuple(secondary), help)
+    return Diagnostic(
+        code, Severity.ERROR, message, span, label, tuple(secondary), help, fixes=tuple(fixes)
+    )
 
 
 def warning(
@@ -71,13 +86,30 @@ def warning(
     label: str = "",
     secondary: Iterable[Label] = (),
     help: str | None = None,
+    fixes: Iterable[Fix] = (),
 ) -> Diagnostic:
-    return Diagnostic(code, Severity.WARNING, message, span, label, tuple(secondary), help)
+    return Diagnostic(
+        code, Severity.WARNING, message, span, label, tuple(secondary), help, fixes=tuple(fixes)
+    )
 
 
 def sort_key(diagnostic: Diagnostic) -> tuple[str, int, int, str]:
     span = diagnostic.span
     return (span.path, span.start, span.end, diagnostic.code)
+
+
+_DID_YOU_MEAN = re.compile(r"did you mean `([^`]+)`\?")
+
+
+def fixes_of(diagnostic: Diagnostic) -> tuple[Fix, ...]:
+    """A diagnostic's fixes: its own, or the replacement its `did you mean` names
+    (that help always proposes a word for the word the diagnostic points at)."""
+    if diagnostic.fixes:
+        return diagnostic.fixes
+    found = _DID_YOU_MEAN.search(diagnostic.help or "")
+    if found is None:
+        return ()
+    return (Fix(f"Replace with `{found.group(1)}`", diagnostic.span, found.group(1)),)
 
 
 def did_you_mean(name: str, candidates: Iterable[str]) -> str | None:

@@ -15,7 +15,7 @@ from typing import Any
 
 from rmvdsl import __version__
 from rmvdsl.codes import CODES
-from rmvdsl.diagnostics import Diagnostic, Severity
+from rmvdsl.diagnostics import Diagnostic, Fix, Severity, fixes_of
 from rmvdsl.source import SourceMap, Span
 
 
@@ -173,9 +173,17 @@ def as_json_objects(diagnostics: Iterable[Diagnostic], sources: SourceMap) -> li
                 "end_column": where.end_column,
                 "labels": labels,
                 "help": diagnostic.help,
+                "fixes": [_fix_json(fix, sources) for fix in fixes_of(diagnostic)],
             }
         )
     return objects
+
+
+def _fix_json(fix: Fix, sources: SourceMap) -> dict[str, Any]:
+    """A fix as a replacement of [line:column, end_line:end_column) by `text`."""
+    where = _label_json(fix.span, fix.title, False, sources)
+    where.pop("primary")
+    return {"title": where.pop("message"), **where, "text": fix.text}
 
 
 def _label_json(span: Span, message: str, primary: bool, sources: SourceMap) -> dict[str, Any]:

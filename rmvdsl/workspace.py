@@ -17,12 +17,25 @@ from typing import Any
 
 from rmvdsl.check import CheckResult, check
 from rmvdsl.check.loader import read_text
-from rmvdsl.check.model import Model, Symbol
+from rmvdsl.check.model import BOOLEAN_KINDS, EVENT_KINDS, PROPOSITION_KINDS, Kind, Model, Symbol
+from rmvdsl.mentions import Mention
 from rmvdsl.source import SourceFile, Span
 
 __all__ = [
-    "CheckResult", "Completion", "Found", "Workspace", "completions", "details", "folds",
-    "formatted", "quick_fix", "references", "rename", "symbol_at",
+    "TOKEN_TYPES",
+    "CheckResult",
+    "Completion",
+    "Found",
+    "Token",
+    "Workspace",
+    "completions",
+    "details",
+    "folds",
+    "formatted",
+    "references",
+    "rename",
+    "semantic_tokens",
+    "symbol_at",
 ]  # fmt: skip
 
 
@@ -95,21 +108,20 @@ def formatted(path: str, text: str) -> str | None:
 
 # ---- completion ----
 
-DECLARATIONS = (
-    "system", "import", "time unit", "ros", "messages", "database", "topic", "var", "event",
-    "transducer", "property", "alert", "whitelist", "node", "intrusion",
-)  # fmt: skip
-CLAUSES = ("when", "where", "group by time", "fill", "order", "limit", "resample every", "range",
-           "and", "or", "not", "always", "eventually", "until", "since", "historically", "once",
-           "duration", "action", "emit", "on")  # fmt: skip
 _OPENER = re.compile(r"^\s*(\w+)")
-_SETTING_VALUE = re.compile(r"^\s*(\w+)\s*=\s*\w*$")
+_SETTING_VALUE = re.compile(r"^\s*(\w+)\s*=\s*$")
+_MESSAGE_TYPE = re.compile(r"^\s*topic\s+\w+\s*:\s*[\w/]*$")
+_FIELD_PATH = re.compile(r"\b([A-Za-z_]\w*)((?:\.[A-Za-z_]\w*(?:\[[^\]\n]*\])?)*)\.$")
+_SEGMENT = re.compile(r"\.([A-Za-z_]\w*)(\[[^\]\n]*\])?")
+_WORD_TAIL = re.compile(r"[A-Za-z0-9_]*\Z")
+# Where InfluxQL's functions may be called.
+_WITH_FUNCTIONS = frozenset({"event", "alert", "var"})
 
 
 @dataclass(frozen=True)
 class Completion:
     label: str
-    kind: str  # keyword | function | setting | value | a name's kind (topic, variable, ...)
+    kind: str  # keyword | function | setting | value | message | field | a name's kind
     detail: str = ""
     doc: str = ""
 
@@ -133,40 +145,118 @@ def _enclosing_block(before: str) -> str | None:
     return None
 
 
-def completions(model: Model | None, text: str, offset: int) -> list[Completion]:
-    """What may be written at `offset`: a setting's values after `key =` inside a
-    block, the block's settings at the start of a line in it, the declarations at
-    the start of a line outside blocks, else the names in scope (by kind), the
-    functions of the registry and the clause and formula keywords."""
+def completions(result: CheckResult | None, text: str, offset: int) -> list[Completion]:
+    """What may be written at `offset`, from the most specific context out: a
+    setting's values after `key =` and the settings of the block at a line's start;
+    message types after `topic Name:`; a message's fields after `topic.` segment by
+    segment; else what the grammar accepts there (its keywords and, where a name
+    may stand, the names in scope and InfluxQL's functions)."""
+    word = _WORD_TAIL.search(text, 0, offset)
+    start = word.start() if word else offset
+    before = text[:start]
+    line = before[before.rfind("\n") + 1 :]
+    settings = _block_settings(before, line)
+    if settings is not None:
+        return settings
+    if _MESSAGE_TYPE.match(text[before.rfind("\n") + 1 : offset]):
+        return _message_types(result)
+    path = _FIELD_PATH.search(line)
+    if path is not None and result is not None and path.group(1) in result.model.topics:
+        return _fields(result, path.group(1), path.group(2))
+    return _grammar_completions(result, text, start)
+
+
+def _block_settings(before: str, line: str) -> list[Completion] | None:
     from rmvdsl import builtins
 
-    before = text[:offset]
-    line = before[before.rfind("\n") + 1 :]
     block = _enclosing_block(before)
     settings = builtins.BLOCKS.get(block) if block else None
-    at_start = re.fullmatch(r"\s*\w*", line) is not None
-    if settings is not None:
-        value = _SETTING_VALUE.match(line)
-        if value and value.group(1) in settings.settings:
-            spec = settings.settings[value.group(1)]
-            return [Completion(c, "value", spec.doc) for c in spec.choices]
-        if at_start:
-            return [Completion(s.key, "setting", f"default {s.shown}", s.doc)
-                    for s in settings.settings.values()]  # fmt: skip
-    if block is None and at_start:
-        return [Completion(word, "keyword", "declaration") for word in DECLARATIONS]
-    found = [Completion(w, "keyword", "clause") for w in CLAUSES]
-    found += [Completion(f.name, "function", f.group, f.doc) for f in builtins.FUNCTIONS.values()]
-    if model is not None:
-        found += [Completion(s.name, s.kind.value, s.kind.described())
-                  for s in model.symbols.values()]  # fmt: skip
+    if settings is None:
+        return None
+    value = _SETTING_VALUE.match(line)
+    if value and value.group(1) in settings.settings:
+        spec = settings.settings[value.group(1)]
+        return [Completion(c, "value", spec.doc) for c in spec.choices]
+    if not line.strip():
+        return [Completion(s.key, "setting", f"default {s.shown}", s.doc)
+                for s in settings.settings.values()]  # fmt: skip
+    return None
+
+
+def _message_types(result: CheckResult | None) -> list[Completion]:
+    if result is None or result.types is None:
+        return []
+    registry = result.types.registry
+    out = []
+    for name in sorted(set(registry.names())):
+        definition = registry.get(name)
+        origin = definition.origin if definition is not None else ""
+        package, _, type_name = name.partition("/msg/")
+        out.append(Completion(f"{package}/{type_name}" if type_name else name, "message", origin))
+    return out
+
+
+def _fields(result: CheckResult, topic: str, path: str) -> list[Completion]:
+    """The fields (and constants) of the message reached by `path` from the topic."""
+    if result.types is None:
+        return []
+    registry = result.types.registry
+    message = result.types.topics.get(topic)
+    for segment in _SEGMENT.finditer(path):
+        if message is None:
+            return []
+        step = message.fields.get(segment.group(1))
+        message = registry.get(step.base) if step is not None else None
+    if message is None:
+        return []
+    found = [Completion(f, "field", k.text(), message.name) for f, k in message.fields.items()]
+    found += [Completion(c, "constant", f"{kind} = {value}", message.name)
+              for c, (kind, value) in message.constants.items()]  # fmt: skip
     return found
+
+
+def _grammar_completions(result: CheckResult | None, text: str, start: int) -> list[Completion]:
+    from rmvdsl import builtins
+    from rmvdsl.grammar.parser import accepted_words
+    from rmvdsl.grammar.scanner import TOP_LEVEL_KEYWORDS, scan
+
+    chunk = max((c for c, _ in scan(text[:start]).chunks if c <= start), default=0)
+    accepted = accepted_words(text, chunk, start)
+    words, names = accepted if accepted is not None else (frozenset(), True)
+    line = text[text.rfind("\n", 0, start) + 1 : start]
+    if not line and _enclosing_block(text[:start]) is None:
+        # A line's first word outside blocks starts a new declaration (the scanner's
+        # rule), whatever the declaration before it lacks.
+        words |= TOP_LEVEL_KEYWORDS
+    found = [Completion(w, "keyword", "keyword") for w in sorted(words)]
+    if not names:
+        return found
+    opener = _OPENER.match(text[chunk:start])
+    if opener is not None and opener.group(1) in _WITH_FUNCTIONS:
+        found += [Completion(f.name, "function", f.group, f.doc)
+                  for f in builtins.FUNCTIONS.values()]  # fmt: skip
+    if result is not None:
+        kinds = _NAMES_IN.get(opener.group(1) if opener else "")
+        found += [Completion(s.name, s.kind.value, s.kind.described())
+                  for s in result.model.symbols.values()
+                  if kinds is None or s.kind in kinds]  # fmt: skip
+    return found
+
+
+# The kinds of names that may stand in each declaration (the names stage's rules).
+_NAMES_IN: dict[str, frozenset[Kind]] = {
+    "var": frozenset({Kind.TOPIC}),
+    "event": frozenset({Kind.VARIABLE, *EVENT_KINDS}),
+    "alert": frozenset({Kind.VARIABLE, *EVENT_KINDS}),
+    "transducer": frozenset({Kind.STATE, *BOOLEAN_KINDS}),
+    "property": PROPOSITION_KINDS,
+    "whitelist": frozenset({Kind.TOPIC}),
+}
 
 
 # ---- rename and quick fixes ----
 
 _IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
-_DID_YOU_MEAN = re.compile(r"did you mean `([^`]+)`\?")
 
 
 def rename(model: Model, symbol: Symbol, new: str) -> list[Span]:
@@ -181,12 +271,6 @@ def rename(model: Model, symbol: Symbol, new: str) -> list[Span]:
         other = model.symbols[new]
         raise ValueError(f"`{new}` is already {other.kind.described()}")
     return references(model, symbol, declaration=True)
-
-
-def quick_fix(message: str | None) -> str | None:
-    """The replacement a diagnostic's help proposes (`did you mean `X`?`)."""
-    found = _DID_YOU_MEAN.search(message or "")
-    return found.group(1) if found else None
 
 
 # ---- hover ----
@@ -232,6 +316,47 @@ def _property_lines(result: CheckResult, name: str) -> list[str]:
             if answer is not None:
                 lines.append(f"{what}: {answer.value}{'' if answer.exact else ' (bounded)'}")
     return lines
+
+
+# ---- semantic tokens ----
+
+TOKEN_TYPES = (
+    "interface", "variable", "event", "macro", "class", "enumMember", "function", "property",
+    "type", "namespace", "string",
+)  # fmt: skip
+_TOKEN_OF_KIND = {
+    "topic": "interface", "variable": "variable", "event": "event", "boolean event": "event",
+    "emitted event": "event", "alert": "macro", "transducer": "class", "state": "enumMember",
+    "property": "function",
+}  # fmt: skip
+_TOKEN_OF_MENTION = {"field": "property", "message": "type", "retention": "namespace",
+                     "import": "string"}  # fmt: skip
+
+
+@dataclass(frozen=True)
+class Token:
+    span: Span
+    type: str  # one of TOKEN_TYPES
+    declaration: bool
+
+
+def semantic_tokens(result: CheckResult, path: str, found: list[Mention]) -> list[Token]:
+    """What each name of `path` is (its declaration marked), field-path segments,
+    message types and retention policies, in file order; keywords, numbers and
+    comments are the TextMate grammar's."""
+    model = result.model
+    tokens = [Token(s.span, _TOKEN_OF_KIND[s.kind.value], True)
+              for s in model.symbols.values() if s.span.path == path]  # fmt: skip
+    tokens += [Token(r.span, _TOKEN_OF_KIND[r.symbol.kind.value], False)
+               for r in model.references if r.span.path == path]  # fmt: skip
+    tokens += [Token(m.span, _TOKEN_OF_MENTION[m.kind], m.declares)
+               for m in found if m.span.path == path and m.kind != "import"]  # fmt: skip
+    tokens.sort(key=lambda t: (t.span.start, t.span.end))
+    out: list[Token] = []
+    for token in tokens:  # one token per place (a name is declared once)
+        if not out or token.span.start >= out[-1].span.end:
+            out.append(token)
+    return out
 
 
 def folds(model: Model, path: str) -> list[tuple[int, int]]:

@@ -69,6 +69,7 @@ def test_json_format(rmv):
         "end_column",
         "labels",
         "help",
+        "fixes",
     }
     assert all(set(d) == keys for d in diagnostics)
     brake = next(d for d in diagnostics if "BrakePedl" in d["message"])
@@ -80,6 +81,9 @@ def test_json_format(rmv):
     )
     assert brake["severity"] == "error" and brake["code"] == "RMV200"
     assert brake["help"] == "did you mean `BrakePedal`?"
+    (fix,) = brake["fixes"]  # the did-you-mean, as an edit of the misspelt name
+    assert fix["title"] == "Replace with `BrakePedal`" and fix["text"] == "BrakePedal"
+    assert (fix["line"], fix["column"], fix["end_line"], fix["end_column"]) == (9, 22, 9, 31)
     assert brake["labels"][0]["primary"] is True
 
 

@@ -32,6 +32,7 @@ async def client(lsp_client: LanguageClient, request: pytest.FixtureRequest):
     )
     assert answer.capabilities.position_encoding == request.param
     lsp_client.encoding = request.param  # type: ignore[attr-defined]
+    lsp_client.server_capabilities = answer.capabilities  # type: ignore[attr-defined]
     yield
     await lsp_client.shutdown_session()
 
@@ -345,3 +346,228 @@ async def test_folding_and_workspace_symbols(client: LanguageClient):
     names = {s.name for s in found}
     assert {"Braking", "HardBraking", "BrakePedal", "BrakeReleased"} <= names
     assert all("brak" in n.lower() for n in names)
+
+
+MENTIONS = """system mentions
+messages "msg"
+database {
+    name = "db"
+    retention raw { duration = 1d }
+    retention archive { duration = 30d }
+    downsample wheel_1m {
+        from = raw
+        into = archive
+        every = 1m
+        aggregate = mean
+        measurements = [Speed]
+    }
+}
+topic Status: demo_msgs/Status = "/status"
+var Speed = Status.wheel.speed
+var Size = Status.wheel.radius
+event Fast when Speed > 1
+"""
+
+
+def _mentions_folder(tmp_path: Path) -> Path:
+    folder = tmp_path / "msg" / "demo_msgs" / "msg"
+    folder.mkdir(parents=True)
+    # A comment with characters outside the BMP: columns differ between encodings.
+    (folder / "Status.msg").write_text("# état 🚗\nWheel wheel\nuint8 gear\n", encoding="utf-8")
+    (folder / "Wheel.msg").write_text(
+        "# rayon 🛞\nfloat32 radius\nfloat64 speed  # m/s\nuint8 LEFT=0\n", encoding="utf-8"
+    )
+    path = tmp_path / "mentions.rmv"
+    path.write_text(MENTIONS, encoding="utf-8")
+    return path
+
+
+def _at(text: str, needle: str, inside: int = 1) -> types.Position:
+    """The position of a character of the first `needle` (ASCII lines here)."""
+    offset = text.index(needle) + inside
+    line = text.count("\n", 0, offset)
+    return types.Position(line, offset - (text.rfind("\n", 0, offset) + 1))
+
+
+async def test_field_paths_message_types_and_policies(client: LanguageClient, tmp_path: Path):
+    """Definition goes into the .msg file at the field's line, references find
+    every use of a field, a message type or a retention policy, hover shows a
+    message's definition."""
+    path = _mentions_folder(tmp_path)
+    uri = await _checked(client, path)
+    document = types.TextDocumentIdentifier(uri)
+    wheel_msg = (tmp_path / "msg" / "demo_msgs" / "msg" / "Wheel.msg").resolve().as_uri()
+
+    async def definition(needle: str) -> types.Location:
+        answer = await client.text_document_definition_async(
+            types.DefinitionParams(document, _at(MENTIONS, needle))
+        )
+        assert isinstance(answer, types.Location), needle
+        return answer
+
+    speed = await definition("speed")
+    assert speed.uri == wheel_msg and speed.range.start.line == 2  # `float64 speed`
+    assert (await definition("radius")).range.start.line == 1
+    message = await definition("demo_msgs/Status")
+    assert message.uri.endswith("/Status.msg") and message.range.start.line == 0
+    policy = await definition("raw\n        into")
+    assert policy.uri == uri and policy.range.start == _at(MENTIONS, "raw {", 0)
+
+    references = await client.text_document_references_async(
+        types.ReferenceParams(
+            text_document=document,
+            position=_at(MENTIONS, "wheel.speed"),
+            context=types.ReferenceContext(include_declaration=False),
+        )
+    )
+    assert references is not None
+    assert sorted(r.range.start.line for r in references) == [15, 16]
+    with_declaration = await client.text_document_references_async(
+        types.ReferenceParams(
+            text_document=document,
+            position=_at(MENTIONS, "archive\n"),
+            context=types.ReferenceContext(include_declaration=True),
+        )
+    )
+    assert with_declaration is not None
+    assert sorted(r.range.start.line for r in with_declaration) == [5, 8]
+
+    hover = await client.text_document_hover_async(
+        types.HoverParams(document, _at(MENTIONS, "demo_msgs/Status"))
+    )
+    assert hover is not None and isinstance(hover.contents, types.MarkupContent)
+    assert "Wheel wheel" in hover.contents.value and "uint8 gear" in hover.contents.value
+    field = await client.text_document_hover_async(
+        types.HoverParams(document, _at(MENTIONS, "radius"))
+    )
+    assert field is not None and isinstance(field.contents, types.MarkupContent)
+    assert "`float32`" in field.contents.value and "demo_msgs/msg/Wheel" in field.contents.value
+
+
+async def test_completion_of_paths_types_and_grammar_words(client: LanguageClient, tmp_path: Path):
+    path = _mentions_folder(tmp_path)
+    uri = await _checked(client, path)
+    document = types.TextDocumentIdentifier(uri)
+    version = 1
+
+    async def labels_after(typed: str) -> dict[str, types.CompletionItem]:
+        """Type `typed` on a new last line, then ask at its end."""
+        nonlocal version
+        version += 1
+        text = MENTIONS + typed
+        client.text_document_did_change(
+            types.DidChangeTextDocumentParams(
+                types.VersionedTextDocumentIdentifier(uri=uri, version=version),
+                [types.TextDocumentContentChangeWholeDocument(text=text)],
+            )
+        )
+        lines = text.split("\n")
+        where = types.Position(len(lines) - 1, len(lines[-1]))
+        params = types.CompletionParams(document, where)
+        answer = await client.text_document_completion_async(params)
+        assert isinstance(answer, types.CompletionList)
+        return {item.label: item for item in answer.items}
+
+    first = await labels_after("var Gear = Status.")
+    assert set(first) == {"wheel", "gear"}
+    assert first["wheel"].kind == types.CompletionItemKind.Field
+    assert first["wheel"].detail == "demo_msgs/msg/Wheel"
+    second = await labels_after("var Radius = Status.wheel.")
+    assert set(second) == {"radius", "speed", "LEFT"}
+    assert second["LEFT"].kind == types.CompletionItemKind.Constant
+    kinds = await labels_after("topic Other: ")
+    assert {"demo_msgs/Status", "demo_msgs/Wheel", "std_msgs/Float64"} <= set(kinds)
+    assert kinds["demo_msgs/Status"].kind == types.CompletionItemKind.Struct
+    # The grammar's words: inside a transducer after its states, no declarations.
+    inside = await labels_after("transducer D {\n    states A, B\n    ")
+    assert {"initial", "final"} <= set(inside) and "topic" not in inside
+    condition = await labels_after("event Slow when Speed < 1 ")
+    assert {"and", "or"} <= set(condition) and "Speed" not in condition
+    operand = await labels_after("event Slow when Speed < 1 and ")
+    assert "not" in operand and operand["Speed"].kind == types.CompletionItemKind.Variable
+    assert "Status" not in operand  # a topic cannot stand in a condition
+    formula = await labels_after("property Q: always ")
+    assert "Fast" in formula and "Speed" not in formula and "mean" not in formula
+
+
+async def test_semantic_tokens(client: LanguageClient, tmp_path: Path):
+    path = _mentions_folder(tmp_path)
+    uri = await _checked(client, path)
+    answer = await client.text_document_semantic_tokens_full_async(
+        types.SemanticTokensParams(types.TextDocumentIdentifier(uri))
+    )
+    assert answer is not None
+    server = client.server_capabilities.semantic_tokens_provider  # type: ignore[attr-defined]
+    assert isinstance(server, types.SemanticTokensOptions)
+    names, modifiers = server.legend.token_types, server.legend.token_modifiers
+    decoded, line, start = {}, 0, 0
+    data = answer.data
+    lines = MENTIONS.split("\n")
+    for index in range(0, len(data), 5):
+        delta_line, delta_start, length, kind, mods = data[index : index + 5]
+        line += delta_line
+        start = start + delta_start if delta_line == 0 else delta_start
+        word = lines[line][start : start + length]
+        declared = bool(mods & (1 << modifiers.index("declaration")))
+        decoded.setdefault(word, set()).add((names[kind], declared))
+    assert decoded["Speed"] == {("variable", True), ("variable", False)}
+    assert decoded["Status"] == {("interface", True), ("interface", False)}
+    assert decoded["wheel"] == {("property", False)}
+    assert decoded["demo_msgs/Status"] == {("type", False)}
+    assert decoded["raw"] == {("namespace", True), ("namespace", False)}
+    assert decoded["Fast"] == {("event", True)}
+
+
+async def _apply_first_fix(
+    client: LanguageClient, uri: str, text: str, code: str, version: int
+) -> str:
+    """Ask for the fixes of the first diagnostic `code` and apply the first."""
+    found = await _diagnostics_until(client, uri, lambda d: any(x.code == code for x in d))
+    target = next(d for d in found if d.code == code)
+    actions = await client.text_document_code_action_async(
+        types.CodeActionParams(
+            text_document=types.TextDocumentIdentifier(uri), range=target.range,
+            context=types.CodeActionContext(diagnostics=[target]),
+        )
+    )  # fmt: skip
+    assert actions, code
+    action = actions[0]
+    assert isinstance(action, types.CodeAction) and action.edit and action.edit.changes
+    (edit,) = action.edit.changes[uri]
+    lines = text.split("\n")
+    start, end = edit.range.start, edit.range.end
+    assert start.line == end.line  # these fixes stay on a line (ASCII: any encoding)
+    line = lines[start.line]
+    lines[start.line] = line[: start.character] + edit.new_text + line[end.character :]
+    fixed = "\n".join(lines)
+    client.text_document_did_change(
+        types.DidChangeTextDocumentParams(
+            types.VersionedTextDocumentIdentifier(uri=uri, version=version),
+            [types.TextDocumentContentChangeWholeDocument(text=fixed)],
+        )
+    )
+    return fixed
+
+
+async def test_fixes_add_a_missing_state_and_a_whitelisted_node(
+    client: LanguageClient, tmp_path: Path
+):
+    text = (
+        'system fixes\ntopic Cmd: std_msgs/Float64 = "/cmd"\nvar Command = Cmd.data\n'
+        "event High when Command > 1\n"
+        "transducer D {\n    states Idle, Busy\n    initial Idle\n"
+        "    Idle -> Busy on High\n    Busy -> Stopped on High\n}\n"
+        "property P: always[<=1s] not Busy\n"
+        'whitelist Cmd { publishers: "/planner" }\nnode "/teleop" { publishes: "/cmd" }\n'
+    )
+    path = tmp_path / "fixes.rmv"
+    path.write_text(text, encoding="utf-8")
+    uri = _open(client, path, text)
+    text = await _apply_first_fix(client, uri, text, "RMV210", 2)
+    assert "    states Idle, Busy, Stopped\n" in text
+    text = await _apply_first_fix(client, uri, text, "RMV222", 3)
+    assert 'publishers: "/planner", "/teleop" }' in text
+    rest = await _diagnostics_until(
+        client, uri, lambda d: not any(x.code in ("RMV210", "RMV222") for x in d)
+    )
+    assert not [d for d in rest if d.severity == types.DiagnosticSeverity.Error]

@@ -58,5 +58,7 @@ def test_neovim_sees_diagnostics_hover_completion_definition_and_formats(tmp_pat
     assert any(d["code"] == "RMV200" and d["lnum"] == 4 for d in seen["diagnostics"])
     assert "**variable** `Speed`" in seen["hover"]
     assert seen["definition"]["range"]["start"] == {"line": 2, "character": len("var ")}
-    assert {"Fast", "Speed", "mean"} <= set(seen["completion"])
+    # In a formula: its operators and propositions, no variable, no InfluxQL function.
+    assert {"Fast", "always", "eventually"} <= set(seen["completion"])
+    assert not {"Speed", "mean"} & set(seen["completion"])
     assert seen["formatted"] == formatted(str(spec), text)

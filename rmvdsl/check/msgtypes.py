@@ -7,8 +7,10 @@ file:line:column. Message names are kept in the ROS 2 form `pkg/msg/Type`.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
+import threading
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from functools import cache
@@ -63,6 +65,7 @@ class MessageDef:
     fields: dict[str, FieldType]
     constants: dict[str, tuple[str, str]] = field(default_factory=dict)  # name -> (type, value)
     origin: str = ""  # a .msg path, or `rosbags:<store>`
+    lines: dict[str, int] = field(default_factory=dict)  # field or constant -> its .msg line
 
 
 def canonical(name: str, package: str | None = None) -> str:
@@ -90,9 +93,14 @@ def parse_msg(source: SourceFile, name: str) -> tuple[MessageDef | None, list[Di
     fields: dict[str, FieldType] = {}
     constants: dict[str, tuple[str, str]] = {}
     diagnostics: list[Diagnostic] = []
+    lines: dict[str, int] = {}
     for number in range(1, source.line_count + 1):
         line = source.line_text(number)
+        known = len(fields), len(constants)
         problem = _parse_msg_line(line, package, fields, constants)
+        for names, count in ((fields, known[0]), (constants, known[1])):
+            if len(names) > count:
+                lines[next(reversed(names))] = number
         if problem is not None:
             column, message, hint = problem
             start = source.offset(number, column)
@@ -108,7 +116,7 @@ def parse_msg(source: SourceFile, name: str) -> tuple[MessageDef | None, list[Di
             )
     if diagnostics:
         return None, diagnostics
-    return MessageDef(name, fields, constants, source.path), []
+    return MessageDef(name, fields, constants, source.path, lines), []
 
 
 def _parse_msg_line(
@@ -320,67 +328,120 @@ class TypeRegistry:
                     )
                 )
             return
-        for package, path in _msg_files(folder):
+        for package, path in _listed_files(folder):
             name = f"{package}/msg/{os.path.splitext(os.path.basename(path))[0]}"
             if name in self.custom or name in self.broken:
                 continue  # the first folder on the path wins, as in ROS
-            if path.endswith(".idl"):
-                self._add_idl(name, path)
-            else:
-                self._add_file(name, path)
+            read = _read_definitions(name, path, self.ros_version == 1)
+            if read.source is not None:
+                self.sources.add(read.source)
+            self.diagnostics.extend(read.diagnostics)
+            if read.broken:
+                self.broken.add(name)
+            for type_name, definition in read.definitions.items():
+                self.custom.setdefault(type_name, definition)
 
-    def _add_idl(self, name: str, path: str) -> None:
-        """A ROS 2 .idl file, read by rosbags; its errors come with an offset."""
-        from rosbags.typesys import get_types_from_idl
-        from rosbags.typesys.base import Nodetype
 
-        source = self._read(name, path)
-        if source is None:
-            return
-        text = source.text
-        try:
-            types = get_types_from_idl(text)
-        except Exception as exc:  # rosbags raises its TypesysError, with the offset in it
-            lines = str(exc).splitlines()
-            offset = int(lines[2]) if len(lines) > 2 and lines[2].strip().isdigit() else 0
-            self.broken.add(name)
-            self.diagnostics.append(
-                error(
-                    "RMV304",
-                    f"in message definition {name}: the IDL does not parse",
-                    source.span(offset, min(offset + 1, len(text))),
-                    label="cannot read from here",
-                )
-            )
-            return
-        ros1 = self.ros_version == 1
-        for type_name, (consts, fields) in types.items():
-            converted = {
-                f: _rosbags_type(kind, detail, Nodetype, ros1) for f, (kind, detail) in fields
-            }
-            constants = {c: (str(t), repr(v)) for c, t, v in consts}
-            self.custom.setdefault(type_name, MessageDef(type_name, converted, constants, path))
+# ---- reading folders, cached by modification time ----
+# An editor checks at every keystroke; a sourced ROS workspace holds hundreds of
+# packages. Files are parsed again only when their size or modification time
+# changed, folders listed again only when one of them changed.
 
-    def _read(self, name: str, path: str) -> SourceFile | None:
-        try:
-            with open(path, encoding="utf-8") as handle:
-                text = handle.read()
-        except (OSError, UnicodeDecodeError) as exc:
-            source = self.sources.add(SourceFile(path, ""))
-            self.diagnostics.append(
-                error("RMV304", f"cannot read message definition {name}: {exc}", source.span(0, 0))
-            )
-            self.broken.add(name)
-            return None
-        return self.sources.add(SourceFile(path, text))
 
-    def _add_file(self, name: str, path: str) -> None:
-        source = self._read(name, path)
-        if source is None:
-            return
-        definition, problems = parse_msg(source, name)
-        self.diagnostics.extend(problems)
-        if definition is None:
-            self.broken.add(name)
-        else:
-            self.custom[name] = definition
+@dataclass(frozen=True)
+class _FileRead:
+    source: SourceFile | None
+    definitions: dict[str, MessageDef]
+    diagnostics: tuple[Diagnostic, ...] = ()
+    broken: bool = False
+
+
+_FILES: dict[tuple[str, str, bool], tuple[tuple[int, int], _FileRead]] = {}
+_LISTINGS: dict[str, tuple[tuple[tuple[str, int], ...], list[tuple[str, str]]]] = {}
+_CACHE_LOCK = threading.Lock()
+
+
+def _stamp(path: str) -> tuple[int, int]:
+    try:
+        status = os.stat(path)
+    except OSError:
+        return (-1, -1)
+    return (status.st_mtime_ns, status.st_size)
+
+
+def _read_definitions(name: str, path: str, ros1: bool) -> _FileRead:
+    key, stamp = (path, name, ros1), _stamp(path)
+    with _CACHE_LOCK:
+        cached = _FILES.get(key)
+    if cached is not None and cached[0] == stamp and stamp != (-1, -1):
+        return cached[1]
+    read = _read_idl(name, path, ros1) if path.endswith(".idl") else _read_msg(name, path)
+    with _CACHE_LOCK:
+        _FILES[key] = (stamp, read)
+    return read
+
+
+def _listed_files(folder: str) -> list[tuple[str, str]]:
+    """`_msg_files(folder)`, listed again only when a folder it read changed."""
+    with _CACHE_LOCK:
+        cached = _LISTINGS.get(folder)
+    if cached is not None and all(_stamp(d)[0] == mtime for d, mtime in cached[0]):
+        return cached[1]
+    files = list(_msg_files(folder))
+    seen = {folder, *(os.path.dirname(path) for _, path in files)}
+    with contextlib.suppress(OSError):
+        seen |= {os.path.join(folder, entry) for entry in os.listdir(folder)}
+    stamps = tuple((d, _stamp(d)[0]) for d in sorted(seen) if os.path.isdir(d))
+    with _CACHE_LOCK:
+        _LISTINGS[folder] = (stamps, files)
+    return files
+
+
+def _read_source(name: str, path: str) -> SourceFile | _FileRead:
+    try:
+        with open(path, encoding="utf-8") as handle:
+            return SourceFile(path, handle.read())
+    except (OSError, UnicodeDecodeError) as exc:
+        source = SourceFile(path, "")
+        why = f"cannot read message definition {name}: {exc}"
+        problem = error("RMV304", why, source.span(0, 0))
+        return _FileRead(source, {}, (problem,), broken=True)
+
+
+def _read_msg(name: str, path: str) -> _FileRead:
+    source = _read_source(name, path)
+    if isinstance(source, _FileRead):
+        return source
+    definition, problems = parse_msg(source, name)
+    if definition is None:
+        return _FileRead(source, {}, tuple(problems), broken=True)
+    return _FileRead(source, {name: definition}, tuple(problems))
+
+
+def _read_idl(name: str, path: str, ros1: bool) -> _FileRead:
+    """A ROS 2 .idl file, read by rosbags; its errors come with an offset."""
+    from rosbags.typesys import get_types_from_idl
+    from rosbags.typesys.base import Nodetype
+
+    source = _read_source(name, path)
+    if isinstance(source, _FileRead):
+        return source
+    text = source.text
+    try:
+        types = get_types_from_idl(text)
+    except Exception as exc:  # rosbags raises its TypesysError, with the offset in it
+        lines = str(exc).splitlines()
+        offset = int(lines[2]) if len(lines) > 2 and lines[2].strip().isdigit() else 0
+        problem = error(
+            "RMV304",
+            f"in message definition {name}: the IDL does not parse",
+            source.span(offset, min(offset + 1, len(text))),
+            label="cannot read from here",
+        )
+        return _FileRead(source, {}, (problem,), broken=True)
+    definitions = {}
+    for type_name, (consts, fields) in types.items():
+        converted = {f: _rosbags_type(kind, detail, Nodetype, ros1) for f, (kind, detail) in fields}
+        constants = {c: (str(t), repr(v)) for c, t, v in consts}
+        definitions[type_name] = MessageDef(type_name, converted, constants, path)
+    return _FileRead(source, definitions)

@@ -21,12 +21,13 @@ from rmvdsl.check.model import (
     Symbol,
 )
 from rmvdsl.check.rosnames import message_type_problem
-from rmvdsl.diagnostics import Diagnostic, Label, did_you_mean, error, warning
+from rmvdsl.check.whitelists import check_whitelist_agreement, topic_of
+from rmvdsl.diagnostics import Diagnostic, Fix, Label, did_you_mean, error, warning
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
 from rmvdsl.grammar.parser import reserved_names
 from rmvdsl.logic.validate import check_formula
-from rmvdsl.source import SourceMap
+from rmvdsl.source import SourceMap, Span
 
 ARRAY_AGGREGATES = tuple(builtins.ARRAY_AGGREGATES)
 TIME_UNIT_NAMES = tuple(fm.TIME_UNITS)  # ns, us, ms, s, m, h, d, w
@@ -57,6 +58,7 @@ class NameChecker(ActionChecks, EventChecks):
             self.check_decl(decl)
         self.check_event_cycles()
         self.check_whitelist_duplicates()
+        self.diagnostics += check_whitelist_agreement(self.model)
         self.report_unused()
         return self.model, self.diagnostics
 
@@ -444,8 +446,20 @@ class NameChecker(ActionChecks, EventChecks):
                 ident.span,
                 label="not in this transducer's `states`",
                 help=did_you_mean(ident.name, own) or f"add `{ident.name}` to `states`",
+                fixes=self.state_added(decl, ident.name) if other is None else (),
             )
         )
+
+    @staticmethod
+    def state_added(decl: ast.TransducerDecl, name: str) -> tuple[Fix, ...]:
+        """The edit adding a state after the last of `states` (when the name is no
+        near miss of one: then `did you mean` is the fix)."""
+        own = [s.name for s in decl.states]
+        if not decl.states or did_you_mean(name, own):
+            return ()
+        last = decl.states[-1].span
+        title = f"Add `{name}` to the states of `{decl.name.name}`"
+        return (Fix(title, Span(last.path, last.end, last.end), f", {name}"),)
 
     def check_property(self, decl: ast.PropertyDecl) -> None:
         formula = decl.formula
@@ -509,10 +523,7 @@ class NameChecker(ActionChecks, EventChecks):
                 )
 
     def whitelist_topic(self, decl: ast.WhitelistDecl) -> str:
-        if isinstance(decl.target, ast.Ident):
-            topic = self.model.topics.get(decl.target.name)
-            return topic.path.value if topic else decl.target.name
-        return decl.target.value
+        return topic_of(self.model, decl)
 
     # ---- unused declarations ----
 

@@ -144,6 +144,30 @@ def keywords() -> frozenset[str]:
     )
 
 
+def accepted_words(text: str, start: int, offset: int) -> tuple[frozenset[str], bool] | None:
+    """What the grammar accepts at `offset` of a declaration starting at `start`:
+    its keywords, and whether a name may stand there. None when the text before
+    `offset` has a syntax error (nothing can be said from the tables then). A
+    declaration may also end there: the top-level words count as accepted then."""
+    parser = _recognizer()
+    interactive = parser.parse_interactive(text[start:offset], start="start")
+    try:
+        interactive.exhaust_lexer()
+    except (UnexpectedInput, UnexpectedCharacters):
+        return None
+    accepted = set(interactive.accepts())
+    words = {
+        terminal.pattern.value
+        for terminal in parser.terminals
+        if terminal.name in accepted
+        and isinstance(terminal.pattern, PatternStr)
+        and terminal.pattern.value.isidentifier()
+    }
+    if "$END" in accepted:
+        words |= TOP_LEVEL_KEYWORDS
+    return frozenset(words), "NAME" in accepted
+
+
 @functools.cache
 def reserved_names() -> frozenset[str]:
     """Words that cannot stand for a name inside an expression or a formula (`and`,

@@ -9,8 +9,9 @@ from pathlib import Path
 from lsprotocol import types
 from pygls.workspace import TextDocument
 
-from rmvdsl.diagnostics import Diagnostic, Severity
+from rmvdsl.diagnostics import Diagnostic, Severity, fixes_of
 from rmvdsl.source import SourceFile, SourceMap, Span
+from rmvdsl.workspace import TOKEN_TYPES, Token
 
 SEVERITY = {
     Severity.ERROR: types.DiagnosticSeverity.Error,
@@ -73,6 +74,12 @@ def diagnostic(found: Diagnostic, sources: SourceMap, encoding: str) -> types.Di
     description = None
     if _EXPLANATIONS.exists():
         description = types.CodeDescription(href=f"{_EXPLANATIONS.as_uri()}#{found.code.lower()}")
+    fixes = [
+        {"title": fix.title, "uri": uri_of(fix.span.path),
+         "range": _json_range(lsp_range(fix_source, fix.span, encoding)), "newText": fix.text}
+        for fix in fixes_of(found)
+        if (fix_source := sources.get(fix.span.path)) is not None
+    ]  # fmt: skip
     return types.Diagnostic(
         range=lsp_range(source, found.span, encoding),
         message=message,
@@ -81,8 +88,53 @@ def diagnostic(found: Diagnostic, sources: SourceMap, encoding: str) -> types.Di
         code_description=description,
         source="rmv",
         related_information=related or None,
+        data={"fixes": fixes} if fixes else None,
     )
+
+
+def _json_range(where: types.Range) -> dict[str, dict[str, int]]:
+    # `data` travels as plain JSON and comes back in a code action request.
+    return {
+        "start": {"line": where.start.line, "character": where.start.character},
+        "end": {"line": where.end.line, "character": where.end.character},
+    }
+
+
+def edits_of(found: types.Diagnostic) -> list[tuple[str, str, types.TextEdit]]:
+    """The fixes a published diagnostic carries: (title, uri, edit) each."""
+    data = found.data if isinstance(found.data, dict) else {}
+    out = []
+    for fix in data.get("fixes", ()):
+        try:
+            start, end = fix["range"]["start"], fix["range"]["end"]
+            where = types.Range(
+                types.Position(start["line"], start["character"]),
+                types.Position(end["line"], end["character"]),
+            )
+            out.append((str(fix["title"]), str(fix["uri"]), types.TextEdit(where, fix["newText"])))
+        except (KeyError, TypeError):
+            continue  # not ours, or changed by the client: no fix offered
+    return out
 
 
 def uri_of(path: str) -> str:
     return Path(path).resolve().as_uri()
+
+
+def token_data(source: SourceFile, tokens: list[Token], encoding: str) -> list[int]:
+    """Semantic tokens as LSP encodes them: five integers each (line and start as
+    deltas from the previous token, length, type, modifiers), one line each."""
+    data: list[int] = []
+    line = character = 0
+    for token in tokens:
+        where = lsp_range(source, token.span, encoding)
+        if where.start.line != where.end.line:
+            continue
+        start = where.start
+        delta_line = start.line - line
+        delta_start = start.character - character if delta_line == 0 else start.character
+        kind = TOKEN_TYPES.index(token.type)
+        length = where.end.character - start.character
+        data += [delta_line, delta_start, length, kind, 1 if token.declaration else 0]
+        line, character = start.line, start.character
+    return data

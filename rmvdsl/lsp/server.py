@@ -22,17 +22,19 @@ from pygls.workspace import TextDocument
 from rmvdsl import __version__
 from rmvdsl.check.model import Kind, Model, Symbol
 from rmvdsl.lsp import convert
+from rmvdsl.mentions import Mention, describe, mention_at, mentions, same
 from rmvdsl.source import Span
 from rmvdsl.workspace import (
+    TOKEN_TYPES,
     CheckResult,
     Workspace,
     completions,
     details,
     folds,
     formatted,
-    quick_fix,
     references,
     rename,
+    semantic_tokens,
     symbol_at,
 )
 
@@ -42,6 +44,9 @@ COMPLETION_KINDS = {
     "function": types.CompletionItemKind.Function,
     "setting": types.CompletionItemKind.Property,
     "value": types.CompletionItemKind.EnumMember,
+    "message": types.CompletionItemKind.Struct,
+    "field": types.CompletionItemKind.Field,
+    "constant": types.CompletionItemKind.Constant,
     Kind.TOPIC.value: types.CompletionItemKind.Interface,
     Kind.VARIABLE.value: types.CompletionItemKind.Variable,
     Kind.VALUE_EVENT.value: types.CompletionItemKind.Event,
@@ -75,6 +80,7 @@ class State:
     results: dict[str, CheckResult] = field(default_factory=dict)
     pool: ThreadPoolExecutor = field(default_factory=lambda: ThreadPoolExecutor(2))
     published: dict[str, set[str]] = field(default_factory=dict)  # root -> paths shown
+    mentions: dict[str, tuple[CheckResult, list[Mention]]] = field(default_factory=dict)
 
 
 class RmvServer(LanguageServer):
@@ -143,7 +149,8 @@ class RmvServer(LanguageServer):
             convert.uri_of(span.path), convert.lsp_range(source, span, self.encoding)
         )
 
-    def found_at(self, uri: str, position: types.Position) -> tuple[Model, Symbol] | None:
+    def checked(self, uri: str) -> CheckResult | None:
+        """The newest check of a document, if it checked the text shown now."""
         document = self.document(uri)
         result = self.state.results.get(document.path)
         if result is None:
@@ -151,9 +158,43 @@ class RmvServer(LanguageServer):
         source = result.model.sources.get(document.path)
         if source is None or source.text != document.source:
             return None  # a check of this text has not finished yet
+        return result
+
+    def mentions_of(self, result: CheckResult) -> list[Mention]:
+        """The mentions of a check, found once per check of its root file."""
+        root = result.model.specs[0].path if result.model.specs else ""
+        cached = self.state.mentions.get(root)
+        if cached is None or cached[0] is not result:
+            cached = self.state.mentions[root] = (result, mentions(result))
+        return cached[1]
+
+    def target_at(self, uri: str, position: types.Position) -> Target | None:
+        """The symbol or the mention at a position of a checked document."""
+        result = self.checked(uri)
+        if result is None:
+            return None
+        document = self.document(uri)
         offset = convert.offset_at(document, position)
         found = symbol_at(result.model, document.path, offset)
-        return None if found is None else (result.model, found.symbol)
+        if found is not None:
+            return Target(result, found.symbol, None)
+        mention = mention_at(self.mentions_of(result), document.path, offset)
+        return None if mention is None else Target(result, None, mention)
+
+    def found_at(self, uri: str, position: types.Position) -> tuple[Model, Symbol] | None:
+        target = self.target_at(uri, position)
+        if target is None or target.symbol is None:
+            return None
+        return target.result.model, target.symbol
+
+
+@dataclass(frozen=True)
+class Target:
+    """What a request points at: a declared name or another mention."""
+
+    result: CheckResult
+    symbol: Symbol | None
+    mention: Mention | None
 
 
 def build() -> RmvServer:
@@ -185,28 +226,43 @@ def build() -> RmvServer:
 
     @server.feature(types.TEXT_DOCUMENT_HOVER)
     def hover(ls: RmvServer, params: types.HoverParams) -> types.Hover | None:
-        found = ls.found_at(params.text_document.uri, params.position)
-        if found is None:
+        target = ls.target_at(params.text_document.uri, params.position)
+        if target is None:
             return None
-        model, symbol = found
-        result = ls.state.results[ls.document(params.text_document.uri).path]
-        text = hover_text(model, symbol, details(result, symbol))
+        result, symbol = target.result, target.symbol
+        if symbol is not None:
+            text = hover_text(result.model, symbol, details(result, symbol))
+        else:
+            assert target.mention is not None
+            text = describe(result, target.mention)
         return types.Hover(contents=types.MarkupContent(types.MarkupKind.Markdown, text))
 
     @server.feature(types.TEXT_DOCUMENT_DEFINITION)
     def definition(ls: RmvServer, params: types.DefinitionParams) -> types.Location | None:
-        found = ls.found_at(params.text_document.uri, params.position)
-        if found is None:
+        target = ls.target_at(params.text_document.uri, params.position)
+        if target is None:
             return None
-        return ls.location(found[0], found[1].span)
+        model = target.result.model
+        if target.symbol is not None:
+            return ls.location(model, target.symbol.span)
+        where = target.mention.target if target.mention is not None else None
+        return None if where is None else ls.location(model, where)
 
     @server.feature(types.TEXT_DOCUMENT_REFERENCES)
     def find_references(ls: RmvServer, params: types.ReferenceParams) -> list[types.Location]:
-        found = ls.found_at(params.text_document.uri, params.position)
-        if found is None:
+        target = ls.target_at(params.text_document.uri, params.position)
+        if target is None:
             return []
-        model, symbol = found
-        spans = references(model, symbol, params.context.include_declaration)
+        model, declared = target.result.model, params.context.include_declaration
+        if target.symbol is not None:
+            spans = references(model, target.symbol, declared)
+        else:
+            assert target.mention is not None
+            alike = same(ls.mentions_of(target.result), target.mention)
+            spans = [m.span for m in alike if not m.declares]
+            where = target.mention.target
+            if declared and where is not None and where not in spans:
+                spans.insert(0, where)
         return [location for span in spans if (location := ls.location(model, span))]
 
     @server.feature(types.TEXT_DOCUMENT_DOCUMENT_SYMBOL)
@@ -225,9 +281,7 @@ def build() -> RmvServer:
     def complete(ls: RmvServer, params: types.CompletionParams) -> types.CompletionList:
         document = ls.document(params.text_document.uri)
         result = ls.state.results.get(document.path)
-        where = document.position_codec.position_from_client_units(document.lines, params.position)
-        offset = sum(len(line) for line in document.lines[: where.line]) + where.character
-        model = result.model if result is not None else None
+        offset = convert.offset_at(document, params.position)
         items = [
             types.CompletionItem(
                 label=c.label,
@@ -235,7 +289,7 @@ def build() -> RmvServer:
                 detail=c.detail,
                 documentation=c.doc or None,
             )
-            for c in completions(model, document.source, offset)
+            for c in completions(result, document.source, offset)
         ]
         return types.CompletionList(is_incomplete=False, items=items)
 
@@ -262,23 +316,34 @@ def build() -> RmvServer:
         types.CodeActionOptions(code_action_kinds=[types.CodeActionKind.QuickFix]),
     )
     def code_actions(ls: RmvServer, params: types.CodeActionParams) -> list[types.CodeAction]:
-        """A quick fix for each diagnostic in the range whose help names the fix."""
+        """The fixes of the diagnostics in the range (each says what its help says)."""
         actions = []
         for found in params.context.diagnostics:
-            replacement = quick_fix(found.message)
-            if replacement is None:
-                continue
-            edit = types.TextEdit(range=found.range, new_text=replacement)
-            actions.append(
-                types.CodeAction(
-                    title=f"Replace with `{replacement}`",
-                    kind=types.CodeActionKind.QuickFix,
-                    diagnostics=[found],
-                    edit=types.WorkspaceEdit(changes={params.text_document.uri: [edit]}),
-                    is_preferred=True,
+            for title, uri, edit in convert.edits_of(found):
+                actions.append(
+                    types.CodeAction(
+                        title=title,
+                        kind=types.CodeActionKind.QuickFix,
+                        diagnostics=[found],
+                        edit=types.WorkspaceEdit(changes={uri: [edit]}),
+                        is_preferred=True,
+                    )
                 )
-            )
         return actions
+
+    @server.feature(
+        types.TEXT_DOCUMENT_SEMANTIC_TOKENS_FULL,
+        types.SemanticTokensLegend(token_types=list(TOKEN_TYPES), token_modifiers=["declaration"]),
+    )
+    def tokens(ls: RmvServer, params: types.SemanticTokensParams) -> types.SemanticTokens:
+        result = ls.checked(params.text_document.uri)
+        if result is None:
+            return types.SemanticTokens(data=[])
+        path = ls.document(params.text_document.uri).path
+        found = semantic_tokens(result, path, ls.mentions_of(result))
+        source = result.model.sources.get(path)
+        assert source is not None  # checked() says the check read this text
+        return types.SemanticTokens(data=convert.token_data(source, found, ls.encoding))
 
     @server.feature(types.TEXT_DOCUMENT_FOLDING_RANGE)
     def folding(ls: RmvServer, params: types.FoldingRangeParams) -> list[types.FoldingRange]:
