@@ -42,7 +42,7 @@ from rmvdsl.cache import use_cache
 from rmvdsl.check import check
 from rmvdsl.grammar.parser import parse_formula
 from rmvdsl.logic.compile import compile_formula
-from rmvdsl.logic.sat import Cache, satisfiable, valid
+from rmvdsl.logic.sat import UNKNOWN, Cache, satisfiable, valid
 
 FAMILIES = {
     "until family": r"\always_{<B}(a \lor b) \until_{<B} r",
@@ -111,9 +111,9 @@ class Unrolled:
         return z3.Or(*options) if options else z3.BoolVal(False)
 
 
-def unrolled(formula: Any, negate: bool, limit: float) -> float | None:
-    """Seconds to decide the formula (or its negation) by unrolling; None if over
-    the limit."""
+def unrolled(formula: Any, negate: bool, limit: float) -> tuple[float, bool] | None:
+    """Seconds to decide the formula (or its negation) by unrolling, and whether it
+    is satisfiable; None if over the limit."""
     started = time.perf_counter()
     encoding = Unrolled(started + limit)
     try:
@@ -123,9 +123,16 @@ def unrolled(formula: Any, negate: bool, limit: float) -> float | None:
     solver = z3.Solver()
     solver.set("timeout", max(1, int((limit - (time.perf_counter() - started)) * 1000)))
     solver.add(z3.Not(goal) if negate else goal)
-    if solver.check() == z3.unknown:
+    answer = solver.check()
+    if answer == z3.unknown:
         return None
-    return time.perf_counter() - started
+    return time.perf_counter() - started, answer == z3.sat
+
+
+def agrees(ours: str, theirs: bool | None) -> bool:
+    """Whether two decided answers agree (an undecided one agrees with anything:
+    it is reported, not compared)."""
+    return ours == "unknown" or theirs is None or (ours == "yes") == theirs
 
 
 # ---- requirement sets ----
@@ -181,6 +188,7 @@ def main() -> None:
     use_cache(None)
     out: dict[str, Any] = {"families": [], "sets": []}
     print("family               b      sat  valid   ours (s)  unrolled (s)  unrolled/ours")
+    disagreements = []
     for name, template in {**FAMILIES, **HARDER}.items():
         over = False
         for bound in BOUNDS:
@@ -188,13 +196,23 @@ def main() -> None:
             ours_sat, sat = timed(lambda f=formula: satisfiable([f], cache=Cache()))
             ours_valid, validity = timed(lambda f=formula: valid(f, cache=Cache()))
             ours = ours_sat + ours_valid
-            base = None
+            base, base_sat, base_valid = None, None, None
             if not over:
                 first = unrolled(formula, False, args.baseline_limit)
                 second = unrolled(formula, True, args.baseline_limit)
-                base = None if first is None or second is None else first + second
+                if first is not None and second is not None:
+                    base, base_sat, base_valid = first[0] + second[0], first[1], not second[1]
                 over = base is None
-            ratio = f"{base / ours:13.1f}x" if base else "  (over limit)"
+            # The baseline's verdicts are checked before any speed is compared: the
+            # families' bounds are whole time units, where discrete and dense time
+            # agree on them.
+            if not (agrees(sat.value, base_sat) and agrees(validity.value, base_valid)):
+                disagreements.append((name, bound, sat.value, validity.value, base_sat, base_valid))
+            decided = UNKNOWN not in (sat.value, validity.value)
+            if base and decided:
+                ratio = f"{base / ours:13.1f}x"
+            else:
+                ratio = "  (over limit)" if not base else "  (ours unknown)"
             shown = f"{base:12.3f}" if base else f"{'>' + str(args.baseline_limit):>12}"
             print(
                 f"{name:18} {bound:5}  {sat.value:>5}  {validity.value:>5}  {ours:9.3f}"
@@ -208,8 +226,12 @@ def main() -> None:
                     "valid": validity.value,
                     "seconds": ours,
                     "unrolled_seconds": base,
+                    "unrolled_sat": base_sat,
+                    "unrolled_valid": base_valid,
                 }
             )
+    if disagreements:
+        raise SystemExit(f"the answers differ from the baseline's: {disagreements}")
     print("\nrequirements  together  consistency (s)  rmv check (s)  diagnostics")
     for count in (10, 20, 30, 40):
         rules = requirements(count)

@@ -413,24 +413,19 @@ async def test_field_paths_message_types_and_policies(client: LanguageClient, tm
     policy = await definition("raw\n        into")
     assert policy.uri == uri and policy.range.start == _at(MENTIONS, "raw {", 0)
 
-    references = await client.text_document_references_async(
-        types.ReferenceParams(
-            text_document=document,
-            position=_at(MENTIONS, "wheel.speed"),
-            context=types.ReferenceContext(include_declaration=False),
+    async def reference_lines(needle: str, declared: bool) -> list[int]:
+        answer = await client.text_document_references_async(
+            types.ReferenceParams(
+                text_document=document,
+                position=_at(MENTIONS, needle),
+                context=types.ReferenceContext(include_declaration=declared),
+            )
         )
-    )
-    assert references is not None
-    assert sorted(r.range.start.line for r in references) == [15, 16]
-    with_declaration = await client.text_document_references_async(
-        types.ReferenceParams(
-            text_document=document,
-            position=_at(MENTIONS, "archive\n"),
-            context=types.ReferenceContext(include_declaration=True),
-        )
-    )
-    assert with_declaration is not None
-    assert sorted(r.range.start.line for r in with_declaration) == [5, 8]
+        assert answer is not None
+        return sorted(r.range.start.line for r in answer)
+
+    assert await reference_lines("wheel.speed", False) == [15, 16]
+    assert await reference_lines("archive\n", True) == [5, 8]
 
     hover = await client.text_document_hover_async(
         types.HoverParams(document, _at(MENTIONS, "demo_msgs/Status"))
