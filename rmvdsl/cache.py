@@ -62,6 +62,23 @@ class Cache:
             pass
 
 
+@dataclass
+class Layered(Cache):
+    """Answers known for one check (those not to keep, such as answers a time limit
+    cut short) over the cache that keeps the rest: reads look here first, writes
+    go below."""
+
+    below: Cache = field(default_factory=Cache)
+
+    def get(self, key: str) -> dict[str, Any] | None:
+        if key in self.memory:
+            return self.memory[key]
+        return self.below.get(key)
+
+    def put(self, key: str, value: dict[str, Any]) -> None:
+        self.below.put(key, value)
+
+
 def digest(*parts: object) -> str:
     """A key for a question: its parts as text, hashed."""
     return hashlib.sha256(repr(parts).encode()).hexdigest()[:32]

@@ -79,6 +79,13 @@ exit codes: 0 no errors, 1 errors (or warnings with --strict), 2 usage or I/O pr
         "`solver_timeout` in rmv.toml)",
     )
     check_parser.add_argument(
+        "--jobs",
+        type=_jobs,
+        metavar="N",
+        help="processes answering independent solver questions at once (default: one a "
+        "core, or `solver_jobs` in rmv.toml; 1: none beside rmv)",
+    )
+    check_parser.add_argument(
         "--witnesses",
         metavar="DIR",
         help="write, for each property, a trace where it holds and one where it fails "
@@ -499,7 +506,11 @@ def _check(args: argparse.Namespace) -> int:
     for path in args.files:
         try:
             result = workspace.check(
-                path, ros=args.ros, messages=tuple(args.messages), solver_timeout=args.timeout
+                path,
+                ros=args.ros,
+                messages=tuple(args.messages),
+                solver_timeout=args.timeout,
+                solver_jobs=args.jobs,
             )
         except UsageError as exc:
             print(f"rmv: error: {exc}", file=sys.stderr)
@@ -641,6 +652,17 @@ def _absent_names(compiled: object, trace: TraceFile) -> list[str]:
         hint = did_you_mean(name, seen)
         notes.append(f"`{name}` holds in no sample of the trace" + (f" ({hint})" if hint else ""))
     return notes
+
+
+def _jobs(text: str) -> int:
+    """A --jobs: a whole number of processes, 1 to 1024."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if not 1 <= value <= 1024:
+        raise argparse.ArgumentTypeError(f"must be 1 to 1024, not {value}")
+    return value
 
 
 def _seconds(text: str) -> float:

@@ -363,6 +363,7 @@ exist. Paths in a spec are relative to the spec's folder.""",
     messages = ["msg", "../other_ws/src"]
     solver_timeout = 10     # seconds per solver call on the properties
     solver_effort = 500000  # z3's resource limit per call (the same on every machine)
+    solver_jobs = 4         # processes answering solver questions at once (one a core)
 
 (optionally under a `[rmv]` table); folders are relative to the file.""",
     ),
@@ -374,7 +375,8 @@ would otherwise be ignored without a word.
 
     solver_timout = 10    // RMV308: did you mean `solver_timeout`?
 
-The keys are `ros`, `messages`, `solver_timeout` and `solver_effort`.""",
+The keys are `ros`, `messages`, `solver_timeout`, `solver_effort` and
+`solver_jobs`.""",
     ),
     (
         "RMV310",

@@ -71,3 +71,24 @@ def test_the_cache_is_used_and_bounded():
     _parse(str(spec), "\n" + text)  # every declaration moved by one character
     assert len(parsing._CHUNK_CACHE) <= size + 1  # the first chunk grew; all others reused
     assert parsing._CHUNK_CACHE_SIZE >= 10_000
+
+
+def test_a_file_larger_than_the_cache_keeps_its_own_chunks(monkeypatch):
+    """The bound grows to twice the chunks of the largest file parsed: a file of
+    more declarations than the cache holds is not parsed from scratch each time."""
+    monkeypatch.setattr(parsing, "_chunks_kept", 10)
+    text = "".join(f'topic T{i}: std_msgs/msg/Bool = "/t{i}"\n' for i in range(60))
+    parses = []
+    original = parsing._ChunkParser.parse
+
+    def counting(self):
+        parses.append(self)
+        return original(self)
+
+    monkeypatch.setattr(parsing._ChunkParser, "parse", counting)
+    parsing._CHUNK_CACHE.clear()
+    _parse("big.rmv", text)
+    first = len(parses)
+    assert first >= 60
+    _parse("big.rmv", "\n" + text)
+    assert len(parses) - first <= 1  # only the chunk that changed

@@ -570,3 +570,21 @@ def test_a_topic_timed_by_its_header_stamp(tmp_path):
         (Fraction("12.5"), "Stopped"),
     ]
     assert states(text)[1:3] == [(Fraction("17.1"), "HardBraking"), (Fraction("19.5"), "Stopped")]
+
+
+def test_a_host_orders_stamped_messages_by_the_time_the_runtime_gives_them(tmp_path):
+    """`time_of`: a `time = header` topic's message takes its stamp, another its
+    receipt time; the ROS 2 node sorts what its executor took by it, so that two
+    readers taken in the executor's order never make a stamp late."""
+    from rmvdsl.runtime.engine import Runtime
+
+    path = tmp_path / "stamped.rmv"
+    stamped = LATE.replace('"/t"', '"/t" qos { time = header }').replace(
+        "std_msgs/msg/Float64", "geometry_msgs/msg/PointStamped"
+    ).replace("t.data", "t.point.x")
+    path.write_text(stamped + 'topic u: std_msgs/msg/Float64 = "/u"\n', encoding="utf-8")
+    runtime = Runtime(lower(check(str(path), use_environment=False)))
+    message = {"header": {"stamp": {"sec": 3, "nanosec": 5}}, "point": {"x": 1.0}}
+    assert runtime.time_of(9, "/t", message) == 3 * 10**9 + 5
+    assert runtime.time_of(9, "/u", {"data": 1.0}) == 9
+    assert runtime.time_of(9, "/t", {"point": {"x": 1.0}}) == 9  # no stamp: `message` reports it

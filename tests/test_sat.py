@@ -208,6 +208,24 @@ def test_upstream_scaling_families_are_decided_exactly(bound):
         assert valid(formula, cache=Cache()).value == validity
 
 
+@pytest.mark.parametrize("bound", [20, 100, 1000])
+def test_the_alternation_family_is_decided_exactly(bound):
+    """`always[<b](eventually[<=1] a and eventually[<=1] not a)` needs about 2b
+    changes, past the segment searches: a periodic witness decides it, which the
+    reference evaluator confirms (where it is fast enough: b = 20)."""
+    text = rf"\always_{{<{bound}}} (\eventually_{{<=1}} a \land \eventually_{{<=1}} \neg a)"
+    node, _ = parse_formula(text, "latex", "<f>", "formula")
+    formula = compile_formula(node)
+    answer = satisfiable([formula], cache=Cache())
+    assert (answer.value, answer.exact) == (YES, True)
+    witness = answer.witness
+    assert witness is not None and len(witness.times) >= bound
+    if bound == 20:
+        trace = Trace(list(witness.times), list(witness.states), witness.end)
+        assert Reference(trace).value(formula, witness.at) == TRUE
+    assert valid(formula, cache=Cache()).value == NO
+
+
 def test_system_constraints_shape_the_answers():
     machine = Machine(
         "M", ("Idle", "Busy", "Done"), "Idle", frozenset({("Idle", "Busy"), ("Busy", "Done")})

@@ -72,6 +72,7 @@ def check(
     solver_timeout: float | None = None,
     read: Reader = read_text,
     solver: bool = True,
+    solver_jobs: int | None = None,
 ) -> CheckResult:
     """Check the spec at `path` (its text may be given, as the editor does).
 
@@ -82,10 +83,12 @@ def check(
     `ros` and `messages` come from the command line and win over the spec's own
     `ros` and `messages` declarations, which win over an rmv.toml beside the spec.
     `solver_timeout` (seconds per solver call on the properties) wins over the
-    `solver_timeout` of rmv.toml (docs/verification.md).
+    `solver_timeout` of rmv.toml (docs/verification.md); `solver_jobs` (processes
+    answering independent solver questions at once) over its `solver_jobs`.
     Raises UsageError only when the root file itself cannot be read. Runs on a deep
     stack (rmvdsl.deep): a generated spec's formulas can nest 100,000 levels."""
-    return deep(_check, path, text, ros, messages, use_environment, solver_timeout, read, solver)
+    options = (ros, messages, use_environment, solver_timeout, read, solver, solver_jobs)
+    return deep(_check, path, text, *options)
 
 
 def _check(
@@ -97,6 +100,7 @@ def _check(
     solver_timeout: float | None,
     read: Reader,
     solver: bool,
+    solver_jobs: int | None,
 ) -> CheckResult:
     loaded = load(path, text, read)
     model, name_diagnostics = check_names(
@@ -105,7 +109,7 @@ def _check(
     # Paths stay as the user wrote them (relative stays relative) in diagnostics.
     folder = os.path.dirname(path) or "."
     file_config, config_diagnostics = read_config(folder, model)
-    limits = file_config.limits(solver_timeout)
+    limits = file_config.limits(solver_timeout, solver_jobs)
     config = TypeConfig(
         ros=ros or (None if model.ros else file_config.ros),
         messages=(*messages, *file_config.messages),
@@ -168,12 +172,15 @@ class FileConfig:
     messages: tuple[str, ...] = ()
     solver_timeout: float | None = None  # seconds per solver call
     solver_effort: int | None = None  # z3's resource limit: the same on every machine
+    solver_jobs: int | None = None  # processes answering solver questions at once
 
-    def limits(self, timeout: float | None) -> Limits:
+    def limits(self, timeout: float | None, jobs: int | None = None) -> Limits:
         from rmvdsl.logic.sat import Limits
 
         return Limits(
-            timeout=timeout or self.solver_timeout or Limits.timeout, effort=self.solver_effort
+            timeout=timeout or self.solver_timeout or Limits.timeout,
+            effort=self.solver_effort,
+            jobs=jobs or self.solver_jobs,
         )
 
 
@@ -225,6 +232,10 @@ _CONFIG_KEYS: dict[str, tuple[Callable[[object], bool], str]] = {
         lambda v: not isinstance(v, bool) and isinstance(v, int) and v >= 1,
         "a positive whole number",
     ),
+    "solver_jobs": (
+        lambda v: not isinstance(v, bool) and isinstance(v, int) and 1 <= v <= 1024,
+        "a whole number of processes in [1, 1024]",
+    ),
 }
 
 
@@ -271,6 +282,7 @@ def _config_values(
             tuple(os.path.join(folder, f) for f in cast("list[str]", folders)),
             cast("float | None", good.get("solver_timeout")),
             cast("int | None", good.get("solver_effort")),
+            cast("int | None", good.get("solver_jobs")),
         ),
         problems,
     )

@@ -68,10 +68,11 @@ class Analyzer:
         for name in self.model.transducers:
             self.result.transducers[name] = TransducerFacts()
         untaken = self.untaken_transitions(graphs)
+        silent = self.never_emitted()  # once: it reads every transducer
         for name, decl in self.model.transducers.items():
             facts = self.result.transducers[name]
             self.reachability(decl, graphs[name], facts, untaken)
-            self.determinism(decl, facts)
+            self.determinism(decl, facts, silent)
             if decl.complete:
                 self.completeness(decl)
         self.unproduced_inputs()
@@ -124,7 +125,8 @@ class Analyzer:
             self._unsat[name] = bool(
                 decl is not None
                 and decl.boolean
-                and self.conditions.solve([self.conditions.of_event(name)])[0] == "unsat"
+                and self.conditions.solve([self.conditions.of_event(name)], values=False)[0]
+                == "unsat"
             )
         return self._unsat[name]
 
@@ -180,9 +182,11 @@ class Analyzer:
                     )
                 )
 
-    def determinism(self, decl: ast.TransducerDecl, facts: TransducerFacts) -> None:
+    def determinism(
+        self, decl: ast.TransducerDecl, facts: TransducerFacts, silent: set[str]
+    ) -> None:
+        """`silent`: the emitted events that are never emitted."""
         by_source: dict[str, list[ast.Transition]] = {}
-        silent = self.never_emitted()
         for transition in decl.transitions:
             if transition.input.name in silent:
                 continue  # never taken (RMV502): no choice to make

@@ -63,14 +63,19 @@ class Conditions:
         finally:
             self._inlining.discard(name)
 
-    def solve(self, constraints: list[Any]) -> tuple[str, str]:
+    def solve(self, constraints: list[Any], values: bool = True) -> tuple[str, str]:
         """`solve` of these constraints, with the ranges of the
         variables they mention (only those: a question's cache key and its cost do
-        not grow with the rest of the spec)."""
+        not grow with the rest of the spec). Without `values`, only the verdict."""
         used = _names_in(constraints)
         domains = [c for name in sorted(used & self.domains.keys()) for c in self.domains[name]]
-        symbols = {name: s for name, s in self.symbols.items() if name in used}
-        return solve(constraints, domains, symbols)
+        symbols = {name: self.symbols[name] for name in sorted(used) if name in self.symbols}
+        return solve(constraints, domains, symbols, values)
+
+    def names_of_event(self, name: str) -> set[str]:
+        """The variables and values an event's condition reads (two conditions that
+        share none are independent)."""
+        return _names_in([self.of_event(name)])
 
     def free(self, key: str, kind: str) -> Any:
         """A value of its own, one per key (the same text means the same value)."""
@@ -315,11 +320,13 @@ def _names_in(terms: list[Any]) -> set[str]:
 
 
 def solve(
-    constraints: Iterable[Any], domains: list[Any], symbols: dict[str, Any]
+    constraints: Iterable[Any], domains: list[Any], symbols: dict[str, Any], values: bool = True
 ) -> tuple[str, str]:
     """("sat", the values that make the constraints hold), ("unsat", "") or
     ("unknown", ""). Cached by the constraints' text: re-checking an unchanged spec
-    asks z3 nothing (not even to build a solver)."""
+    asks z3 nothing (not even to build a solver). Without `values` the values are
+    not looked for ("" for "sat"): rounding them costs up to 8 more solver calls a
+    variable."""
     constraints = list(constraints)
     declared = sorted(f"{name}: {symbol.sort()}" for name, symbol in symbols.items())
     terms = [c.sexpr() for c in [*domains, *constraints]]
@@ -327,17 +334,32 @@ def solve(
     cache = default_cache()
     cached = cache.get(key)
     if cached is not None and isinstance(cached.get("answer"), str):
-        return cached["answer"], str(cached.get("values", ""))
-    solver = z3.Solver()
+        known = cached.get("values")
+        if not values or cached["answer"] != "sat" or isinstance(known, str):
+            return cached["answer"], str(known or "")
+    if values:
+        solver = z3.Solver()
+        solver.add(*domains, *constraints)
+    else:
+        # In a context of its own: z3's check slows with every term alive in its
+        # context (0.8 ms beside none, 140 ms beside 100,000), and a large spec's
+        # conditions keep tens of thousands alive. (Reading values from a model
+        # of another context hung in z3's numeral printing: values are read from
+        # the main one, and only a few questions want them.)
+        context = z3.Context()
+        solver = z3.Solver(ctx=context)
+        solver.add(*(term.translate(context) for term in [*domains, *constraints]))
     solver.set("timeout", SOLVER_TIMEOUT_MS)
-    solver.add(*domains, *constraints)
     answer = solver.check()
     if answer == z3.unknown:
         return "unknown", ""  # a time limit: not an answer to keep
-    values = witness(round_values(solver, symbols), symbols) if answer == z3.sat else ""
     result = "sat" if answer == z3.sat else "unsat"
-    cache.put(key, {"answer": result, "values": values})
-    return result, values
+    if answer == z3.sat and not values:
+        cache.put(key, {"answer": result, "values": None})
+        return result, ""
+    found = witness(round_values(solver, symbols), symbols) if answer == z3.sat else ""
+    cache.put(key, {"answer": result, "values": found})
+    return result, found
 
 
 def round_values(solver: Any, symbols: dict[str, Any]) -> Any:

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
-from rmvdsl.cache import Cache
+from rmvdsl.cache import Cache, Layered, default_cache
 from rmvdsl.check.analysis import AnalysisResult
 from rmvdsl.check.conditions import Conditions
 from rmvdsl.check.model import Kind, Model
@@ -27,7 +27,7 @@ from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
 from rmvdsl.grammar.printer import formula as show_formula
 from rmvdsl.logic.compile import CompileError, compile_formula
-from rmvdsl.logic.reference import FALSE, TRUE, Reference, Trace
+from rmvdsl.logic.parallel import Question, answer_all, implied_all
 from rmvdsl.logic.sat import (
     NO,
     UNKNOWN,
@@ -107,13 +107,29 @@ def system_of(
     events = sorted(
         n for n in names if (s := model.symbols.get(n)) is not None and s.kind is Kind.BOOL_EVENT
     )
-    never = {e for e in events if conditions.solve([conditions.of_event(e)])[0] == "unsat"}
+    never = {
+        e for e in events if conditions.solve([conditions.of_event(e)], values=False)[0] == "unsat"
+    }
     exclusive = {
         (a, b)
-        for a, b in itertools.combinations([e for e in events if e not in never], 2)
-        if conditions.solve([conditions.of_event(a), conditions.of_event(b)])[0] == "unsat"
+        for a, b in _sharing([e for e in events if e not in never], conditions)
+        if conditions.solve([conditions.of_event(a), conditions.of_event(b)], values=False)[0]
+        == "unsat"
     }
     return System(tuple(machines), frozenset(exclusive), frozenset(never | unreachable))
+
+
+def _sharing(events: list[str], conditions: Conditions) -> list[tuple[str, str]]:
+    """The pairs of events whose conditions read a common variable, in order: two
+    satisfiable conditions over disjoint variables hold together, so only these
+    pairs can exclude each other (what keeps the question from being quadratic in
+    the events)."""
+    readers: dict[str, list[int]] = {}
+    for index, event in enumerate(events):
+        for name in conditions.names_of_event(event):
+            readers.setdefault(name, []).append(index)
+    pairs = {(i, j) for group in readers.values() for i, j in itertools.combinations(group, 2)}
+    return [(events[i], events[j]) for i, j in sorted(pairs)]
 
 
 class _PropertyAnalyzer:
@@ -128,11 +144,10 @@ class _PropertyAnalyzer:
     ) -> None:
         self.model = model
         self.limits = limits
-        self.cache = cache
+        self.cache = Layered(below=cache if cache is not None else default_cache())
         self.report = PropertyReport()
-        self.pool: list[Witness] = []  # traces found by the joint questions
-        # by id(): the witness is kept beside, so that the id is not reused
-        self.references: dict[int, tuple[Witness, Reference | None]] = {}
+        # traces found by the joint questions, by the group they were asked of
+        self.pool: dict[tuple[str, ...], list[Witness]] = {}
         self.compiled: dict[str, Any] = {}
         # compiled once, by the types stage; absent when it does not compile (reported)
         formulas = types.formulas if types is not None else {}
@@ -149,15 +164,91 @@ class _PropertyAnalyzer:
         self.report.diagnostics.append(diagnostic)
 
     def run(self) -> PropertyReport:
+        """The questions on each property, then on each group of them. Each step's
+        questions are independent of each other: they are answered in parallel
+        first (rmvdsl.logic.parallel), then read in order from the answers."""
+        self.prefetch([self.single_questions(name, f) for name, f in self.compiled.items()])
         consistent_candidates = []
         for name, f in self.compiled.items():
             facts = PropertyFacts(f)
             self.report.facts[name] = facts
             if self.single(name, f, facts):
                 consistent_candidates.append(name)
-        if len(consistent_candidates) > 1 and self.together(consistent_candidates):
-            self.redundancy(consistent_candidates)
+        groups = [g for g in self.groups(consistent_candidates) if len(g) > 1]
+        self.prefetch([[([self.compiled[n] for n in g], self.system)] for g in groups])
+        self.redundancy([g for g in groups if self.together(g)])
         return self.report
+
+    def prefetch(self, batches: list[list[Question]]) -> None:
+        """Answer these questions in parallel; the answers a time limit cut short
+        are kept for this check only."""
+        for key, answer in answer_all(batches, self.limits, self.cache).items():
+            if answer.timed_out:
+                self.cache.memory[key] = answer.as_json()
+
+    def single_questions(self, name: str, f: Any) -> list[Question]:
+        """What `single` and `vacuity` ask of one property, on this system."""
+        questions: list[Question] = [([f], self.system), ([("not", f)], self.system)]
+        decl = self.model.properties[name]
+        questions.extend(([a], self.system) for _, a in self.antecedents(decl))
+        return questions
+
+    def antecedents(self, decl: ast.PropertyDecl) -> list[tuple[fm.Binary, Any]]:
+        """The implications of a property, each with its antecedent compiled."""
+        assert decl.formula is not None
+        found = []
+        for node in fm.walk(decl.formula):
+            if isinstance(node, fm.Binary) and node.op == "->":
+                try:
+                    found.append((node, self.compile(node.left)))
+                except CompileError:
+                    continue
+        return found
+
+    def groups(self, names: list[str]) -> list[list[str]]:
+        """The properties in groups that share propositions, in their order.
+
+        Properties over disjoint propositions (a transducer's states, and events
+        that exclude each other, counting as one) cannot conflict, nor imply one
+        another unless one is valid or impossible alone (asked before): traces of
+        each group combine into one trace. Looking into the past is the exception:
+        a past operator can bound the time of evaluation (at t < 3, say), which
+        another group may need later, so the properties that look into the past
+        are one group with every other. Asking per group keeps the questions on all
+        properties linear in their number, not quadratic (docs/verification.md)."""
+        if any(formula_facts(self.compiled[n]).has_past for n in names):
+            return [names]
+        parent: dict[str, str] = {}
+
+        def root(name: str) -> str:
+            while parent.setdefault(name, name) != name:
+                parent[name] = parent[parent[name]]
+                name = parent[name]
+            return name
+
+        def join(a: str, b: str) -> None:
+            parent[root(a)] = root(b)
+
+        for machine in self.system.transducers:
+            for state in machine.states[1:]:
+                join(state, machine.states[0])
+        for a, b in self.system.exclusive:
+            join(a, b)
+        grouped: dict[str, list[str]] = {}
+        for name in names:
+            propositions = sorted(formula_facts(self.compiled[name]).propositions)
+            for other in propositions[1:]:
+                join(other, propositions[0])
+            # a property over no proposition is valid or impossible: a group alone
+            key = propositions[0] if propositions else f" {name}"
+            grouped.setdefault(key, []).append(name)
+        merged: dict[str, list[str]] = {}
+        for key, members in grouped.items():
+            merged.setdefault(root(key), []).extend(members)
+        order = {n: i for i, n in enumerate(names)}
+        return sorted(
+            (sorted(g, key=order.__getitem__) for g in merged.values()), key=lambda g: order[g[0]]
+        )
 
     # ---- one property ----
 
@@ -262,15 +353,8 @@ class _PropertyAnalyzer:
 
     def vacuity(self, decl: ast.PropertyDecl) -> bool:
         """Report implications whose antecedent never holds; True if there are any."""
-        assert decl.formula is not None
         found = False
-        for node in fm.walk(decl.formula):
-            if not (isinstance(node, fm.Binary) and node.op == "->"):
-                continue
-            try:
-                antecedent = self.compile(node.left)
-            except CompileError:
-                continue
+        for node, antecedent in self.antecedents(decl):
             answer = satisfiable([antecedent], self.system, self.limits, self.cache)
             if answer.value != NO:
                 continue
@@ -293,7 +377,7 @@ class _PropertyAnalyzer:
         formulas = [self.compiled[n] for n in names]
         answer = satisfiable(formulas, self.system, self.limits, self.cache)
         if answer.witness is not None:
-            self.pool.append(answer.witness)
+            self.pool.setdefault(tuple(names), []).append(answer.witness)
         if answer.value != NO:
             return answer.value == YES
         core = smallest_conflict(formulas, self.system, self.limits, answer.core)
@@ -315,73 +399,40 @@ class _PropertyAnalyzer:
         )
         return False
 
-    def known_traces(self) -> list[Witness]:
-        """The traces of this system found so far (witnesses and counterexamples)."""
-        found = list(self.pool)
-        for facts in self.report.facts.values():
+    def known_traces(self, group: tuple[str, ...]) -> list[Witness]:
+        """The traces found so far for the group's properties (witnesses and
+        counterexamples): those of other groups leave its propositions out."""
+        found = list(self.pool.get(group, ()))
+        for name in group:
+            facts = self.report.facts[name]
             for answer in (facts.satisfiable, facts.valid):
                 if answer is not None and answer.witness is not None:
                     found.append(answer.witness)
         return found
 
-    def refuted_by_known_trace(self, name: str, others: list[str]) -> bool:
-        """A trace already at hand where the others hold and `name` fails: then it
-        is not implied, and no solver is needed."""
-        for witness in self.known_traces():
-            reference = self.reference(witness)
-            if reference is None:
-                continue
-            if reference.value(self.compiled[name], witness.at) != FALSE:
-                continue
-            if all(reference.value(self.compiled[n], witness.at) == TRUE for n in others):
-                return True
-        return False
+    def redundancy(self, groups: list[list[str]]) -> None:
+        """RMV515 for each property the others of its group imply (the groups of at
+        most REDUNDANCY_LIMIT properties that can hold together)."""
+        asked = [
+            (g, [self.compiled[n] for n in g], self.known_traces(tuple(g)))
+            for g in groups
+            if len(g) <= REDUNDANCY_LIMIT
+        ]
+        for found in implied_all(asked, self.system, self.limits, self.cache):
+            for name, implied_by in found:
+                self.add(self.implied(name, implied_by))
 
-    def reference(self, witness: Witness) -> Reference | None:
-        """The reference evaluator on a known trace, its last state held long enough
-        for every property; None if the trace is not one of this system's for all
-        the properties' propositions. One per trace: values are computed once."""
-        if id(witness) not in self.references:
-            everything = {n for f in self.compiled.values() for n in formula_facts(f).propositions}
-            reference = None
-            if self.system.violation(witness.times, witness.states, everything) is None:
-                horizon = max(formula_facts(f).future for f in self.compiled.values())
-                end = max(witness.end, witness.at + horizon + 1)
-                reference = Reference(Trace(list(witness.times), list(witness.states), end))
-            self.references[id(witness)] = (witness, reference)
-        return self.references[id(witness)][1]
-
-    def redundancy(self, names: list[str]) -> None:
-        if len(names) > REDUNDANCY_LIMIT:
-            return
-        # Latest first, and a redundant property no longer counts for the others:
-        # of two equivalent properties, the later one is reported, once.
-        kept = list(names)
-        for name in reversed(names):
-            others = [n for n in kept if n != name]
-            if self.refuted_by_known_trace(name, others):
-                continue
-            formulas = [self.compiled[n] for n in others] + [("not", self.compiled[name])]
-            answer = satisfiable(formulas, self.system, self.limits, self.cache)
-            if answer.witness is not None:
-                self.pool.append(answer.witness)
-            if answer.value != NO:
-                continue
-            kept.remove(name)
-            implied_by = [others[i] for i in answer.core if i < len(others)] or others
-            decl = self.model.properties[name]
-            self.add(
-                Diagnostic(
-                    "RMV515",
-                    Severity.NOTE,
-                    f"property `{name}` is implied by "
-                    + ", ".join(f"`{n}`" for n in implied_by)
-                    + ": its monitor fires only when theirs do",
-                    decl.name.span,
-                    label="redundant",
-                    secondary=tuple(
-                        Label(self.model.properties[n].name.span, "implies it") for n in implied_by
-                    ),
-                    help="keep it if a separate alert is wanted; otherwise drop it",
-                )
-            )
+    def implied(self, name: str, implied_by: list[str]) -> Diagnostic:
+        return Diagnostic(
+            "RMV515",
+            Severity.NOTE,
+            f"property `{name}` is implied by "
+            + ", ".join(f"`{n}`" for n in implied_by)
+            + ": its monitor fires only when theirs do",
+            self.model.properties[name].name.span,
+            label="redundant",
+            secondary=tuple(
+                Label(self.model.properties[n].name.span, "implies it") for n in implied_by
+            ),
+            help="keep it if a separate alert is wanted; otherwise drop it",
+        )

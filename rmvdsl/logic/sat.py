@@ -32,12 +32,17 @@ from rmvdsl.logic.abstract import refute
 from rmvdsl.logic.bounded import BoundedTrace, EncodingTimeout
 from rmvdsl.logic.reference import TRUE, Reference, Trace
 from rmvdsl.logic.system import System
-from rmvdsl.runtime.rmtld3 import facts
+from rmvdsl.runtime.rmtld3 import Monitor, facts
 from rmvdsl.runtime.values import exact_text as number
 
 # Bump when an encoding changes: cached answers carry it in their key.
 ENCODING_VERSION = "2"  # 2: durations pinned by always/eventually in the refutation
 YES, NO, UNKNOWN = "yes", "no", "unknown"
+# The periodic witnesses (_Question.periodic): at most this many propositions,
+# half periods, and segments replayed in all.
+PERIODIC_NAMES = 2
+PERIODIC_PERIODS = 4
+PERIODIC_BUDGET = 40_000
 
 
 @dataclass(frozen=True)
@@ -45,14 +50,16 @@ class Limits:
     timeout: float = 5.0  # seconds, for each solver call
     segments: tuple[int, ...] = (1, 2, 4, 8)
     effort: int | None = None  # z3's rlimit per call: deterministic, unlike time
+    jobs: int | None = None  # worker processes (rmvdsl.logic.parallel); None: one a core
 
     def key(self) -> str:
+        """What the answers depend on (not `jobs`: the same answers, sooner)."""
         return f"{self.timeout}:{self.segments}:{self.effort}"
 
     def quick(self) -> Limits:
         """A tenth of the limits (at most half a second), for a first attempt."""
         effort = None if self.effort is None else max(1, self.effort // 10)
-        return Limits(min(self.timeout, 0.5), self.segments, effort)
+        return Limits(min(self.timeout, 0.5), self.segments, effort, self.jobs)
 
     def configure(self, solver: Any) -> None:
         solver.set("timeout", max(1, int(self.timeout * 1000)))
@@ -135,6 +142,7 @@ class Answer:
             "names": list(self.witness.names) if self.witness else [],
             "core": list(self.core),
             "note": self.note,
+            "timed_out": self.timed_out,
         }
 
     @classmethod
@@ -146,6 +154,7 @@ class Answer:
             Witness.from_json(witness, data["names"]) if witness else None,
             tuple(data["core"]),
             data["note"],
+            bool(data.get("timed_out", False)),
         )
 
 
@@ -158,21 +167,47 @@ def satisfiable(
     """Is there a trace of the system making all `formulas` true at one time?"""
     limits = limits or Limits()
     cache = cache if cache is not None else default_cache()
-    mentioned = {name for f in formulas for name in facts(f).propositions}
-    system = (system or System()).restricted(mentioned)
-    key = digest(
-        ENCODING_VERSION, z3.get_version_string(), list(formulas), system.key(), limits.key()
-    )
-    cached = cache.get(key)
+    key, system = question_key(formulas, system, limits)
+    cached = cached_answer(cache, key)
     if cached is not None:
-        try:
-            return Answer.from_json(cached)
-        except (KeyError, TypeError, ValueError, ZeroDivisionError):
-            pass  # an entry from elsewhere: ask again
-    answer = _Question(list(formulas), system, limits).answer()
-    if not answer.timed_out:  # a time limit depends on the machine, not the question
-        cache.put(key, answer.as_json())
+        return cached
+    answer = ask(formulas, system, limits)
+    keep(cache, key, answer)
     return answer
+
+
+def question_key(
+    formulas: Sequence[Any], system: System | None, limits: Limits
+) -> tuple[str, System]:
+    """The cache key of a question, and the system cut to what the formulas mention."""
+    mentioned = {name for f in formulas for name in facts(f).propositions}
+    restricted = (system or System()).restricted(mentioned)
+    key = digest(
+        ENCODING_VERSION, z3.get_version_string(), list(formulas), restricted.key(), limits.key()
+    )
+    return key, restricted
+
+
+def cached_answer(cache: Cache, key: str) -> Answer | None:
+    found = cache.get(key)
+    if found is None:
+        return None
+    try:
+        return Answer.from_json(found)
+    except (KeyError, TypeError, ValueError, ZeroDivisionError):
+        return None  # an entry from elsewhere: ask again
+
+
+def keep(cache: Cache, key: str, answer: Answer) -> None:
+    """Cache an answer, unless a time limit cut it short: that depends on the
+    machine, not on the question."""
+    if not answer.timed_out:
+        cache.put(key, answer.as_json())
+
+
+def ask(formulas: Sequence[Any], system: System, limits: Limits) -> Answer:
+    """The answer, from the solver (`system` already restricted by question_key)."""
+    return _Question(list(formulas), system, limits).answer()
 
 
 def valid(
@@ -267,6 +302,9 @@ class _Question:
                 return Answer(YES, True, found)
             if self.timed_out:
                 break  # more segments would only take longer
+        found = self.periodic()
+        if found is not None:
+            return Answer(YES, True, found)
         quick = self.limits.quick()
         verdict, core = refute(self.formulas, self.system, set(self.names), quick)
         if verdict == "unsat":
@@ -320,6 +358,63 @@ class _Question:
         if witness is None:
             self.replay_failures += 1
         return witness
+
+    def periodic(self) -> Witness | None:
+        """Traces where each proposition is constant or alternates with a half
+        period drawn from the formulas' bounds: the witnesses that need more
+        changes than the segment searches allow (`always[<b](eventually[<=1] a and
+        eventually[<=1] not a)` needs about 2b), judged by the runtime's monitor, so
+        a yes is still exact. Only for a few propositions that no transducer constrains, and
+        within a budget of segments: a question without such a witness loses
+        little."""
+        if len(self.names) > PERIODIC_NAMES or self.system.relevant(set(self.names)):
+            return None
+        horizon = max((facts(f).future for f in self.formulas), default=Fraction(0))
+        end = horizon + 1
+        budget = PERIODIC_BUDGET
+        # whether a proposition holds on the even and on the odd segments
+        held = {
+            "off": (False, False),
+            "on": (True, True),
+            "even": (True, False),
+            "odd": (False, True),
+        }
+        patterns = [
+            p
+            for p in itertools.product(held, repeat=len(self.names))
+            if "even" in p or "odd" in p  # constant traces: the one-segment search
+        ]
+        for half in _half_periods(self.formulas):
+            count = int(end / half) + 1
+            if count * len(patterns) > budget:
+                continue
+            budget -= count * len(patterns)
+            times = [half * i for i in range(count)]
+            for pattern in patterns:
+                states = [
+                    frozenset(
+                        n for n, kind in zip(self.names, pattern, strict=True) if held[kind][i % 2]
+                    )
+                    for i in range(count)
+                ]
+                witness = self.witness(times, states, Fraction(0))
+                if self.monitored(witness):
+                    return witness
+        return None
+
+    def monitored(self, witness: Witness) -> bool:
+        """Whether the runtime's monitor (exact, as the reference evaluator is, and
+        linear in the trace where the reference is not) says every formula holds
+        on the witness, a trace of the system."""
+        if self.system.violation(witness.times, witness.states, set(self.names)) is not None:
+            return False
+        for formula in self.formulas:
+            monitor = Monitor(formula)
+            monitor.feed(zip(witness.times, witness.states, strict=True))
+            monitor.end(witness.end)
+            if monitor.verdict_at(witness.at) != "true":
+                return False
+        return True
 
     def system_constraints(self, trace: BoundedTrace) -> list[Any]:
         key = repr((self.system.key(), self.names))
@@ -405,6 +500,22 @@ def _system_constraints(system: System, trace: BoundedTrace, names: set[str]) ->
         if name in names:
             facts.extend(z3.Not(holds[i][name]) for i in range(trace.k))
     return facts
+
+
+def _half_periods(formulas: Sequence[Any]) -> list[Fraction]:
+    """Half periods for `periodic`: the halves and quarters of the formulas' bounds,
+    longest first (fewest segments), at most PERIODIC_PERIODS of them."""
+    bounds: set[Fraction] = set()
+    stack = list(formulas)
+    while stack:
+        node = stack.pop()
+        if node[0] in ("until", "since") and node[2] > 0:
+            bounds.add(Fraction(node[2]))
+        elif node[0] == "dur" and node[1] > 0:
+            bounds.add(Fraction(node[1]))
+        stack.extend(c for c in node[1:] if isinstance(c, tuple))
+    halves = {b / d for b in bounds for d in (2, 4)}
+    return sorted(halves, reverse=True)[:PERIODIC_PERIODS]
 
 
 _ENCODINGS: dict[tuple[int, tuple[str, ...], bool], BoundedTrace] = {}

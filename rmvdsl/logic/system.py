@@ -33,14 +33,28 @@ class System:
 
     def restricted(self, names: set[str]) -> System:
         """What constrains traces over these propositions: the rest is left out, so
-        that a question's cache key does not change with unrelated declarations."""
+        that a question's cache key does not change with unrelated declarations.
+        Costs what the propositions touch, not the size of the system."""
         machines = self.relevant(names)
         every = set(names).union(*(m.states for m in machines))
+        pairs = (p for n in every for p in self._exclusive_of.get(n, ()))
         return System(
             machines,
-            frozenset(p for p in self.exclusive if p[0] in every and p[1] in every),
-            frozenset(n for n in self.never if n in every),
+            frozenset(p for p in pairs if p[1] in every),
+            frozenset(every & self.never),
         )
+
+    @functools.cached_property
+    def _machine_of(self) -> dict[str, int]:
+        """The index of the transducer owning each state."""
+        return {s: i for i, m in enumerate(self.transducers) for s in m.states}
+
+    @functools.cached_property
+    def _exclusive_of(self) -> dict[str, list[tuple[str, str]]]:
+        out: dict[str, list[tuple[str, str]]] = {}
+        for pair in self.exclusive:
+            out.setdefault(pair[0], []).append(pair)
+        return out
 
     @functools.cached_property
     def _key(self) -> str:
@@ -56,7 +70,9 @@ class System:
         return self._key
 
     def relevant(self, names: set[str]) -> tuple[Machine, ...]:
-        return tuple(m for m in self.transducers if names & set(m.states))
+        """The transducers owning any of these names, in their order."""
+        owners = self._machine_of
+        return tuple(self.transducers[i] for i in sorted({owners[n] for n in names if n in owners}))
 
     def names(self, names: set[str]) -> set[str]:
         """The propositions a trace over `names` must also give: every state of a

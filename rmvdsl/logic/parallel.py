@@ -1,0 +1,277 @@
+"""Solver questions answered in parallel, across processes (docs/verification.md).
+
+z3 holds the GIL while it solves and its Python objects may not cross threads, so
+independent questions go to worker processes: each worker answers a batch of
+questions over the same propositions (one group of properties, whose encodings it
+then shares), in order, on a deep stack like the checker's. The parent keeps the
+answers in the same cache as answers found in process, so a parallel check and a
+sequential one leave the same cache and read the same answers; answers cut short
+by a time limit are returned too (not cached), so that they are not asked again in
+the same check.
+
+A worker is `python -m rmvdsl.logic.parallel`, reading batches from its standard
+input and writing answers to its standard output (pickled, length first): unlike
+multiprocessing's spawn, it never imports the caller's main module, and unlike
+fork it is safe beside the editor's threads. Workers start once and serve later
+checks. A batch that cannot be sent (a formula nested too deep to pickle) or a
+worker that dies leaves its questions unanswered: the sequential pass asks them
+in process.
+"""
+
+from __future__ import annotations
+
+import atexit
+import importlib
+import os
+import pickle
+import queue
+import struct
+import subprocess
+import sys
+import threading
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import IO, Any
+
+from rmvdsl.cache import Cache
+from rmvdsl.logic.redundancy import implied
+from rmvdsl.logic.sat import Answer, Limits, Witness, ask, cached_answer, keep, question_key
+from rmvdsl.logic.system import System
+
+# Below this many unanswered questions, waking workers costs more than it saves.
+LEAST_PARALLEL = 8
+
+Question = tuple[Sequence[Any], System | None]
+Batch = list[tuple[Sequence[Any], System]]
+
+_WORKERS: list[_Worker] = []
+_WORKERS_LOCK = threading.Lock()
+
+
+def jobs_wanted(limits: Limits) -> int:
+    """The processes a check uses: `limits.jobs`, else one per usable core."""
+    if limits.jobs is not None:
+        return max(1, limits.jobs)
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def answer_all(
+    batches: Sequence[Sequence[Question]], limits: Limits, cache: Cache
+) -> dict[str, Answer]:
+    """Answer the questions of `batches` that `cache` does not hold, in parallel;
+    every answer found is returned by its key (and kept in `cache` unless a time
+    limit cut it short). Each batch goes to one worker, in order."""
+    pending: list[tuple[list[str], Batch]] = []
+    for batch in batches:
+        keys, todo = [], []
+        for formulas, system in batch:
+            key, restricted = question_key(formulas, system, limits)
+            if cached_answer(cache, key) is None:
+                keys.append(key)
+                todo.append((formulas, restricted))
+        if todo:
+            pending.append((keys, todo))
+    if sum(len(todo) for _, todo in pending) < LEAST_PARALLEL:
+        return {}
+    tasks = [(_answer_batch, (todo, limits)) for _, todo in pending]
+    found: dict[str, Answer] = {}
+    for (keys, _), answers in zip(pending, run_tasks(tasks, jobs_wanted(limits)), strict=True):
+        for key, data in zip(keys, answers or (), strict=False):
+            answer = Answer.from_json(data)
+            keep(cache, key, answer)
+            found[key] = answer
+    return found
+
+
+def implied_all(
+    groups: Sequence[tuple[Sequence[str], Sequence[Any], Sequence[Witness]]],
+    system: System,
+    limits: Limits,
+    cache: Cache,
+) -> list[list[tuple[str, list[str]]]]:
+    """`redundancy.implied` of each group (names, formulas, known traces): from the
+    cache where it answers every question of the group, else in parallel."""
+    results: list[list[tuple[str, list[str]]] | None] = []
+    for names, formulas, known in groups:
+        try:
+            results.append(implied(names, formulas, system, limits, _Strict(below=cache), known))
+        except _Missing:
+            results.append(None)
+    missing = [i for i, found in enumerate(results) if found is None]
+    if len(missing) > 1:
+        tasks = [(_implied_here, (*groups[i], system, limits)) for i in missing]
+        for index, reply in zip(missing, run_tasks(tasks, jobs_wanted(limits)), strict=True):
+            if reply is not None:
+                found, answers = reply
+                for key, data in answers:
+                    cache.put(key, data)
+                results[index] = found
+    return [
+        found if found is not None else implied(names, formulas, system, limits, cache, known)
+        for found, (names, formulas, known) in zip(results, groups, strict=True)
+    ]
+
+
+def run_tasks(tasks: Sequence[tuple[Callable[..., Any], tuple[Any, ...]]], jobs: int) -> list[Any]:
+    """Each task's result, in order, computed by `jobs` workers (each fed by a
+    thread of its own, which waits on a pipe, not on the GIL); None where a task
+    could not be sent or its worker died, and for every task when `jobs` < 2."""
+    results: list[Any] = [None] * len(tasks)
+    if jobs < 2 or not tasks:
+        return results
+    todo: queue.SimpleQueue[int] = queue.SimpleQueue()
+    for index in range(len(tasks)):
+        todo.put(index)
+
+    def serve(worker: _Worker) -> None:
+        while True:
+            try:
+                index = todo.get_nowait()
+            except queue.Empty:
+                return
+            function, args = tasks[index]
+            results[index] = worker.call(function, args)
+
+    threads = [
+        threading.Thread(target=serve, args=(w,), daemon=True)
+        for w in _workers(min(jobs, len(tasks)))
+    ]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    return results
+
+
+# ---- what workers run ----
+
+
+def _answer_batch(batch: Batch, limits: Limits) -> list[dict[str, Any]]:
+    return [ask(formulas, system, limits).as_json() for formulas, system in batch]
+
+
+def _implied_here(
+    names: Sequence[str],
+    formulas: Sequence[Any],
+    known: Sequence[Witness],
+    system: System,
+    limits: Limits,
+) -> tuple[list[tuple[str, list[str]]], list[tuple[str, dict[str, Any]]]]:
+    """`implied`, and the answers it found, for the parent's cache."""
+    cache = _Recording()
+    return implied(names, formulas, system, limits, cache, known), cache.kept
+
+
+class _Missing(Exception):
+    """A question the cache does not answer."""
+
+
+@dataclass
+class _Strict(Cache):
+    """A cache that raises on a miss: whether the cache answers every question."""
+
+    below: Cache = field(default_factory=Cache)
+
+    def get(self, key: str) -> dict[str, Any] | None:
+        found = self.below.get(key)
+        if found is None:
+            raise _Missing(key)
+        return found
+
+
+@dataclass
+class _Recording(Cache):
+    """An in-memory cache that lists what was kept in it."""
+
+    kept: list[tuple[str, dict[str, Any]]] = field(default_factory=list)
+
+    def put(self, key: str, value: dict[str, Any]) -> None:
+        super().put(key, value)
+        self.kept.append((key, value))
+
+
+class _Worker:
+    def __init__(self) -> None:
+        package_root = str(Path(__file__).resolve().parents[2])
+        path = os.environ.get("PYTHONPATH")
+        env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in (package_root, path) if p)}
+        self.process = subprocess.Popen(
+            [sys.executable, "-m", "rmvdsl.logic.parallel"],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            env=env,
+        )
+        self.turn = threading.Lock()
+
+    @property
+    def alive(self) -> bool:
+        return self.process.poll() is None
+
+    def call(self, function: Callable[..., Any], args: tuple[Any, ...]) -> Any:
+        """`function(*args)` in the worker; None if it could not be sent or the
+        worker died."""
+        try:
+            request = (function.__module__, function.__qualname__, args)
+            payload = pickle.dumps(request, protocol=pickle.HIGHEST_PROTOCOL)
+        except (RecursionError, pickle.PicklingError):
+            return None
+        assert self.process.stdin is not None and self.process.stdout is not None
+        with self.turn:  # one request at a time on the pipe, whoever asks
+            try:
+                _write(self.process.stdin, payload)
+                reply = _read(self.process.stdout)
+            except OSError:
+                reply = None
+        if reply is None:
+            self.process.kill()
+            return None
+        return pickle.loads(reply)
+
+
+def _workers(count: int) -> list[_Worker]:
+    with _WORKERS_LOCK:
+        _WORKERS[:] = [w for w in _WORKERS if w.alive]
+        while len(_WORKERS) < count:
+            _WORKERS.append(_Worker())
+        return _WORKERS[:count]
+
+
+@atexit.register
+def _stop_workers() -> None:
+    for worker in _WORKERS:
+        if worker.alive:
+            worker.process.kill()
+
+
+def _write(stream: IO[bytes], payload: bytes) -> None:
+    stream.write(struct.pack("<Q", len(payload)) + payload)
+    stream.flush()
+
+
+def _read(stream: IO[bytes]) -> bytes | None:
+    header = stream.read(8)
+    if len(header) < 8:
+        return None
+    (size,) = struct.unpack("<Q", header)
+    payload = stream.read(size)
+    return payload if len(payload) == size else None
+
+
+def serve(source: IO[bytes], sink: IO[bytes]) -> None:
+    """A worker's loop: a call in, its result out, until the input ends. Only the
+    parent writes to this process's input (a pipe), naming its own functions."""
+    while (request := _read(source)) is not None:
+        module, name, args = pickle.loads(request)
+        result = getattr(importlib.import_module(module), name)(*args)
+        _write(sink, pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL))
+
+
+if __name__ == "__main__":
+    from rmvdsl.deep import deep
+
+    deep(serve, sys.stdin.buffer, sys.stdout.buffer)

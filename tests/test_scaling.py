@@ -1,0 +1,195 @@
+"""The checker's questions grow with the spec, not with its square (issue 15): the
+questions on several properties are asked of the groups that share propositions,
+exclusive events are looked for among events that read a common variable, and a
+question's system is cut to what it mentions by index."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from rmvdsl.check import check
+from rmvdsl.check import properties as properties_module
+from rmvdsl.check.conditions import Conditions
+from rmvdsl.logic.system import Machine, System
+from rmvdsl.runtime.rmtld3 import facts
+
+TWO_MACHINES = """system s
+ros humble
+topic a: std_msgs/msg/Bool = "/a"
+topic b: std_msgs/msg/Bool = "/b"
+var X = a.data
+var Y = b.data
+event On when X
+event Off when not X
+event Up when Y
+event Down when not Y
+transducer T {
+    states A, B
+    initial A
+    A -> B on On
+    B -> A on Off
+}
+transducer U {
+    states C, D
+    initial C
+    C -> D on Up
+    D -> C on Down
+}
+property Soon: eventually[<=5s] B
+property Stay: always[<=5s] A
+property Late: eventually[<=5s] D
+property Early: eventually[<=2s] D
+"""
+
+
+def joint_questions(monkeypatch: pytest.MonkeyPatch) -> list[set[str]]:
+    """The propositions of every question the property analysis asks of more than
+    one formula."""
+    asked: list[set[str]] = []
+    original = properties_module.satisfiable
+
+    def recording(formulas: Any, *args: Any, **kwargs: Any) -> Any:
+        if len(formulas) > 1:
+            asked.append({n for f in formulas for n in facts(f).propositions})
+        return original(formulas, *args, **kwargs)
+
+    monkeypatch.setattr(properties_module, "satisfiable", recording)
+    return asked
+
+
+def codes(tmp_path: Path, text: str) -> list[str]:
+    path = tmp_path / "spec.rmv"
+    path.write_text(text, encoding="utf-8")
+    return [d.code for d in check(str(path), use_environment=False).diagnostics]
+
+
+def test_questions_on_several_properties_are_asked_per_group(tmp_path, monkeypatch):
+    """T's properties conflict; U's are consistent, and one implies the other: a
+    conflict in one group no longer hides a redundancy in another, and no question
+    mixes the two transducers' states."""
+    asked = joint_questions(monkeypatch)
+    assert codes(tmp_path, TWO_MACHINES) == ["RMV514", "RMV515"]
+    assert asked, "the groups were asked nothing"
+    for names in asked:
+        assert names <= {"A", "B"} or names <= {"C", "D"}, names
+
+
+def test_properties_that_look_into_the_past_are_asked_with_all_the_others(
+    tmp_path, monkeypatch
+):
+    """A past operator can bound the time of evaluation, which another group may
+    need elsewhere: such properties are not split from the rest."""
+    asked = joint_questions(monkeypatch)
+    text = TWO_MACHINES.replace(
+        "property Early: eventually[<=2s] D", "property Early: once[<=2s] D"
+    )
+    codes(tmp_path, text)
+    assert any(names & {"A", "B"} and names & {"C", "D"} for names in asked), asked
+
+
+def test_exclusive_events_are_looked_for_among_events_sharing_a_variable(
+    tmp_path, monkeypatch
+):
+    """On and Off read X, Up and Down read Y: 2 pairs are asked, not 6, and On,
+    Off are still found exclusive."""
+    pairs: list[int] = []
+    original = Conditions.solve
+
+    def counting(self: Conditions, constraints: list[Any], values: bool = True) -> Any:
+        if len(constraints) == 2:
+            pairs.append(2)
+        return original(self, constraints, values)
+
+    monkeypatch.setattr(Conditions, "solve", counting)
+    text = TWO_MACHINES + "property Events: always[<=1s] (On or Off or Up or Down)\n"
+    path = tmp_path / "spec.rmv"
+    path.write_text(text, encoding="utf-8")
+    result = check(str(path), use_environment=False)
+    assert len(pairs) == 2
+    events = {"On", "Off", "Up", "Down"}
+    system = properties_module.system_of(
+        result.model, result.analysis, Conditions(result.model, result.types), events, set()
+    )
+    assert {tuple(sorted(p)) for p in system.exclusive} == {("Off", "On"), ("Down", "Up")}
+
+
+def test_a_system_cut_to_some_names_is_the_naive_cut():
+    """`relevant` and `restricted` by index give what scanning every transducer and
+    every pair gives."""
+    machines = tuple(
+        Machine(f"M{i}", (f"S{i}a", f"S{i}b"), f"S{i}a", frozenset({(f"S{i}a", f"S{i}b")}))
+        for i in range(50)
+    )
+    exclusive = frozenset({("E1", "E2"), ("E2", "E3"), ("S3a", "E4")})
+    system = System(machines, exclusive, frozenset({"E5", "S7b"}))
+    for names in ({"S3a", "E4", "E2"}, {"S7a", "E5", "S40b"}, {"E1", "E3"}, set()):
+        relevant = tuple(m for m in machines if names & set(m.states))
+        assert system.relevant(names) == relevant
+        every = set(names).union(*(m.states for m in relevant))
+        cut = system.restricted(names)
+        assert cut.exclusive == {p for p in exclusive if p[0] in every and p[1] in every}
+        assert cut.never == {n for n in system.never if n in every}
+
+
+def many_groups(count: int) -> str:
+    """`count` toggles, each with a consistent pair of properties (one implying
+    the other) and, on the first, a conflicting one."""
+    lines = ["system s", "ros humble", 'topic a: std_msgs/msg/Bool = "/a"', "var X = a.data"]
+    lines += ["event On when X", "event Off when not X"]
+    for i in range(count):
+        lines += [f"transducer T{i} {{", f"    states A{i}, B{i}", f"    initial A{i}",
+                  f"    A{i} -> B{i} on On", f"    B{i} -> A{i} on Off", "}"]  # fmt: skip
+        lines.append(f"property Late{i}: eventually[<={i + 3}s] B{i}")
+        lines.append(f"property Early{i}: eventually[<={i + 1}s] B{i}")
+    lines.append("property Stay: always[<=20s] A0")
+    return "\n".join(lines) + "\n"
+
+
+def checked(tmp_path: Path, text: str, jobs: int) -> tuple[list[tuple[str, str, int]], Any]:
+    from rmvdsl.cache import Cache, use_cache
+
+    cache = Cache()
+    use_cache(cache)
+    try:
+        path = tmp_path / "spec.rmv"
+        path.write_text(text, encoding="utf-8")
+        result = check(str(path), use_environment=False, solver_jobs=jobs)
+    finally:
+        use_cache(None)
+    return [(d.code, d.message, d.span.start) for d in result.diagnostics], cache
+
+
+def test_a_parallel_check_gives_the_sequential_answers_and_cache(tmp_path):
+    """Worker processes answer the questions (they are running afterwards, ready
+    for the next check); the diagnostics, and the questions kept in the cache with
+    their answers, are those of the check with no worker."""
+    from rmvdsl.logic import parallel
+
+    text = many_groups(6)
+    alone, alone_cache = checked(tmp_path, text, 1)
+    together, together_cache = checked(tmp_path, text, 2)
+    assert together == alone
+    assert {c for c, _, _ in alone} == {"RMV514", "RMV515"}
+    assert sum(c == "RMV515" for c, _, _ in alone) == 5  # T0's group conflicts
+    assert together_cache.memory.keys() == alone_cache.memory.keys()
+    assert {k: v.get("value", v.get("answer")) for k, v in together_cache.memory.items()} == {
+        k: v.get("value", v.get("answer")) for k, v in alone_cache.memory.items()
+    }
+    assert sum(w.alive for w in parallel._WORKERS) == 2
+
+
+def test_questions_a_worker_cannot_answer_are_asked_in_process(tmp_path, monkeypatch):
+    """Workers that die at once (here: a program that is not Python) answer
+    nothing; the check asks everything itself and says the same."""
+    from rmvdsl.logic import parallel
+
+    alone, _ = checked(tmp_path, many_groups(4), 1)
+    parallel._stop_workers()
+    monkeypatch.setattr(parallel.sys, "executable", "/bin/false")
+    broken, _ = checked(tmp_path, many_groups(4), 2)
+    assert broken == alone
+    assert not any(w.alive for w in parallel._WORKERS)
+    parallel._stop_workers()
