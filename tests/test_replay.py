@@ -579,9 +579,11 @@ def test_a_host_orders_stamped_messages_by_the_time_the_runtime_gives_them(tmp_p
     from rmvdsl.runtime.engine import Runtime
 
     path = tmp_path / "stamped.rmv"
-    stamped = LATE.replace('"/t"', '"/t" qos { time = header }').replace(
-        "std_msgs/msg/Float64", "geometry_msgs/msg/PointStamped"
-    ).replace("t.data", "t.point.x")
+    stamped = (
+        LATE.replace('"/t"', '"/t" qos { time = header }')
+        .replace("std_msgs/msg/Float64", "geometry_msgs/msg/PointStamped")
+        .replace("t.data", "t.point.x")
+    )
     path.write_text(stamped + 'topic u: std_msgs/msg/Float64 = "/u"\n', encoding="utf-8")
     runtime = Runtime(lower(check(str(path), use_environment=False)))
     message = {"header": {"stamp": {"sec": 3, "nanosec": 5}}, "point": {"x": 1.0}}

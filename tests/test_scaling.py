@@ -77,9 +77,7 @@ def test_questions_on_several_properties_are_asked_per_group(tmp_path, monkeypat
         assert names <= {"A", "B"} or names <= {"C", "D"}, names
 
 
-def test_properties_that_look_into_the_past_are_asked_with_all_the_others(
-    tmp_path, monkeypatch
-):
+def test_properties_that_look_into_the_past_are_asked_with_all_the_others(tmp_path, monkeypatch):
     """A past operator can bound the time of evaluation, which another group may
     need elsewhere: such properties are not split from the rest."""
     asked = joint_questions(monkeypatch)
@@ -90,9 +88,7 @@ def test_properties_that_look_into_the_past_are_asked_with_all_the_others(
     assert any(names & {"A", "B"} and names & {"C", "D"} for names in asked), asked
 
 
-def test_exclusive_events_are_looked_for_among_events_sharing_a_variable(
-    tmp_path, monkeypatch
-):
+def test_exclusive_events_are_looked_for_among_events_sharing_a_variable(tmp_path, monkeypatch):
     """On and Off read X, Up and Down read Y: 2 pairs are asked, not 6, and On,
     Off are still found exclusive."""
     pairs: list[int] = []
