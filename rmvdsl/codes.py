@@ -587,8 +587,10 @@ hold together), each member labelled in the source. Weaken one of them.""",
         "redundant property",
         """(note) The property is implied by the ones named: whenever they hold, it
 holds, so its monitor fires only when one of theirs does. Keep it if it carries
-its own alert or actions; otherwise it can go. Checked only for specs with at most
-24 properties (one solver question per property).""",
+its own alert or actions; otherwise it can go. Checked within each group of
+properties that share propositions (properties over other states and events
+cannot imply it, unless they cannot hold at all), for groups of at most 24
+properties (one solver question per property).""",
     ),
     (
         "RMV516",
