@@ -189,3 +189,26 @@ def test_questions_a_worker_cannot_answer_are_asked_in_process(tmp_path, monkeyp
     assert broken == alone
     assert not any(w.alive for w in parallel._WORKERS)
     parallel._stop_workers()
+
+
+def test_a_group_s_redundancy_is_read_from_the_cache_when_rechecking(tmp_path, monkeypatch):
+    """The whole answer of a group is cached: re-checking neither asks the solver
+    nor evaluates the known traces (once the editor's dearest step)."""
+    from rmvdsl.logic import redundancy
+
+    first, cache = checked(tmp_path, TWO_MACHINES, 1)
+
+    def forbidden(*args: Any) -> None:
+        raise AssertionError("evaluated the known traces again")
+
+    monkeypatch.setattr(redundancy, "_KnownTraces", forbidden)
+    from rmvdsl.cache import use_cache
+
+    use_cache(cache)
+    try:
+        path = tmp_path / "spec.rmv"
+        again = check(str(path), use_environment=False, solver_jobs=1)
+    finally:
+        use_cache(None)
+    assert [(d.code, d.message, d.span.start) for d in again.diagnostics] == first
+    assert "RMV515" in {c for c, _, _ in first}

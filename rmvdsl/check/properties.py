@@ -149,6 +149,7 @@ class _PropertyAnalyzer:
         # traces found by the joint questions, by the group they were asked of
         self.pool: dict[tuple[str, ...], list[Witness]] = {}
         self.compiled: dict[str, Any] = {}
+        self._antecedents: dict[str, list[tuple[fm.Binary, Any]]] = {}
         # compiled once, by the types stage; absent when it does not compile (reported)
         formulas = types.formulas if types is not None else {}
         for name in model.properties:
@@ -194,7 +195,14 @@ class _PropertyAnalyzer:
         return questions
 
     def antecedents(self, decl: ast.PropertyDecl) -> list[tuple[fm.Binary, Any]]:
-        """The implications of a property, each with its antecedent compiled."""
+        """The implications of a property, each with its antecedent compiled (once:
+        the questions are asked ahead, then read)."""
+        name = decl.name.name
+        if name not in self._antecedents:
+            self._antecedents[name] = self._compiled_antecedents(decl)
+        return self._antecedents[name]
+
+    def _compiled_antecedents(self, decl: ast.PropertyDecl) -> list[tuple[fm.Binary, Any]]:
         assert decl.formula is not None
         found = []
         for node in fm.walk(decl.formula):

@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import IO, Any
 
 from rmvdsl.cache import Cache
-from rmvdsl.logic.redundancy import implied
+from rmvdsl.logic.redundancy import group_key, implied
 from rmvdsl.logic.sat import Answer, Limits, Witness, ask, cached_answer, keep, question_key
 from rmvdsl.logic.system import System
 
@@ -65,6 +65,9 @@ def answer_all(
     """Answer the questions of `batches` that `cache` does not hold, in parallel;
     every answer found is returned by its key (and kept in `cache` unless a time
     limit cut it short). Each batch goes to one worker, in order."""
+    jobs = jobs_wanted(limits)
+    if jobs < 2:
+        return {}  # the check asks them in process, in order
     pending: list[tuple[list[str], Batch]] = []
     for batch in batches:
         keys, todo = [], []
@@ -79,7 +82,7 @@ def answer_all(
         return {}
     tasks = [(_answer_batch, (todo, limits)) for _, todo in pending]
     found: dict[str, Answer] = {}
-    for (keys, _), answers in zip(pending, run_tasks(tasks, jobs_wanted(limits)), strict=True):
+    for (keys, _), answers in zip(pending, run_tasks(tasks, jobs), strict=True):
         for key, data in zip(keys, answers or (), strict=False):
             answer = Answer.from_json(data)
             keep(cache, key, answer)
@@ -93,26 +96,22 @@ def implied_all(
     limits: Limits,
     cache: Cache,
 ) -> list[list[tuple[str, list[str]]]]:
-    """`redundancy.implied` of each group (names, formulas, known traces): from the
-    cache where it answers every question of the group, else in parallel."""
-    results: list[list[tuple[str, list[str]]] | None] = []
-    for names, formulas, known in groups:
-        try:
-            results.append(implied(names, formulas, system, limits, _Strict(below=cache), known))
-        except _Missing:
-            results.append(None)
-    missing = [i for i, found in enumerate(results) if found is None]
+    """`redundancy.implied` of each group (names, formulas, known traces); the
+    groups whose answer the cache lacks are answered by the workers first (a
+    group whose questions a time limit cut short is asked again in process)."""
+    jobs = jobs_wanted(limits)
+    missing = [
+        i
+        for i, (_, formulas, _) in enumerate(groups)
+        if jobs > 1 and cache.get(group_key(formulas, system, limits)) is None
+    ]
     if len(missing) > 1:
         tasks = [(_implied_here, (*groups[i], system, limits)) for i in missing]
-        for index, reply in zip(missing, run_tasks(tasks, jobs_wanted(limits)), strict=True):
-            if reply is not None:
-                found, answers = reply
-                for key, data in answers:
-                    cache.put(key, data)
-                results[index] = found
+        for reply in run_tasks(tasks, jobs):
+            for key, data in reply or ():
+                cache.put(key, data)
     return [
-        found if found is not None else implied(names, formulas, system, limits, cache, known)
-        for found, (names, formulas, known) in zip(results, groups, strict=True)
+        implied(names, formulas, system, limits, cache, known) for names, formulas, known in groups
     ]
 
 
@@ -160,27 +159,12 @@ def _implied_here(
     known: Sequence[Witness],
     system: System,
     limits: Limits,
-) -> tuple[list[tuple[str, list[str]]], list[tuple[str, dict[str, Any]]]]:
-    """`implied`, and the answers it found, for the parent's cache."""
+) -> list[tuple[str, dict[str, Any]]]:
+    """`implied`, for the parent's cache: what it kept (the group's answer and
+    those of its questions)."""
     cache = _Recording()
-    return implied(names, formulas, system, limits, cache, known), cache.kept
-
-
-class _Missing(Exception):
-    """A question the cache does not answer."""
-
-
-@dataclass
-class _Strict(Cache):
-    """A cache that raises on a miss: whether the cache answers every question."""
-
-    below: Cache = field(default_factory=Cache)
-
-    def get(self, key: str) -> dict[str, Any] | None:
-        found = self.below.get(key)
-        if found is None:
-            raise _Missing(key)
-        return found
+    implied(names, formulas, system, limits, cache, known)
+    return cache.kept
 
 
 @dataclass

@@ -13,9 +13,9 @@ from collections.abc import Sequence
 from fractions import Fraction
 from typing import Any
 
-from rmvdsl.cache import Cache
+from rmvdsl.cache import Cache, digest
 from rmvdsl.logic.reference import FALSE, TRUE, Reference, Trace
-from rmvdsl.logic.sat import NO, Limits, Witness, satisfiable
+from rmvdsl.logic.sat import NO, Limits, Witness, question_key, satisfiable
 from rmvdsl.logic.system import System
 from rmvdsl.runtime.rmtld3 import facts
 
@@ -29,24 +29,45 @@ def implied(
     known: Sequence[Witness] = (),
 ) -> list[tuple[str, list[str]]]:
     """Each redundant property with the ones that imply it (a smallest set the
-    refutation found, else all the others kept), latest first."""
-    compiled = dict(zip(names, formulas, strict=True))
+    refutation found, else all the others kept), latest first. The whole answer is
+    cached by the group's formulas (by position: renaming a property keeps it), so
+    re-checking asks neither the solver nor the known traces."""
+    key = group_key(formulas, system, limits)
+    cached = cache.get(key)
+    if cached is not None and isinstance(cached.get("implied"), list):
+        return [(names[i], [names[j] for j in by]) for i, by in cached["implied"]]
+    found, complete = _implied(list(formulas), system, limits, cache, known)
+    if complete:  # no answer cut short by a time limit
+        cache.put(key, {"implied": [[i, by] for i, by in found]})
+    return [(names[i], [names[j] for j in by]) for i, by in found]
+
+
+def group_key(formulas: Sequence[Any], system: System, limits: Limits) -> str:
+    """The cache key of a group's redundancy."""
+    return digest("implied", question_key(formulas, system, limits)[0])
+
+
+def _implied(
+    formulas: list[Any], system: System, limits: Limits, cache: Cache, known: Sequence[Witness]
+) -> tuple[list[tuple[int, list[int]]], bool]:
     traces = _KnownTraces(formulas, system, list(known))
-    found: list[tuple[str, list[str]]] = []
-    kept = list(names)
-    for name in reversed(names):
-        others = [n for n in kept if n != name]
-        if traces.refute(compiled[name], [compiled[n] for n in others]):
+    found: list[tuple[int, list[int]]] = []
+    kept = list(range(len(formulas)))
+    complete = True
+    for index in reversed(range(len(formulas))):
+        others = [i for i in kept if i != index]
+        if traces.refute(formulas[index], [formulas[i] for i in others]):
             continue
-        question = [compiled[n] for n in others] + [("not", compiled[name])]
+        question = [formulas[i] for i in others] + [("not", formulas[index])]
         answer = satisfiable(question, system, limits, cache)
+        complete = complete and not answer.timed_out
         if answer.witness is not None:
             traces.add(answer.witness)
         if answer.value != NO:
             continue
-        kept.remove(name)
-        found.append((name, [others[i] for i in answer.core if i < len(others)] or others))
-    return found
+        kept.remove(index)
+        found.append((index, [others[i] for i in answer.core if i < len(others)] or others))
+    return found, complete
 
 
 class _KnownTraces:
