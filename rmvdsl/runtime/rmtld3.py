@@ -220,13 +220,32 @@ class Binary(Node):
         return [self.left, self.right]
 
     def update(self, start: Any) -> None:
+        """One merge walk over both children's breakpoints from `start` on."""
         a, b, signal, combine = self.left.signal, self.right.signal, self.signal, self.combine
         signal.cut(start)
-        signal.append(
-            start, combine(a.at(start), b.at(start)), combine(a.right_of(start), b.right_of(start))
-        )
-        for t in sorted(set(a.between(start, _INFINITY)) | set(b.between(start, _INFINITY))):
-            signal.append(t, combine(a.at(t), b.at(t)), combine(a.right_of(t), b.right_of(t)))
+        a_starts, a_points, a_opens = a.starts, a.points, a.opens
+        b_starts, b_points, b_opens = b.starts, b.points, b.opens
+        i, j = a.index(start), b.index(start)
+        a_point = a_points[i] if a_starts[i] == start else a_opens[i]
+        b_point = b_points[j] if b_starts[j] == start else b_opens[j]
+        signal.append(start, combine(a_point, b_point), combine(a_opens[i], b_opens[j]))
+        i, j = i + 1, j + 1
+        a_count, b_count = len(a_starts), len(b_starts)
+        while i < a_count or j < b_count:
+            a_next = a_starts[i] if i < a_count else _INFINITY
+            b_next = b_starts[j] if j < b_count else _INFINITY
+            t = a_next if a_next < b_next else b_next
+            if a_next == t:
+                a_point, a_open = a_points[i], a_opens[i]
+                i += 1
+            else:
+                a_point = a_open = a_opens[i - 1]
+            if b_next == t:
+                b_point, b_open = b_points[j], b_opens[j]
+                j += 1
+            else:
+                b_point = b_open = b_opens[j - 1]
+            signal.append(t, combine(a_point, b_point), combine(a_open, b_open))
 
 
 class Evaluated(Node, ABC):
@@ -285,6 +304,51 @@ class Temporal(Evaluated):
         if self.kind == "since":
             found.add(self.origin + self.bound)
         return found
+
+    def update(self, start: Any) -> None:
+        if self.plain and self.op != "=" and (self.op == "<=" or self.bound > 0):
+            self._dilate(start)
+        else:
+            super().update(start)
+
+    def _dilate(self, start: Any) -> None:
+        """`eventually` and `once` in one pass: each piece of psi (a point or an open
+        interval) makes the result at least its value over the interval of t whose
+        window meets it; the result is the highest level covering t. The pieces'
+        intervals have ordered ends, so each level's union is one merge."""
+        psi, bound, closed = self.right.signal, self.bound, self.op == "<="
+        past = self.kind == "since"
+        starts, points, opens = psi.starts, psi.points, psi.opens
+        count = len(starts)
+        levels: tuple[list[list[Any]], list[list[Any]]] = ([], [])  # value >= 1, == 2
+        for k in range(psi.index(start - bound if past else start), count):
+            at = starts[k]
+            following = starts[k + 1] if k + 1 < count else _INFINITY
+            if points[k]:
+                if past:
+                    _cover(levels, points[k], at, True, at + bound, closed)
+                else:
+                    _cover(levels, points[k], at - bound, closed, at, True)
+            if opens[k]:
+                if past:
+                    _cover(levels, opens[k], at, False, following + bound, False)
+                else:
+                    _cover(levels, opens[k], at - bound, False, following, False)
+        signal = self.signal
+        signal.cut(start)
+        ends = {start}
+        for level in levels:
+            for low, _, high, _ in level:
+                if low > start:
+                    ends.add(low)
+                if start < high < _INFINITY:
+                    ends.add(high)
+        ones, twos = levels
+        one = two = 0  # the first interval of each level not yet behind t
+        for t in sorted(ends):
+            one, one_point, one_after = _covers(ones, one, t)
+            two, two_point, two_after = _covers(twos, two, t)
+            signal.append(t, one_point + two_point, one_after + two_after)
 
     def value_at(self, t: Any) -> int:
         if self.op == "<" and self.bound <= 0:
@@ -361,6 +425,42 @@ class Temporal(Evaluated):
         if low_closed and low < t:
             best = max(best, min(psi.at(low), suffix))
         return best
+
+
+def _cover(
+    levels: tuple[list[list[Any]], list[list[Any]]],
+    value: int,
+    low: Any,
+    low_closed: bool,
+    high: Any,
+    high_closed: bool,
+) -> None:
+    """Add an interval where the result is at least `value` (1 or 2) to the union of
+    each level it reaches. Intervals come with ordered lows and highs."""
+    for intervals in levels[:value]:
+        if intervals:
+            last = intervals[-1]
+            if low < last[2] or (low == last[2] and (low_closed or last[3])):
+                if high > last[2]:
+                    last[2], last[3] = high, high_closed
+                elif high == last[2]:
+                    last[3] = last[3] or high_closed
+                continue
+        intervals.append([low, low_closed, high, high_closed])
+
+
+def _covers(intervals: list[list[Any]], k: int, t: Any) -> tuple[int, int, int]:
+    """Whether the union covers t (1 or 0) and the instants just after t, moving the
+    cursor k past the intervals that end before; times come in increasing order."""
+    count = len(intervals)
+    while k < count and (intervals[k][2] < t or (intervals[k][2] == t and not intervals[k][3])):
+        k += 1
+    low = intervals[k] if k < count else None
+    point = int(low is not None and (low[0] < t or (low[0] == t and low[1])))
+    while k < count and intervals[k][2] <= t:
+        k += 1
+    after = int(k < count and intervals[k][0] <= t)
+    return k, point, after
 
 
 class Compare(Evaluated):
