@@ -1,46 +1,67 @@
-"""Throughput and memory of the online RMTLD3 monitor (issue 4).
+"""The online RMTLD3 monitor beside rtamt and reelay, like for like, answers checked.
 
 A braking controller sampled at 100 Hz: four states (Cruising, HardBraking,
-AntiLockBrake, Stopped), each held a random 0.05-3 s (seeded). Time is counted in
-10 ms ticks (integers: exact). Four formulas, side by side in one run with:
+AntiLockBrake, Stopped), each held a random 0.05-3 s (seeded); times are 10 ms ticks.
+Two sections, each giving every tool the same input, the same semantics and the
+same number of repeats (best of --repeat):
 
-- the reference evaluator (rmvdsl.logic.reference), on a prefix;
-- rtamt's discrete-time online monitor (pip install rtamt), states as +1/-1
-  variables, future formulas pastified; it has no durations (formula 3.1);
-- reelay's discrete timed monitor (pip install reelay), past time only;
-- a hand-written single-formula loop for `HardBraking -> eventually[<=10s] Stopped`.
+- per sample (discrete time): every tool is fed every one of --samples samples.
+  rmvdsl's monitor (whose feed skips a sample that repeats the state), rtamt's
+  and reelay's discrete monitors (past time only: the past mirror; rtamt's
+  pastified future formulas answer wrongly, see RTAMT_DISCRETE) and a loop for
+  `HardBraking -> eventually[<=10s] Stopped`. Verdicts are compared at every sample
+  the tools all decide.
+- per change (dense time): every tool is fed the change points of --dense-samples
+  samples. rmvdsl's monitor, reelay's dense monitor and rtamt's dense monitor
+  (both past time only: the past mirror). rtamt's dense signals are piecewise
+  linear, so each piece is given as two samples, at its start and 0.001 tick before
+  the next; its verdicts are compared away from those 0.001-tick ramps. Verdicts
+  are compared on every open interval between the tools' change points.
 
-Figures are samples per second, best of --repeat, and ratios in the same run.
+Formulas no other tool can monitor (durations: formula 3.1) are checked against the
+reference evaluator (rmvdsl.logic.reference) on a prefix. A disagreement stops the
+benchmark (exit status 1) before any speed is printed.
 
-    python benchmarks/bench_monitor.py                  # 1,000,000 samples
-    python benchmarks/bench_monitor.py --samples 200000 --json out.json
+    python benchmarks/bench_monitor.py                 # 50,000 / 1,000,000 samples
+    python benchmarks/bench_monitor.py --json benchmarks/results/monitor.json
 """
 
 from __future__ import annotations
 
 import argparse
+import bisect
 import gc
+import itertools
 import json
+import math
 import random
 import sys
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-import itertools
-
 from rmvdsl.grammar.parser import parse_formula
 from rmvdsl.logic.compile import compile_formula
 from rmvdsl.logic.reference import Reference, Trace
-from rmvdsl.runtime.rmtld3 import Monitor
+from rmvdsl.runtime.rmtld3 import Monitor, Segment, merge
+
+try:  # imported before any clock starts: their first import is not their speed
+    import reelay
+except ImportError:
+    reelay = None
+try:
+    import rtamt
+except ImportError:
+    rtamt = None
 
 STATES = ("Cruising", "HardBraking", "AntiLockBrake", "Stopped")
 TICK = Fraction(1, 100)  # seconds per tick
+RAMP = 0.001  # ticks: rtamt's dense input holds a piece until this long before the next
 
 FORMULAS = {
     "formula 3.1": "(HardBraking -> (AntiLockBrake or HardBraking) until[<10s] Stopped) "
@@ -49,17 +70,26 @@ FORMULAS = {
     "eventually": "HardBraking -> eventually[<=10s] Stopped",
     "past mirror": "Stopped -> once[<=10s] HardBraking",
 }
-RTAMT = {
-    "until part": "(hb >= 0) implies (((ab >= 0) or (hb >= 0)) until[0:999] (st >= 0))",
-    "eventually": "(hb >= 0) implies (eventually[0:1000] (st >= 0))",
-    "past mirror": "(st >= 0) implies (once[0:1000] (hb >= 0))",
-}
-REELAY_PAST = "{Stopped} -> once[0:1000] {HardBraking}"
+# rtamt's discrete formulas: past time only. Its pastify (what makes a future formula
+# online) mis-times a boolean combination of a temporal and a non-temporal part:
+# `(r < 0) or eventually[0:3] (q >= 0)` over 12 samples answers -1 for t = 3, where r
+# is negative (docs/semantics.md, "Beside other monitors").
+RTAMT_DISCRETE = {"past mirror": "(st >= 0) implies (once[0:1000] (hb >= 0))"}
+RTAMT_DENSE = {"past mirror": "(st >= 0) implies (once[0:1000] (hb >= 0))"}
+REELAY = {"past mirror": "{Stopped} -> once[0:1000] {HardBraking}"}
+VARIABLES = {"hb": "HardBraking", "ab": "AntiLockBrake", "st": "Stopped"}
+
+Samples = list[tuple[int, str]]
+Steps = tuple[list[float], list[bool], float]  # change times, values from each, decided up to
 
 
-def generate(samples: int, seed: int = 2019) -> list[tuple[int, str]]:
+class Disagreement(Exception):
+    pass
+
+
+def generate(samples: int, seed: int = 2019) -> Samples:
     rng = random.Random(seed)
-    trace: list[tuple[int, str]] = []
+    trace: Samples = []
     state = "Cruising"
     tick = 0
     while tick < samples:
@@ -71,159 +101,335 @@ def generate(samples: int, seed: int = 2019) -> list[tuple[int, str]]:
     return trace
 
 
+def change_points(trace: Samples) -> Samples:
+    return [trace[0], *(b for a, b in itertools.pairwise(trace) if a[1] != b[1])]
+
+
 def compiled(name: str) -> Any:
     node, diagnostics = parse_formula(FORMULAS[name], "rmv")
     assert node is not None, diagnostics
     return compile_formula(node, unit=TICK)
 
 
-def best(repeat: int, action: Callable[[], Any]) -> tuple[float, Any]:
+def best(repeat: int, make: Callable[[], Any], run: Callable[[Any], Any]) -> tuple[float, Any]:
+    """The fastest of `repeat` runs, each on a monitor made before its clock starts."""
     times, result = [], None
     for _ in range(repeat):
+        monitor = make()
         gc.collect()
         start = time.perf_counter()
-        result = action()
+        result = run(monitor)
         times.append(time.perf_counter() - start)
     return min(times), result
 
 
-def run_monitor(formula: Any, trace: list[tuple[int, str]]) -> dict[str, Any]:
-    sets = {s: frozenset({s}) for s in STATES}
-    samples = [(t, sets[s]) for t, s in trace]
-    monitor = Monitor(formula)
-    memory = []
-    quarter = len(samples) // 4
-    for part in range(4):
-        monitor.feed(samples[part * quarter : (part + 1) * quarter])
-        memory.append(monitor.memory())
-        for _ in monitor.verdicts():
-            pass
-    monitor.end(trace[-1][0] + 1)
-    return {"memory": memory, "horizon_ticks": int(monitor.horizon)}
+# ---- the tools: monitors made and input prepared before the clock starts ----
 
 
-def run_reference(formula: Any, trace: list[tuple[int, str]]) -> None:
-    times, states = [], []
-    for t, s in trace:
-        if not states or states[-1] != frozenset({s}):
-            times.append(Fraction(t))
-            states.append(frozenset({s}))
-    Reference(Trace(times, states, Fraction(trace[-1][0] + 1))).segments(formula)
+def fed(monitor: Monitor, samples: list[tuple[int, frozenset[str]]], end: int) -> Any:
+    monitor.feed(samples)
+    monitor.end(end)
+    return list(monitor.verdicts()), monitor.memory()
 
 
-def hand_loop(trace: list[tuple[int, str]]) -> int:
-    """HardBraking -> eventually[<=10s] Stopped, written for this formula only:
-    count the hard-braking samples not followed by Stopped within 1000 ticks."""
+def rtamt_spec(kind: Any, text: str) -> Any:
+    spec = kind()
+    for name in VARIABLES:
+        spec.declare_var(name, "float")
+    spec.spec = text
+    spec.parse()
+    return spec
+
+
+def rtamt_discrete(spec: Any, rows: list[list[tuple[str, float]]]) -> list[float]:
+    return [spec.update(tick, row) for tick, row in enumerate(rows)]
+
+
+def rtamt_dense(spec: Any, pieces: list[list[list[Any]]]) -> list[list[float]]:
+    out: list[list[float]] = []
+    for piece in pieces:
+        out += spec.update(*piece)
+    return out
+
+
+def reelay_discrete(monitor: Any, rows: list[dict[str, bool]]) -> list[dict[str, Any]]:
+    return [monitor.update(row) for row in rows]
+
+
+def reelay_dense(monitor: Any, rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    out: list[dict[str, Any]] = []
+    for row in rows:
+        out += monitor.update(row)
+    return out
+
+
+def hand_loop(trace: Samples) -> tuple[list[int], int]:
+    """HardBraking -> eventually[<=10s] Stopped, written for this formula only: the
+    hard-braking samples with no Stopped within 1000 ticks, and up to where that is
+    decided. A sample expires before a Stopped at the same tick can clear it."""
     waiting: deque[int] = deque()
-    violations = 0
+    violations: list[int] = []
     for t, state in trace:
+        while waiting and t - waiting[0] > 1000:
+            violations.append(waiting.popleft())
         if state == "Stopped":
             waiting.clear()
         elif state == "HardBraking":
             waiting.append(t)
-        while waiting and t - waiting[0] > 1000:
-            waiting.popleft()
-            violations += 1
-    return violations
+    return violations, len(trace) - 1000
 
 
-def run_rtamt(spec_text: str, trace: list[tuple[int, str]]) -> None:
-    import rtamt
+# ---- verdicts, read the same way for every tool ----
 
-    spec = rtamt.StlDiscreteTimeSpecification()
-    for name in ("hb", "ab", "st"):
-        spec.declare_var(name, "float")
-    spec.spec = spec_text
-    spec.parse()
-    if "eventually" in spec_text or "until" in spec_text:
-        spec.pastify()
-    for t, state in trace:
-        spec.update(
-            t,
-            [
-                ("hb", 1.0 if state == "HardBraking" else -1.0),
-                ("ab", 1.0 if state == "AntiLockBrake" else -1.0),
-                ("st", 1.0 if state == "Stopped" else -1.0),
-            ],
+
+def false_ticks(segments: list[Segment], last: int) -> tuple[set[int], int]:
+    """The samples (ticks 0..last) where a verdict is false, and the first tick
+    that is not decided."""
+    found: set[int] = set()
+    decided = last + 1
+    for a, b, a_closed, b_closed, value in merge(segments):
+        first = math.ceil(a) if a_closed else math.floor(a) + 1
+        final = min(math.floor(b) if b_closed else math.ceil(b) - 1, last)
+        if value == "unknown" and first <= final:
+            decided = min(decided, first)
+        elif value == "false":
+            found.update(range(first, final + 1))
+    return {t for t in found if t < decided}, decided
+
+
+def steps_of_segments(segments: list[Segment]) -> Steps:
+    """The verdict as a step function, up to the first unknown stretch (the points
+    alone, which a step function cannot hold, are left out)."""
+    times: list[float] = []
+    values: list[bool] = []
+    for a, b, _, _, value in merge(segments):
+        if a < b and value == "unknown":
+            return times, values, float(a)
+        if a < b:
+            times.append(float(a))
+            values.append(value == "true")
+    return times, values, float(segments[-1][1]) if segments else 0.0
+
+
+def compare_discrete(tools: dict[str, tuple[set[int], int]]) -> int:
+    """The tools' false samples agree wherever all decide; the number of them."""
+    upto = min(decided for _, decided in tools.values())
+    first_name, (first, _) = next(iter(tools.items()))
+    mine = {t for t in first if t < upto}
+    for name, (theirs, _) in tools.items():
+        theirs = {t for t in theirs if t < upto}
+        if theirs != mine:
+            tick = min(mine ^ theirs)
+            raise Disagreement(
+                f"{name} and {first_name} disagree at tick {tick}: "
+                f"{name} says {'false' if tick in theirs else 'true'}"
+            )
+    return len(mine)
+
+
+def compare_dense(tools: dict[str, Steps], tolerance: dict[str, float]) -> None:
+    """The tools' verdicts agree on every open interval between their change points
+    (away from each tool's own tolerance around its change points)."""
+    upto = min(steps[2] for steps in tools.values())
+    cuts = sorted({t for times, _, _ in tools.values() for t in times if t < upto} | {upto})
+    names = list(tools)
+    for low, high in itertools.pairwise(cuts):
+        middle = (low + high) / 2
+        seen = {}
+        for name in names:
+            if high - low <= 2 * tolerance.get(name, 0.0):
+                continue
+            times, values, _ = tools[name]
+            index = bisect.bisect_right(times, middle) - 1
+            seen[name] = values[index] if index >= 0 else None
+        if len(set(seen.values())) > 1:
+            raise Disagreement(f"at t = {middle} ticks the verdicts differ: {seen}")
+
+
+# ---- the two sections ----
+
+
+def per_sample(trace: Samples, repeat: int, reference_samples: int) -> dict[str, Any]:
+    sets = {s: frozenset({s}) for s in STATES}
+    ours_input = [(t, sets[s]) for t, s in trace]
+    rtamt_rows = [[(v, 1.0 if s == state else -1.0) for v, s in VARIABLES.items()]
+                  for _, state in trace]  # fmt: skip
+    reelay_rows = [{s: s == state for s in VARIABLES.values()} for _, state in trace]
+    last = trace[-1][0]
+    rows: dict[str, Any] = {}
+    for name in FORMULAS:
+        formula = compiled(name)
+        seconds, (segments, memory) = best(
+            repeat, lambda f=formula: Monitor(f), lambda m: fed(m, ours_input, last + 1)
         )
+        verdicts = {"rmvdsl": false_ticks(segments, last)}
+        row: dict[str, Any] = {"rmvdsl": len(trace) / seconds, "memory": memory}
+        if name in RTAMT_DISCRETE and _installed("rtamt"):
+            text = RTAMT_DISCRETE[name]
+            seconds, out = best(
+                repeat,
+                lambda text=text: rtamt_spec(rtamt.StlDiscreteTimeSpecification, text),
+                lambda spec: rtamt_discrete(spec, rtamt_rows),
+            )
+            row["rtamt"] = len(trace) / seconds
+            verdicts["rtamt"] = ({t for t, r in enumerate(out) if r < 0}, len(trace))
+        if name in REELAY and _installed("reelay"):
+            pattern = REELAY[name]
+            seconds, out = best(
+                repeat,
+                lambda p=pattern: reelay.discrete_timed_monitor(pattern=p),
+                lambda monitor: reelay_discrete(monitor, reelay_rows),
+            )
+            row["reelay"] = len(trace) / seconds
+            verdicts["reelay"] = (_reelay_false(out, len(trace)), len(trace))
+        if name == "eventually":
+            seconds, (violations, decided) = best(repeat, lambda: None, lambda _: hand_loop(trace))
+            row["hand loop"] = len(trace) / seconds
+            verdicts["hand loop"] = (set(violations), decided)
+        row["violations"] = compare_discrete(verdicts)
+        row["reference"] = check_reference(formula, trace[:reference_samples])
+        rows[name] = row
+    return rows
 
 
-def run_reelay(trace: list[tuple[int, str]]) -> None:
-    from reelay import discrete_timed_monitor
+def _reelay_false(out: list[dict[str, Any]], count: int) -> set[int]:
+    found, value = set(), True
+    for tick, change in enumerate(out):
+        value = change.get("value", value)
+        if not value:
+            found.add(tick)
+    return found
 
-    monitor = discrete_timed_monitor(pattern=REELAY_PAST)
-    for _, state in trace:
-        monitor.update({"Stopped": state == "Stopped", "HardBraking": state == "HardBraking"})
+
+def per_change(trace: Samples, repeat: int) -> dict[str, Any]:
+    points = change_points(trace)
+    end = trace[-1][0] + 1
+    sets = {s: frozenset({s}) for s in STATES}
+    ours_input = [(t, sets[s]) for t, s in points]
+    reelay_rows = [{"time": t, **{s: s == state for s in VARIABLES.values()}}
+                   for t, state in [*points, (end, points[-1][1])]]  # fmt: skip
+    following = [t for t, _ in points[1:]] + [end]
+    rtamt_pieces = [
+        [[v, [[t, value], [next_t - RAMP, value]]] for v, value in _levels(state)]
+        for (t, state), next_t in zip(points, following, strict=True)
+    ]
+    rows: dict[str, Any] = {}
+    for name in FORMULAS:
+        formula = compiled(name)
+        seconds, (segments, memory) = best(
+            repeat, lambda f=formula: Monitor(f), lambda m: fed(m, ours_input, end)
+        )
+        row: dict[str, Any] = {"rmvdsl": len(points) / seconds, "memory": memory}
+        row["false segments"] = sum(1 for s in merge(segments) if s[4] == "false")
+        steps = {"rmvdsl": steps_of_segments(segments)}
+        if name in REELAY and _installed("reelay"):
+            pattern = REELAY[name]
+            seconds, out = best(
+                repeat,
+                lambda p=pattern: reelay.dense_timed_monitor(pattern=p),
+                lambda monitor: reelay_dense(monitor, reelay_rows),
+            )
+            row["reelay"] = len(points) / seconds
+            steps["reelay"] = ([float(o["time"]) for o in out], [o["value"] for o in out], end)
+        if name in RTAMT_DENSE and _installed("rtamt"):
+            text = RTAMT_DENSE[name]
+            seconds, out = best(
+                repeat,
+                lambda text=text: rtamt_spec(rtamt.StlDenseTimeSpecification, text),
+                lambda spec: rtamt_dense(spec, rtamt_pieces),
+            )
+            row["rtamt"] = len(points) / seconds
+            steps["rtamt"] = (
+                [float(t) for t, _ in out],
+                [r >= 0 for _, r in out],
+                float(out[-1][0]) if out else 0.0,
+            )
+        compare_dense(steps, {"rtamt": RAMP})
+        rows[name] = row
+    return rows
 
 
-def rate(samples: int, seconds: float) -> float:
-    return samples / seconds if seconds > 0 else float("inf")
+def _levels(state: str) -> Iterable[tuple[str, float]]:
+    return [(v, 1.0 if s == state else -1.0) for v, s in VARIABLES.items()]
+
+
+def check_reference(formula: Any, prefix: Samples) -> dict[str, Any]:
+    """The monitor equals the reference evaluator on a prefix: the same segments."""
+    points = change_points(prefix)
+    end = prefix[-1][0] + 1
+    times = [Fraction(t) for t, _ in points]
+    states = [frozenset({s}) for _, s in points]
+    start = time.perf_counter()
+    expected = Reference(Trace(times, states, Fraction(end))).segments(formula)
+    seconds = time.perf_counter() - start
+    got = merge(fed(Monitor(formula), list(zip(times, states, strict=True)), end)[0])
+    if got != expected:
+        raise Disagreement(f"the monitor and the reference evaluator differ on {len(prefix)} ticks")
+    return {"samples": len(prefix), "changes": len(points), "per_s": len(points) / seconds}
+
+
+def _installed(module: str) -> bool:
+    if globals()[module] is None:
+        print(f"({module} is not installed: pip install {module})")
+        return False
+    return True
+
+
+# ---- report ----
+
+
+def table(rows: dict[str, Any], tools: list[str], unit: str, count: str) -> list[str]:
+    header = f"{'formula':<13}" + "".join(f"{tool + unit:>16}" for tool in tools)
+    lines = [header + f"{count:>16}   rmvdsl's speed / theirs"]
+    for name, row in rows.items():
+        cells = [f"{row[tool]:>16,.0f}" if row.get(tool) else f"{'-':>16}" for tool in tools]
+        ratios = [f"{tool} {row['rmvdsl'] / row[tool]:.2f}x" for tool in tools[1:] if row.get(tool)]
+        lines.append(f"{name:<13}{''.join(cells)}{row[count]:>16,}   " + ", ".join(ratios or ["-"]))
+    return lines
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    parser.add_argument("--samples", type=int, default=1_000_000)
+    parser.add_argument("--samples", type=int, default=50_000, help="per-sample section")
+    parser.add_argument("--dense-samples", type=int, default=1_000_000, help="per-change section")
     parser.add_argument("--repeat", type=int, default=3)
-    parser.add_argument("--reference-samples", type=int, default=3000)
-    parser.add_argument("--rtamt-samples", type=int, default=3000)
-    parser.add_argument("--reelay-samples", type=int, default=200_000)
+    parser.add_argument("--reference-samples", type=int, default=20_000)
     parser.add_argument("--json", metavar="FILE")
     args = parser.parse_args()
 
-    trace = generate(args.samples)
-    changes = sum(1 for a, b in itertools.pairwise(trace) if a[1] != b[1])
-    print(f"{len(trace):,} samples at 100 Hz, {changes:,} state changes")
-    results: dict[str, dict[str, Any]] = {}
-    hand_seconds, _ = best(args.repeat, lambda: hand_loop(trace))
-    hand_rate = rate(len(trace), hand_seconds)
-    for name in FORMULAS:
-        formula = compiled(name)
-        seconds, info = best(args.repeat, lambda formula=formula: run_monitor(formula, trace))
-        row: dict[str, Any] = {"rmvdsl": rate(len(trace), seconds), **info}
-        prefix = trace[: args.reference_samples]
-        ref_seconds, _ = best(
-            1, lambda formula=formula, prefix=prefix: run_reference(formula, prefix)
-        )
-        row["reference"] = rate(len(prefix), ref_seconds)
-        if name in RTAMT:
-            try:
-                part = trace[: args.rtamt_samples]
-                rt_seconds, _ = best(1, lambda part=part, name=name: run_rtamt(RTAMT[name], part))
-                row["rtamt"] = rate(len(part), rt_seconds)
-            except ImportError:
-                row["rtamt"] = None
-        if name == "past mirror":
-            try:
-                part = trace[: args.reelay_samples]
-                re_seconds, _ = best(args.repeat, lambda part=part: run_reelay(part))
-                row["reelay"] = rate(len(part), re_seconds)
-            except ImportError:
-                row["reelay"] = None
-        if name == "eventually":
-            row["hand loop"] = hand_rate
-        results[name] = row
-    header = (
-        f"{'formula':<13} {'rmvdsl/s':>12} {'reference/s':>12} {'rtamt/s':>10} {'reelay/s':>12} "
-        f"{'hand/s':>12} {'vs rtamt':>9} {'vs reelay':>9} {'hand/us':>8}"
-    )
-    print(header + "  memory (breakpoints at 25/50/75/100%)")
-    for name, row in results.items():
-        ours = row["rmvdsl"]
-
-        def cell(key: str, width: int, row: dict[str, Any] = row) -> str:
-            value = row.get(key)
-            return f"{value:>{width},.0f}" if value else f"{'-':>{width}}"
-
-        versus_rtamt = f"{ours / row['rtamt']:>8.0f}x" if row.get("rtamt") else f"{'-':>9}"
-        versus_reelay = f"{ours / row['reelay']:>8.2f}x" if row.get("reelay") else f"{'-':>9}"
-        hand = f"{row['hand loop'] / ours:>7.2f}x" if row.get("hand loop") else f"{'-':>8}"
-        cells = [cell("rmvdsl", 12), cell("reference", 12), cell("rtamt", 10), cell("reelay", 12)]
-        cells += [cell("hand loop", 12), versus_rtamt, versus_reelay, hand]
-        print(f"{name:<13} {' '.join(cells)}  {row['memory']}")
+    trace, dense = generate(args.samples), generate(args.dense_samples)
+    changes, dense_points = len(change_points(trace)) - 1, len(change_points(dense))
+    try:
+        samples_rows = per_sample(trace, args.repeat, args.reference_samples)
+        change_rows = per_change(dense, args.repeat)
+    except Disagreement as exc:
+        print(f"the tools disagree, so no speed is reported: {exc}", file=sys.stderr)
+        return 1
+    print(f"per sample: {len(trace):,} samples at 100 Hz ({changes:,} state changes), "
+          f"verdicts equal at every sample; samples per second, best of {args.repeat}")  # fmt: skip
+    for line in table(samples_rows, ["rmvdsl", "rtamt", "reelay", "hand loop"], "/s", "violations"):
+        print(line)
+    print(f"\nper change: the {dense_points:,} change points of {len(dense):,} samples, "
+          "verdicts equal on every interval; change points per second")  # fmt: skip
+    for line in table(change_rows, ["rmvdsl", "reelay", "rtamt"], "/s", "false segments"):
+        print(line)
+    print("\nreference evaluator, equal segments on a prefix: "
+          + ", ".join(f"{name} {row['reference']['changes']} changes"
+                      for name, row in samples_rows.items()))  # fmt: skip
     if args.json:
-        Path(args.json).write_text(json.dumps(results, indent=2), encoding="utf-8")
+        payload = {
+            "per_sample": {"samples": len(trace), "changes": changes, "rows": samples_rows},
+            "per_change": {
+                "samples": len(dense),
+                "change_points": dense_points,
+                "rows": change_rows,
+            },
+            "repeat": args.repeat,
+        }
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.json).write_text(json.dumps(payload, indent=2) + "\n", encoding="utf-8")
     return 0
 
 

@@ -180,3 +180,32 @@ def test_window_sweep_equals_pointwise_with_late_input(formula, trace, random):
         patch.setattr(rmtld3.Temporal, "update", rmtld3.Evaluated.update)
         pointwise = run()
     assert swept == pointwise
+
+
+@settings(
+    max_examples=25,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much],
+)
+@given(st.one_of(windows(3), formulas(2)), st.randoms(use_true_random=False))
+def test_batches_of_any_size_give_the_same_verdicts(formula, random):
+    """A long trace (300 changes) gives the same segments whether the monitor
+    recomputes after every change that passes the horizon or in batches."""
+    from rmvdsl.runtime import rmtld3
+
+    t, samples = Fraction(0), []
+    for _ in range(300):
+        samples.append((t, frozenset(random.sample(PROPS, random.randint(0, 3)))))
+        t += random.randint(1, 6)
+
+    def run() -> list:
+        monitor = Monitor(formula)
+        monitor.feed(samples)
+        monitor.end(t)
+        return [*merge(monitor.verdicts()), *monitor.beyond()]
+
+    batched = run()
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(rmtld3, "BATCH", 1)
+        patch.setattr(rmtld3, "SPARSE_HORIZONS", 1)
+        assert run() == batched

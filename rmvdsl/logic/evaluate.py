@@ -14,7 +14,7 @@ from rmvdsl.logic.compile import CompileError, compile_formula
 from rmvdsl.logic.traces import TraceFile
 from rmvdsl.logic.validate import check_formula
 from rmvdsl.numbers import to_json
-from rmvdsl.runtime.rmtld3 import Monitor, Segment, merge
+from rmvdsl.runtime.rmtld3 import BATCH, Monitor, Segment, merge
 from rmvdsl.runtime.values import exact_text
 
 
@@ -30,7 +30,7 @@ class Evaluation:
         """The static memory bound (docs/semantics.md)."""
         return (
             f"at most {self.nodes} subformulas x (2 x (horizon {exact_text(self.horizon)} + 1)"
-            " x state changes per time unit + 3) breakpoints"
+            f" x state changes per time unit + {BATCH + 3}) breakpoints"
         )
 
 

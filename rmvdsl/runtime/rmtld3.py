@@ -34,6 +34,8 @@ FALSE, UNKNOWN, TRUE = 0, 1, 2
 NAMES = {FALSE: "false", UNKNOWN: "unknown", TRUE: "true"}
 _INFINITY = float("inf")
 _NO_PULSES: frozenset[str] = frozenset()
+BATCH = 256  # changes recomputed together once the input spans the horizon
+SPARSE_HORIZONS = 32  # or once it spans this many horizons
 
 
 _EXACT_HALVES = 2**52  # below this, n + 0.5 is exact as a float
@@ -204,8 +206,10 @@ class Not(Node):
         signal.cut(start)
         i = source.index(start)
         signal.append(start, 2 - source.at(start), 2 - source.opens[i])
-        for k in range(i + 1, len(source.starts)):
-            signal.append(source.starts[k], 2 - source.points[k], 2 - source.opens[k])
+        starts, points, opens, out = source.starts, source.points, source.opens, signal.opens
+        for k in range(i + 1, len(starts)):
+            if not 2 - points[k] == 2 - opens[k] == out[-1]:  # else append would skip it
+                signal.append(starts[k], 2 - points[k], 2 - opens[k])
 
 
 class Binary(Node):
@@ -230,7 +234,7 @@ class Binary(Node):
         b_point = b_points[j] if b_starts[j] == start else b_opens[j]
         signal.append(start, combine(a_point, b_point), combine(a_opens[i], b_opens[j]))
         i, j = i + 1, j + 1
-        a_count, b_count = len(a_starts), len(b_starts)
+        a_count, b_count, opens = len(a_starts), len(b_starts), signal.opens
         while i < a_count or j < b_count:
             a_next = a_starts[i] if i < a_count else _INFINITY
             b_next = b_starts[j] if j < b_count else _INFINITY
@@ -245,7 +249,9 @@ class Binary(Node):
                 j += 1
             else:
                 b_point = b_open = b_opens[j - 1]
-            signal.append(t, combine(a_point, b_point), combine(a_open, b_open))
+            point, after = combine(a_point, b_point), combine(a_open, b_open)
+            if not point == after == opens[-1]:  # else no change: append would skip it
+                signal.append(t, point, after)
 
 
 class Evaluated(Node, ABC):
@@ -680,16 +686,28 @@ class Monitor:
             for t, state in iterator:
                 self._advance(t, frozenset(state))
                 break
-        current, known, advance = self.state, self.known, self._advance
+        current, known, changes = self.state, self.known, self.changes
+        # _advance's usual case inlined: a change in time order
+        wait, batch_wait = self.horizon, SPARSE_HORIZONS * self.horizon
         for t, state in iterator:
             # The same object (a sampler reusing its state) is the cheapest test.
             if (state is current or state == current) and t >= known:
                 known = t
                 continue
-            self.known = known
-            advance(t, state if isinstance(state, frozenset) else frozenset(state))
-            current, known = self.state, self.known
-        self.known = known
+            if type(state) is not frozenset:
+                state = frozenset(state)
+            if t < known:  # late: counted and made unknown
+                self.known = known
+                self._advance(t, state)
+                current, known = self.state, self.known
+                continue
+            known, current = t, state
+            changes.append((t, state, _NO_PULSES))
+            waited = t - self.written
+            if waited > wait and (len(changes) >= BATCH or waited > batch_wait):
+                self.known, self.state = known, current
+                self._flush()
+        self.known, self.state = known, current
 
     def end(self, t: Any) -> None:
         """The input ends at t: the last state held until t; nothing is known after."""
@@ -735,8 +753,13 @@ class Monitor:
             self.known = t
             self.changes.append((t, state, pulses))
             self.state = state
-            if t - self.written > self.horizon:
-                self._flush()  # keeps what is held within about twice the horizon
+            waited = t - self.written
+            if waited > self.horizon and (
+                len(self.changes) >= BATCH or waited > SPARSE_HORIZONS * self.horizon
+            ):
+                # What is held stays within twice the horizon plus one batch; a
+                # batch of changes pays the fixed cost of a recomputation once.
+                self._flush()
 
     def _flush(self) -> None:
         """Compute everything the input so far decides."""
@@ -763,8 +786,9 @@ class Monitor:
             signal.cut(begin)
             signal.append(begin, point, value)
             for when, state, pulses in self.changes:
-                value = TRUE if name in state else FALSE
-                signal.append(when, TRUE if name in pulses else value, value)
+                before, value = value, TRUE if name in state else FALSE
+                if value != before or name in pulses or when == signal.starts[-1]:
+                    signal.append(when, TRUE if name in pulses else value, value)
             signal.append(self.known, UNKNOWN, UNKNOWN)
         last = self.changes[-1] if self.changes else None
         self.written_pulses = (
