@@ -7,10 +7,12 @@ Exit codes: 0 no errors, 1 errors found (or `fmt --check` would change a file),
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
-from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from collections.abc import Iterator, Sequence
+from fractions import Fraction
+from typing import TYPE_CHECKING, Any
 
 from rmvdsl import __version__
 from rmvdsl.check import check
@@ -26,7 +28,7 @@ from rmvdsl.source import SourceMap
 if TYPE_CHECKING:
     from rmvdsl.check.properties import PropertyReport
     from rmvdsl.logic.sat import Answer
-    from rmvdsl.logic.traces import TraceFile
+    from rmvdsl.logic.traces import TraceFile, TraceStream
     from rmvdsl.runtime import spec as ir_spec
 
 EXIT_OK, EXIT_ERRORS, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 70
@@ -579,60 +581,34 @@ def _fmt(args: argparse.Namespace) -> int:
 
 def _eval(args: argparse.Namespace) -> int:
     from rmvdsl.logic import evaluate as ev
-    from rmvdsl.logic.traces import TraceError, read_trace
+    from rmvdsl.logic.traces import SCALE
 
     try:
         at = exact_or_quotient(args.at)
     except NumberError as exc:
         raise UsageError(f"--at: {exc}") from None
     node, diagnostics = ev.parse(args.formula, args.syntax, args.term)
-    try:
-        trace = read_trace(args.trace, read_text(args.trace))
-    except TraceError as exc:
-        raise UsageError(str(exc)) from None
-    compiled = None
-    if node is not None:
-        compiled, diagnostics = ev.compile_or_diagnose(
-            node, trace.unit_seconds, trace.unit, diagnostics, args.formula
-        )
-    if compiled is None:
-        return _formula_errors(args, diagnostics)
-    for note in [*trace.notes, *_absent_names(compiled, trace)]:
-        print(f"rmv eval: {note}", file=sys.stderr)
     if args.term:
-        low, high = ev.term_at(compiled, trace, at)
-        value = (
-            exact_text(low)
-            if low == high
-            else f"unknown (between {exact_text(low)} and {exact_text(high)})"
-        )
-        if args.format == "json":
-            sys.stdout.write(ev.as_json({"t": at, "low": low, "high": high}))
-        else:
-            print(value)
+        return _eval_term(args, node, diagnostics, at)
+    with _trace_stream(args.trace) as trace:
+        compiled = None
+        if node is not None:
+            compiled, diagnostics = ev.compile_or_diagnose(
+                node, trace.unit_seconds / SCALE, trace.unit, diagnostics, args.formula
+            )
+        if compiled is None:
+            return _formula_errors(args, diagnostics)
+        run = ev.Streamed(compiled, trace)
+        verdict = _eval_output(args, run, at)  # a bad line raises TraceError: exit 2
+    for note in [*trace.notes, *_absent_names(compiled, trace.seen)]:
+        print(f"rmv eval: {note}", file=sys.stderr)
+    if verdict is None:
         return EXIT_OK
-    result = ev.run(compiled, trace)
-    if args.all:
-        if args.format == "json":
-            payload = {
-                "segments": [ev.segment_json(s) for s in result.segments],
-                "beyond": [ev.segment_json(s) for s in result.beyond],
-                "horizon": result.horizon,
-                "memory": {"held": result.memory, "bound": result.bound()},
-            }
-            sys.stdout.write(ev.as_json(payload))
-        else:
-            for segment in result.segments:
-                print(ev.segment_text(segment))
-            if result.beyond:
-                end = exact_text(trace.end if trace.end is not None else trace.times[-1])
-                print(f"after the end ({end}), as far as the trace decides:")
-            for segment in result.beyond:
-                print(ev.segment_text(segment))
-        return EXIT_OK
-    verdict = ev.verdict_at([*result.segments, *result.beyond], at)
-    if at < trace.times[0]:  # before the first sample: what the definitions say there
-        verdict = ev.reference_verdict(compiled, trace, at)
+    assert trace.first is not None and node is not None
+    if at < trace.first:  # before the first sample: what the definitions say there
+        whole = _whole_trace(args.trace)
+        plain, _ = ev.compile_or_diagnose(node, whole.unit_seconds, whole.unit, [], args.formula)
+        verdict = ev.reference_verdict(plain, whole, at)
     if args.format == "json":
         sys.stdout.write(ev.as_json({"t": at, "verdict": verdict}))
     else:
@@ -640,13 +616,90 @@ def _eval(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _absent_names(compiled: object, trace: TraceFile) -> list[str]:
+def _eval_output(args: argparse.Namespace, run: Any, at: Fraction) -> str | None:
+    """`--all`: every segment written as it is decided (None); else the verdict at
+    `at`, the stream read to its end."""
+    from rmvdsl.logic import evaluate as ev
+
+    if args.all and args.format == "json":
+        ev.write_all_json(sys.stdout, run)
+        return None
+    if args.all:
+        for segment in run.segments():
+            print(ev.segment_text(segment))
+        end = run.trace.end
+        if run.summary.beyond:
+            print(f"after the end ({exact_text(end)}), as far as the trace decides:")
+        for segment in run.summary.beyond:
+            print(ev.segment_text(segment))
+        return None
+    verdict = "unknown"
+    for segment in run.segments():  # read to the end: every line is checked
+        if ev.contains(segment, at):
+            verdict = segment[4]
+    for segment in run.summary.beyond:
+        if ev.contains(segment, at):
+            verdict = segment[4]
+    return verdict
+
+
+@contextlib.contextmanager
+def _trace_stream(path: str) -> Iterator[TraceStream]:
+    from rmvdsl.logic.traces import TraceError, TraceStream
+
+    try:
+        with open(path, encoding="utf-8-sig", newline=None) as handle:
+            yield TraceStream(path, handle)
+    except FileNotFoundError:
+        raise UsageError(f"{path}: no such file") from None
+    except IsADirectoryError:
+        raise UsageError(f"{path}: is a directory, not a file") from None
+    except PermissionError:
+        raise UsageError(f"{path}: permission denied") from None
+    except TraceError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def _whole_trace(path: str) -> TraceFile:
+    from rmvdsl.logic.traces import TraceError, read_trace
+
+    try:
+        return read_trace(path, read_text(path))
+    except TraceError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def _eval_term(
+    args: argparse.Namespace, node: Any, diagnostics: list[Diagnostic], at: Fraction
+) -> int:
+    from rmvdsl.logic import evaluate as ev
+
+    trace = _whole_trace(args.trace)
+    compiled = None
+    if node is not None:
+        compiled, diagnostics = ev.compile_or_diagnose(
+            node, trace.unit_seconds, trace.unit, diagnostics, args.formula
+        )
+    if compiled is None:
+        return _formula_errors(args, diagnostics)
+    for note in [*trace.notes, *_absent_names(compiled, set().union(*trace.states))]:
+        print(f"rmv eval: {note}", file=sys.stderr)
+    low, high = ev.term_at(compiled, trace, at)
+    if args.format == "json":
+        sys.stdout.write(ev.as_json({"t": at, "low": low, "high": high}))
+    elif low == high:
+        print(exact_text(low))
+    else:
+        print(f"unknown (between {exact_text(low)} and {exact_text(high)})")
+    return EXIT_OK
+
+
+def _absent_names(compiled: object, seen: set[str]) -> list[str]:
     """Propositions of the formula that no sample of the trace holds: a typo reads as
     `false` everywhere, so say so."""
     from rmvdsl.diagnostics import did_you_mean
     from rmvdsl.runtime.rmtld3 import facts
 
-    seen: set[str] = set().union(*trace.states)
     notes = []
     for name in sorted(set(facts(compiled).propositions) - seen):
         hint = did_you_mean(name, seen)

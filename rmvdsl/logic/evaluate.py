@@ -2,16 +2,19 @@
 
 from __future__ import annotations
 
+import itertools
 import math
+import textwrap
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from fractions import Fraction
-from typing import Any
+from typing import Any, TextIO
 
 from rmvdsl.diagnostics import Diagnostic, Severity, error
 from rmvdsl.grammar.formula import Formula, Term
 from rmvdsl.grammar.parser import parse_formula
 from rmvdsl.logic.compile import CompileError, compile_formula
-from rmvdsl.logic.traces import TraceFile
+from rmvdsl.logic.traces import SCALE, TraceFile, TraceStream, scaled
 from rmvdsl.logic.validate import check_formula
 from rmvdsl.numbers import to_json
 from rmvdsl.runtime.rmtld3 import BATCH, Monitor, Segment, merge
@@ -61,6 +64,7 @@ def compile_or_diagnose(
 
 
 def run(formula: Any, trace: TraceFile) -> Evaluation:
+    """A whole trace in memory (times in its unit), every segment kept."""
     monitor = Monitor(formula)
     monitor.feed(zip(trace.times, trace.states, strict=True))
     assert trace.end is not None
@@ -74,11 +78,92 @@ def run(formula: Any, trace: TraceFile) -> Evaluation:
     )
 
 
+class Streamed:
+    """A formula compiled for a stream's scale (`compile_or_diagnose` with
+    `trace.unit_seconds / SCALE`) over a trace read as it goes: `segments()` yields
+    the merged verdict segments, in the trace's unit, as they are decided; after it,
+    `summary` holds what comes after the end and what the monitor held."""
+
+    BLOCK = 4096  # change points fed between two readings of the verdicts
+
+    def __init__(self, formula: Any, trace: TraceStream) -> None:
+        self.monitor = Monitor(formula)
+        self.trace = trace
+        self.summary = Evaluation()
+
+    def segments(self) -> Iterator[Segment]:
+        pending: Segment | None = None
+        for segment in self._decided():
+            if pending is not None and _joins(pending, segment):
+                pending = (pending[0], segment[1], pending[2], segment[3], segment[4])
+                continue
+            if pending is not None:
+                yield _unscaled(pending)
+            pending = segment
+        if pending is not None:
+            yield _unscaled(pending)
+
+    def _decided(self) -> Iterator[Segment]:
+        monitor, changes = self.monitor, self.trace.changes()
+        while block := list(itertools.islice(changes, self.BLOCK)):
+            monitor.feed(block)
+            yield from monitor.verdicts()
+        assert self.trace.end is not None
+        monitor.end(scaled(self.trace.end))
+        yield from monitor.verdicts()
+        self.summary = Evaluation(
+            [],
+            [_unscaled(s) for s in monitor.beyond()],
+            monitor.memory(),
+            Fraction(monitor.horizon) / SCALE,
+            len(monitor.order),
+        )
+
+
+def _joins(left: Segment, right: Segment) -> bool:
+    return left[4] == right[4] and left[1] == right[0] and (left[3] or right[2])
+
+
+def _unscaled(segment: Segment) -> Segment:
+    a, b, a_closed, b_closed, value = segment
+    return _time_of(a), _time_of(b), a_closed, b_closed, value
+
+
+def _time_of(value: Any) -> Any:
+    """A stream time back in the trace's unit (infinity stays)."""
+    return value if isinstance(value, float) and math.isinf(value) else Fraction(value) / SCALE
+
+
+def write_all_json(out: TextIO, run: Streamed) -> None:
+    """`rmv eval --all --format json`, written as the segments come: the same text
+    as `as_json` of the whole payload, never all of it in memory."""
+    out.write('{\n  "segments": [')
+    count = 0
+    for count, segment in enumerate(run.segments(), 1):
+        item = textwrap.indent(to_json(segment_json(segment)), "    ")
+        out.write(("," if count > 1 else "") + "\n" + item)
+    out.write("\n  ]" if count else "]")
+    summary = run.summary
+    rest = to_json(
+        {
+            "beyond": [segment_json(s) for s in summary.beyond],
+            "horizon": summary.horizon,
+            "memory": {"held": summary.memory, "bound": summary.bound()},
+        }
+    )
+    out.write(",\n" + rest.removeprefix("{\n") + "\n")
+
+
 def verdict_at(segments: list[Segment], t: Fraction) -> str:
-    for a, b, a_closed, b_closed, value in segments:
-        if (a < t or (a == t and a_closed)) and (t < b or (t == b and b_closed)):
-            return value
+    for segment in segments:
+        if contains(segment, t):
+            return segment[4]
     return "unknown"
+
+
+def contains(segment: Segment, t: Fraction) -> bool:
+    a, b, a_closed, b_closed, _ = segment
+    return (a < t or (a == t and a_closed)) and (t < b or (t == b and b_closed))
 
 
 def reference_verdict(formula: Any, trace: TraceFile, t: Fraction) -> str:

@@ -14,17 +14,25 @@ CSV, with a header naming `t` and `state` or `props` (propositions separated by
 `;`), and optionally `end` (a row with `end` true ends the trace). A first line
 `# unit: ms` sets the unit. Without an end record the trace ends at its last
 sample. Every problem is reported with its line (and column where it helps).
+
+`TraceStream` reads a file as it is used: its unit at once, then its state changes
+one chunk of lines at a time, so that `rmv eval` holds no more than a chunk however
+long the trace. Lines of the common shape (`{"t": 1.25, "state": "A"}`, or CSV
+`1.25,A` under a `t,state` header) are read by one regular expression per chunk and
+their times compared as floats (exactly where two floats tie); every other line goes
+through the full reader, which reports each problem. Times come out exact, as whole
+billionths of the trace's unit (an int; a Fraction only for a time finer than that).
 """
 
 from __future__ import annotations
 
 import csv
-import io
 import json
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from fractions import Fraction
+from typing import TextIO
 
 from rmvdsl.grammar.formula import TIME_UNITS
 from rmvdsl.numbers import NumberError, exact_or_quotient
@@ -56,12 +64,189 @@ class TraceFile:
         return TIME_UNITS[self.unit]
 
 
-def read_trace(path: str, text: str) -> TraceFile:
+SCALE = 10**9  # a stream's times: whole billionths of the trace's unit
+CHUNK = 1 << 20  # characters read at a time
+_DECIMAL = r"(-?(?:0|[1-9][0-9]{0,14})(?:\.[0-9]{1,9})?)"  # exact in billionths, in range
+_PROPOSITION = r"([A-Za-z_][A-Za-z0-9_]*)"
+_FAST_JSONL = re.compile(
+    rf'^[ \t]*\{{[ \t]*"t"[ \t]*:[ \t]*{_DECIMAL}[ \t]*,[ \t]*"state"[ \t]*:[ \t]*'
+    rf'"{_PROPOSITION}"[ \t]*\}}[ \t]*$',
+    re.MULTILINE,
+)
+_FAST_CSV = re.compile(rf"^[ \t]*{_DECIMAL}[ \t]*,[ \t]*{_PROPOSITION}[ \t]*$", re.MULTILINE)
+
+
+def scaled(t: Fraction) -> int | Fraction:
+    """A time in billionths of its unit: an int where that is exact."""
+    value = t * SCALE
+    return value.numerator if value.denominator == 1 else value
+
+
+def _decimal_scaled(text: str) -> int:
+    """A decimal the fast reader matched (at most 9 decimals) in billionths."""
+    whole, _, fraction = text.partition(".")
+    return int(whole + fraction.ljust(9, "0"))
+
+
+class _Reader:
+    """The checks every line passes, and what they leave: the unit, the last sample
+    (its time kept as text until an exact comparison needs it), the end."""
+
+    def __init__(self, path: str) -> None:
+        self.path = path
+        self.unit = "s"
+        self.end: Fraction | None = None
+        self.last_text: str | None = None  # the newest sample's time as written
+        self.last_float = float("-inf")
+        self._last: Fraction | None = None
+        self.accepted: list[tuple[Fraction, frozenset[str]]] = []  # by the full reader
+        self.header: list[str] | None = None  # CSV
+
+    @property
+    def last(self) -> Fraction | None:
+        if self._last is None and self.last_text is not None:
+            self._last = exact_or_quotient(self.last_text)
+        return self._last
+
+    def add(self, line: int, column: int, t: Fraction, state: frozenset[str]) -> None:
+        if self.end is not None:
+            raise TraceError(
+                self.path, line, 1, "a sample after the end record", "the end record comes last"
+            )
+        last = self.last
+        if last is not None and t <= last:
+            what = "goes backwards" if t < last else "does not advance"
+            raise TraceError(
+                self.path,
+                line,
+                column,
+                f"time {t} {what} (the previous sample is at {last})",
+                "samples must be in strictly increasing time",
+            )
+        for name in state:
+            if not _NAME.match(name):
+                raise TraceError(self.path, line, column, f"`{name}` is not a proposition name")
+        self._last, self.last_text, self.last_float = t, None, float(t)
+        self.accepted.append((t, state))
+
+    def close(self, line: int, column: int, t: Fraction) -> None:
+        if self.end is not None:
+            raise TraceError(self.path, line, 1, "a second end record")
+        last = self.last
+        if last is not None and t < last:
+            raise TraceError(
+                self.path, line, column, f"the end {t} is before the last sample ({last})"
+            )
+        self.end = t
+
+    def set_unit(self, unit: str, line: int, column: int) -> None:
+        if self.last_text is not None or self._last is not None:
+            raise TraceError(self.path, line, column, "the unit comes before the first sample")
+        unit = {"u": "us"}.get(unit, unit)
+        if unit not in TIME_UNITS:
+            raise TraceError(
+                self.path, line, column, f"unknown unit `{unit}`", "ns, us, ms, s, m, h, d or w"
+            )
+        self.unit = unit
+
+    def fast_order(self, text: str, line: int, raw: str) -> None:
+        """A fast line whose time is not above the last as a float: compare exactly."""
+        t = exact_or_quotient(text)
+        last = self.last
+        if last is not None and t <= last:
+            self.jsonl(line, raw) if self.header is None else self.csv(line, raw)  # raises
+        self._last = t
+
+    # ---- the full reader, one line at a time ----
+
+    def jsonl(self, number: int, raw: str) -> None:
+        if not raw.strip():
+            return
+        try:
+            record = load_json(raw)
+        except json.JSONDecodeError as exc:
+            raise TraceError(self.path, number, exc.colno, f"not JSON: {exc.msg}") from None
+        if not isinstance(record, dict):
+            raise TraceError(self.path, number, 1, "each line must be a JSON object")
+        column = _columns(raw)
+        if set(record) == {"unit"}:
+            self.set_unit(str(record["unit"]), number, column("unit"))
+            return
+        unknown = sorted(set(record) - {"t", "state", "props", "end"})
+        if unknown:
+            raise TraceError(self.path, number, column(unknown[0]), f"unknown field `{unknown[0]}`",
+                             'fields are "t", "state", "props" and "end"')  # fmt: skip
+        if "t" not in record:
+            raise TraceError(self.path, number, 1, 'a record without "t"')
+        t = _time(record["t"], self.path, number, column("t"))
+        if record.get("end") is True:
+            if "state" in record or "props" in record:
+                raise TraceError(self.path, number, column("end"), "an end record has no state")
+            self.close(number, column("t"), t)
+            return
+        if "end" in record:
+            raise TraceError(self.path, number, column("end"), '"end" must be true')
+        self.add(number, column("t"), t, _state(record, self.path, number, column))
+
+    def csv(self, number: int, raw: str) -> None:
+        if self.header is None:
+            self._csv_preamble(number, raw)
+            return
+        if not raw.strip():
+            return
+        row = next(csv.reader([raw]), [])
+        header = self.header
+        if len(row) != len(header):
+            raise TraceError(self.path, number, 1, f"{len(row)} cells for {len(header)} columns")
+        cells = dict(zip(header, (c.strip() for c in row), strict=True))
+        t = _time(cells["t"], self.path, number, 1)
+        if cells.get("end", "").lower() in ("true", "1", "yes"):
+            self.close(number, 1, t)
+            return
+        if "state" in header:
+            value = cells["state"]
+            state = frozenset({value}) if value else frozenset()
+        else:
+            state = frozenset(p.strip() for p in cells["props"].split(";") if p.strip())
+        self.add(number, 1, t, state)
+
+    def _csv_preamble(self, number: int, raw: str) -> None:
+        """Comments (`# unit: ms`) and blank lines, then the header."""
+        if not raw.strip() or raw.lstrip().startswith("#"):
+            match = re.match(r"^\s*#\s*unit\s*:\s*(\S+)\s*$", raw)
+            if match:
+                self.set_unit(match.group(1), number, raw.find(match.group(1)) + 1)
+            return
+        header = [h.strip() for h in next(csv.reader([raw]), [])]
+        if "t" not in header or not ({"state", "props"} & set(header)):
+            raise TraceError(
+                self.path,
+                number,
+                1,
+                f"the header `{','.join(header)}` has no `t` and `state` (or `props`) columns",
+            )
+        unknown = [h for h in header if h not in {"t", "state", "props", "end"}]
+        if unknown:
+            raise TraceError(self.path, number, 1, f"unknown column `{unknown[0]}`")
+        self.header = header
+
+
+def _is_csv(path: str, text: str) -> bool:
     stripped = text.lstrip()
-    if path.endswith(".csv") or (stripped and not stripped.startswith("{")):
-        trace = _read_csv(path, text)
-    else:
-        trace = _read_jsonl(path, text)
+    return path.endswith(".csv") or bool(stripped and not stripped.startswith("{"))
+
+
+def read_trace(path: str, text: str) -> TraceFile:
+    """A whole trace, every sample kept (the reference evaluator wants them all)."""
+    reader = _Reader(path)
+    read_line = reader.csv if _is_csv(path, text) else reader.jsonl
+    for number, raw in enumerate(text.split("\n"), 1):
+        read_line(number, raw.rstrip("\r"))
+    if _is_csv(path, text) and reader.header is None:
+        raise TraceError(path, 1, 1, "the CSV file has no header", "start with `t,state`")
+    trace = TraceFile(unit=reader.unit, end=reader.end)
+    trace.times = [t for t, _ in reader.accepted]
+    trace.states = [state for _, state in reader.accepted]
     if not trace.times:
         raise TraceError(
             path, 1, 1, "the trace has no samples", 'add lines such as {"t": 0, "state": "A"}'
@@ -70,6 +255,171 @@ def read_trace(path: str, text: str) -> TraceFile:
         trace.end = trace.times[-1]
         trace.notes.append(f"{path}: no end record: the trace is known up to its last sample")
     return trace
+
+
+class TraceStream:
+    """A trace file read as it is used. The unit is known on opening; `changes()`
+    gives the first sample and every sample whose state differs from the one before,
+    times in billionths of the unit. After it: `end` (the end record, else the last
+    sample), `first`, `samples` (how many), `seen` (every proposition that held) and
+    `notes`."""
+
+    def __init__(self, path: str, handle: TextIO) -> None:
+        self.path, self._handle = path, handle
+        self._head = _read(handle, path, CHUNK)
+        self._csv = _is_csv(path, self._head)
+        self._reader = _Reader(path)
+        self.end: Fraction | None = None
+        self.first: Fraction | None = None
+        self.samples = 0
+        self.seen: set[str] = set()
+        self.notes: list[str] = []
+        self._peek_unit()
+
+    @property
+    def unit(self) -> str:
+        return self._reader.unit
+
+    @property
+    def unit_seconds(self) -> Fraction:
+        return TIME_UNITS[self.unit]
+
+    def _peek_unit(self) -> None:
+        """The unit comes first: read it (checked) before any sample, reading on
+        while the lines so far are all blank, comments or unit records."""
+        peek = _Reader(self.path)
+        number = 0
+        while True:
+            lines = self._head.split("\n")
+            for raw in lines[number:-1]:
+                number += 1
+                if not self._leading(raw):
+                    self._reader.unit = peek.unit
+                    return
+                (peek.csv if self._csv else peek.jsonl)(number, raw)
+            more = _read(self._handle, self.path, CHUNK)
+            if not more:
+                self._reader.unit = peek.unit
+                return
+            self._head += more
+
+    def _leading(self, raw: str) -> bool:
+        """A line that may stand before the first sample and set the unit."""
+        if not raw.strip():
+            return True
+        if self._csv:
+            return raw.lstrip().startswith("#")
+        try:
+            record = load_json(raw)
+        except json.JSONDecodeError:
+            return False
+        return isinstance(record, dict) and set(record) == {"unit"}
+
+    def changes(self) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
+        reader, fast = self._reader, _FAST_CSV if self._csv else _FAST_JSONL
+        states: dict[str, frozenset[str]] = {}
+        current: frozenset[str] | None = None
+        number, chunk = 0, self._head
+        while chunk:
+            complete = chunk.rfind("\n") + 1
+            if complete == 0:  # no whole line yet: read on, or this is the last line
+                more = _read(self._handle, self.path, CHUNK)
+                if more:
+                    chunk += more
+                    continue
+                complete = len(chunk)
+            lines, rest = chunk[:complete], chunk[complete:]
+            count = lines.count("\n") + (not lines.endswith("\n"))
+            ready = reader.end is None and self._fast_ready()
+            pairs = fast.findall(lines) if ready else []
+            if len(pairs) == count:  # every line of the common shape: the hot loop
+                base = number
+                for text, name in pairs:
+                    number += 1
+                    value = float(text)
+                    if value <= reader.last_float:
+                        reader.fast_order(text, number, lines.split("\n")[number - base - 1])
+                    reader.last_float, reader.last_text = value, text
+                    reader._last = None
+                    state = states.get(name)
+                    if state is None:
+                        state = states[name] = frozenset((name,))
+                    if state is not current:
+                        if current is None:
+                            self.first = exact_or_quotient(text)
+                        current = state
+                        yield _decimal_scaled(text), state
+                self.samples += count
+            else:
+                for raw in lines.split("\n")[:count]:
+                    number += 1
+                    for t, state in self._line(number, raw, fast, states):
+                        if state != current:
+                            if current is None:
+                                self.first = t if isinstance(t, Fraction) else exact_or_quotient(t)
+                            current = state
+                            yield (
+                                scaled(t) if isinstance(t, Fraction) else _decimal_scaled(t),
+                                state,
+                            )
+            chunk = rest + _read(self._handle, self.path, CHUNK)
+        self.seen.update(name for name in states)
+        self._finish()
+
+    def _line(
+        self, number: int, raw: str, fast: re.Pattern[str], states: dict[str, frozenset[str]]
+    ) -> list[tuple[Fraction | str, frozenset[str]]]:
+        """One line of a chunk that is not all of the common shape: its sample, if
+        any (a time as text when the line had the common shape)."""
+        reader = self._reader
+        match = fast.match(raw) if reader.end is None and self._fast_ready() else None
+        if match is None:
+            (reader.csv if self._csv else reader.jsonl)(number, raw)
+            found: list[tuple[Fraction | str, frozenset[str]]] = list(reader.accepted)
+            reader.accepted.clear()
+            self.samples += len(found)
+            for _, state in found:
+                self.seen.update(state)
+            return found
+        text, name = match.groups()
+        value = float(text)
+        if value <= reader.last_float:
+            reader.fast_order(text, number, raw)
+        reader.last_float, reader.last_text, reader._last = value, text, None
+        self.samples += 1
+        return [(text, states.setdefault(name, frozenset((name,))))]
+
+    def _fast_ready(self) -> bool:
+        """CSV lines are read fast only under a `t,state` header."""
+        return not self._csv or self._reader.header == ["t", "state"]
+
+    def _finish(self) -> None:
+        reader = self._reader
+        if self._csv and reader.header is None:
+            raise TraceError(self.path, 1, 1, "the CSV file has no header", "start with `t,state`")
+        if reader.last is None:
+            raise TraceError(
+                self.path,
+                1,
+                1,
+                "the trace has no samples",
+                'add lines such as {"t": 0, "state": "A"}',
+            )
+        self.end = reader.end
+        if self.end is None:
+            self.end = reader.last
+            self.notes.append(
+                f"{self.path}: no end record: the trace is known up to its last sample"
+            )
+
+
+def _read(handle: TextIO, path: str, size: int) -> str:
+    try:
+        return handle.read(size)
+    except UnicodeDecodeError as exc:
+        raise TraceError(
+            path, 1, 1, f"not UTF-8 text (invalid byte at offset {exc.start} of a chunk)"
+        ) from None
 
 
 class JsonNumber(str):
@@ -95,73 +445,6 @@ def _time(value: object, path: str, line: int, column: int) -> Fraction:
         raise TraceError(path, line, column, message) from None
 
 
-def _add(
-    trace: TraceFile, path: str, line: int, column: int, t: Fraction, state: frozenset[str]
-) -> None:
-    if trace.end is not None:
-        raise TraceError(
-            path, line, 1, "a sample after the end record", "the end record comes last"
-        )
-    if trace.times and t <= trace.times[-1]:
-        what = "goes backwards" if t < trace.times[-1] else "does not advance"
-        raise TraceError(
-            path,
-            line,
-            column,
-            f"time {t} {what} (the previous sample is at {trace.times[-1]})",
-            "samples must be in strictly increasing time",
-        )
-    for name in state:
-        if not _NAME.match(name):
-            raise TraceError(path, line, column, f"`{name}` is not a proposition name")
-    trace.times.append(t)
-    trace.states.append(state)
-
-
-def _end(trace: TraceFile, path: str, line: int, column: int, t: Fraction) -> None:
-    if trace.end is not None:
-        raise TraceError(path, line, 1, "a second end record")
-    if trace.times and t < trace.times[-1]:
-        raise TraceError(
-            path, line, column, f"the end {t} is before the last sample ({trace.times[-1]})"
-        )
-    trace.end = t
-
-
-def _read_jsonl(path: str, text: str) -> TraceFile:
-    trace = TraceFile()
-    for number, raw in enumerate(text.splitlines(), 1):
-        if not raw.strip():
-            continue
-        try:
-            record = load_json(raw)
-        except json.JSONDecodeError as exc:
-            raise TraceError(path, number, exc.colno, f"not JSON: {exc.msg}") from None
-        if not isinstance(record, dict):
-            raise TraceError(path, number, 1, "each line must be a JSON object")
-        column = _columns(raw)
-        if set(record) == {"unit"}:
-            _unit(trace, str(record["unit"]), path, number, column("unit"))
-            continue
-        unknown = sorted(set(record) - {"t", "state", "props", "end"})
-        if unknown:
-            raise TraceError(path, number, column(unknown[0]), f"unknown field `{unknown[0]}`",
-                             'fields are "t", "state", "props" and "end"')  # fmt: skip
-        if "t" not in record:
-            raise TraceError(path, number, 1, 'a record without "t"')
-        t = _time(record["t"], path, number, column("t"))
-        if record.get("end") is True:
-            if "state" in record or "props" in record:
-                raise TraceError(path, number, column("end"), "an end record has no state")
-            _end(trace, path, number, column("t"), t)
-            continue
-        if "end" in record:
-            raise TraceError(path, number, column("end"), '"end" must be true')
-        trace_state = _state(record, path, number, column)
-        _add(trace, path, number, column("t"), t, trace_state)
-    return trace
-
-
 def _columns(raw: str) -> Callable[[str], int]:
     """Where a key stands on its line (1 when it does not)."""
 
@@ -185,61 +468,3 @@ def _state(
     if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
         raise TraceError(path, line, column("props"), '"props" is a list of strings')
     return frozenset(value)
-
-
-def _unit(trace: TraceFile, unit: str, path: str, line: int, column: int) -> None:
-    if trace.times:
-        raise TraceError(path, line, column, "the unit comes before the first sample")
-    unit = {"u": "us"}.get(unit, unit)
-    if unit not in TIME_UNITS:
-        raise TraceError(
-            path, line, column, f"unknown unit `{unit}`", "ns, us, ms, s, m, h, d or w"
-        )
-    trace.unit = unit
-
-
-def _read_csv(path: str, text: str) -> TraceFile:
-    trace = TraceFile()
-    lines = text.splitlines()
-    first = 0
-    while first < len(lines) and (
-        not lines[first].strip() or lines[first].lstrip().startswith("#")
-    ):
-        match = re.match(r"^\s*#\s*unit\s*:\s*(\S+)\s*$", lines[first])
-        if match:
-            _unit(trace, match.group(1), path, first + 1, lines[first].find(match.group(1)) + 1)
-        first += 1
-    reader = csv.reader(io.StringIO("\n".join(lines[first:])))
-    try:
-        header = [h.strip() for h in next(reader)]
-    except StopIteration:
-        raise TraceError(path, 1, 1, "the CSV file has no header", "start with `t,state`") from None
-    if "t" not in header or not ({"state", "props"} & set(header)):
-        raise TraceError(
-            path,
-            first + 1,
-            1,
-            f"the header `{','.join(header)}` has no `t` and `state` (or `props`) columns",
-        )
-    unknown = [h for h in header if h not in {"t", "state", "props", "end"}]
-    if unknown:
-        raise TraceError(path, first + 1, 1, f"unknown column `{unknown[0]}`")
-    state_column = "state" if "state" in header else "props"
-    for offset, row in enumerate(reader):
-        number = first + 2 + offset
-        if not row or not any(cell.strip() for cell in row):
-            continue
-        if len(row) != len(header):
-            raise TraceError(path, number, 1, f"{len(row)} cells for {len(header)} columns")
-        cells = dict(zip(header, (c.strip() for c in row), strict=True))
-        t = _time(cells["t"], path, number, 1)
-        if cells.get("end", "").lower() in ("true", "1", "yes"):
-            _end(trace, path, number, 1, t)
-            continue
-        raw = cells[state_column]
-        if state_column == "state":
-            state = frozenset({raw}) if raw else frozenset()
-        else:
-            state = frozenset(p.strip() for p in raw.split(";") if p.strip())
-        _add(trace, path, number, 1, t, state)
-    return trace
