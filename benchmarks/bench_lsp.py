@@ -13,7 +13,7 @@ then measures in one run:
 Machines here are shared and noisy: the figures are printed beside the bare parse of
 the same run. Goals: change p95 <= 50 ms, completion likewise, memory flat.
 
-    python benchmarks/bench_lsp.py [--edits 300] [--json out.json]
+    python benchmarks/bench_lsp.py [--edits 300] [--json benchmarks/results/lsp.json]
 """
 
 from __future__ import annotations

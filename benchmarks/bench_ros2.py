@@ -26,7 +26,8 @@ process and the load in another (benchmarks/ros2_load.py):
 Before a figure is printed, every message must have been read (the node's counters:
 none lost, none late) and every verdict answered.
 
-    python benchmarks/bench_ros2.py [--json out.json] [--seconds 100] [--count 5000]
+    python benchmarks/bench_ros2.py [--seconds 100] [--count 5000]
+    python benchmarks/bench_ros2.py --json benchmarks/results/ros2.json
 """
 
 from __future__ import annotations

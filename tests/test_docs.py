@@ -111,3 +111,19 @@ def test_language_reference_mentions_every_keyword_of_the_grammar():
     text = (ROOT / "docs" / "language.md").read_text(encoding="utf-8")
     missing = sorted(k for k in keywords() if not re.search(rf"\b{k}\b", text))
     assert missing == []
+
+
+def test_documented_figures_are_the_benchmarks_json():
+    """Every figures block in README.md and docs/ is what benchmarks/figures.py
+    renders from the committed JSON: a document cannot drift from its figures."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import figures
+
+    used = set()
+    for path in figures.documents():
+        text = path.read_text(encoding="utf-8")
+        used.update(m.group("name") for m in figures.BLOCK.finditer(text))
+        assert figures.refreshed(text) == text, f"{path}: run python benchmarks/figures.py"
+    assert used == set(figures.BLOCKS), set(figures.BLOCKS) - used

@@ -1,0 +1,177 @@
+"""The figures in the documentation, rendered from the benchmarks' JSON.
+
+A benchmark run with `--json benchmarks/results/NAME.json` leaves its figures there;
+a document shows them between two markers:
+
+    <!-- figures NAME-TABLE -->
+    ... (written by this script) ...
+    <!-- /figures -->
+
+`python benchmarks/figures.py` rewrites every such block in README.md and docs/;
+`--check` only says which block differs (tests/test_docs.py runs it), so a document
+cannot drift from the figures it quotes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parent.parent
+RESULTS = ROOT / "benchmarks" / "results"
+BLOCK = re.compile(r"(<!-- figures (?P<name>[\w-]+) -->\n)(?P<body>.*?)(<!-- /figures -->)", re.S)
+
+
+def _count(value: float | None) -> str:
+    return "-" if value is None else f"{value:,.0f}"
+
+
+def _table(header: list[str], rows: list[list[str]]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(row) + " |" for row in rows]
+    return "\n".join(lines) + "\n"
+
+
+def monitor_per_sample(data: dict[str, Any]) -> str:
+    section = data["per_sample"]
+    tools = ("rmvdsl", "rtamt", "reelay", "hand loop")
+    rows = [
+        [name, *(_count(row.get(tool)) for tool in tools), f"{row['violations']:,}"]
+        for name, row in section["rows"].items()
+    ]
+    note = (
+        f"{section['samples']:,} samples ({section['changes']:,} state changes), "
+        f"samples per second, best of {data['repeat']}:\n\n"
+    )
+    header = ["formula", "rmvdsl", "rtamt", "reelay", "hand loop", "false samples (all agree)"]
+    return note + _table(header, rows)
+
+
+def monitor_per_change(data: dict[str, Any]) -> str:
+    section = data["per_change"]
+    rows = []
+    for name, row in section["rows"].items():
+        ratio = f"{row['rmvdsl'] / row['reelay']:.2f}x" if row.get("reelay") else "-"
+        tools = (_count(row.get(tool)) for tool in ("rmvdsl", "reelay", "rtamt"))
+        rows.append([name, *tools, ratio, f"{row['false segments']:,}", f"{row['memory']}"])
+    note = (
+        f"The {section['change_points']:,} change points of {section['samples']:,} samples, "
+        f"change points per second, best of {data['repeat']}:\n\n"
+    )
+    header = ["formula", "rmvdsl", "reelay (dense)", "rtamt (dense)", "rmvdsl / reelay",
+              "false segments (all agree)", "breakpoints held"]  # fmt: skip
+    return note + _table(header, rows)
+
+
+def eval_end_to_end(data: dict[str, Any]) -> str:
+    rows = []
+    for count, row in data["rows"].items():
+        cells = [f"{int(count):,}", f"{row['bytes'] / 1e6:.1f} MB"]
+        for name in ("rmv eval", "json.loads per line", "whole trace in memory"):
+            cells += [_count(row[name]["samples_per_s"]), f"{row[name]['peak_mb']:.0f} MB"]
+        rows.append(cells)
+    header = ["samples", "file", "rmv eval /s", "peak", "json.loads per line /s", "peak",
+              "whole trace in memory /s", "peak"]  # fmt: skip
+    return f"Samples per second end to end, best of {data['repeat']}:\n\n" + _table(header, rows)
+
+
+def lsp_latency(data: dict[str, Any]) -> str:
+    rows = [
+        ["lark's bare parse of the text, in the benchmark's process",
+         f"{data['bare_parse_ms']:.0f} ms"],
+        [f"didChange -> first diagnostics of that version, p50 / p95 ({data['edits']} edits)",
+         f"{data['change_p50_ms']:.0f} / {data['change_p95_ms']:.0f} ms"],
+        ["completion, p50 / p95",
+         f"{data['completion_p50_ms']:.0f} / {data['completion_p95_ms']:.0f} ms"],
+        [f"the server's memory after 100 edits / after {data['edits']}",
+         f"{data['after_100_mb']:.0f} / {data['after_all_mb']:.0f} MB"],
+    ]  # fmt: skip
+    return _table(["measure", "figure"], rows)
+
+
+def ros2_node(data: dict[str, Any]) -> str:
+    rate, latency = data["rate"], data["latency"]
+    bare, node = latency["bare"], latency["monitor"]
+    rows = [
+        [f"rate, {rate['bare']['messages']:,} messages at once: msg/s of wall time",
+         _count(rate["bare"]["per_second"]), _count(rate["monitor"]["per_second"])],
+        ["rate: msg/s per CPU second of the reader (its ceiling on a core of its own)",
+         _count(rate["bare"]["per_cpu_second"]),
+         f"{_count(rate['monitor']['per_cpu_second'])} ({rate['share']:.0%}; goal >= 50%)"],
+        [f"latency at 1 kHz, {bare['answers']:,} messages, sender to answer: p50 / p99 / max",
+         f"{bare['p50_ms']:.2f} / {bare['p99_ms']:.2f} / {bare['max_ms']:.1f} ms (echo)",
+         f"{node['p50_ms']:.2f} / {node['p99_ms']:.1f} / {node['max_ms']:.1f} ms (verdict)"],
+        ["latency inside the node, a message's arrival (rmw's `received_timestamp`) to its "
+         "verdict published: p50 / p99", "",
+         f"{node['node_p50_ms']:.2f} / {node['node_p99_ms']:.2f} ms"],
+    ]  # fmt: skip
+    return _table(["measure", "bare rclpy subscriber", "monitor node"], rows)
+
+
+def ros2_workload(data: dict[str, Any]) -> str:
+    rows = []
+    for rate, row in data["workload"].items():
+        read = row["messages_to_read"]
+        rows.append([f"{rate}, {row['seconds']:.0f} s", f"{row['messages_sent']:,}",
+                     f"{row['cpu_share']:.1%}", f"{row['peak_rss_mb']:.0f} MB",
+                     f"{row['messages_lost']:,} of {read:,}"])  # fmt: skip
+    header = ["rate", "messages", "CPU (one core)", "peak RSS",
+              "lost by the node's readers (depth 10), counted"]  # fmt: skip
+    return _table(header, rows)
+
+
+# block name -> (results file, renderer)
+BLOCKS: dict[str, tuple[str, Callable[[dict[str, Any]], str]]] = {
+    "monitor-per-sample": ("monitor.json", monitor_per_sample),
+    "monitor-per-change": ("monitor.json", monitor_per_change),
+    "eval-end-to-end": ("eval.json", eval_end_to_end),
+    "lsp-latency": ("lsp.json", lsp_latency),
+    "ros2-node": ("ros2.json", ros2_node),
+    "ros2-workload": ("ros2.json", ros2_workload),
+}
+
+
+def render(name: str) -> str:
+    if name not in BLOCKS:
+        raise SystemExit(f"unknown figures block `{name}`: known are {', '.join(BLOCKS)}")
+    file, renderer = BLOCKS[name]
+    data = json.loads((RESULTS / file).read_text(encoding="utf-8"))
+    note = f"<!-- from benchmarks/results/{file}: python benchmarks/figures.py -->\n"
+    return note + renderer(data)
+
+
+def refreshed(text: str) -> str:
+    return BLOCK.sub(lambda m: m.group(1) + render(m.group("name")) + m.group(4), text)
+
+
+def documents() -> list[Path]:
+    return [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--check", action="store_true", help="change nothing; exit 1 on drift")
+    args = parser.parse_args()
+    stale = []
+    for path in documents():
+        text = path.read_text(encoding="utf-8")
+        new = refreshed(text)
+        if new != text:
+            stale.append(path.relative_to(ROOT))
+            if not args.check:
+                path.write_text(new, encoding="utf-8")
+    verb = "differ from the benchmarks' JSON" if args.check else "rewritten"
+    for path in stale:
+        print(f"{path}: figures {verb}")
+    return 1 if stale and args.check else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
