@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import json
+import os
 import sys
 import tempfile
 import time
@@ -85,6 +86,8 @@ async def run(edits: int) -> dict[str, Any]:
     bare = min(_timed(lambda: parser.parse(text, start="start")) for _ in range(5))
 
     client = LanguageClient("bench-lsp", "1")
+    # the server's solver answers go to a cache of this run's own, never the user's
+    os.environ["RMV_CACHE_DIR"] = str(folder / "cache")
     await client.start_io(sys.executable, "-m", "rmvdsl.cli", "lsp")
     await client.initialize_async(types.InitializeParams(capabilities=types.ClientCapabilities()))
     client.initialized(types.InitializedParams())

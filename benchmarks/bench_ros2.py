@@ -35,6 +35,7 @@ from __future__ import annotations
 import argparse
 import base64
 import json
+import os
 import sys
 import tempfile
 from pathlib import Path
@@ -195,6 +196,7 @@ def main(argv: list[str] | None = None) -> int:
     _progress(0, total, "ROS 2 wheels and colcon build")
     rosenv.python()
     with tempfile.TemporaryDirectory(prefix="rmv-bench-ros2-") as folder:
+        os.environ["RMV_CACHE_DIR"] = str(Path(folder) / "cache")  # never the user's cache
         workspace = _workspace(Path(folder))
         payloads = Path(folder) / "payloads.json"
         _payloads(payloads)

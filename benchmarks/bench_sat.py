@@ -221,6 +221,7 @@ def main() -> None:
             out["families"].append(
                 {
                     "family": name,
+                    "formula": template,
                     "b": bound,
                     "sat": sat.value,
                     "valid": validity.value,

@@ -125,6 +125,61 @@ def ros2_workload(data: dict[str, Any]) -> str:
     return _table(header, rows)
 
 
+def replay_speed(data: dict[str, Any]) -> str:
+    rows = []
+    for label, row in data.items():
+        rows.append([label, f"{row['messages']:,}", _count(row["bare_per_second"]),
+                     _count(row["replay_per_second"]), f"{row['replay_fraction_of_bare']:.0%}",
+                     f"{row['bare_peak_rss'] / 2**20:.0f} MB",
+                     f"{row['replay_peak_rss'] / 2**20:.0f} MB",
+                     f"{row['replay_rss_beyond_bare'] / 2**20:.0f} MB"])  # fmt: skip
+    header = ["recording", "messages", "bare read msg/s", "replay msg/s", "replay / bare",
+              "bare peak RSS", "replay peak RSS", "replay beyond bare"]  # fmt: skip
+    return _table(header, rows)
+
+
+def check_scaling(data: dict[str, Any]) -> str:
+    rows = []
+    for scale, row in data.items():
+        alone = f"{row['alone']:.1f} s" if row.get("alone") else ""
+        rows.append([f"scale {scale} ({500 * int(scale):,} properties)", f"{row['lines']:,}",
+                     f"{row['bare']:.2f} s",
+                     f"{row['check']:.2f} s ({row['check'] / row['bare']:.1f}x)",
+                     f"{row['first']:.1f} s", alone])  # fmt: skip
+    scales = sorted(data, key=int)
+    if len(scales) > 1 and scales[0] == "1":
+        for scale in scales[1:]:
+            big, small = data[scale], data["1"]
+            rows.append([f"{scale}x / 1x", "", "", f"{big['check'] / small['check']:.1f}",
+                         f"{big['first'] / small['first']:.1f}", ""])  # fmt: skip
+    header = ["spec", "lines", "bare parse", "cached check", "first check, workers",
+              "first check, no worker"]  # fmt: skip
+    return _table(header, rows)
+
+
+def sat_families(data: dict[str, Any]) -> str:
+    rows, shown = [], None
+    for row in data["families"]:
+        base = row["unrolled_seconds"]
+        baseline = f"{base:.3f} s" if base else "over the limit"
+        formula = "" if row["formula"] == shown else f"`{row['formula']}`".replace("|", "\\|")
+        shown = row["formula"]
+        cells = [formula, str(row["b"]), row["sat"], row["valid"], f"{row['seconds']:.3f} s"]
+        rows.append([*cells, baseline])
+    header = ["formula (B = b)", "b", "sat", "valid", "rmvdsl", "unrolled baseline (same answers)"]
+    return _table(header, rows)
+
+
+def sat_requirements(data: dict[str, Any]) -> str:
+    rows = [
+        [str(row["requirements"]), row["together"], f"{row['consistency_seconds']:.2f} s",
+         f"{row['check_seconds']:.2f} s", ", ".join(row["codes"]) or "none"]
+        for row in data["sets"]
+    ]  # fmt: skip
+    header = ["requirements", "together", "consistency", "rmv check", "diagnostics"]
+    return _table(header, rows)
+
+
 # block name -> (results file, renderer)
 BLOCKS: dict[str, tuple[str, Callable[[dict[str, Any]], str]]] = {
     "monitor-per-sample": ("monitor.json", monitor_per_sample),
@@ -133,6 +188,10 @@ BLOCKS: dict[str, tuple[str, Callable[[dict[str, Any]], str]]] = {
     "lsp-latency": ("lsp.json", lsp_latency),
     "ros2-node": ("ros2.json", ros2_node),
     "ros2-workload": ("ros2.json", ros2_workload),
+    "replay-speed": ("replay.json", replay_speed),
+    "check-scaling": ("check.json", check_scaling),
+    "sat-families": ("sat.json", sat_families),
+    "sat-requirements": ("sat.json", sat_requirements),
 }
 
 

@@ -27,6 +27,7 @@ from rmvdsl.source import SourceMap
 
 if TYPE_CHECKING:
     from rmvdsl.check.properties import PropertyReport
+    from rmvdsl.logic.evaluate import Streamed
     from rmvdsl.logic.sat import Answer
     from rmvdsl.logic.traces import TraceFile, TraceStream
     from rmvdsl.runtime import spec as ir_spec
@@ -616,7 +617,7 @@ def _eval(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _eval_output(args: argparse.Namespace, run: Any, at: Fraction) -> str | None:
+def _eval_output(args: argparse.Namespace, run: Streamed, at: Fraction) -> str | None:
     """`--all`: every segment written as it is decided (None); else the verdict at
     `at`, the stream read to its end."""
     from rmvdsl.logic import evaluate as ev
@@ -627,9 +628,9 @@ def _eval_output(args: argparse.Namespace, run: Any, at: Fraction) -> str | None
     if args.all:
         for segment in run.segments():
             print(ev.segment_text(segment))
-        end = run.trace.end
-        if run.summary.beyond:
-            print(f"after the end ({exact_text(end)}), as far as the trace decides:")
+        if run.summary.beyond and run.trace.end is not None:
+            end = exact_text(run.trace.end)
+            print(f"after the end ({end}), as far as the trace decides:")
         for segment in run.summary.beyond:
             print(ev.segment_text(segment))
         return None
@@ -648,7 +649,7 @@ def _trace_stream(path: str) -> Iterator[TraceStream]:
     from rmvdsl.logic.traces import TraceError, TraceStream
 
     try:
-        with open(path, encoding="utf-8-sig", newline=None) as handle:
+        with open(path, "rb") as handle:
             yield TraceStream(path, handle)
     except FileNotFoundError:
         raise UsageError(f"{path}: no such file") from None

@@ -334,3 +334,22 @@ def test_csv_common_shape_streams(rmv, tmp_path, monkeypatch):
     result = rmv("eval", "--formula", "a until[<1s] b", "--trace", str(path), "--all")
     assert result.out == "[0, 1500)  true\n[1500, 2000)  unknown\n"  # b at 2000: not yet known
     assert "no end record" in result.err
+
+
+def test_stream_reads_crlf_a_byte_order_mark_and_reports_bad_bytes(rmv, tmp_path, monkeypatch):
+    from rmvdsl.logic import traces
+
+    monkeypatch.setattr(traces, "CHUNK", 32)
+    crlf = tmp_path / "windows.jsonl"
+    crlf.write_bytes(("\ufeff" + BRAKING.replace("\n", "\r\n")).encode("utf-8"))
+    result = rmv("eval", "--formula", FORMULA_3_1, "--trace", str(crlf), "--all")
+    assert result.out == "[0, 14)  true\n[14, 20)  unknown\n", result.err
+    props = tmp_path / "props.csv"
+    props.write_bytes(b"t,props\r\n0,a;b\r\n2,b\r\n5,\r\n8,a\r\n")
+    assert rmv("eval", "--formula", "a", "--trace", str(props), "--all").out == (
+        "[0, 2)  true\n[2, 8)  false\n"
+    )
+    bad = tmp_path / "latin1.jsonl"
+    bad.write_bytes(b'{"t": 0, "state": "a"}\n{"t": 1, "state": "b"}\n{"t": 2, "state": "\xe9"}\n')
+    result = rmv("eval", "--formula", "a", "--trace", str(bad))
+    assert result.code == 2 and ":3:20:" in result.err and "not UTF-8" in result.err

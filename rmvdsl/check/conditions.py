@@ -16,6 +16,7 @@ witnesses it returns.
 from __future__ import annotations
 
 import struct
+import threading
 from collections.abc import Iterable
 from fractions import Fraction
 from typing import Any
@@ -346,7 +347,7 @@ def solve(
         # conditions keep tens of thousands alive. (Reading values from a model
         # of another context hung in z3's numeral printing: values are read from
         # the main one, and only a few questions want them.)
-        context = z3.Context()
+        context = _scratch_context()
         solver = z3.Solver(ctx=context)
         solver.add(*(term.translate(context) for term in [*domains, *constraints]))
     solver.set("timeout", SOLVER_TIMEOUT_MS)
@@ -360,6 +361,21 @@ def solve(
     found = witness(round_values(solver, symbols), symbols) if answer == z3.sat else ""
     cache.put(key, {"answer": result, "values": found})
     return result, found
+
+
+_SCRATCH = threading.local()
+SCRATCH_QUESTIONS = 1000  # then a new context: nothing of the old one can pile up
+
+
+def _scratch_context() -> Any:
+    """The context verdict-only questions are asked in: one per thread, renewed
+    now and then. Only a question's own terms live in it while it is asked, and
+    making a context costs 5 ms (as much as the question itself), so it is kept."""
+    asked = getattr(_SCRATCH, "asked", SCRATCH_QUESTIONS)
+    if asked >= SCRATCH_QUESTIONS:
+        _SCRATCH.context, asked = z3.Context(), 0
+    _SCRATCH.asked = asked + 1
+    return _SCRATCH.context
 
 
 def round_values(solver: Any, symbols: dict[str, Any]) -> Any:

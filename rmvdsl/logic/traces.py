@@ -26,13 +26,14 @@ billionths of the trace's unit (an int; a Fraction only for a time finer than th
 
 from __future__ import annotations
 
+import codecs
 import csv
 import json
 import re
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from fractions import Fraction
-from typing import TextIO
+from typing import BinaryIO
 
 from rmvdsl.grammar.formula import TIME_UNITS
 from rmvdsl.numbers import NumberError, exact_or_quotient
@@ -65,15 +66,15 @@ class TraceFile:
 
 
 SCALE = 10**9  # a stream's times: whole billionths of the trace's unit
-CHUNK = 1 << 20  # characters read at a time
+CHUNK = 1 << 20  # bytes read at a time
 _DECIMAL = r"(-?(?:0|[1-9][0-9]{0,14})(?:\.[0-9]{1,9})?)"  # exact in billionths, in range
 _PROPOSITION = r"([A-Za-z_][A-Za-z0-9_]*)"
 _FAST_JSONL = re.compile(
     rf'^[ \t]*\{{[ \t]*"t"[ \t]*:[ \t]*{_DECIMAL}[ \t]*,[ \t]*"state"[ \t]*:[ \t]*'
-    rf'"{_PROPOSITION}"[ \t]*\}}[ \t]*$',
+    rf'"{_PROPOSITION}"[ \t]*\}}[ \t\r]*$',
     re.MULTILINE,
 )
-_FAST_CSV = re.compile(rf"^[ \t]*{_DECIMAL}[ \t]*,[ \t]*{_PROPOSITION}[ \t]*$", re.MULTILINE)
+_FAST_CSV = re.compile(rf"^[ \t]*{_DECIMAL}[ \t]*,[ \t]*{_PROPOSITION}[ \t\r]*$", re.MULTILINE)
 
 
 def scaled(t: Fraction) -> int | Fraction:
@@ -160,6 +161,7 @@ class _Reader:
     # ---- the full reader, one line at a time ----
 
     def jsonl(self, number: int, raw: str) -> None:
+        raw = raw.rstrip("\r")
         if not raw.strip():
             return
         try:
@@ -189,6 +191,7 @@ class _Reader:
         self.add(number, column("t"), t, _state(record, self.path, number, column))
 
     def csv(self, number: int, raw: str) -> None:
+        raw = raw.rstrip("\r")
         if self.header is None:
             self._csv_preamble(number, raw)
             return
@@ -241,7 +244,7 @@ def read_trace(path: str, text: str) -> TraceFile:
     reader = _Reader(path)
     read_line = reader.csv if _is_csv(path, text) else reader.jsonl
     for number, raw in enumerate(text.split("\n"), 1):
-        read_line(number, raw.rstrip("\r"))
+        read_line(number, raw)
     if _is_csv(path, text) and reader.header is None:
         raise TraceError(path, 1, 1, "the CSV file has no header", "start with `t,state`")
     trace = TraceFile(unit=reader.unit, end=reader.end)
@@ -264,9 +267,12 @@ class TraceStream:
     sample), `first`, `samples` (how many), `seen` (every proposition that held) and
     `notes`."""
 
-    def __init__(self, path: str, handle: TextIO) -> None:
+    def __init__(self, path: str, handle: BinaryIO) -> None:
         self.path, self._handle = path, handle
-        self._head = _read(handle, path, CHUNK)
+        self._decoder = codecs.getincrementaldecoder("utf-8-sig")()
+        self._newlines = 0  # in the bytes decoded so far
+        self._tail = 0  # bytes after the last of them
+        self._head = self._read()
         self._csv = _is_csv(path, self._head)
         self._reader = _Reader(path)
         self.end: Fraction | None = None
@@ -297,7 +303,7 @@ class TraceStream:
                     self._reader.unit = peek.unit
                     return
                 (peek.csv if self._csv else peek.jsonl)(number, raw)
-            more = _read(self._handle, self.path, CHUNK)
+            more = self._read()
             if not more:
                 self._reader.unit = peek.unit
                 return
@@ -323,7 +329,7 @@ class TraceStream:
         while chunk:
             complete = chunk.rfind("\n") + 1
             if complete == 0:  # no whole line yet: read on, or this is the last line
-                more = _read(self._handle, self.path, CHUNK)
+                more = self._read()
                 if more:
                     chunk += more
                     continue
@@ -362,7 +368,7 @@ class TraceStream:
                                 scaled(t) if isinstance(t, Fraction) else _decimal_scaled(t),
                                 state,
                             )
-            chunk = rest + _read(self._handle, self.path, CHUNK)
+            chunk = rest + self._read()
         self.seen.update(name for name in states)
         self._finish()
 
@@ -389,6 +395,25 @@ class TraceStream:
         self.samples += 1
         return [(text, states.setdefault(name, frozenset((name,))))]
 
+    def _read(self) -> str:
+        """The next chunk, decoded; a byte that is not UTF-8 is reported where it is."""
+        data = self._handle.read(CHUNK)
+        try:
+            text = self._decoder.decode(data, final=not data)
+        except UnicodeDecodeError as exc:
+            before = exc.object[: exc.start]
+            line = self._newlines + before.count(b"\n") + 1
+            start = before.rfind(b"\n") + 1
+            column = exc.start - start + 1 + (self._tail if start == 0 else 0)
+            byte = exc.object[exc.start]
+            raise TraceError(
+                self.path, line, column, f"not UTF-8 text (the byte 0x{byte:02x})"
+            ) from None
+        newlines = data.count(b"\n")
+        self._newlines += newlines
+        self._tail = len(data) - data.rfind(b"\n") - 1 if newlines else self._tail + len(data)
+        return text
+
     def _fast_ready(self) -> bool:
         """CSV lines are read fast only under a `t,state` header."""
         return not self._csv or self._reader.header == ["t", "state"]
@@ -411,15 +436,6 @@ class TraceStream:
             self.notes.append(
                 f"{self.path}: no end record: the trace is known up to its last sample"
             )
-
-
-def _read(handle: TextIO, path: str, size: int) -> str:
-    try:
-        return handle.read(size)
-    except UnicodeDecodeError as exc:
-        raise TraceError(
-            path, 1, 1, f"not UTF-8 text (invalid byte at offset {exc.start} of a chunk)"
-        ) from None
 
 
 class JsonNumber(str):
