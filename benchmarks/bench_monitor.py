@@ -40,6 +40,7 @@ import time
 from collections import deque
 from collections.abc import Callable, Iterable
 from fractions import Fraction
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -121,6 +122,25 @@ def best(repeat: int, make: Callable[[], Any], run: Callable[[Any], Any]) -> tup
         result = run(monitor)
         times.append(time.perf_counter() - start)
     return min(times), result
+
+
+def timed(
+    row: dict[str, Any],
+    tool: str,
+    count: int,
+    repeat: int,
+    make: Callable[[], Any],
+    run: Callable[[Any], Any],
+) -> Any:
+    """`best` of one tool, its rate (count per second) put in `row`; its output."""
+    seconds, out = best(repeat, make, run)
+    row[tool] = count / seconds
+    return out
+
+
+def partial_run(function: Callable[[Any, Any], Any], data: Any) -> Callable[[Any], Any]:
+    """function(monitor, data), for a monitor made before the clock starts."""
+    return lambda monitor: function(monitor, data)
 
 
 # ---- the tools: monitors made and input prepared before the clock starts ----
@@ -266,21 +286,17 @@ def per_sample(trace: Samples, repeat: int, reference_samples: int) -> dict[str,
         row: dict[str, Any] = {"rmvdsl": len(trace) / seconds, "memory": memory}
         if name in RTAMT_DISCRETE and _installed("rtamt"):
             text = RTAMT_DISCRETE[name]
-            seconds, out = best(
-                repeat,
-                lambda text=text: rtamt_spec(rtamt.StlDiscreteTimeSpecification, text),
-                lambda spec: rtamt_discrete(spec, rtamt_rows),
+            make = partial(rtamt_spec, rtamt.StlDiscreteTimeSpecification, text)
+            out = timed(
+                row, "rtamt", len(trace), repeat, make, partial_run(rtamt_discrete, rtamt_rows)
             )
-            row["rtamt"] = len(trace) / seconds
             verdicts["rtamt"] = ({t for t, r in enumerate(out) if r < 0}, len(trace))
         if name in REELAY and _installed("reelay"):
             pattern = REELAY[name]
-            seconds, out = best(
-                repeat,
-                lambda p=pattern: reelay.discrete_timed_monitor(pattern=p),
-                lambda monitor: reelay_discrete(monitor, reelay_rows),
+            make = partial(reelay.discrete_timed_monitor, pattern=pattern)
+            out = timed(
+                row, "reelay", len(trace), repeat, make, partial_run(reelay_discrete, reelay_rows)
             )
-            row["reelay"] = len(trace) / seconds
             verdicts["reelay"] = (_reelay_false(out, len(trace)), len(trace))
         if name == "eventually":
             seconds, (violations, decided) = best(repeat, lambda: None, lambda _: hand_loop(trace))
@@ -324,21 +340,17 @@ def per_change(trace: Samples, repeat: int) -> dict[str, Any]:
         steps = {"rmvdsl": steps_of_segments(segments)}
         if name in REELAY and _installed("reelay"):
             pattern = REELAY[name]
-            seconds, out = best(
-                repeat,
-                lambda p=pattern: reelay.dense_timed_monitor(pattern=p),
-                lambda monitor: reelay_dense(monitor, reelay_rows),
+            make = partial(reelay.dense_timed_monitor, pattern=pattern)
+            out = timed(
+                row, "reelay", len(points), repeat, make, partial_run(reelay_dense, reelay_rows)
             )
-            row["reelay"] = len(points) / seconds
             steps["reelay"] = ([float(o["time"]) for o in out], [o["value"] for o in out], end)
         if name in RTAMT_DENSE and _installed("rtamt"):
             text = RTAMT_DENSE[name]
-            seconds, out = best(
-                repeat,
-                lambda text=text: rtamt_spec(rtamt.StlDenseTimeSpecification, text),
-                lambda spec: rtamt_dense(spec, rtamt_pieces),
+            make = partial(rtamt_spec, rtamt.StlDenseTimeSpecification, text)
+            out = timed(
+                row, "rtamt", len(points), repeat, make, partial_run(rtamt_dense, rtamt_pieces)
             )
-            row["rtamt"] = len(points) / seconds
             steps["rtamt"] = (
                 [float(t) for t, _ in out],
                 [r >= 0 for _, r in out],

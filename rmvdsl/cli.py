@@ -646,19 +646,18 @@ def _eval_output(args: argparse.Namespace, run: Streamed, at: Fraction) -> str |
 
 @contextlib.contextmanager
 def _trace_stream(path: str) -> Iterator[TraceStream]:
+    from rmvdsl.check.loader import unreadable
     from rmvdsl.logic.traces import TraceError, TraceStream
 
     try:
-        with open(path, "rb") as handle:
+        handle = open(path, "rb")  # noqa: SIM115 (closed below, after the stream)
+    except OSError as exc:
+        raise unreadable(path, exc) from None
+    with handle:
+        try:
             yield TraceStream(path, handle)
-    except FileNotFoundError:
-        raise UsageError(f"{path}: no such file") from None
-    except IsADirectoryError:
-        raise UsageError(f"{path}: is a directory, not a file") from None
-    except PermissionError:
-        raise UsageError(f"{path}: permission denied") from None
-    except TraceError as exc:
-        raise UsageError(str(exc)) from None
+        except TraceError as exc:
+            raise UsageError(str(exc)) from None
 
 
 def _whole_trace(path: str) -> TraceFile:

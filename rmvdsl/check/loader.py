@@ -21,15 +21,20 @@ def read_text(path: str) -> str:
     try:
         with open(path, "rb") as handle:
             data = handle.read()
-    except FileNotFoundError:
-        raise UsageError(f"{path}: no such file") from None
-    except IsADirectoryError:
-        raise UsageError(f"{path}: is a directory, not a file") from None
-    except PermissionError:
-        raise UsageError(f"{path}: permission denied") from None
     except OSError as exc:
-        raise UsageError(f"{path}: cannot read: {exc.strerror}") from None
+        raise unreadable(path, exc) from None
     return decode(data, path)
+
+
+def unreadable(path: str, exc: OSError) -> UsageError:
+    """Why a file cannot be read, in one line."""
+    if isinstance(exc, FileNotFoundError):
+        return UsageError(f"{path}: no such file")
+    if isinstance(exc, IsADirectoryError):
+        return UsageError(f"{path}: is a directory, not a file")
+    if isinstance(exc, PermissionError):
+        return UsageError(f"{path}: permission denied")
+    return UsageError(f"{path}: cannot read: {exc.strerror}")
 
 
 def read_stdin() -> str:
