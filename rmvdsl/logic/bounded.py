@@ -23,6 +23,8 @@ from typing import Any
 
 import z3
 
+from rmvdsl.logic.terms import conjunction, disjunction, negation
+
 # A time: (base, offset). base 0 is time 0, base i >= 1 the change time t_i,
 # base -1 the evaluation time, base -2 - j the j-th crossing point (below).
 Time = tuple[int, Fraction]
@@ -47,17 +49,15 @@ def _fold(items: tuple[Bool, ...], absorbing: bool, combine: Any) -> Bool:
 
 
 def _and(*items: Bool) -> Bool:
-    return _fold(items, False, z3.And)
+    return _fold(items, False, lambda *rest: conjunction(rest))
 
 
 def _or(*items: Bool) -> Bool:
-    return _fold(items, True, z3.Or)
+    return _fold(items, True, lambda *rest: disjunction(rest))
 
 
 def _not(item: Bool) -> Bool:
-    if isinstance(item, bool):
-        return not item
-    return z3.Not(item)
+    return (not item) if isinstance(item, bool) else negation(item)
 
 
 def as_z3(item: Bool) -> Any:
@@ -98,6 +98,8 @@ class BoundedTrace:
         self._values: dict[tuple[int, Time, bool], Bool] = {}
         self._points: dict[int, frozenset[Time]] = {}
         self._keep: list[Any] = []  # nodes whose id() keys the caches
+        self._less: dict[tuple[Time, Time], Bool] = {}
+        self._segments: dict[tuple[int, Time], Bool] = {}
         # What callers derive from this trace alone (the spec's constraints on it).
         self.derived: dict[str, list[Any]] = {}
         # Deeply nested formulas make many candidate points: building the encoding
@@ -126,7 +128,12 @@ class BoundedTrace:
                 return True
             if a[0] > b[0] and a[1] >= b[1]:
                 return False
-        return self.z3_time(a) < self.z3_time(b)
+        # The same comparison comes back for every formula over these times: made
+        # once (a z3 comparison costs tens of microseconds in Python).
+        found = self._less.get((a, b))
+        if found is None:
+            found = self._less[(a, b)] = self.z3_time(a) < self.z3_time(b)
+        return found
 
     def less_equal(self, a: Time, b: Time) -> Bool:
         return _not(self.less(b, a))
@@ -231,10 +238,14 @@ class BoundedTrace:
 
     def segment(self, i: int, at: Time) -> Bool:
         """Whether `at` lies in segment i, [t_i, t_(i+1))."""
+        found = self._segments.get((i, at))
+        if found is not None:
+            return found
         start = (i, Fraction(0))
         inside = self.less_equal(start, at)
         if i + 1 < self.k:
             inside = _and(inside, self.less(at, (i + 1, Fraction(0))))
+        self._segments[(i, at)] = inside
         return inside
 
     def prop(self, name: str, at: Time) -> Bool:

@@ -32,6 +32,7 @@ from rmvdsl.logic.abstract import refute
 from rmvdsl.logic.bounded import BoundedTrace, EncodingTimeout
 from rmvdsl.logic.reference import TRUE, Reference, Trace
 from rmvdsl.logic.system import System
+from rmvdsl.logic.terms import assert_all, conjunction, disjunction, implication, negation
 from rmvdsl.runtime.rmtld3 import Monitor, facts
 from rmvdsl.runtime.values import exact_text as number
 
@@ -333,8 +334,8 @@ class _Question:
         trace = _encoding(segments, tuple(self.names), self.free_time)
         solver = z3.Solver()
         self.limits.configure(solver)
-        solver.add(*trace.structure)
-        solver.add(*self.system_constraints(trace))
+        assert_all(solver, trace.structure)
+        assert_all(solver, self.system_constraints(trace))
         at = (-1, Fraction(0)) if self.free_time else (0, Fraction(0))
         trace.deadline = time.monotonic() + self.limits.timeout
         try:
@@ -346,7 +347,7 @@ class _Question:
             return None
         finally:
             trace.deadline = float("inf")
-        solver.add(*trace.definitions)
+        assert_all(solver, trace.definitions)
         result = solver.check()
         if result == z3.unknown:
             self.timed_out = True
@@ -492,13 +493,13 @@ def _system_constraints(system: System, trace: BoundedTrace, names: set[str]) ->
         for i in range(trace.k - 1):
             for state in machine.states:
                 came = [holds[i][state], *(holds[i][a] for a in sources[state])]
-                facts.append(z3.Implies(holds[i + 1][state], z3.Or(*came)))
+                facts.append(implication(holds[i + 1][state], disjunction(came)))
     for a, b in system.exclusive:
         if a in names and b in names:
-            facts.extend(z3.Not(z3.And(holds[i][a], holds[i][b])) for i in range(trace.k))
+            facts.extend(negation(conjunction([holds[i][a], holds[i][b]])) for i in range(trace.k))
     for name in system.never:
         if name in names:
-            facts.extend(z3.Not(holds[i][name]) for i in range(trace.k))
+            facts.extend(negation(holds[i][name]) for i in range(trace.k))
     return facts
 
 
