@@ -212,3 +212,23 @@ def test_a_group_s_redundancy_is_read_from_the_cache_when_rechecking(tmp_path, m
         use_cache(None)
     assert [(d.code, d.message, d.span.start) for d in again.diagnostics] == first
     assert "RMV515" in {c for c, _, _ in first}
+
+
+def test_full_collections_are_rarer_while_checks_run_only(tmp_path):
+    """The garbage collector's threshold is raised while any check runs (two at
+    once included) and given back when the last ends."""
+    import gc
+
+    from rmvdsl.check import check, fewer_full_collections
+
+    before = gc.get_threshold()
+    with fewer_full_collections():
+        assert gc.get_threshold()[2] >= 1000
+        with fewer_full_collections():
+            assert gc.get_threshold()[2] >= 1000
+        assert gc.get_threshold()[2] >= 1000  # the outer one still runs
+    assert gc.get_threshold() == before
+    spec = tmp_path / "s.rmv"
+    spec.write_text("system s\n", encoding="utf-8")
+    check(str(spec), use_environment=False)
+    assert gc.get_threshold() == before

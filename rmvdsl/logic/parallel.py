@@ -106,7 +106,13 @@ def implied_all(
         if jobs > 1 and cache.get(group_key(formulas, system, limits)) is None
     ]
     if len(missing) > 1:
-        tasks = [(_implied_here, (*groups[i], system, limits)) for i in missing]
+        # Each group's task carries only the part of the system its formulas touch:
+        # the whole system in every task was quadratic (the 10x spec's 1,000 groups
+        # each pickled 1,000 transducers). Every question cuts it the same way.
+        tasks = [
+            (_implied_here, (*groups[i], question_key(groups[i][1], system, limits)[1], limits))
+            for i in missing
+        ]
         for reply in run_tasks(tasks, jobs):
             for key, data in reply or ():
                 cache.put(key, data)
