@@ -45,15 +45,15 @@ def _fold(items: tuple[Bool, ...], absorbing: bool, combine: Any) -> Bool:
             rest.append(item)
     if not rest:
         return not absorbing
-    return rest[0] if len(rest) == 1 else combine(*rest)
+    return rest[0] if len(rest) == 1 else combine(rest)
 
 
 def _and(*items: Bool) -> Bool:
-    return _fold(items, False, lambda *rest: conjunction(rest))
+    return _fold(items, False, conjunction)
 
 
 def _or(*items: Bool) -> Bool:
-    return _fold(items, True, lambda *rest: disjunction(rest))
+    return _fold(items, True, disjunction)
 
 
 def _not(item: Bool) -> Bool:

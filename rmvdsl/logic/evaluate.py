@@ -17,7 +17,7 @@ from rmvdsl.logic.compile import CompileError, compile_formula
 from rmvdsl.logic.traces import SCALE, TraceFile, TraceStream, scaled
 from rmvdsl.logic.validate import check_formula
 from rmvdsl.numbers import to_json
-from rmvdsl.runtime.rmtld3 import BATCH, Monitor, Segment, merge
+from rmvdsl.runtime.rmtld3 import BATCH, Monitor, Segment, merge, merged
 from rmvdsl.runtime.values import exact_text
 
 
@@ -92,16 +92,7 @@ class Streamed:
         self.summary = Evaluation()
 
     def segments(self) -> Iterator[Segment]:
-        pending: Segment | None = None
-        for segment in self._decided():
-            if pending is not None and _joins(pending, segment):
-                pending = (pending[0], segment[1], pending[2], segment[3], segment[4])
-                continue
-            if pending is not None:
-                yield _unscaled(pending)
-            pending = segment
-        if pending is not None:
-            yield _unscaled(pending)
+        return (_unscaled(segment) for segment in merged(self._decided()))
 
     def _decided(self) -> Iterator[Segment]:
         monitor, changes = self.monitor, self.trace.changes()
@@ -118,10 +109,6 @@ class Streamed:
             Fraction(monitor.horizon) / SCALE,
             len(monitor.order),
         )
-
-
-def _joins(left: Segment, right: Segment) -> bool:
-    return left[4] == right[4] and left[1] == right[0] and (left[3] or right[2])
 
 
 def _unscaled(segment: Segment) -> Segment:

@@ -36,7 +36,16 @@ from typing import IO, Any
 
 from rmvdsl.cache import Cache
 from rmvdsl.logic.redundancy import group_key, implied
-from rmvdsl.logic.sat import Answer, Limits, Witness, ask, cached_answer, keep, question_key
+from rmvdsl.logic.sat import (
+    Answer,
+    Limits,
+    Witness,
+    ask,
+    cached_answer,
+    cut_system,
+    keep,
+    question_key,
+)
 from rmvdsl.logic.system import System
 
 # Below this many unanswered questions, waking workers costs more than it saves.
@@ -110,8 +119,7 @@ def implied_all(
         # the whole system in every task was quadratic (the 10x spec's 1,000 groups
         # each pickled 1,000 transducers). Every question cuts it the same way.
         tasks = [
-            (_implied_here, (*groups[i], question_key(groups[i][1], system, limits)[1], limits))
-            for i in missing
+            (_implied_here, (*groups[i], cut_system(groups[i][1], system), limits)) for i in missing
         ]
         for reply in run_tasks(tasks, jobs):
             for key, data in reply or ():

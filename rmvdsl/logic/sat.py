@@ -181,12 +181,17 @@ def question_key(
     formulas: Sequence[Any], system: System | None, limits: Limits
 ) -> tuple[str, System]:
     """The cache key of a question, and the system cut to what the formulas mention."""
-    mentioned = {name for f in formulas for name in facts(f).propositions}
-    restricted = (system or System()).restricted(mentioned)
+    restricted = cut_system(formulas, system)
     key = digest(
         ENCODING_VERSION, z3.get_version_string(), list(formulas), restricted.key(), limits.key()
     )
     return key, restricted
+
+
+def cut_system(formulas: Sequence[Any], system: System | None) -> System:
+    """The part of the system that constrains what the formulas mention."""
+    mentioned = {name for f in formulas for name in facts(f).propositions}
+    return (system or System()).restricted(mentioned)
 
 
 def cached_answer(cache: Cache, key: str) -> Answer | None:

@@ -241,11 +241,11 @@ def _is_csv(path: str, text: str) -> bool:
 
 def read_trace(path: str, text: str) -> TraceFile:
     """A whole trace, every sample kept (the reference evaluator wants them all)."""
-    reader = _Reader(path)
-    read_line = reader.csv if _is_csv(path, text) else reader.jsonl
+    reader, is_csv = _Reader(path), _is_csv(path, text)
+    read_line = reader.csv if is_csv else reader.jsonl
     for number, raw in enumerate(text.split("\n"), 1):
         read_line(number, raw)
-    if _is_csv(path, text) and reader.header is None:
+    if is_csv and reader.header is None:
         raise TraceError(path, 1, 1, "the CSV file has no header", "start with `t,state`")
     trace = TraceFile(unit=reader.unit, end=reader.end)
     trace.times = [t for t, _ in reader.accepted]
@@ -280,6 +280,8 @@ class TraceStream:
         self.samples = 0
         self.seen: set[str] = set()
         self.notes: list[str] = []
+        self._states: dict[str, frozenset[str]] = {}  # of the common lines, by name
+        self._current: frozenset[str] | None = None  # the state of the last sample
         self._peek_unit()
 
     @property
@@ -322,9 +324,7 @@ class TraceStream:
         return isinstance(record, dict) and set(record) == {"unit"}
 
     def changes(self) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
-        reader, fast = self._reader, _FAST_CSV if self._csv else _FAST_JSONL
-        states: dict[str, frozenset[str]] = {}
-        current: frozenset[str] | None = None
+        fast = _FAST_CSV if self._csv else _FAST_JSONL
         number, chunk = 0, self._head
         while chunk:
             complete = chunk.rfind("\n") + 1
@@ -336,64 +336,58 @@ class TraceStream:
                 complete = len(chunk)
             lines, rest = chunk[:complete], chunk[complete:]
             count = lines.count("\n") + (not lines.endswith("\n"))
-            ready = reader.end is None and self._fast_ready()
-            pairs = fast.findall(lines) if ready else []
-            if len(pairs) == count:  # every line of the common shape: the hot loop
-                base = number
-                for text, name in pairs:
-                    number += 1
-                    value = float(text)
-                    if value <= reader.last_float:
-                        reader.fast_order(text, number, lines.split("\n")[number - base - 1])
-                    reader.last_float, reader.last_text = value, text
-                    reader._last = None
-                    state = states.get(name)
-                    if state is None:
-                        state = states[name] = frozenset((name,))
-                    if state is not current:
-                        if current is None:
-                            self.first = exact_or_quotient(text)
-                        current = state
-                        yield _decimal_scaled(text), state
-                self.samples += count
+            pairs = fast.findall(lines) if self._fast_ready() else []
+            if len(pairs) == count:  # every line of the common shape
+                yield from self._fast_lines(pairs, number, lines)
+                number += count
             else:
                 for raw in lines.split("\n")[:count]:
+                    match = fast.match(raw) if self._fast_ready() else None
+                    if match is not None:
+                        yield from self._fast_lines([(match[1], match[2])], number, raw)
+                    else:
+                        yield from self._full_line(number + 1, raw)
                     number += 1
-                    for t, state in self._line(number, raw, fast, states):
-                        if state != current:
-                            if current is None:
-                                self.first = t if isinstance(t, Fraction) else exact_or_quotient(t)
-                            current = state
-                            yield (
-                                scaled(t) if isinstance(t, Fraction) else _decimal_scaled(t),
-                                state,
-                            )
             chunk = rest + self._read()
-        self.seen.update(name for name in states)
+        self.seen.update(self._states)
         self._finish()
 
-    def _line(
-        self, number: int, raw: str, fast: re.Pattern[str], states: dict[str, frozenset[str]]
-    ) -> list[tuple[Fraction | str, frozenset[str]]]:
-        """One line of a chunk that is not all of the common shape: its sample, if
-        any (a time as text when the line had the common shape)."""
+    def _fast_lines(
+        self, pairs: list[tuple[str, str]], before: int, lines: str
+    ) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
+        """Lines of the common shape, the ones after line `before` (their text is
+        `lines`, read again only to report a time out of order): the hot loop."""
+        reader, states, current = self._reader, self._states, self._current
+        for index, (text, name) in enumerate(pairs):
+            value = float(text)
+            if value <= reader.last_float:  # maybe out of order: compared exactly
+                reader.fast_order(text, before + index + 1, lines.split("\n")[index])
+            reader.last_float, reader.last_text = value, text
+            reader._last = None
+            state = states.get(name)
+            if state is None:
+                state = states[name] = frozenset((name,))
+            if state is not current:
+                if current is None:
+                    self.first = exact_or_quotient(text)
+                current = state
+                yield _decimal_scaled(text), state
+        self._current = current
+        self.samples += len(pairs)
+
+    def _full_line(self, number: int, raw: str) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
+        """Any other line, through the full reader and its checks."""
         reader = self._reader
-        match = fast.match(raw) if reader.end is None and self._fast_ready() else None
-        if match is None:
-            (reader.csv if self._csv else reader.jsonl)(number, raw)
-            found: list[tuple[Fraction | str, frozenset[str]]] = list(reader.accepted)
-            reader.accepted.clear()
-            self.samples += len(found)
-            for _, state in found:
-                self.seen.update(state)
-            return found
-        text, name = match.groups()
-        value = float(text)
-        if value <= reader.last_float:
-            reader.fast_order(text, number, raw)
-        reader.last_float, reader.last_text, reader._last = value, text, None
-        self.samples += 1
-        return [(text, states.setdefault(name, frozenset((name,))))]
+        (reader.csv if self._csv else reader.jsonl)(number, raw)
+        for t, state in reader.accepted:
+            self.samples += 1
+            self.seen.update(state)
+            if state != self._current:
+                if self._current is None:
+                    self.first = t
+                self._current = state
+                yield scaled(t), state
+        reader.accepted.clear()
 
     def _read(self) -> str:
         """The next chunk, decoded; a byte that is not UTF-8 is reported where it is."""
@@ -415,8 +409,10 @@ class TraceStream:
         return text
 
     def _fast_ready(self) -> bool:
-        """CSV lines are read fast only under a `t,state` header."""
-        return not self._csv or self._reader.header == ["t", "state"]
+        """Lines are read fast before the end record (after it, each is an error)
+        and, in CSV, under a `t,state` header only."""
+        reader = self._reader
+        return reader.end is None and (not self._csv or reader.header == ["t", "state"])
 
     def _finish(self) -> None:
         reader = self._reader

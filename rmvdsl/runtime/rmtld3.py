@@ -206,10 +206,8 @@ class Not(Node):
         signal.cut(start)
         i = source.index(start)
         signal.append(start, 2 - source.at(start), 2 - source.opens[i])
-        starts, points, opens, out = source.starts, source.points, source.opens, signal.opens
-        for k in range(i + 1, len(starts)):
-            if not 2 - points[k] == 2 - opens[k] == out[-1]:  # else append would skip it
-                signal.append(starts[k], 2 - points[k], 2 - opens[k])
+        for k in range(i + 1, len(source.starts)):
+            signal.append(source.starts[k], 2 - source.points[k], 2 - source.opens[k])
 
 
 class Binary(Node):
@@ -234,7 +232,7 @@ class Binary(Node):
         b_point = b_points[j] if b_starts[j] == start else b_opens[j]
         signal.append(start, combine(a_point, b_point), combine(a_opens[i], b_opens[j]))
         i, j = i + 1, j + 1
-        a_count, b_count, opens = len(a_starts), len(b_starts), signal.opens
+        a_count, b_count = len(a_starts), len(b_starts)
         while i < a_count or j < b_count:
             a_next = a_starts[i] if i < a_count else _INFINITY
             b_next = b_starts[j] if j < b_count else _INFINITY
@@ -249,9 +247,7 @@ class Binary(Node):
                 j += 1
             else:
                 b_point = b_open = b_opens[j - 1]
-            point, after = combine(a_point, b_point), combine(a_open, b_open)
-            if not point == after == opens[-1]:  # else no change: append would skip it
-                signal.append(t, point, after)
+            signal.append(t, combine(a_point, b_point), combine(a_open, b_open))
 
 
 class Evaluated(Node, ABC):
@@ -688,7 +684,6 @@ class Monitor:
                 break
         current, known, changes = self.state, self.known, self.changes
         # _advance's usual case inlined: a change in time order
-        wait, batch_wait = self.horizon, SPARSE_HORIZONS * self.horizon
         for t, state in iterator:
             # The same object (a sampler reusing its state) is the cheapest test.
             if (state is current or state == current) and t >= known:
@@ -703,8 +698,7 @@ class Monitor:
                 continue
             known, current = t, state
             changes.append((t, state, _NO_PULSES))
-            waited = t - self.written
-            if waited > wait and (len(changes) >= BATCH or waited > batch_wait):
+            if self._batch_due(t):
                 self.known, self.state = known, current
                 self._flush()
         self.known, self.state = known, current
@@ -753,13 +747,18 @@ class Monitor:
             self.known = t
             self.changes.append((t, state, pulses))
             self.state = state
-            waited = t - self.written
-            if waited > self.horizon and (
-                len(self.changes) >= BATCH or waited > SPARSE_HORIZONS * self.horizon
-            ):
-                # What is held stays within twice the horizon plus one batch; a
-                # batch of changes pays the fixed cost of a recomputation once.
+            if self._batch_due(t):
                 self._flush()
+
+    def _batch_due(self, t: Any) -> bool:
+        """Whether the changes held should be computed now: once they span the
+        horizon and make a batch (or span many horizons). What is held stays within
+        twice the horizon plus one batch; a batch pays a recomputation's fixed cost
+        once."""
+        waited = t - self.written
+        return waited > self.horizon and (
+            len(self.changes) >= BATCH or waited > SPARSE_HORIZONS * self.horizon
+        )
 
     def _flush(self) -> None:
         """Compute everything the input so far decides."""
@@ -786,9 +785,8 @@ class Monitor:
             signal.cut(begin)
             signal.append(begin, point, value)
             for when, state, pulses in self.changes:
-                before, value = value, TRUE if name in state else FALSE
-                if value != before or name in pulses or when == signal.starts[-1]:
-                    signal.append(when, TRUE if name in pulses else value, value)
+                value = TRUE if name in state else FALSE
+                signal.append(when, TRUE if name in pulses else value, value)
             signal.append(self.known, UNKNOWN, UNKNOWN)
         last = self.changes[-1] if self.changes else None
         self.written_pulses = (
@@ -937,15 +935,23 @@ def facts(formula: Any) -> Facts:
 
 def merge(segments: Iterable[Segment]) -> list[Segment]:
     """Join adjacent segments of the same value."""
-    out: list[Segment] = []
+    return list(merged(segments))
+
+
+def merged(segments: Iterable[Segment]) -> Iterator[Segment]:
+    """`merge` as the segments come: each is given once the next does not extend it."""
+    pending: Segment | None = None
     for segment in segments:
         if (
-            out
-            and out[-1][4] == segment[4]
-            and out[-1][1] == segment[0]
-            and (out[-1][3] or segment[2])
+            pending is not None
+            and pending[4] == segment[4]
+            and pending[1] == segment[0]
+            and (pending[3] or segment[2])
         ):
-            out[-1] = (out[-1][0], segment[1], out[-1][2], segment[3], segment[4])
-        else:
-            out.append(segment)
-    return out
+            pending = (pending[0], segment[1], pending[2], segment[3], segment[4])
+            continue
+        if pending is not None:
+            yield pending
+        pending = segment
+    if pending is not None:
+        yield pending
