@@ -6,11 +6,19 @@ import re
 
 import pytest
 from conftest import EXAMPLES
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
 from rmvdsl.grammar.parser import parse_source
-from rmvdsl.grammar.scanner import TOP_LEVEL_KEYWORDS
+from rmvdsl.grammar.scanner import (
+    TOP_LEVEL_KEYWORDS,
+    RawComment,
+    ScanResult,
+    _starts_declaration,
+    scan,
+)
 from rmvdsl.source import SourceFile
 
 
@@ -200,3 +208,60 @@ def test_spans_start_at_the_operator_keyword():
     assert text[expression.left.span.start : expression.left.span.end] == "not V > 1"
     minus = expression.right.left
     assert text[minus.span.start : minus.span.end] == "-V"
+
+
+# ---- the scanner against a character-by-character reading ----
+
+
+def _reference_scan(text: str) -> ScanResult:
+    """The scanner's rules read one character at a time, line by line: the
+    readable definition the one-regex scan must agree with."""
+    comments: list[RawComment] = []
+    chunks = [(0, 1)]
+    depth, offset = 0, 0
+    for number, line in enumerate(text.split("\n"), 1):
+        if _starts_declaration(line, depth):
+            depth = 0
+            if offset != chunks[-1][0]:
+                chunks.append((offset, number))
+        index = 0
+        while index < len(line):
+            char = line[index]
+            if char == '"':
+                index += 1
+                while index < len(line) and line[index] != '"':
+                    index += 2 if line[index] == "\\" else 1
+            elif line.startswith("//", index):
+                found = line[index:].rstrip("\r")
+                start = offset + index
+                comments.append(
+                    RawComment(start, start + len(found), found, not line[:index].strip())
+                )
+                break
+            elif char in "{([":
+                depth += 1
+            elif char in "})]":
+                depth = max(0, depth - 1)
+            index += 1
+        offset += len(line) + 1
+    return ScanResult(tuple(comments), tuple(chunks))
+
+
+_SCAN_PIECES = [
+    "topic", "time unit s", "time(100ms)", "timeunit", "event", "eventé", "  var", "\tnode",
+    "property", "{", "}", "(", ")", "[", "]", '"', '\\"', "\\", "//", "/// doc", "/", "\n",
+    "\n", "\r\n", " ", "x", "é", "_", "1", "transducer T {", "    states A", "import",
+]  # fmt: skip
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.lists(st.sampled_from(_SCAN_PIECES), max_size=40))
+def test_scan_agrees_with_a_character_reading(pieces: list[str]) -> None:
+    text = "".join(pieces)
+    assert scan(text) == _reference_scan(text)
+
+
+def test_scan_agrees_on_the_examples() -> None:
+    for path in sorted(EXAMPLES.rglob("*.rmv")):
+        text = path.read_text(encoding="utf-8", errors="replace")
+        assert scan(text) == _reference_scan(text), path

@@ -8,6 +8,7 @@ of error recovery; the token-level level is in `parser.py`.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 TOP_LEVEL_KEYWORDS = frozenset(
@@ -29,9 +30,6 @@ TOP_LEVEL_KEYWORDS = frozenset(
         "messages",
     }
 )
-
-_OPENERS = {"{": "}", "(": ")", "[": "]"}
-_CLOSERS = frozenset(_OPENERS.values())
 
 
 @dataclass(frozen=True)
@@ -72,38 +70,52 @@ def _starts_declaration(line: str, depth: int) -> bool:
     return depth == 0 or indent == 0
 
 
+# What the scan looks at, in one pass over the text (an editor scans the whole file
+# at every keystroke; a loop over every character was a seventh of an edit): a line
+# opening with a top-level keyword (`\w` is `isalnum()` or `_`, as in
+# `_leading_word`), a string (it ends at its line's end, as the grammar's do), a
+# comment, and brackets. Lines never continue a string or a comment, so a line's
+# start is never inside one.
+_TOKENS = re.compile(
+    r"(?P<keyword>^[ \t]*(?:" + "|".join(sorted(TOP_LEVEL_KEYWORDS)) + r")(?!\w))"
+    r'|"(?:[^"\\\n]|\\[^\n])*"?'
+    r"|(?P<comment>//[^\n]*)"
+    r"|(?P<open>[{(\[])"
+    r"|(?P<close>[})\]])",
+    re.MULTILINE,
+)
+
+
 def scan(text: str) -> ScanResult:
     comments: list[RawComment] = []
     chunks: list[tuple[int, int]] = [(0, 1)]
     depth = 0
-    offset = 0
-    for line_number, line in enumerate(text.split("\n"), 1):
-        if _starts_declaration(line, depth):
-            depth = 0
-            if offset != chunks[-1][0]:
-                chunks.append((offset, line_number))
-        depth = _scan_line(line, offset, depth, comments)
-        offset += len(line) + 1
+    counted, line_number = 0, 1  # newlines counted up to `counted`
+    for match in _TOKENS.finditer(text):
+        kind, start = match.lastgroup, match.start()
+        if kind == "open":
+            depth += 1
+        elif kind == "close":
+            depth = max(0, depth - 1)
+        elif kind == "keyword":
+            if _declares(text, match, depth):
+                depth = 0
+                if start != chunks[-1][0]:
+                    line_number += text.count("\n", counted, start)
+                    counted = start
+                    chunks.append((start, line_number))
+        elif kind == "comment":
+            line_start = text.rfind("\n", 0, start) + 1
+            own_line = not text[line_start:start].strip()
+            found = match.group().rstrip("\r")
+            comments.append(RawComment(start, start + len(found), found, own_line))
     return ScanResult(tuple(comments), tuple(chunks))
 
 
-def _scan_line(line: str, offset: int, depth: int, comments: list[RawComment]) -> int:
-    index = 0
-    length = len(line)
-    while index < length:
-        char = line[index]
-        if char == '"':
-            index += 1
-            while index < length and line[index] != '"':
-                index += 2 if line[index] == "\\" else 1
-        elif char == "/" and line.startswith("//", index):
-            own_line = not line[:index].strip()
-            text = line[index:].rstrip("\r")
-            comments.append(RawComment(offset + index, offset + index + len(text), text, own_line))
-            break
-        elif char in _OPENERS:
-            depth += 1
-        elif char in _CLOSERS:
-            depth = max(0, depth - 1)
-        index += 1
-    return depth
+def _declares(text: str, keyword: re.Match[str], depth: int) -> bool:
+    """Whether the line of a leading keyword starts a declaration."""
+    if depth == 0 and not keyword.group().endswith("time"):
+        return True  # the common case, without reading the line again
+    start = keyword.start()
+    end = text.find("\n", start)
+    return _starts_declaration(text[start:] if end == -1 else text[start:end], depth)
