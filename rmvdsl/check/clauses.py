@@ -47,6 +47,9 @@ class EventChecks:
 
     model: Model
     diagnostics: list[Diagnostic]
+    # The names each event reads (its expression and `where` clauses), found while
+    # checking it: the cycle check reads them rather than walking every event again.
+    event_reads: dict[int, list[ast.Ident]]  # by id() of the declaration
 
     def report(self, diagnostic: Diagnostic) -> None:
         self.diagnostics.append(diagnostic)
@@ -57,22 +60,23 @@ class EventChecks:
 
     def check_event(self, decl: ast.EventDecl) -> None:
         allowed = frozenset({Kind.VARIABLE, *EVENT_KINDS})
-        self.check_expression(decl.expr, allowed)
+        nodes = self.check_expression(decl.expr, allowed)
+        calls = [n for n in nodes if isinstance(n, ast.Call)]
         seen: dict[str, ast.Clause] = {}
         for clause in decl.clauses:
             first = seen.setdefault(clause.kind, clause)
             if first is not clause:
                 self.once_only(f"the `{clause.kind}` clause of `{decl.name.name}`", clause, first)
-            self.check_clause(clause, allowed)
-        self.check_query_shape(decl)
+            nodes += self.check_clause(clause, allowed)
+        self.event_reads[id(decl)] = [n.ident for n in nodes if isinstance(n, ast.NameRef)]
+        self.check_query_shape(decl, calls)
 
-    def check_query_shape(self, decl: ast.EventDecl) -> None:
+    def check_query_shape(self, decl: ast.EventDecl, calls: list[ast.Call]) -> None:
         """What InfluxQL refuses in a continuous query, and the runtime cannot run:
         an aggregate without `group by time`, `group by time` without one, a
         transformation over windows with no aggregate inside, and a bare value
-        beside an aggregate (RMV321)."""
+        beside an aggregate (RMV321); `calls` are those of its expression."""
         group = decl.clause("group")
-        calls = [n for n in ast.walk(decl.expr) if isinstance(n, ast.Call)]
         aggregates = [c for c in calls if _group(c) in _AGGREGATING]
         name = decl.name.name
         if aggregates and group is None:
@@ -136,11 +140,12 @@ class EventChecks:
     def report_shape(self, span: Span, message: str, label: str, help: str) -> None:
         self.report(error("RMV321", message, span, label=label, help=help))
 
-    def check_clause(self, clause: ast.Clause, allowed: frozenset[Kind]) -> None:
+    def check_clause(self, clause: ast.Clause, allowed: frozenset[Kind]) -> list[ast.Node]:
+        """Checks a clause; returns the nodes of its expression (`where`'s)."""
         value = clause.value
         match clause.kind:
             case "where":
-                self.check_expression(value, allowed)
+                return self.check_expression(value, allowed)
             case "group":
                 assert isinstance(value, ast.GroupBy)
                 for time in (value.interval, value.offset):
@@ -169,6 +174,7 @@ class EventChecks:
             case "range":
                 assert isinstance(value, ast.TimeLit)
                 self.check_positive_time(value.time, "range")
+        return []
 
     def check_fill(self, value: ast.Node) -> None:
         if isinstance(value, ast.NameValue):
@@ -209,8 +215,10 @@ class EventChecks:
                 error("RMV219", f"the {what} must be positive", time.span, label=f"`{time.text}`")
             )
 
-    def check_expression(self, expr: ast.Node, allowed: frozenset[Kind]) -> None:
-        for node in ast.walk(expr):
+    def check_expression(self, expr: ast.Node, allowed: frozenset[Kind]) -> list[ast.Node]:
+        """Resolves the names an expression reads; returns its nodes."""
+        nodes = ast.walk(expr)
+        for node in nodes:
             if isinstance(node, ast.NameRef):
                 self.resolve(node.ident, allowed, "a variable or an event")
             elif isinstance(node, ast.Call) and node.func.name not in INFLUX_FUNCTIONS:
@@ -224,15 +232,12 @@ class EventChecks:
                         or "see `rmv explain RMV215` for the supported functions",
                     )
                 )
+        return nodes
 
     def check_event_cycles(self) -> None:
         events = self.model.events
         dependencies = {
-            name: [
-                n.ident
-                for n in ast.walk(decl.expr, *(c.value for c in decl.clauses if c.kind == "where"))
-                if isinstance(n, ast.NameRef) and n.ident.name in events
-            ]
+            name: [i for i in self.event_reads[id(decl)] if i.name in events]
             for name, decl in events.items()
         }
         state: dict[str, int] = {}  # 1: on the current path, 2: done

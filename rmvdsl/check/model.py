@@ -25,6 +25,10 @@ class Kind(enum.Enum):
     STATE = "state"
     PROPERTY = "property"
 
+    # Members are singletons, equal only to themselves: the identity's hash (in C)
+    # serves as well as Enum's (a Python call), at thousands of lookups a keystroke.
+    __hash__ = object.__hash__
+
     @property
     def article(self) -> str:
         return "an" if self.value[0] in "aeiou" else "a"

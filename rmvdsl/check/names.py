@@ -46,6 +46,7 @@ class NameChecker(ActionChecks, EventChecks):
         self.damaged = damaged
         self.damaged_ranges = damaged_ranges
         self.used: set[int] = set()  # ids of used symbols
+        self.event_reads: dict[int, list[ast.Ident]] = {}
         self.time_unit_decl: ast.TimeUnitDecl | None = None
 
     # ---- driver ----
