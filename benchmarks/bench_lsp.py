@@ -13,7 +13,7 @@ then measures in one run:
 Machines here are shared and noisy: the figures are printed beside the bare parse of
 the same run. Goals: change p95 <= 50 ms, completion likewise, memory flat.
 
-    python benchmarks/bench_lsp.py [--edits 300] [--json benchmarks/results/lsp.json]
+    python benchmarks/bench_lsp.py [--edits 1000] [--json benchmarks/results/lsp.json]
 """
 
 from __future__ import annotations
@@ -159,7 +159,7 @@ async def _until(condition: Any, timeout: float = 120.0) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--edits", type=int, default=300)
+    parser.add_argument("--edits", type=int, default=1000)
     parser.add_argument("--json", help="write the figures to this file")
     args = parser.parse_args(argv)
     figures = asyncio.run(run(args.edits))

@@ -566,3 +566,42 @@ async def test_fixes_add_a_missing_state_and_a_whitelisted_node(
         client, uri, lambda d: not any(x.code in ("RMV210", "RMV222") for x in d)
     )
     assert not [d for d in rest if d.severity == types.DiagnosticSeverity.Error]
+
+
+class _Sink:
+    def write(self, data: object) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+
+def test_the_server_keeps_no_finished_handler(tmp_path: Path):
+    """pygls 2.1 kept every notification's future (two per didChange) for the life
+    of the server; rmvdsl's protocol lets each go once it is done. Run in process,
+    through the protocol's own message handling, to see its table."""
+    from rmvdsl.lsp.server import build
+
+    async def edit(count: int) -> int:
+        server = build()
+        protocol = server.protocol
+        protocol.set_writer(_Sink())
+
+        def send(message: dict[str, object]) -> None:
+            protocol.handle_message(protocol.structure_message({"jsonrpc": "2.0", **message}))
+
+        send({"id": 1, "method": "initialize", "params": {"capabilities": {}}})
+        send({"method": "initialized", "params": {}})
+        uri = (tmp_path / "edited.rmv").as_uri()
+        item = {"uri": uri, "languageId": "rmv", "version": 1, "text": "system s\n"}
+        send({"method": "textDocument/didOpen", "params": {"textDocument": item}})
+        for version in range(2, count + 2):
+            change = {"text": f"system s{version}\n"}
+            document = {"uri": uri, "version": version}
+            send({"method": "textDocument/didChange",
+                  "params": {"textDocument": document, "contentChanges": [change]}})  # fmt: skip
+            await asyncio.sleep(0.002)
+        await asyncio.sleep(1.0)  # the last change's solver stages, after the debounce
+        return len(protocol._request_futures)
+
+    assert asyncio.run(edit(100)) == 0
