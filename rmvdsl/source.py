@@ -25,7 +25,11 @@ class Span:
         return Span(self.path, min(self.start, other.start), max(self.end, other.end))
 
     def shifted(self, delta: int) -> Span:
-        return Span(self.path, self.start + delta, self.end + delta)
+        # Without __init__ (frozen fields are set one by one through object's
+        # __setattr__): an editor moves most of a file's spans at each keystroke.
+        moved = object.__new__(Span)
+        moved.__dict__.update(path=self.path, start=self.start + delta, end=self.end + delta)
+        return moved
 
 
 NO_SPAN = Span("<none>", 0, 0)

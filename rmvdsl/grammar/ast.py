@@ -7,10 +7,9 @@ the sub-nodes; `dataclasses.replace` gives functional update.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from dataclasses import dataclass, field, fields
 from fractions import Fraction
-from typing import cast
 
 from rmvdsl.grammar.formula import Formula, TimeValue
 from rmvdsl.source import NO_SPAN, Span
@@ -443,40 +442,23 @@ def walk(*roots: Node) -> list[Node]:
     """Every node below the roots, parents first, left to right."""
     out: list[Node] = []
     stack = list(reversed(roots))
-    finders = _FINDERS
     while stack:
         current = stack.pop()
         out.append(current)
-        stack.extend(reversed(finders[type(current)](current)))
+        stack.extend(reversed(_children(current)))
     return out
 
 
 def _children(node: Node) -> list[Node]:
-    return _FINDERS[type(node)](node)
-
-
-class _ChildFinders(dict[type, Callable[[Node], list[Node]]]):
-    """A function per node class listing its children, written when the class is
-    first met: the checker walks every declaration at each keystroke of an editor,
-    and a loop over each node's fields was most of a walk's time."""
-
-    def __missing__(self, kind: type) -> Callable[[Node], list[Node]]:
-        lines = ["def children(node):", "    fields = node.__dict__", "    out = []"]
-        for name in _child_fields(kind):
-            lines += [
-                f"    value = fields[{name!r}]",
-                "    if isinstance(value, Node): out.append(value)",
-                "    elif type(value) is tuple: out += [v for v in value if isinstance(v, Node)]",
-            ]
-        lines.append("    return out")
-        scope: dict[str, object] = {"Node": Node}
-        exec("\n".join(lines), scope)  # the code is written above, from field names only
-        finder = cast("Callable[[Node], list[Node]]", scope["children"])
-        self[kind] = finder
-        return finder
-
-
-_FINDERS = _ChildFinders()
+    out: list[Node] = []
+    values = node.__dict__
+    for name in _child_fields(type(node)):
+        value = values[name]
+        if isinstance(value, Node):
+            out.append(value)
+        elif type(value) is tuple:
+            out.extend([v for v in value if isinstance(v, Node)])
+    return out
 
 
 def names_in(node: Node) -> set[str]:

@@ -479,12 +479,6 @@ def shifted(value: Any, delta: int) -> Any:
     return _SHIFTERS[type(value)](value, delta)
 
 
-def _moved_span(span: Span, delta: int) -> Span:
-    moved = object.__new__(Span)
-    moved.__dict__.update(path=span.path, start=span.start + delta, end=span.end + delta)
-    return moved
-
-
 def _moved_items(items: tuple[Any, ...] | list[Any], delta: int) -> Any:
     moved = [item if type(item) in _LEAVES else _SHIFTERS[type(item)](item, delta)
              for item in items]  # fmt: skip
@@ -538,7 +532,7 @@ def _write_mover(kind: type) -> Callable[[Any, int], Any]:
     scope = {
         "new": object.__new__,
         "kind": kind,
-        "span": _moved_span,
+        "span": Span.shifted,
         "leaves": _LEAVES,
         "movers": _SHIFTERS,
     }
@@ -546,7 +540,7 @@ def _write_mover(kind: type) -> Callable[[Any, int], Any]:
     return cast("Callable[[Any, int], Any]", scope["move"])
 
 
-_SHIFTERS = _Shifters({Span: _moved_span, tuple: _moved_items, list: _moved_items})
+_SHIFTERS = _Shifters({Span: Span.shifted, tuple: _moved_items, list: _moved_items})
 
 
 def parse_source(source: SourceFile) -> ParsedSpec:

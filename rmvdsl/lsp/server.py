@@ -100,8 +100,9 @@ class Protocol(LanguageServerProtocol):
         future = self._request_futures.get(msg_id)
         if future is not None:
             loop = asyncio.get_running_loop()  # messages are handled on the loop
-            forget = functools.partial(loop.call_soon_threadsafe, self._forget, msg_id, future)
-            future.add_done_callback(lambda _: forget())
+            future.add_done_callback(
+                lambda done: loop.call_soon_threadsafe(self._forget, msg_id, done)
+            )
 
     def _forget(self, msg_id: Any, future: Any) -> None:
         if self._request_futures.get(msg_id) is future:
