@@ -7,6 +7,9 @@ then measures in one run:
               stages: load, names, types), p50 and p95 over --edits edits;
 - completion: a completion request in an expression, p50 and p95;
 - bare:       lark's bare parse of the same text in this process (the floor);
+- in process: the same edits' fast stages in this process, from scratch and
+              incremental (each declaration's names and types reused while its
+              text and what it looked up are unchanged), p50: the server's share;
 - memory:     the server's resident memory after the first 100 edits and after all
               of them (goal: flat).
 
@@ -35,6 +38,7 @@ from bench_check import write_messages
 from lsprotocol import types
 from pygls.lsp.client import LanguageClient
 
+from rmvdsl.check import check
 from rmvdsl.grammar.parser import bare_spec_parser
 
 
@@ -84,6 +88,10 @@ async def run(edits: int) -> dict[str, Any]:
 
     parser = bare_spec_parser()
     bare = min(_timed(lambda: parser.parse(text, start="start")) for _ in range(5))
+    in_process = {
+        "scratch_check_ms": _checks(str(path), text, incremental=False) * 1000,
+        "incremental_check_ms": _checks(str(path), text, incremental=True) * 1000,
+    }
 
     client = LanguageClient("bench-lsp", "1")
     # the server's solver answers go to a cache of this run's own, never the user's
@@ -103,11 +111,12 @@ async def run(edits: int) -> dict[str, Any]:
     await _until(lambda: 1 in published)
     lines = text.split("\n")
     target = next(i for i, line in enumerate(lines) if line.startswith("event B0 when"))
-    changes, memory = [], {}
+    changes: list[float] = []
+    series: list[float] = []  # the server's resident memory every 100 edits
     pid = client._server.pid  # type: ignore[union-attr]
     for version in range(2, edits + 2):
-        # Typing and erasing in turn: a digit inserted, then removed, so that every
-        # later declaration moves by one character and back.
+        # Typing and erasing in turn (as _typed): a digit inserted, then removed, so
+        # that every later declaration moves by one character and back.
         at = types.Position(target, 22)
         if version % 2 == 0:
             edit = types.TextDocumentContentChangePartial(range=types.Range(at, at), text="7")
@@ -119,9 +128,9 @@ async def run(edits: int) -> dict[str, Any]:
             types.VersionedTextDocumentIdentifier(uri=uri, version=version), [edit]))  # fmt: skip
         await _until(lambda v=version: v in published)
         changes.append(published[version] - start)
-        if version == 101:
-            memory["after_100_mb"] = resident_mb(pid)
-    memory["after_all_mb"] = resident_mb(pid)
+        if (version - 1) % 100 == 0:
+            series.append(round(resident_mb(pid), 1))
+    memory = {"after_100_mb": series[0], "after_all_mb": series[-1], "memory_mb": series}
     where = types.Position(target, len(lines[target]))
     completions = []
     for _ in range(100):
@@ -139,8 +148,27 @@ async def run(edits: int) -> dict[str, Any]:
         "change_p50_ms": percentile(changes, 0.5) * ms,
         "change_p95_ms": percentile(changes, 0.95) * ms,
         "completion_p50_ms": percentile(completions, 0.5) * ms,
-        "completion_p95_ms": percentile(completions, 0.95) * ms, **memory,
+        "completion_p95_ms": percentile(completions, 0.95) * ms, **memory, **in_process,
     }  # fmt: skip
+
+
+def _typed(text: str, version: int, line: int) -> str:
+    """The benchmark's edit: a digit typed at column 23 of `line`, then erased."""
+    lines = text.split("\n")
+    if version % 2 == 0:
+        lines[line] = lines[line][:22] + "7" + lines[line][22:]
+    return "\n".join(lines)
+
+
+def _checks(path: str, text: str, incremental: bool, edits: int = 60) -> float:
+    """The p50 of the fast stages of `rmv check` over the benchmark's edits, here."""
+    target = next(i for i, line in enumerate(text.split("\n")) if line.startswith("event B0"))
+    check(path, text, solver=False, incremental=incremental)
+    times = []
+    for version in range(2, edits + 2):
+        edited = _typed(text, version, target)
+        times.append(_timed(lambda t=edited: check(path, t, solver=False, incremental=incremental)))
+    return percentile(times, 0.5)
 
 
 def _timed(action: Any) -> float:
@@ -165,12 +193,14 @@ def main(argv: list[str] | None = None) -> int:
     figures = asyncio.run(run(args.edits))
     print(f"{figures['lines']:,} lines, {figures['edits']:,} edits; bare parse "
           f"{figures['bare_parse_ms']:.1f} ms")  # fmt: skip
+    print(f"  fast stages in process, p50: {figures['scratch_check_ms']:.1f} ms from scratch, "
+          f"{figures['incremental_check_ms']:.1f} ms incremental")  # fmt: skip
     print(f"  didChange -> diagnostics p50 / p95: {figures['change_p50_ms']:.1f} / "
           f"{figures['change_p95_ms']:.1f} ms (goal p95 <= 50 ms)")  # fmt: skip
     print(f"  completion p50 / p95: {figures['completion_p50_ms']:.1f} / "
           f"{figures['completion_p95_ms']:.1f} ms")  # fmt: skip
     print(f"  server memory after 100 edits {figures['after_100_mb']:.0f} MB, after all "
-          f"{figures['after_all_mb']:.0f} MB")  # fmt: skip
+          f"{figures['after_all_mb']:.0f} MB (every 100: {figures['memory_mb']})")  # fmt: skip
     if args.json:
         Path(args.json).write_text(json.dumps(figures, indent=2) + "\n", encoding="utf-8")
     return 0

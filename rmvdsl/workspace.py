@@ -44,9 +44,13 @@ def _key(path: str) -> str:
 
 
 class Workspace:
-    """Open documents by path; reads prefer them to the disk, imports included."""
+    """Open documents by path; reads prefer them to the disk, imports included.
 
-    def __init__(self) -> None:
+    An `incremental` workspace (the editor's) checks again only the declarations an
+    edit changed or could affect (rmvdsl.check.memo); the answers are the same."""
+
+    def __init__(self, incremental: bool = False) -> None:
+        self.incremental = incremental
         self._open: dict[str, str] = {}
         self._lock = threading.Lock()
 
@@ -69,6 +73,7 @@ class Workspace:
 
     def check(self, path: str, solver: bool = True, **options: Any) -> CheckResult:
         """`rmv check` of `path` as the open documents say it is now."""
+        options.setdefault("incremental", self.incremental)
         return check(path, self.text(path), read=self.read, solver=solver, **options)
 
 

@@ -261,6 +261,32 @@ def test_scan_agrees_with_a_character_reading(pieces: list[str]) -> None:
     assert scan(text) == _reference_scan(text)
 
 
+@settings(max_examples=600, deadline=None)
+@given(
+    st.lists(st.sampled_from(_SCAN_PIECES), max_size=40),
+    st.integers(0, 40),
+    st.integers(0, 3),
+    st.lists(st.sampled_from(_SCAN_PIECES), max_size=3),
+)
+def test_a_scan_after_an_edit_equals_a_fresh_one(
+    pieces: list[str], at: int, removed: int, inserted: list[str]
+) -> None:
+    """An editor's scan reuses the scan of the text before the edit: the chunks
+    before it, and those of the unchanged end, moved."""
+    before = "".join(pieces)
+    after = "".join(pieces[:at] + inserted + pieces[at + removed :])
+    assert scan(after, (before, scan(before))) == scan(after)
+
+
+def test_a_scan_after_an_edit_equals_a_fresh_one_on_the_examples() -> None:
+    for path in sorted(EXAMPLES.rglob("*.rmv")):
+        text = path.read_text(encoding="utf-8", errors="replace")
+        for at in range(0, len(text), max(1, len(text) // 40)):
+            for edit in ("", "x", "\n", "}", "{", '"', "//", "\nevent E when x\n"):
+                after = text[:at] + edit + text[at + (len(edit) % 2) :]
+                assert scan(after, (text, scan(text))) == scan(after), (path, at, edit)
+
+
 def test_scan_agrees_on_the_examples() -> None:
     for path in sorted(EXAMPLES.rglob("*.rmv")):
         text = path.read_text(encoding="utf-8", errors="replace")

@@ -75,6 +75,7 @@ def check(
     read: Reader = read_text,
     solver: bool = True,
     solver_jobs: int | None = None,
+    incremental: bool = False,
 ) -> CheckResult:
     """Check the spec at `path` (its text may be given, as the editor does).
 
@@ -87,11 +88,13 @@ def check(
     `solver_timeout` (seconds per solver call on the properties) wins over the
     `solver_timeout` of rmv.toml (docs/verification.md); `solver_jobs` (processes
     answering independent solver questions at once) over its `solver_jobs`.
+    `incremental` (an editor's) reuses what earlier checks found in declarations
+    whose text has not changed (rmvdsl.check.memo): the same answer, sooner.
     Raises UsageError only when the root file itself cannot be read. Runs on a deep
     stack (rmvdsl.deep): a generated spec's formulas can nest 100,000 levels."""
     options = (ros, messages, use_environment, solver_timeout, read, solver, solver_jobs)
     with fewer_full_collections():
-        return deep(_check, path, text, *options)
+        return deep(_check, path, text, *options, incremental)
 
 
 FULL_COLLECTION_THRESHOLD = 1000  # Python's default: 10
@@ -133,10 +136,11 @@ def _check(
     read: Reader,
     solver: bool,
     solver_jobs: int | None,
+    incremental: bool,
 ) -> CheckResult:
     loaded = load(path, text, read)
     model, name_diagnostics = check_names(
-        loaded.specs, loaded.sources, loaded.damaged_names, loaded.damaged_ranges
+        loaded.specs, loaded.sources, loaded.damaged_names, loaded.damaged_ranges, incremental
     )
     # Paths stay as the user wrote them (relative stays relative) in diagnostics.
     folder = os.path.dirname(path) or "."
@@ -147,7 +151,7 @@ def _check(
         messages=(*messages, *file_config.messages),
         use_environment=use_environment,
     )
-    types, type_diagnostics = check_types(model, config, folder)
+    types, type_diagnostics = check_types(model, config, folder, incremental)
     if not solver:
         fast = _quieted(
             model, [*loaded.diagnostics, *config_diagnostics], name_diagnostics, type_diagnostics

@@ -6,10 +6,13 @@ The result is the resolved `Model` and the diagnostics of this stage.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from rmvdsl import builtins
 from rmvdsl.check import settings as schemas
 from rmvdsl.check.actions import ActionChecks
 from rmvdsl.check.clauses import EventChecks
+from rmvdsl.check.memo import Memo, declaration_key
 from rmvdsl.check.model import (
     BOOLEAN_KINDS,
     EVENT_KINDS,
@@ -25,12 +28,28 @@ from rmvdsl.check.whitelists import check_whitelist_agreement, topic_of
 from rmvdsl.diagnostics import Diagnostic, Fix, Label, did_you_mean, error, warning
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
-from rmvdsl.grammar.parser import reserved_names
+from rmvdsl.grammar.parser import reserved_names, shifted
 from rmvdsl.logic.validate import check_formula
 from rmvdsl.source import SourceMap, Span
 
 ARRAY_AGGREGATES = tuple(builtins.ARRAY_AGGREGATES)
 TIME_UNIT_NAMES = tuple(fm.TIME_UNITS)  # ns, us, ms, s, m, h, d, w
+
+
+@dataclass(frozen=True)
+class Resolved:
+    """What checking one declaration found when it found nothing wrong: the names
+    it looked up (each one's kind and owner then), its references, and an event's
+    reads. Spans are where the declaration stood (`start`)."""
+
+    start: int
+    lookups: tuple[tuple[str, Kind, str | None], ...]
+    references: tuple[tuple[str, Span], ...]
+    reads: tuple[ast.Ident, ...] | None
+
+
+# Each clean declaration's names, for incremental checks (rmvdsl.check.memo).
+RESOLVED: Memo[Resolved] = Memo()
 
 
 class NameChecker(ActionChecks, EventChecks):
@@ -40,8 +59,12 @@ class NameChecker(ActionChecks, EventChecks):
         sources: SourceMap,
         damaged: set[str],
         damaged_ranges: dict[str, list[tuple[int, int]]],
+        incremental: bool = False,
     ) -> None:
         self.model = Model(sources, specs, damaged_ranges=damaged_ranges)
+        self.incremental = incremental
+        # While a declaration's check is remembered: every name it looked up.
+        self.lookups: list[tuple[str, Symbol | None]] | None = None
         self.diagnostics: list[Diagnostic] = []
         self.damaged = damaged
         self.damaged_ranges = damaged_ranges
@@ -55,8 +78,10 @@ class NameChecker(ActionChecks, EventChecks):
         decls = self.model.declarations()
         for decl in decls:
             self.declare(decl)
+        if self.incremental:
+            RESOLVED.fit(len(decls))
         for decl in decls:
-            self.check_decl(decl)
+            self.check_remembered(decl) if self.incremental else self.check_decl(decl)
         self.check_event_cycles()
         self.check_whitelist_duplicates()
         self.diagnostics += check_whitelist_agreement(self.model)
@@ -223,6 +248,8 @@ class NameChecker(ActionChecks, EventChecks):
 
     def resolve(self, ident: ast.Ident, allowed: frozenset[Kind], wanted: str) -> Symbol | None:
         symbol = self.model.symbols.get(ident.name)
+        if self.lookups is not None:
+            self.lookups.append((ident.name, symbol))
         if symbol is None:
             if ident.name not in self.damaged:
                 candidates = [s.name for s in self.model.symbols.values() if s.kind in allowed]
@@ -264,6 +291,56 @@ class NameChecker(ActionChecks, EventChecks):
         return None
 
     # ---- checking each declaration ----
+
+    def check_remembered(self, decl: ast.Decl) -> None:
+        """check_decl, or what it found the last time this text was checked, when
+        every name it looked up is still what it was."""
+        model = self.model
+        key = declaration_key(model, decl)
+        if key is None:
+            self.check_decl(decl)
+            return
+        known = RESOLVED.get(key)
+        if known is not None and self.still_holds(known):
+            self.replay(decl, known)
+            return
+        found, references = len(self.diagnostics), len(model.references)
+        self.lookups = []
+        try:
+            self.check_decl(decl)
+            lookups = self.lookups
+        finally:
+            self.lookups = None
+        if len(self.diagnostics) > found or any(s is None for _, s in lookups):
+            return  # a finding (or a name not found) is checked again each time
+        reads = self.event_reads.get(id(decl))
+        RESOLVED.put(
+            key,
+            Resolved(
+                decl.span.start,
+                tuple((name, s.kind, s.owner) for name, s in lookups if s is not None),
+                tuple((r.name, r.span) for r in model.references[references:]),
+                None if reads is None else tuple(reads),
+            ),
+        )
+
+    def still_holds(self, known: Resolved) -> bool:
+        symbols = self.model.symbols
+        for name, kind, owner in known.lookups:
+            symbol = symbols.get(name)
+            if symbol is None or symbol.kind is not kind or symbol.owner != owner:
+                return False
+        return True
+
+    def replay(self, decl: ast.Decl, known: Resolved) -> None:
+        symbols, references = self.model.symbols, self.model.references
+        delta = decl.span.start - known.start
+        for name, span in known.references:
+            symbol = symbols[name]
+            references.append(Reference(name, span.shifted(delta) if delta else span, symbol))
+            self.used.add(id(symbol))
+        if known.reads is not None:
+            self.event_reads[id(decl)] = list(shifted(known.reads, delta) if delta else known.reads)
 
     def check_decl(self, decl: ast.Decl) -> None:
         match decl:
@@ -429,6 +506,8 @@ class NameChecker(ActionChecks, EventChecks):
     def check_state(self, decl: ast.TransducerDecl, ident: ast.Ident, own: set[str]) -> None:
         if ident.name in own:
             symbol = self.model.symbols.get(ident.name)
+            if self.lookups is not None:
+                self.lookups.append((ident.name, symbol))
             if symbol is not None and symbol.owner == decl.name.name:
                 self.model.references.append(Reference(ident.name, ident.span, symbol))
                 self.used.add(id(symbol))
@@ -566,5 +645,9 @@ def check_names(
     sources: SourceMap,
     damaged: set[str] | None = None,
     damaged_ranges: dict[str, list[tuple[int, int]]] | None = None,
+    incremental: bool = False,
 ) -> tuple[Model, list[Diagnostic]]:
-    return NameChecker(specs, sources, damaged or set(), damaged_ranges or {}).run()
+    """The names stage; `incremental` reuses what earlier checks found in the
+    declarations whose text has not changed (an editor's, rmvdsl.check.memo)."""
+    checker = NameChecker(specs, sources, damaged or set(), damaged_ranges or {}, incremental)
+    return checker.run()

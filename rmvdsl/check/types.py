@@ -8,13 +8,14 @@ from __future__ import annotations
 
 import os
 import re
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from typing import Any
 
 from rmvdsl import builtins
 from rmvdsl.check.fieldpaths import FieldPaths
+from rmvdsl.check.memo import Memo, declaration_key
 from rmvdsl.check.model import Kind, Model
 from rmvdsl.check.msgtypes import (
     DEFAULT_DISTRO,
@@ -75,9 +76,35 @@ class TypeInfo:
     formulas: dict[str, Any] = field(default_factory=dict)
     # The type of every expression node of events and alerts, by id of the node.
     expressions: dict[int, VType] = field(default_factory=dict)
+    # Declarations whose types an incremental check reused: their nodes' types in
+    # the order of ast.walk, given ids when first asked for (an editor never asks).
+    unplaced: list[tuple[ast.Node, tuple[VType | None, ...]]] = field(default_factory=list)
 
     def type_of(self, node: ast.Node) -> VType:
+        if self.unplaced:
+            self._place()
         return self.expressions.get(id(node), UNKNOWN)
+
+    def _place(self) -> None:
+        for decl, types in self.unplaced:
+            for node, value in zip(ast.walk(decl), types, strict=True):
+                if value is not None:
+                    self.expressions[id(node)] = value
+        self.unplaced.clear()
+
+
+@dataclass(frozen=True)
+class Typed:
+    """What typing one declaration found when it found nothing wrong: the type of
+    each name it read then, its nodes' types (ast.walk's order), its result."""
+
+    lookups: tuple[tuple[str, VType], ...]
+    types: tuple[VType | None, ...]
+    result: Any
+
+
+# Each clean declaration's types, for incremental checks (rmvdsl.check.memo).
+TYPED: Memo[Typed] = Memo()
 
 
 @dataclass
@@ -91,13 +118,18 @@ class TypeConfig:
 
 
 class TypeChecker(FieldPaths):
-    def __init__(self, model: Model, config: TypeConfig, spec_folder: str) -> None:
+    def __init__(
+        self, model: Model, config: TypeConfig, spec_folder: str, incremental: bool = False
+    ) -> None:
         self.model = model
         self.config = config
         self.spec_folder = spec_folder
+        self.incremental = incremental
         self.diagnostics: list[Diagnostic] = []
         self.info = TypeInfo(TypeRegistry(self._distro()))
         self._event_stack: set[str] = set()
+        # The names read by each declaration being typed (innermost last), remembered.
+        self._reads: list[list[tuple[str, VType]]] = []
 
     # ---- configuration ----
 
@@ -147,6 +179,8 @@ class TypeChecker(FieldPaths):
     # ---- driver ----
 
     def run(self) -> tuple[TypeInfo, list[Diagnostic]]:
+        if self.incremental:
+            TYPED.fit(len(self.model.events) + len(self.model.alerts) + len(self.model.properties))
         self.load_messages()
         for name, topic in self.model.topics.items():
             self.info.topics[name] = self.resolve_topic(topic)
@@ -171,16 +205,44 @@ class TypeChecker(FieldPaths):
         if name in self._event_stack:
             return UNKNOWN  # a cycle, reported by the names stage
         self._event_stack.add(name)
+        value = self.remembered(decl, lambda: self.type_event(decl))
+        self._event_stack.discard(name)
+        self.info.events[name] = value
+        return value
+
+    def type_event(self, decl: ast.EventDecl) -> VType:
         value = self.expression(decl.expr)
         where = decl.clause("where")
         if where is not None:
             self.condition(where.value, "a `where` clause")
         if decl.boolean:
-            self.condition(decl.expr, f"the condition of `{name}`", value)
+            self.condition(decl.expr, f"the condition of `{decl.name.name}`", value)
             value = BOOL
-        self._event_stack.discard(name)
-        self.info.events[name] = value
         return value
+
+    def remembered(self, decl: ast.Node, typed: Callable[[], Any]) -> Any:
+        """typed(), or what it found the last time this text was typed, when every
+        name it read still has the type it had (an incremental check's)."""
+        key = declaration_key(self.model, decl) if self.incremental else None
+        if key is None:
+            return typed()
+        known = TYPED.get(key)
+        if known is not None and self.still_holds(known):
+            if known.types:
+                self.info.unplaced.append((decl, known.types))
+            return known.result
+        found = len(self.diagnostics)
+        self._reads.append([])
+        try:
+            result = typed()
+        finally:
+            reads = self._reads.pop()
+        if len(self.diagnostics) == found:
+            expressions = self.info.expressions
+            types = tuple([expressions.get(id(node)) for node in ast.walk(decl)])
+            kept = types if any(t is not None for t in types) else ()
+            TYPED.put(key, Typed(tuple(reads), kept, result))
+        return result
 
     def condition(self, expr: ast.Node, what: str, value: VType | None = None) -> None:
         value = value or self.expression(expr)
@@ -222,7 +284,16 @@ class TypeChecker(FieldPaths):
                 return self.call(expr)
         return UNKNOWN
 
+    def still_holds(self, known: Typed) -> bool:
+        return all(self._name_type(name) == value for name, value in known.lookups)
+
     def name_type(self, name: str) -> VType:
+        value = self._name_type(name)
+        if self._reads:
+            self._reads[-1].append((name, value))
+        return value
+
+    def _name_type(self, name: str) -> VType:
         symbol = self.model.symbols.get(name)
         if symbol is None:
             return UNKNOWN
@@ -466,6 +537,9 @@ class TypeChecker(FieldPaths):
     # ---- alerts ----
 
     def check_alert(self, alert: ast.AlertDecl) -> None:
+        self.remembered(alert, lambda: self.type_alert(alert))
+
+    def type_alert(self, alert: ast.AlertDecl) -> None:
         for level in alert.levels:
             self.condition(level.condition, f"the `{level.severity.name}` condition")
             if level.reset is None:
@@ -495,13 +569,22 @@ class TypeChecker(FieldPaths):
         formula = prop.formula
         if formula is None:
             return
+        found = self.remembered(prop, lambda: self.type_property(prop, formula))
+        if found is not None:
+            self.info.formulas[prop.name.name], self.info.horizons[prop.name.name] = found
+
+    def type_property(self, prop: ast.PropertyDecl, formula: fm.Formula) -> Any:
+        """The compiled formula and its horizon (None when it does not compile)."""
         for node in fm.walk(formula):
             if isinstance(node, fm.Compare):
                 self.compare_terms(node)
-        horizon = self.horizon(prop.name.name, formula)
-        if horizon is None:
-            return
-        self.info.horizons[prop.name.name] = horizon
+        found = self.horizon(formula)
+        if found is None:
+            return None
+        self.check_window(prop, formula, found[1])
+        return found
+
+    def check_window(self, prop: ast.PropertyDecl, formula: fm.Formula, horizon: Horizon) -> None:
         window = next((s for s in prop.settings if s.key.name == "window"), None)
         if window is None or not isinstance(window.value, ast.TimeLit):
             return
@@ -564,16 +647,15 @@ class TypeChecker(FieldPaths):
             )
             return
 
-    def horizon(self, name: str, formula: fm.Formula) -> Horizon | None:
-        """How far the property looks ahead and back: the runtime's own traversal
-        of its compiled formula (rmvdsl.runtime.rmtld3.facts), kept for later stages."""
+    def horizon(self, formula: fm.Formula) -> tuple[Any, Horizon] | None:
+        """The compiled formula and how far it looks ahead and back: the runtime's
+        own traversal of it (rmvdsl.runtime.rmtld3.facts), kept for later stages."""
         try:
             compiled = compile_formula(formula, Fraction(1), self.model.time_unit)
         except CompileError:
             return None  # a bound without a unit or a bad term: the names stage said so
-        self.info.formulas[name] = compiled
         found = facts(compiled)
-        return Horizon(Fraction(found.future), Fraction(found.past))
+        return compiled, Horizon(Fraction(found.future), Fraction(found.past))
 
 
 def _units_clash(left: VType, right: VType) -> bool:
@@ -613,6 +695,11 @@ def seconds_text(value: Fraction) -> str:
 
 
 def check_types(
-    model: Model, config: TypeConfig | None = None, spec_folder: str = "."
+    model: Model,
+    config: TypeConfig | None = None,
+    spec_folder: str = ".",
+    incremental: bool = False,
 ) -> tuple[TypeInfo, list[Diagnostic]]:
-    return TypeChecker(model, config or TypeConfig(), spec_folder).run()
+    """The types stage; `incremental` reuses what earlier checks found in the
+    declarations whose text has not changed (an editor's, rmvdsl.check.memo)."""
+    return TypeChecker(model, config or TypeConfig(), spec_folder, incremental).run()

@@ -31,7 +31,7 @@ from rmvdsl.diagnostics import Diagnostic, Label, did_you_mean, error
 from rmvdsl.grammar import ast
 from rmvdsl.grammar.builder import AstBuilder
 from rmvdsl.grammar.formula import Formula
-from rmvdsl.grammar.scanner import TOP_LEVEL_KEYWORDS, RawComment, scan
+from rmvdsl.grammar.scanner import TOP_LEVEL_KEYWORDS, RawComment, ScanResult, scan
 from rmvdsl.source import SourceFile, Span
 
 _SPEC_GRAMMAR_FILES = ("rmv.lark", "expr.lark", "formula.lark", "lexical.lark")
@@ -543,11 +543,28 @@ def _write_mover(kind: type) -> Callable[[Any, int], Any]:
 _SHIFTERS = _Shifters({Span: Span.shifted, tuple: _moved_items, list: _moved_items})
 
 
+# The last text parsed of each file (the most recent files) and its scan: the next
+# parse of the file scans only what an edit changed.
+_LAST_SCANS: dict[str, tuple[str, ScanResult]] = {}
+_LAST_SCANS_SIZE = 64
+
+
+def _scanned(source: SourceFile) -> ScanResult:
+    before = _LAST_SCANS.get(source.path)
+    scanned = scan(source.text, before)
+    with _CHUNK_LOCK:
+        _LAST_SCANS.pop(source.path, None)
+        _LAST_SCANS[source.path] = (source.text, scanned)
+        while len(_LAST_SCANS) > _LAST_SCANS_SIZE:
+            del _LAST_SCANS[next(iter(_LAST_SCANS))]
+    return scanned
+
+
 def parse_source(source: SourceFile) -> ParsedSpec:
     """Parse a whole file: every declaration, every syntax error."""
     _, builder = _spec_parser()
     builder.start_parse(source.path)
-    scanned = scan(source.text)
+    scanned = _scanned(source)
     items: list[ast.Decl] = []
     diagnostics: list[Diagnostic] = []
     damaged: set[str] = set()

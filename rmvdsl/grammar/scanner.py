@@ -8,6 +8,7 @@ of error recovery; the token-level level is in `parser.py`.
 
 from __future__ import annotations
 
+import bisect
 import re
 from dataclasses import dataclass
 
@@ -86,12 +87,85 @@ _TOKENS = re.compile(
 )
 
 
-def scan(text: str) -> ScanResult:
-    comments: list[RawComment] = []
-    chunks: list[tuple[int, int]] = [(0, 1)]
+def scan(text: str, before: tuple[str, ScanResult] | None = None) -> ScanResult:
+    """The comments and declaration chunks of a text. With `before` (an earlier text
+    of the same file and its scan, an editor's), only what an edit changed is
+    scanned again: the chunks before it are kept, and the scan stops once it meets
+    a chunk of the unchanged end, whose chunks and comments are moved along."""
+    if before is None:
+        return _scan(text, 0, 1, [], [(0, 1)])
+    old_text, old = before
+    prefix = _common_prefix(old_text, text)
+    if prefix == len(text) == len(old_text):
+        return old
+    # The state at a chunk's start is its line alone (brackets reset there), so the
+    # scan resumes at the last chunk whose first line the edit left whole.
+    starts = [start for start, _ in old.chunks]
+    index = bisect.bisect_right(starts, prefix) - 1
+    while index > 0 and not 0 <= old_text.find("\n", starts[index]) < prefix:
+        index -= 1
+    resume, line = old.chunks[index]
+    kept = bisect.bisect_left([c.start for c in old.comments], resume)
+    suffix = _common_suffix(old_text, text, min(len(old_text), len(text)) - prefix)
+    return _scan(
+        text,
+        resume,
+        line,
+        list(old.comments[:kept]),
+        list(old.chunks[: index + 1]),
+        _Unchanged(len(text) - suffix, len(text) - len(old_text), old, starts),
+    )
+
+
+@dataclass(frozen=True)
+class _Unchanged:
+    """The unchanged end of a text an edit changed: from `start` on, the new text
+    is the old one moved by `delta`."""
+
+    start: int
+    delta: int
+    old: ScanResult
+    old_starts: list[int]
+
+    def rest(self, start: int) -> tuple[int, int] | None:
+        """Where the old chunk now starting at `start` was (its index) and its line,
+        if it is in the unchanged end."""
+        if start < self.start:
+            return None
+        index = bisect.bisect_left(self.old_starts, start - self.delta)
+        if index == len(self.old_starts) or self.old_starts[index] != start - self.delta:
+            return None
+        return index, self.old.chunks[index][1]
+
+    def joined(
+        self, comments: list[RawComment], chunks: list[tuple[int, int]], index: int, lines: int
+    ) -> ScanResult:
+        """The scan so far (ending with the chunk `index` of the old scan, now
+        `lines` lines further), followed by the old scan's rest moved along."""
+        delta, old = self.delta, self.old
+        start = old.chunks[index][0]
+        chunks += [(c + delta, line + lines) for c, line in old.chunks[index + 1 :]]
+        first = bisect.bisect_left([c.start for c in old.comments], start)
+        comments += [
+            RawComment(c.start + delta, c.end + delta, c.text, c.own_line)
+            for c in old.comments[first:]
+        ]
+        return ScanResult(tuple(comments), tuple(chunks))
+
+
+def _scan(
+    text: str,
+    start: int,
+    line_number: int,
+    comments: list[RawComment],
+    chunks: list[tuple[int, int]],
+    unchanged: _Unchanged | None = None,
+) -> ScanResult:
+    """Scan from `start`, a chunk's start (or 0) on line `line_number`, the
+    comments and chunks before it found already; stop at the unchanged end."""
     depth = 0
-    counted, line_number = 0, 1  # newlines counted up to `counted`
-    for match in _TOKENS.finditer(text):
+    counted = start  # newlines counted up to `counted`
+    for match in _TOKENS.finditer(text, start):
         kind, start = match.lastgroup, match.start()
         if kind == "open":
             depth += 1
@@ -104,12 +178,41 @@ def scan(text: str) -> ScanResult:
                     line_number += text.count("\n", counted, start)
                     counted = start
                     chunks.append((start, line_number))
+                    rest = unchanged.rest(start) if unchanged is not None else None
+                    if rest is not None:
+                        assert unchanged is not None
+                        return unchanged.joined(comments, chunks, rest[0], line_number - rest[1])
         elif kind == "comment":
             line_start = text.rfind("\n", 0, start) + 1
             own_line = not text[line_start:start].strip()
             found = match.group().rstrip("\r")
             comments.append(RawComment(start, start + len(found), found, own_line))
     return ScanResult(tuple(comments), tuple(chunks))
+
+
+def _common_prefix(a: str, b: str) -> int:
+    """The length of the longest common prefix (slices compare in C: a binary
+    search takes microseconds on a large file)."""
+    low, high = 0, min(len(a), len(b))
+    while low < high:
+        middle = (low + high + 1) // 2
+        if a[low:middle] == b[low:middle]:
+            low = middle
+        else:
+            high = middle - 1
+    return low
+
+
+def _common_suffix(a: str, b: str, most: int) -> int:
+    """The length of the longest common suffix, at most `most`."""
+    low, high = 0, most
+    while low < high:
+        middle = (low + high + 1) // 2
+        if a[len(a) - middle : len(a) - low] == b[len(b) - middle : len(b) - low]:
+            low = middle
+        else:
+            high = middle - 1
+    return low
 
 
 def _declares(text: str, keyword: re.Match[str], depth: int) -> bool:

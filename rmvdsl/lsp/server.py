@@ -77,7 +77,8 @@ class State:
     """The server's view: the workspace, each document's change count, and the
     newest check of each document."""
 
-    workspace: Workspace = field(default_factory=Workspace)
+    # Incremental: a keystroke re-checks only what it could change.
+    workspace: Workspace = field(default_factory=lambda: Workspace(incremental=True))
     generation: dict[str, int] = field(default_factory=dict)
     results: dict[str, CheckResult] = field(default_factory=dict)
     pool: ThreadPoolExecutor = field(default_factory=lambda: ThreadPoolExecutor(2))
