@@ -84,12 +84,16 @@ def lsp_latency(data: dict[str, Any]) -> str:
     rows = [
         ["lark's bare parse of the text, in the benchmark's process",
          f"{data['bare_parse_ms']:.0f} ms"],
+        ["the fast stages of one edit in that process, p50: from scratch / incremental",
+         f"{data['scratch_check_ms']:.0f} / {data['incremental_check_ms']:.0f} ms"],
         [f"didChange -> first diagnostics of that version, p50 / p95 ({data['edits']} edits)",
          f"{data['change_p50_ms']:.0f} / {data['change_p95_ms']:.0f} ms"],
         ["completion, p50 / p95",
          f"{data['completion_p50_ms']:.0f} / {data['completion_p95_ms']:.0f} ms"],
         [f"the server's memory after 100 edits / after {data['edits']}",
          f"{data['after_100_mb']:.0f} / {data['after_all_mb']:.0f} MB"],
+        ["the server's memory every 100 edits, lowest / highest",
+         f"{min(data['memory_mb']):.0f} / {max(data['memory_mb']):.0f} MB"],
     ]  # fmt: skip
     return _table(["measure", "figure"], rows)
 
