@@ -28,7 +28,8 @@ from rmvdsl.check.whitelists import check_whitelist_agreement, topic_of
 from rmvdsl.diagnostics import Diagnostic, Fix, Label, did_you_mean, error, warning
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
-from rmvdsl.grammar.parser import reserved_names, shifted
+from rmvdsl.grammar.parser import reserved_names
+from rmvdsl.grammar.shift import shifted
 from rmvdsl.logic.validate import check_formula
 from rmvdsl.source import SourceMap, Span
 

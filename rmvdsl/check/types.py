@@ -566,15 +566,16 @@ class TypeChecker(FieldPaths):
     # ---- properties ----
 
     def check_property(self, prop: ast.PropertyDecl) -> None:
-        formula = prop.formula
-        if formula is None:
-            return
-        found = self.remembered(prop, lambda: self.type_property(prop, formula))
+        found = self.remembered(prop, lambda: self.type_property(prop))
         if found is not None:
             self.info.formulas[prop.name.name], self.info.horizons[prop.name.name] = found
 
-    def type_property(self, prop: ast.PropertyDecl, formula: fm.Formula) -> Any:
-        """The compiled formula and its horizon (None when it does not compile)."""
+    def type_property(self, prop: ast.PropertyDecl) -> Any:
+        """The compiled formula and its horizon (None when it has none, or when it
+        does not compile)."""
+        formula = prop.formula
+        if formula is None:
+            return None
         for node in fm.walk(formula):
             if isinstance(node, fm.Compare):
                 self.compare_terms(node)

@@ -10,8 +10,10 @@ from __future__ import annotations
 from collections.abc import Iterator
 from dataclasses import dataclass, field, fields
 from fractions import Fraction
+from typing import TYPE_CHECKING, Any
 
 from rmvdsl.grammar.formula import Formula, TimeValue
+from rmvdsl.grammar.shift import moved_field
 from rmvdsl.source import NO_SPAN, Span
 
 
@@ -20,6 +22,13 @@ class Node:
 
     def children(self) -> Iterator[Node]:
         return iter(_children(self))
+
+    if not TYPE_CHECKING:  # mypy would take every attribute of a node for Any
+
+        def __getattr__(self, name: str) -> Any:
+            """Only for a field not there: a moved declaration's sub-trees, moved
+            when first read (rmvdsl.grammar.shift)."""
+            return moved_field(self, name)
 
 
 _CHILD_FIELDS: dict[type, tuple[str, ...]] = {}
@@ -144,6 +153,10 @@ Expr = BinOp | UnaryOp | Call | NameRef | NumberLit | StringLit | TimeLit | Bool
 @dataclass(frozen=True)
 class Decl(Node):
     """Common base: every declaration may carry a doc comment."""
+
+    # A moved copy's sub-trees are moved when one is first read (rmvdsl.grammar.shift):
+    # a check reuses most declarations' findings and never reads them.
+    _moved_on_read = True
 
 
 @dataclass(frozen=True)
@@ -453,7 +466,7 @@ def _children(node: Node) -> list[Node]:
     out: list[Node] = []
     values = node.__dict__
     for name in _child_fields(type(node)):
-        value = values[name]
+        value = values[name] if name in values else getattr(node, name)  # moved on read
         if isinstance(value, Node):
             out.append(value)
         elif type(value) is tuple:

@@ -16,9 +16,8 @@ import itertools
 import re
 import threading
 from collections import OrderedDict
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from dataclasses import dataclass, field
-from fractions import Fraction
 from importlib import resources
 from typing import Any, cast
 
@@ -32,6 +31,7 @@ from rmvdsl.grammar import ast
 from rmvdsl.grammar.builder import AstBuilder
 from rmvdsl.grammar.formula import Formula
 from rmvdsl.grammar.scanner import TOP_LEVEL_KEYWORDS, RawComment, ScanResult, scan
+from rmvdsl.grammar.shift import shifted, with_field
 from rmvdsl.source import SourceFile, Span
 
 _SPEC_GRAMMAR_FILES = ("rmv.lark", "expr.lark", "formula.lark", "lexical.lark")
@@ -459,8 +459,11 @@ def _parsed_chunk(
         before = len(builder.diagnostics)
         parser = _ChunkParser(source, start, end, line)
         decls = parser.parse()
-        found = (*parser.diagnostics, *builder.diagnostics[before:])
         damaged = bool(parser.diagnostics) or decls is None
+        latex: list[Diagnostic] = []
+        if decls is not None:
+            decls, latex = _parse_latex_bodies(decls)
+        found = (*parser.diagnostics, *builder.diagnostics[before:], *latex)
         cached = _Chunk(start, None if decls is None else tuple(decls), found, damaged)
         with _CHUNK_LOCK:
             _CHUNK_CACHE[key] = cached
@@ -471,76 +474,6 @@ def _parsed_chunk(
         return cached
     return _Chunk(start, shifted(cached.decls, delta), shifted(cached.diagnostics, delta),
                   cached.damaged)  # fmt: skip
-
-
-def shifted(value: Any, delta: int) -> Any:
-    """A tree (syntax nodes, diagnostics, and what they hold) with every span, and
-    every offset of a string literal, moved by `delta` characters."""
-    return _SHIFTERS[type(value)](value, delta)
-
-
-def _moved_items(items: tuple[Any, ...] | list[Any], delta: int) -> Any:
-    moved = [item if type(item) in _LEAVES else _SHIFTERS[type(item)](item, delta)
-             for item in items]  # fmt: skip
-    return tuple(moved) if type(items) is tuple else moved
-
-
-def _unmoved(value: Any, delta: int) -> Any:
-    return value
-
-
-_LEAVES = frozenset({str, int, bool, float, Fraction, type(None)})
-# Fields whose annotation says they hold only leaves are never read.
-_LEAF_ANNOTATIONS = frozenset({"str", "int", "bool", "float", "Fraction", "None", "Severity"})
-
-
-class _Shifters(dict[type, Callable[[Any, int], Any]]):
-    """A mover per class, written when the class is first met.
-
-    An edit moves every later declaration: this runs over most of a file at each
-    keystroke (a generic walk over fields was a quarter of an edit). A dataclass's
-    mover copies it without __init__ (it was checked when first built), moves its
-    span, and moves only the fields that may hold spans, each by its own class's
-    mover."""
-
-    def __missing__(self, kind: type) -> Callable[[Any, int], Any]:
-        mover = _write_mover(kind) if dataclasses.is_dataclass(kind) else _unmoved
-        self[kind] = mover
-        return mover
-
-
-def _write_mover(kind: type) -> Callable[[Any, int], Any]:
-    lines = [
-        "def move(value, delta):",
-        "    fields = value.__dict__",
-        "    copy = new(kind)",
-        "    moved = copy.__dict__",
-        "    moved.update(fields)",
-    ]
-    for item in dataclasses.fields(kind):
-        annotation = str(item.type).replace(" ", "")
-        field = repr(item.name)
-        if item.name == "offsets":
-            lines.append(f"    moved[{field}] = tuple([o + delta for o in fields[{field}]])")
-        elif annotation == "Span":
-            lines.append(f"    moved[{field}] = span(fields[{field}], delta)")
-        elif not set(annotation.split("|")) <= _LEAF_ANNOTATIONS:
-            lines.append(f"    old = fields[{field}]")
-            lines.append("    if type(old) not in leaves:")
-            lines.append(f"        moved[{field}] = movers[type(old)](old, delta)")
-    lines.append("    return copy")
-    scope = {
-        "new": object.__new__,
-        "kind": kind,
-        "span": Span.shifted,
-        "leaves": _LEAVES,
-        "movers": _SHIFTERS,
-    }
-    exec("\n".join(lines), scope)  # the code is written above, from field names only
-    return cast("Callable[[Any, int], Any]", scope["move"])
-
-
-_SHIFTERS = _Shifters({Span: Span.shifted, tuple: _moved_items, list: _moved_items})
 
 
 # The last text parsed of each file (the most recent files) and its scan: the next
@@ -581,8 +514,6 @@ def parse_source(source: SourceFile) -> ParsedSpec:
             damaged.update(_IDENTIFIER.findall(source.text, start, end))
             ranges.append((start, end))
     items = _attach_docs(items, scanned.comments, source)
-    items, latex_diagnostics = _parse_latex_bodies(items)
-    diagnostics.extend(latex_diagnostics)
     comments = tuple(ast.Comment(c.text, source.span(c.start, c.end)) for c in scanned.comments)
     spec = ast.Spec(source.path, tuple(items), comments, source.span(0, len(source.text)))
     return ParsedSpec(spec, _unique(diagnostics), damaged, ranges)
@@ -610,7 +541,7 @@ def _attach_docs(
             lines.append(doc_lines[line])
             line -= 1
         doc = "\n".join(reversed(lines))
-        attached.append(dataclasses.replace(item, doc=doc) if doc else item)  # type: ignore[call-arg]
+        attached.append(with_field(item, "doc", doc) if doc else item)
     return attached
 
 

@@ -1,0 +1,150 @@
+"""Moving a tree's spans: a declaration reused by the parser where it now stands.
+
+An edit moves every later declaration, so this runs over most of a file at each
+keystroke. A class's mover is written once, from its field names: it copies a node
+without `__init__` (the node was checked when first built), moves its span and its
+string offsets, and copies the fields that hold only leaves (`str`, `Fraction`...)
+as they are.
+
+Declarations (classes that set `_moved_on_read`) are moved lazily: a copy holds
+its span and leaf fields, and its sub-trees are all moved when one of them is
+first read (`rmvdsl.grammar.ast.Node.__getattr__` calls `moved_field`). An
+editor's check reuses most declarations' findings by their text
+(rmvdsl.check.memo) and never reads their sub-trees: copying them was two thirds
+of a keystroke's parse. Below a declaration, nodes are moved at once (moving each
+field on its first read cost more than copying a whole tree that is read).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from fractions import Fraction
+from typing import Any, cast
+
+from rmvdsl.source import Span
+
+# Where a lazily moved node keeps what it is a copy of: (the node, the distance).
+MOVED_FROM = "_moved_from"
+
+Mover = Callable[[Any, int], Any]
+
+
+def shifted(value: Any, delta: int) -> Any:
+    """A tree (syntax nodes, diagnostics, and what they hold) with every span, and
+    every offset of a string literal, moved by `delta` characters."""
+    return _SHIFTERS[type(value)](value, delta)
+
+
+def moved_field(node: Any, name: str) -> Any:
+    """A field of a lazily moved node: its sub-trees are moved now (once: every
+    reader, in any thread, gets the same objects)."""
+    values = node.__dict__
+    origin = values.get(MOVED_FROM)
+    if origin is None or name.startswith("__"):
+        raise AttributeError(name)
+    original, delta = origin
+    for field in _DEFERRED[type(node)]:
+        value = getattr(original, field)
+        moved = value if type(value) in _LEAVES else _SHIFTERS[type(value)](value, delta)
+        values.setdefault(field, moved)
+    if name not in values:
+        raise AttributeError(name)
+    return values[name]
+
+
+def with_field(node: Any, name: str, value: Any) -> Any:
+    """A copy of a node with one leaf field replaced, its sub-trees shared (a moved
+    declaration's are not moved by it): a declaration's doc comment is attached so."""
+    copy = object.__new__(type(node))
+    copy.__dict__.update(node.__dict__)
+    copy.__dict__[name] = value
+    return copy
+
+
+def _moved_items(items: tuple[Any, ...] | list[Any], delta: int) -> Any:
+    moved = [item if type(item) in _LEAVES else _SHIFTERS[type(item)](item, delta)
+             for item in items]  # fmt: skip
+    return tuple(moved) if type(items) is tuple else moved
+
+
+def _unmoved(value: Any, delta: int) -> Any:
+    return value
+
+
+_LEAVES = frozenset({str, int, bool, float, Fraction, type(None)})
+# Fields whose annotation says they hold only leaves are copied as they are.
+_LEAF_ANNOTATIONS = frozenset({"str", "int", "bool", "float", "Fraction", "None", "Severity"})
+
+
+class _Shifters(dict[type, Mover]):
+    """A mover per class, written when the class is first met."""
+
+    def __missing__(self, kind: type) -> Mover:
+        mover = _write_mover(kind) if dataclasses.is_dataclass(kind) else _unmoved
+        self[kind] = mover
+        return mover
+
+
+# The fields a lazily moved class moves when first read, by class.
+_DEFERRED: dict[type, tuple[str, ...]] = {}
+
+
+def _write_mover(kind: type) -> Mover:
+    lazy = getattr(kind, "_moved_on_read", False)
+    deferred = [f.name for f in dataclasses.fields(kind) if _deferrable(kind, f)] if lazy else []
+    _DEFERRED[kind] = tuple(deferred)
+    lines = ["def move(value, delta):", "    fields = value.__dict__"]
+    if deferred:
+        lines += [
+            "    origin = fields.get(lazy)",
+            "    if origin is not None:  # a moved copy: move its original further",
+            "        value, delta = origin[0], origin[1] + delta",
+            "        fields = value.__dict__",
+        ]
+    lines += ["    copy = new(kind)", "    moved = copy.__dict__"]
+    if deferred:
+        lines.append("    moved[lazy] = (value, delta)")
+    else:
+        lines.append("    moved.update(fields)")
+    for item in dataclasses.fields(kind):
+        annotation = str(item.type).replace(" ", "")
+        field = repr(item.name)
+        if item.name in deferred:
+            continue
+        if item.name == "offsets":
+            lines.append(f"    moved[{field}] = tuple([o + delta for o in fields[{field}]])")
+        elif annotation == "Span":
+            lines.append(f"    moved[{field}] = span(fields[{field}], delta)")
+        elif not set(annotation.split("|")) <= _LEAF_ANNOTATIONS:
+            lines.append(f"    old = fields[{field}]")
+            lines.append("    if type(old) not in leaves:")
+            lines.append(f"        moved[{field}] = movers[type(old)](old, delta)")
+            if deferred:
+                lines.append(f"    else:\n        moved[{field}] = old")
+        elif deferred:
+            lines.append(f"    moved[{field}] = fields[{field}]")
+    lines.append("    return copy")
+    scope = {
+        "new": object.__new__,
+        "kind": kind,
+        "lazy": MOVED_FROM,
+        "span": Span.shifted,
+        "leaves": _LEAVES,
+        "movers": _SHIFTERS,
+    }
+    exec("\n".join(lines), scope)  # the code is written above, from field names only
+    return cast("Mover", scope["move"])
+
+
+def _deferrable(kind: type, item: dataclasses.Field[Any]) -> bool:
+    """Whether a field may be moved when first read: it may hold nodes, it is not
+    the declaration's name (every check reads it, to declare it), and no class
+    attribute (a default) would answer for it before it is there."""
+    annotation = str(item.type).replace(" ", "")
+    holds_nodes = not set(annotation.split("|")) <= _LEAF_ANNOTATIONS
+    special = item.name == "offsets" or annotation in ("Span", "Ident")
+    return holds_nodes and not special and not hasattr(kind, item.name)
+
+
+_SHIFTERS = _Shifters({Span: Span.shifted, tuple: _moved_items, list: _moved_items})
