@@ -5,13 +5,18 @@ every string literal's offsets, every diagnostic and where it points."""
 
 from __future__ import annotations
 
+import copy
 import dataclasses
+import pickle
 import random
+import threading
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import pytest
 from conftest import EXAMPLES
 
+from rmvdsl.grammar import ast, shift
 from rmvdsl.grammar import parser as parsing
 from rmvdsl.source import SourceFile, Span
 
@@ -92,3 +97,61 @@ def test_a_file_larger_than_the_cache_keeps_its_own_chunks(monkeypatch):
     assert first >= 60
     _parse("big.rmv", "\n" + text)
     assert len(parses) - first <= 1  # only the chunk that changed
+
+
+def _moved_spec() -> tuple[Any, Any]:
+    """A spec's declarations as parsed, and as moved by a comment typed before them."""
+    text = (EXAMPLES / "carla" / "abs.rmv").read_text(encoding="utf-8")
+    parsing._CHUNK_CACHE.clear()
+    parsed = _parse("lazy.rmv", text).spec
+    moved = _parse("lazy.rmv", "// moved\n" + text).spec
+    return parsed, moved
+
+
+def test_a_moved_declaration_moves_its_trees_when_first_read():
+    """What the parser reuses is moved lazily: a copy holds its span, its name and
+    its leaf fields; its other trees are moved on the first read, once, and are
+    then what a fresh parse gives."""
+    _, moved = _moved_spec()
+    events = [d for d in moved.items if isinstance(d, ast.EventDecl)]
+    assert events
+    for decl in events:
+        assert shift.MOVED_FROM in decl.__dict__ and "expr" not in decl.__dict__
+        assert decl.name.span.start > 0  # the name is moved at once
+        first = decl.expr
+        assert decl.expr is first  # one object for every reader
+    parsing._CHUNK_CACHE.clear()
+    fresh = _parse("lazy.rmv", "// moved\n" + (EXAMPLES / "carla" / "abs.rmv").read_text())
+    assert _positions(moved, []) == _positions(fresh.spec, [])
+
+
+def test_readers_in_threads_get_the_same_moved_trees():
+    _, moved = _moved_spec()
+    decls = [d for d in moved.items if shift.MOVED_FROM in d.__dict__]
+    start = threading.Barrier(4)
+
+    def read() -> list[int]:
+        start.wait()
+        return [id(child) for decl in decls for child in ast.walk(decl)]
+
+    with ThreadPoolExecutor(4) as pool:
+        seen = list(pool.map(lambda _: read(), range(4)))
+    assert all(ids == seen[0] for ids in seen)
+
+
+def test_a_moved_declaration_behaves_as_a_node():
+    """Copied, pickled, compared, moved again, given a doc comment, asked for what
+    it has not: as the declaration a fresh parse gives."""
+    parsed, moved = _moved_spec()
+    decl = next(d for d in moved.items if isinstance(d, ast.PropertyDecl))
+    original = next(d for d in parsed.items if isinstance(d, ast.PropertyDecl))
+    assert not hasattr(decl, "no_such_field")
+    with pytest.raises(AttributeError):
+        decl.__no_such_dunder__  # noqa: B018
+    assert copy.deepcopy(decl) == decl == original  # spans take no part in equality
+    assert pickle.loads(pickle.dumps(decl)) == decl
+    again = shift.shifted(decl, 5)  # a moved copy moved further: from its original
+    assert again.span.start == decl.span.start + 5
+    assert _positions(again, []) == _positions(shift.shifted(original, 5 + 9), [])
+    documented = shift.with_field(shift.shifted(original, 1), "doc", "what it means")
+    assert documented.doc == "what it means" and documented.body == original.body
