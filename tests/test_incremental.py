@@ -152,6 +152,22 @@ def test_a_declaration_is_checked_again_when_what_it_read_changed(case: str, tmp
     _same(path, before)
 
 
+def test_a_variable_is_typed_again_when_its_message_changed(tmp_path) -> None:
+    """A variable's type comes from message definitions read from files: when a
+    file changes, the variables reading that message are typed again."""
+    folder = tmp_path / "msg" / "robot_msgs" / "msg"
+    folder.mkdir(parents=True)
+    definition = folder / "Speed.msg"
+    path = tmp_path / "spec.rmv"
+    text = (
+        'messages "msg"\ntopic T: robot_msgs/Speed = "/speed"\nvar V = T.value\n'
+        "event E when V > 1\n"
+    )
+    for fields in ("float64 value\n", "string value\n", "float64 other\n", "float64 value\n"):
+        definition.write_text(fields, encoding="utf-8")
+        _same(path, text)
+
+
 def test_an_edit_reuses_the_declarations_it_did_not_touch(tmp_path) -> None:
     """The memo is used at all: an edit to one event leaves the others' entries
     serving the next check (a check from scratch would store nothing)."""
@@ -164,7 +180,7 @@ def test_an_edit_reuses_the_declarations_it_did_not_touch(tmp_path) -> None:
     TYPED.clear()
     check(str(path), text, solver=False, incremental=True)
     remembered = len(RESOLVED), len(TYPED)
-    assert remembered == (150, 50)
+    assert remembered == (150, 100)  # names: every declaration; types: variables and events
     edited = text.replace("E7 when V7 > 1", "E7 when V7 > 12")
     check(str(path), edited, solver=False, incremental=True)
-    assert (len(RESOLVED), len(TYPED)) == (151, 51)  # only E7 is new
+    assert (len(RESOLVED), len(TYPED)) == (151, 101)  # only E7 is new

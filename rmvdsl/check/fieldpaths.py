@@ -3,7 +3,8 @@ definitions, segment by segment, to the value it reads."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
 from rmvdsl.check.model import Model
 from rmvdsl.check.msgtypes import FieldType, MessageDef, canonical
@@ -26,6 +27,14 @@ class FieldPaths:
 
     def report(self, diagnostic: Diagnostic) -> None:
         self.diagnostics.append(diagnostic)
+
+    # TypeChecker's: remembers a lookup for an incremental check.
+    noted: Callable[[str, str, Any], None]
+
+    def message(self, base: str) -> MessageDef | None:
+        definition = self.info.registry.get(base)
+        self.noted("message", base, definition)
+        return definition
 
     def resolve_topic(self, topic: ast.TopicDecl) -> MessageDef | None:
         registry = self.info.registry
@@ -78,6 +87,7 @@ class FieldPaths:
 
     def type_variable(self, variable: ast.VarDecl) -> VType:
         topic = self.info.topics.get(variable.source.topic.name)
+        self.noted("topic", variable.source.topic.name, topic)
         if topic is None:
             return UNKNOWN
         aggregates = variable.aggregate is not None and variable.aggregate.name != "number"
@@ -194,11 +204,11 @@ class FieldPaths:
     def fields_of(self, base: str) -> dict[str, FieldType] | None:
         if base in ("time", "duration") and self.info.registry.ros_version == 1:
             return self.info.registry.time_fields(base)
-        definition = self.info.registry.get(base)
+        definition = self.message(base)
         return definition.fields if definition is not None else None
 
     def constant(self, base: str, segment: ast.Segment) -> FieldType | None:
-        definition = self.info.registry.get(base)
+        definition = self.message(base)
         if definition is None or segment.field_name.name not in definition.constants:
             return None
         return FieldType(definition.constants[segment.field_name.name][0])

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import enum
 from dataclasses import dataclass, field
+from typing import cast
 
 from rmvdsl.grammar import ast
 from rmvdsl.source import SourceMap, Span
@@ -62,6 +63,23 @@ class Reference:
     symbol: Symbol
 
 
+@dataclass(frozen=True)
+class ReusedReferences:
+    """The references of a declaration an incremental check reused (rmvdsl.check.memo),
+    made into `Reference`s when first read: an editor's keystroke never reads them."""
+
+    found: tuple[tuple[str, Span], ...]  # each name and its span where it stood then
+    delta: int  # how far the declaration moved since
+    symbols: dict[str, Symbol]  # the check's symbols
+
+    def made(self) -> list[Reference]:
+        symbols, delta = self.symbols, self.delta
+        return [
+            Reference(name, span.shifted(delta) if delta else span, symbols[name])
+            for name, span in self.found
+        ]
+
+
 @dataclass
 class Model:
     sources: SourceMap
@@ -86,7 +104,22 @@ class Model:
     damaged_ranges: dict[str, list[tuple[int, int]]] = field(default_factory=dict)
     messages: list[ast.MessagesDecl] = field(default_factory=list)
     symbols: dict[str, Symbol] = field(default_factory=dict)
-    references: list[Reference] = field(default_factory=list)
+    # Each use of a name, in the order of the declarations (read `references`).
+    uses: list[Reference | ReusedReferences] = field(default_factory=list, repr=False)
+
+    @property
+    def references(self) -> list[Reference]:
+        """Each use of a name, in the order of the declarations."""
+        uses = self.uses
+        if any(type(use) is ReusedReferences for use in uses):
+            made: list[Reference] = []
+            for use in uses:
+                if isinstance(use, ReusedReferences):
+                    made.extend(use.made())
+                else:
+                    made.append(use)
+            uses[:] = made
+        return cast("list[Reference]", uses)
 
     @property
     def root(self) -> ast.Spec | None:

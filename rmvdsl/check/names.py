@@ -7,6 +7,7 @@ The result is the resolved `Model` and the diagnostics of this stage.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 from rmvdsl import builtins
 from rmvdsl.check import settings as schemas
@@ -21,6 +22,7 @@ from rmvdsl.check.model import (
     Kind,
     Model,
     Reference,
+    ReusedReferences,
     Symbol,
 )
 from rmvdsl.check.rosnames import message_type_problem
@@ -46,6 +48,7 @@ class Resolved:
     start: int
     lookups: tuple[tuple[str, Kind, str | None], ...]
     references: tuple[tuple[str, Span], ...]
+    used: tuple[str, ...]  # the names of its references, once each
     reads: tuple[ast.Ident, ...] | None
 
 
@@ -264,7 +267,7 @@ class NameChecker(ActionChecks, EventChecks):
                     )
                 )
             return None
-        self.model.references.append(Reference(ident.name, ident.span, symbol))
+        self.model.uses.append(Reference(ident.name, ident.span, symbol))
         self.used.add(id(symbol))
         if symbol.kind not in allowed:
             self.report(
@@ -305,7 +308,7 @@ class NameChecker(ActionChecks, EventChecks):
         if known is not None and self.still_holds(known):
             self.replay(decl, known)
             return
-        found, references = len(self.diagnostics), len(model.references)
+        found, references = len(self.diagnostics), len(model.uses)
         self.lookups = []
         try:
             self.check_decl(decl)
@@ -315,12 +318,14 @@ class NameChecker(ActionChecks, EventChecks):
         if len(self.diagnostics) > found or any(s is None for _, s in lookups):
             return  # a finding (or a name not found) is checked again each time
         reads = self.event_reads.get(id(decl))
+        made = cast("list[Reference]", model.uses[references:])
         RESOLVED.put(
             key,
             Resolved(
                 decl.span.start,
                 tuple((name, s.kind, s.owner) for name, s in lookups if s is not None),
-                tuple((r.name, r.span) for r in model.references[references:]),
+                tuple((r.name, r.span) for r in made),
+                tuple(dict.fromkeys(r.name for r in made)),
                 None if reads is None else tuple(reads),
             ),
         )
@@ -334,12 +339,12 @@ class NameChecker(ActionChecks, EventChecks):
         return True
 
     def replay(self, decl: ast.Decl, known: Resolved) -> None:
-        symbols, references = self.model.symbols, self.model.references
+        symbols = self.model.symbols
         delta = decl.span.start - known.start
-        for name, span in known.references:
-            symbol = symbols[name]
-            references.append(Reference(name, span.shifted(delta) if delta else span, symbol))
-            self.used.add(id(symbol))
+        if known.references:
+            self.model.uses.append(ReusedReferences(known.references, delta, symbols))
+        for name in known.used:
+            self.used.add(id(symbols[name]))
         if known.reads is not None:
             self.event_reads[id(decl)] = list(shifted(known.reads, delta) if delta else known.reads)
 
@@ -510,7 +515,7 @@ class NameChecker(ActionChecks, EventChecks):
             if self.lookups is not None:
                 self.lookups.append((ident.name, symbol))
             if symbol is not None and symbol.owner == decl.name.name:
-                self.model.references.append(Reference(ident.name, ident.span, symbol))
+                self.model.uses.append(Reference(ident.name, ident.span, symbol))
                 self.used.add(id(symbol))
             return
         other = self.model.state_owner(ident.name)

@@ -11,7 +11,7 @@ import re
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 from fractions import Fraction
-from typing import Any
+from typing import Any, cast
 
 from rmvdsl import builtins
 from rmvdsl.check.fieldpaths import FieldPaths
@@ -95,10 +95,12 @@ class TypeInfo:
 
 @dataclass(frozen=True)
 class Typed:
-    """What typing one declaration found when it found nothing wrong: the type of
-    each name it read then, its nodes' types (ast.walk's order), its result."""
+    """What typing one declaration found when it found nothing wrong: what it
+    looked up then (the type of each name it read; a variable's topic definition,
+    message definitions and ROS distribution), its nodes' types (ast.walk's order),
+    its result."""
 
-    lookups: tuple[tuple[str, VType], ...]
+    lookups: tuple[tuple[str, str, Any], ...]  # what was looked up (TypeChecker.noted)
     types: tuple[VType | None, ...]
     result: Any
 
@@ -128,8 +130,8 @@ class TypeChecker(FieldPaths):
         self.diagnostics: list[Diagnostic] = []
         self.info = TypeInfo(TypeRegistry(self._distro()))
         self._event_stack: set[str] = set()
-        # The names read by each declaration being typed (innermost last), remembered.
-        self._reads: list[list[tuple[str, VType]]] = []
+        # What each declaration being typed looked up (innermost last), remembered.
+        self._reads: list[list[tuple[str, str, Any]]] = []
 
     # ---- configuration ----
 
@@ -179,13 +181,16 @@ class TypeChecker(FieldPaths):
     # ---- driver ----
 
     def run(self) -> tuple[TypeInfo, list[Diagnostic]]:
+        model = self.model
         if self.incremental:
-            TYPED.fit(len(self.model.events) + len(self.model.alerts) + len(self.model.properties))
+            TYPED.fit(
+                len(model.variables) + len(model.events) + len(model.alerts) + len(model.properties)
+            )
         self.load_messages()
         for name, topic in self.model.topics.items():
             self.info.topics[name] = self.resolve_topic(topic)
         for name, variable in self.model.variables.items():
-            self.info.variables[name] = self.type_variable(variable)
+            self.info.variables[name] = self.typed_variable(variable)
         for name in self.model.events:
             self.event_type(name)
         for alert in self.model.alerts.values():
@@ -209,6 +214,19 @@ class TypeChecker(FieldPaths):
         self._event_stack.discard(name)
         self.info.events[name] = value
         return value
+
+    def typed_variable(self, variable: ast.VarDecl) -> VType:
+        name = variable.name.name
+
+        def typed() -> tuple[VType, tuple[FieldType, ...] | None]:
+            self.noted("distro", "", self.info.registry.distro)
+            value = self.type_variable(variable)
+            return value, self.info.paths.get(name)
+
+        value, path = self.remembered(variable, typed)
+        if path is not None:
+            self.info.paths[name] = path
+        return cast("VType", value)
 
     def type_event(self, decl: ast.EventDecl) -> VType:
         value = self.expression(decl.expr)
@@ -285,12 +303,31 @@ class TypeChecker(FieldPaths):
         return UNKNOWN
 
     def still_holds(self, known: Typed) -> bool:
-        return all(self._name_type(name) == value for name, value in known.lookups)
+        """Whether every lookup of an earlier typing gives what it gave then (the
+        same type of a name; the very same definition, read once per file)."""
+        for what, name, value in known.lookups:
+            if what == "name":
+                if self._name_type(name) != value:
+                    return False
+            elif self.looked_up(what, name) is not value:
+                return False
+        return True
+
+    def looked_up(self, what: str, name: str) -> Any:
+        if what == "topic":
+            return self.info.topics.get(name)
+        if what == "message":
+            return self.info.registry.get(name)
+        return self.info.registry.distro
+
+    def noted(self, what: str, name: str, value: Any) -> None:
+        """Remember a lookup of the declaration being typed (an incremental check's)."""
+        if self._reads:
+            self._reads[-1].append((what, name, value))
 
     def name_type(self, name: str) -> VType:
         value = self._name_type(name)
-        if self._reads:
-            self._reads[-1].append((name, value))
+        self.noted("name", name, value)
         return value
 
     def _name_type(self, name: str) -> VType:
