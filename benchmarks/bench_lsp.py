@@ -10,8 +10,7 @@ then measures in one run:
 - in process: the same edits' fast stages in this process, from scratch and
               incremental (each declaration's names and types reused while its
               text and what it looked up are unchanged), p50: the server's share;
-- memory:     the server's resident memory after the first 100 edits and after all
-              of them (goal: flat).
+- memory:     the server's resident memory every 100 edits (goal: flat).
 
 Machines here are shared and noisy: the figures are printed beside the bare parse of
 the same run. Goals: change p95 <= 50 ms, completion likewise, memory flat.

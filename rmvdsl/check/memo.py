@@ -5,10 +5,11 @@ be incremental).
 An edit changes one declaration; the stages used to visit all of them at every
 keystroke. A declaration's findings are kept by its file, its text and the spec's
 time unit, with what it looked up outside itself (the kind of each name it resolved,
-the type of each name it read). They are reused only while every such lookup still
-gives the same answer, and only when it had no finding to report: a clean
-declaration's results are references and types, and a diagnostic's message could
-read anything. A test checks every reused answer against a check from scratch.
+the type of each name it read, the message definitions a variable's path crossed).
+They are reused only while every such lookup still gives the same answer, and only
+when it had no finding to report: a clean declaration's results are references and
+types, and a diagnostic's message could read anything. tests/test_incremental.py
+checks every reused answer against a check from scratch.
 """
 
 from __future__ import annotations
