@@ -155,3 +155,4 @@ def test_a_moved_declaration_behaves_as_a_node():
     assert _positions(again, []) == _positions(shift.shifted(original, 5 + 9), [])
     documented = shift.with_field(shift.shifted(original, 1), "doc", "what it means")
     assert documented.doc == "what it means" and documented.body == original.body
+    assert shift.shifted(documented, 2).doc == "what it means"  # its own leaves, moved on

@@ -94,17 +94,19 @@ def _write_mover(kind: type) -> Mover:
     lazy = getattr(kind, "_moved_on_read", False)
     deferred = [f.name for f in dataclasses.fields(kind) if _deferrable(kind, f)] if lazy else []
     _DEFERRED[kind] = tuple(deferred)
-    lines = ["def move(value, delta):", "    fields = value.__dict__"]
+    lines = [
+        "def move(value, delta):",
+        "    fields = value.__dict__",
+        "    copy = new(kind)",
+        "    moved = copy.__dict__",
+    ]
     if deferred:
+        # A moved copy moved again: its sub-trees come from its original, further.
         lines += [
             "    origin = fields.get(lazy)",
-            "    if origin is not None:  # a moved copy: move its original further",
-            "        value, delta = origin[0], origin[1] + delta",
-            "        fields = value.__dict__",
+            "    moved[lazy] = (value, delta) if origin is None else "
+            "(origin[0], origin[1] + delta)",
         ]
-    lines += ["    copy = new(kind)", "    moved = copy.__dict__"]
-    if deferred:
-        lines.append("    moved[lazy] = (value, delta)")
     else:
         lines.append("    moved.update(fields)")
     for item in dataclasses.fields(kind):
