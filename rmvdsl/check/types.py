@@ -187,15 +187,15 @@ class TypeChecker(FieldPaths):
                 len(model.variables) + len(model.events) + len(model.alerts) + len(model.properties)
             )
         self.load_messages()
-        for name, topic in self.model.topics.items():
+        for name, topic in model.topics.items():
             self.info.topics[name] = self.resolve_topic(topic)
-        for name, variable in self.model.variables.items():
+        for name, variable in model.variables.items():
             self.info.variables[name] = self.typed_variable(variable)
-        for name in self.model.events:
+        for name in model.events:
             self.event_type(name)
-        for alert in self.model.alerts.values():
+        for alert in model.alerts.values():
             self.check_alert(alert)
-        for prop in self.model.properties.values():
+        for prop in model.properties.values():
             self.check_property(prop)
         return self.info, self.diagnostics
 
@@ -240,7 +240,7 @@ class TypeChecker(FieldPaths):
 
     def remembered(self, decl: ast.Node, typed: Callable[[], Any]) -> Any:
         """typed(), or what it found the last time this text was typed, when every
-        name it read still has the type it had (an incremental check's)."""
+        lookup it made still gives the same answer (an incremental check's)."""
         key = declaration_key(self.model, decl) if self.incremental else None
         if key is None:
             return typed()
