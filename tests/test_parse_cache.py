@@ -16,6 +16,7 @@ from typing import Any
 import pytest
 from conftest import EXAMPLES
 
+from rmvdsl.bounded import Bounded
 from rmvdsl.grammar import ast, shift
 from rmvdsl.grammar import parser as parsing
 from rmvdsl.source import SourceFile, Span
@@ -81,7 +82,7 @@ def test_the_cache_is_used_and_bounded():
 def test_a_file_larger_than_the_cache_keeps_its_own_chunks(monkeypatch):
     """The bound grows to twice the chunks of the largest file parsed: a file of
     more declarations than the cache holds is not parsed from scratch each time."""
-    monkeypatch.setattr(parsing, "_chunks_kept", 10)
+    monkeypatch.setattr(parsing, "_CHUNK_CACHE", Bounded(10))
     text = "".join(f'topic T{i}: std_msgs/msg/Bool = "/t{i}"\n' for i in range(60))
     parses = []
     original = parsing._ChunkParser.parse

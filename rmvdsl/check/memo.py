@@ -14,51 +14,15 @@ checks every reused answer against a check from scratch.
 
 from __future__ import annotations
 
-import threading
-from typing import Generic, TypeVar
-
 from rmvdsl.check.model import Model
 from rmvdsl.grammar import ast
-
-Value = TypeVar("Value")
 
 # The file, the declaration's text, the spec's time unit (which gives bare numbers
 # in formulas a unit).
 Key = tuple[str, str, str | None]
-
-
-class Memo(Generic[Value]):
-    """A bounded store, safe across threads (an editor's fast and solver checks run
-    at once): reads take no lock (a dict's get is atomic), the oldest entry leaves
-    first. It grows to twice the most declarations of one check, so a large spec
-    does not evict its own entries."""
-
-    def __init__(self, size: int = 50_000) -> None:
-        self._entries: dict[Key, Value] = {}
-        self._size = size
-        self._lock = threading.Lock()
-
-    def get(self, key: Key) -> Value | None:
-        return self._entries.get(key)
-
-    def put(self, key: Key, value: Value) -> None:
-        with self._lock:
-            entries = self._entries
-            entries.pop(key, None)  # a renewed entry is the newest
-            entries[key] = value
-            while len(entries) > self._size:
-                del entries[next(iter(entries))]
-
-    def fit(self, declarations: int) -> None:
-        with self._lock:
-            self._size = max(self._size, 2 * declarations)
-
-    def __len__(self) -> int:
-        return len(self._entries)
-
-    def clear(self) -> None:
-        with self._lock:
-            self._entries.clear()
+# Each stage keeps its findings in a rmvdsl.bounded.Bounded of this size at least
+# (each check grows it to twice its declarations).
+MEMO_SIZE = 50_000
 
 
 def declaration_key(model: Model, decl: ast.Node) -> Key | None:

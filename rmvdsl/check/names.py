@@ -10,10 +10,11 @@ from dataclasses import dataclass
 from typing import cast
 
 from rmvdsl import builtins
+from rmvdsl.bounded import Bounded
 from rmvdsl.check import settings as schemas
 from rmvdsl.check.actions import ActionChecks
 from rmvdsl.check.clauses import EventChecks
-from rmvdsl.check.memo import Memo, declaration_key
+from rmvdsl.check.memo import MEMO_SIZE, Key, declaration_key
 from rmvdsl.check.model import (
     BOOLEAN_KINDS,
     EVENT_KINDS,
@@ -53,7 +54,7 @@ class Resolved:
 
 
 # Each clean declaration's names, for incremental checks (rmvdsl.check.memo).
-RESOLVED: Memo[Resolved] = Memo()
+RESOLVED: Bounded[Key, Resolved] = Bounded(MEMO_SIZE)
 
 
 class NameChecker(ActionChecks, EventChecks):

@@ -14,8 +14,9 @@ from fractions import Fraction
 from typing import Any, cast
 
 from rmvdsl import builtins
+from rmvdsl.bounded import Bounded
 from rmvdsl.check.fieldpaths import FieldPaths
-from rmvdsl.check.memo import Memo, declaration_key
+from rmvdsl.check.memo import MEMO_SIZE, Key, declaration_key
 from rmvdsl.check.model import Kind, Model
 from rmvdsl.check.msgtypes import (
     DEFAULT_DISTRO,
@@ -106,7 +107,7 @@ class Typed:
 
 
 # Each clean declaration's types, for incremental checks (rmvdsl.check.memo).
-TYPED: Memo[Typed] = Memo()
+TYPED: Bounded[Key, Typed] = Bounded(MEMO_SIZE)
 
 
 @dataclass

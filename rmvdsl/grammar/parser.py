@@ -14,8 +14,6 @@ import dataclasses
 import functools
 import itertools
 import re
-import threading
-from collections import OrderedDict
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from importlib import resources
@@ -26,6 +24,7 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedTok
 from lark.lexer import LexerState, LineCounter, PatternStr
 from lark.utils import TextSlice
 
+from rmvdsl.bounded import Bounded
 from rmvdsl.diagnostics import Diagnostic, Label, did_you_mean, error
 from rmvdsl.grammar import ast
 from rmvdsl.grammar.builder import AstBuilder
@@ -436,25 +435,20 @@ class _Chunk:
 
 
 # An editor re-parses a file at every keystroke; most of its declarations have not
-# changed. Chunks are kept by their file and text (a bounded, least recently used
-# cache) and reused with their spans moved to where the chunk now starts. The bound
-# grows to twice the chunks of the largest file parsed: a file larger than the
-# cache would otherwise evict its own chunks on every parse (a 159,000-line spec
-# was parsed from scratch each time, 1.5 times lark's bare parse).
-_CHUNK_CACHE: OrderedDict[tuple[str, str], _Chunk] = OrderedDict()
+# changed. Chunks are kept by their file and text (a bounded cache) and reused with
+# their spans moved to where the chunk now starts. The bound grows to twice the
+# chunks of the largest file parsed: a file larger than the cache would otherwise
+# evict its own chunks on every parse (a 159,000-line spec was parsed from scratch
+# each time, 1.5 times lark's bare parse).
 _CHUNK_CACHE_SIZE = 50_000
-_chunks_kept = _CHUNK_CACHE_SIZE
-_CHUNK_LOCK = threading.Lock()
+_CHUNK_CACHE: Bounded[tuple[str, str], _Chunk] = Bounded(_CHUNK_CACHE_SIZE)
 
 
 def _parsed_chunk(
-    source: SourceFile, start: int, end: int, line: int, builder: AstBuilder, keep: int
+    source: SourceFile, start: int, end: int, line: int, builder: AstBuilder
 ) -> _Chunk:
     key = (source.path, source.text[start:end])
-    with _CHUNK_LOCK:
-        cached = _CHUNK_CACHE.get(key)
-        if cached is not None:
-            _CHUNK_CACHE.move_to_end(key)
+    cached = _CHUNK_CACHE.get(key)
     if cached is None:
         before = len(builder.diagnostics)
         parser = _ChunkParser(source, start, end, line)
@@ -465,10 +459,7 @@ def _parsed_chunk(
             decls, latex = _parse_latex_bodies(decls)
         found = (*parser.diagnostics, *builder.diagnostics[before:], *latex)
         cached = _Chunk(start, None if decls is None else tuple(decls), found, damaged)
-        with _CHUNK_LOCK:
-            _CHUNK_CACHE[key] = cached
-            while len(_CHUNK_CACHE) > keep:
-                _CHUNK_CACHE.popitem(last=False)
+        _CHUNK_CACHE.put(key, cached)
     delta = start - cached.start
     if delta == 0:
         return cached
@@ -478,18 +469,12 @@ def _parsed_chunk(
 
 # The last text parsed of each file (the most recent files) and its scan: the next
 # parse of the file scans only what an edit changed.
-_LAST_SCANS: dict[str, tuple[str, ScanResult]] = {}
-_LAST_SCANS_SIZE = 64
+_LAST_SCANS: Bounded[str, tuple[str, ScanResult]] = Bounded(64)
 
 
 def _scanned(source: SourceFile) -> ScanResult:
-    before = _LAST_SCANS.get(source.path)
-    scanned = scan(source.text, before)
-    with _CHUNK_LOCK:
-        _LAST_SCANS.pop(source.path, None)
-        _LAST_SCANS[source.path] = (source.text, scanned)
-        while len(_LAST_SCANS) > _LAST_SCANS_SIZE:
-            del _LAST_SCANS[next(iter(_LAST_SCANS))]
+    scanned = scan(source.text, _LAST_SCANS.get(source.path))
+    _LAST_SCANS.put(source.path, (source.text, scanned))
     return scanned
 
 
@@ -503,10 +488,9 @@ def parse_source(source: SourceFile) -> ParsedSpec:
     damaged: set[str] = set()
     ranges: list[tuple[int, int]] = []
     bounds = [*scanned.chunks, (len(source.text), 0)]
-    global _chunks_kept
-    _chunks_kept = max(_chunks_kept, 2 * len(bounds))
+    _CHUNK_CACHE.fit(len(bounds))
     for (start, line), (end, _) in itertools.pairwise(bounds):
-        chunk = _parsed_chunk(source, start, end, line, builder, _chunks_kept)
+        chunk = _parsed_chunk(source, start, end, line, builder)
         if chunk.decls:
             items.extend(chunk.decls)
         diagnostics.extend(chunk.diagnostics)

@@ -105,15 +105,13 @@ def scan(text: str, before: tuple[str, ScanResult] | None = None) -> ScanResult:
     while index > 0 and not 0 <= old_text.find("\n", starts[index]) < prefix:
         index -= 1
     resume, line = old.chunks[index]
-    kept = bisect.bisect_left([c.start for c in old.comments], resume)
+    comment_starts = [c.start for c in old.comments]
+    kept = bisect.bisect_left(comment_starts, resume)
     suffix = _common_suffix(old_text, text, min(len(old_text), len(text)) - prefix)
+    delta = len(text) - len(old_text)
+    unchanged = _Unchanged(len(text) - suffix, delta, old, starts, comment_starts)
     return _scan(
-        text,
-        resume,
-        line,
-        list(old.comments[:kept]),
-        list(old.chunks[: index + 1]),
-        _Unchanged(len(text) - suffix, len(text) - len(old_text), old, starts),
+        text, resume, line, list(old.comments[:kept]), list(old.chunks[: index + 1]), unchanged
     )
 
 
@@ -125,7 +123,8 @@ class _Unchanged:
     start: int
     delta: int
     old: ScanResult
-    old_starts: list[int]
+    old_starts: list[int]  # of its chunks
+    old_comment_starts: list[int]
 
     def rest(self, start: int) -> tuple[int, int] | None:
         """Where the old chunk now starting at `start` was (its index) and its line,
@@ -145,7 +144,7 @@ class _Unchanged:
         delta, old = self.delta, self.old
         start = old.chunks[index][0]
         chunks += [(c + delta, line + lines) for c, line in old.chunks[index + 1 :]]
-        first = bisect.bisect_left([c.start for c in old.comments], start)
+        first = bisect.bisect_left(self.old_comment_starts, start)
         comments += [
             RawComment(c.start + delta, c.end + delta, c.text, c.own_line)
             for c in old.comments[first:]
