@@ -8,12 +8,12 @@ the sub-nodes; `dataclasses.replace` gives functional update.
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import TYPE_CHECKING, Any
 
 from rmvdsl.grammar.formula import Formula, TimeValue
-from rmvdsl.grammar.shift import moved_field
+from rmvdsl.grammar.shift import moved_field, tree_fields
 from rmvdsl.source import NO_SPAN, Span
 
 
@@ -31,18 +31,10 @@ class Node:
             return moved_field(self, name)
 
 
-_CHILD_FIELDS: dict[type, tuple[str, ...]] = {}
-
-
-def _child_fields(kind: type) -> tuple[str, ...]:
-    """The fields of a node class that may hold nodes (an editor walks the tree at
-    every keystroke: `dataclasses.fields` per visit was a tenth of a check)."""
-    names = _CHILD_FIELDS.get(kind)
-    if names is None:
-        leaves = {"span", "offsets", "doc", "text"}
-        names = tuple(f.name for f in fields(kind) if f.name not in leaves)
-        _CHILD_FIELDS[kind] = names
-    return names
+# The fields of a node class that may hold nodes, by their annotations, found once
+# per class (an editor walks the tree at every keystroke: `dataclasses.fields` per
+# visit was a tenth of a check).
+_child_fields = tree_fields
 
 
 @dataclass(frozen=True)

@@ -90,9 +90,31 @@ class _Shifters(dict[type, Mover]):
 _DEFERRED: dict[type, tuple[str, ...]] = {}
 
 
+def tree_fields(kind: type) -> tuple[str, ...]:
+    """The fields of a dataclass whose annotation says they may hold trees (not
+    leaves, not its span or string offsets): what a mover moves, and what
+    rmvdsl.grammar.ast.walk visits."""
+    names = _TREE_FIELDS.get(kind)
+    if names is None:
+        names = _TREE_FIELDS[kind] = tuple(
+            item.name for item in dataclasses.fields(kind) if _holds_trees(item)
+        )
+    return names
+
+
+_TREE_FIELDS: dict[type, tuple[str, ...]] = {}
+
+
+def _holds_trees(item: dataclasses.Field[Any]) -> bool:
+    annotation = str(item.type).replace(" ", "")
+    leaves = set(annotation.split("|")) <= _LEAF_ANNOTATIONS
+    return not leaves and annotation != "Span" and item.name != "offsets"
+
+
 def _write_mover(kind: type) -> Mover:
-    lazy = getattr(kind, "_moved_on_read", False)
-    deferred = [f.name for f in dataclasses.fields(kind) if _deferrable(kind, f)] if lazy else []
+    trees = tree_fields(kind)
+    fields = dataclasses.fields(kind)
+    deferred = [f.name for f in fields if f.name in trees and _deferrable(kind, f)]
     _DEFERRED[kind] = tuple(deferred)
     lines = [
         "def move(value, delta):",
@@ -109,16 +131,15 @@ def _write_mover(kind: type) -> Mover:
         ]
     else:
         lines.append("    moved.update(fields)")
-    for item in dataclasses.fields(kind):
-        annotation = str(item.type).replace(" ", "")
+    for item in fields:
         field = repr(item.name)
         if item.name in deferred:
             continue
         if item.name == "offsets":
             lines.append(f"    moved[{field}] = tuple([o + delta for o in fields[{field}]])")
-        elif annotation == "Span":
+        elif str(item.type).replace(" ", "") == "Span":
             lines.append(f"    moved[{field}] = span(fields[{field}], delta)")
-        elif not set(annotation.split("|")) <= _LEAF_ANNOTATIONS:
+        elif item.name in trees:
             lines.append(f"    old = fields[{field}]")
             lines.append("    if type(old) not in leaves:")
             lines.append(f"        moved[{field}] = movers[type(old)](old, delta)")
@@ -140,13 +161,11 @@ def _write_mover(kind: type) -> Mover:
 
 
 def _deferrable(kind: type, item: dataclasses.Field[Any]) -> bool:
-    """Whether a field may be moved when first read: it may hold nodes, it is not
+    """Whether a lazily moved class's tree field may be moved when first read: not
     the declaration's name (every check reads it, to declare it), and no class
     attribute (a default) would answer for it before it is there."""
-    annotation = str(item.type).replace(" ", "")
-    holds_nodes = not set(annotation.split("|")) <= _LEAF_ANNOTATIONS
-    special = item.name == "offsets" or annotation in ("Span", "Ident")
-    return holds_nodes and not special and not hasattr(kind, item.name)
+    lazy = getattr(kind, "_moved_on_read", False)
+    return lazy and str(item.type).strip() != "Ident" and not hasattr(kind, item.name)
 
 
 _SHIFTERS = _Shifters({Span: Span.shifted, tuple: _moved_items, list: _moved_items})
