@@ -16,15 +16,27 @@ events, 100 transducers of 20 states, 500 properties), then times in one run:
 - lower:  the checked spec lowered to its resolved spec (rmvdsl.ir); `dump` the
           same and its JSON text (what `rmv build --target ir` adds to a check).
 
-Machines here are shared and noisy, so the figures are ratios to `bare` in the
-same run, each the best of --repeat runs (the first check: one run). Targets:
+By default it measures `rmv check` as users run it: each figure a new process
+(`--processes`, the default; `--in-process` gives the tables below), paired round
+by round with lark's bare parse of the same file as a new process, medians of
+--runs rounds (CPU seconds of the child, steadier than wall on a shared machine):
+
+- warm:  `rmv check large.rmv` again, its inputs unchanged, after a first check
+         filled the caches (issue 38: <= 2x bare at every scale);
+- edit:  one line of the spec changed before each run (a comment appended), the
+         solver's answers cached (issue 38: <= 3x bare);
+- cold:  the first check with empty caches (--cold-runs of them, not paired).
+
+In process (`--in-process`): machines here are shared and noisy, so the figures
+are ratios to `bare` in the same run, each the best of --repeat runs (the first
+check: one run). Targets:
 names <= 3x bare, types <= 3x names (issue 3), lower + dump <= 1x bare (the
 resolved spec costs less than reading the spec); issue 15: the cached check <= 3x
 bare at every scale, the 10x spec <= 11x the 1x spec for both the cached and the
 first check, and the first check of the 1x spec <= 10 s on 2 cores.
 
-    python benchmarks/bench_check.py            # scales 1, 3 and 10
-    python benchmarks/bench_check.py --scale 1 --repeat 3 --json out.json
+    python benchmarks/bench_check.py --scale 1 --scale 3 --json benchmarks/results/check_cli.json
+    python benchmarks/bench_check.py --in-process --scale 1 --repeat 3 --json out.json
 """
 
 from __future__ import annotations
@@ -33,6 +45,10 @@ import argparse
 import gc
 import json
 import os
+import resource
+import shutil
+import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -154,15 +170,95 @@ def measure(scale: int, repeat: int, folder: str) -> dict[str, float]:
     }
 
 
+BARE = (
+    "import sys; from rmvdsl.grammar.parser import bare_spec_parser; "
+    "bare_spec_parser().parse(open(sys.argv[1], encoding='utf-8').read(), start='start')"
+)
+
+
+def child(command: list[str], folder: str, cache: str) -> tuple[float, float]:
+    """Wall and CPU seconds of one new process (CPU: its user + system time)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    started = time.perf_counter()
+    run = subprocess.run(command, cwd=folder, capture_output=True, text=True,
+                         env={**os.environ, "RMV_CACHE_DIR": cache})  # fmt: skip
+    wall = time.perf_counter() - started
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
+def rmv() -> list[str]:
+    beside = Path(sys.executable).parent / "rmv"
+    return [str(beside)] if beside.exists() else [sys.executable, "-m", "rmvdsl.cli"]
+
+
+def processes(scale: int, runs: int, cold_runs: int, folder: str) -> dict[str, object]:
+    """`rmv check` as new processes at one scale (see the module's docstring)."""
+    text = generate(scale)
+    spec = os.path.join(folder, f"large{scale}.rmv")
+    Path(spec).write_text(text, encoding="utf-8")
+    check_spec = [*rmv(), "check", os.path.basename(spec)]
+    bare_spec = [sys.executable, "-c", BARE, os.path.basename(spec)]
+    cold = []
+    for run in range(cold_runs):
+        empty = os.path.join(folder, f"cold{scale}-{run}")
+        cold.append(child(check_spec, folder, empty))
+        print(f"  {scale}x cold run {run + 1}: {cold[-1][0]:.1f} s wall", file=sys.stderr)
+    cache = os.path.join(folder, f"warm{scale}")
+    child(check_spec, folder, cache)  # fills the caches
+    rounds: dict[str, list[tuple[float, float]]] = {"bare": [], "warm": [], "edit": []}
+    for run in range(runs):
+        rounds["bare"].append(child(bare_spec, folder, cache))
+        rounds["warm"].append(child(check_spec, folder, cache))
+        with open(spec, "a", encoding="utf-8") as handle:
+            handle.write(f"// edit {run}\n")  # one line more: the stored output is stale
+        rounds["edit"].append(child(check_spec, folder, cache))
+    figures: dict[str, object] = {"lines": text.count("\n"), "runs": runs}
+    for name, pairs in rounds.items():
+        figures[f"{name}_wall"] = statistics.median(w for w, _ in pairs)
+        figures[f"{name}_cpu"] = statistics.median(c for _, c in pairs)
+    for name in ("warm", "edit"):
+        ratios = [c / b for (_, c), (_, b) in zip(rounds[name], rounds["bare"], strict=True)]
+        figures[f"{name}_ratio"] = statistics.median(ratios)
+    if cold:
+        figures["cold_wall"] = statistics.median(w for w, _ in cold)
+        figures["cold_cpu"] = statistics.median(c for _, c in cold)
+        figures["cold_runs"] = len(cold)
+    return figures
+
+
+def processes_table(results: dict[int, dict[str, object]]) -> None:
+    print(f"{'scale':>5} {'lines':>7} {'bare cpu':>9} {'warm cpu':>9} {'warm/bare':>9} "
+          f"{'edit cpu':>9} {'edit/bare':>9} {'cold wall':>9}")  # fmt: skip
+    for scale, f in results.items():
+        cold = f"{f['cold_wall']:>9.1f}" if "cold_wall" in f else f"{'-':>9}"
+        print(f"{scale:>5} {f['lines']:>7} {f['bare_cpu']:>9.3f} {f['warm_cpu']:>9.3f} "
+              f"{f['warm_ratio']:>9.2f} {f['edit_cpu']:>9.3f} {f['edit_ratio']:>9.2f} "
+              f"{cold}")  # fmt: skip
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     parser.add_argument("--scale", type=int, action="append", help="spec sizes (default: 1 and 10)")
-    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--repeat", type=int, default=3, help="--in-process: best of N")
+    parser.add_argument("--in-process", action="store_true", help="the in-process tables")
+    parser.add_argument("--runs", type=int, default=5, help="paired rounds of new processes")
+    parser.add_argument("--cold-runs", type=int, default=1, help="first checks, empty caches")
     parser.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
     args = parser.parse_args()
     scales = args.scale or [1, 3, 10]
+    if not args.in_process:
+        folder = tempfile.mkdtemp(prefix="rmv-bench-")
+        write_messages(folder)
+        found = {s: processes(s, args.runs, args.cold_runs, folder) for s in scales}
+        processes_table(found)
+        if args.json:
+            Path(args.json).write_text(json.dumps(found, indent=2), encoding="utf-8")
+        shutil.rmtree(folder, ignore_errors=True)
+        return 0
     folder = tempfile.mkdtemp(prefix="rmv-bench-")
     os.environ["RMV_CACHE_DIR"] = os.path.join(folder, "cache")  # not the user's cache
     write_messages(folder)

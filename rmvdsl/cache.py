@@ -23,12 +23,7 @@ class Cache:
 
     @classmethod
     def default(cls) -> Cache:
-        folder = os.environ.get("RMV_CACHE_DIR")
-        if folder is None:
-            base = os.environ.get("XDG_CACHE_HOME") or os.path.join(
-                os.path.expanduser("~"), ".cache"
-            )
-            folder = os.path.join(base, "rmvdsl")
+        folder = cache_folder()
         return cls(os.path.join(folder, "answers") if folder else None)
 
     def get(self, key: str) -> dict[str, Any] | None:
@@ -77,6 +72,16 @@ class Layered(Cache):
 
     def put(self, key: str, value: dict[str, Any]) -> None:
         self.below.put(key, value)
+
+
+def cache_folder() -> str | None:
+    """Where rmvdsl keeps files between processes: `RMV_CACHE_DIR`, else
+    `$XDG_CACHE_HOME/rmvdsl` or `~/.cache/rmvdsl`; None when RMV_CACHE_DIR is empty."""
+    folder = os.environ.get("RMV_CACHE_DIR")
+    if folder is None:
+        base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+        folder = os.path.join(base, "rmvdsl")
+    return folder or None
 
 
 def digest(*parts: object) -> str:

@@ -15,18 +15,13 @@ from fractions import Fraction
 from typing import TYPE_CHECKING, Any
 
 from rmvdsl import __version__
-from rmvdsl.check import check
-from rmvdsl.check.loader import UsageError, read_stdin, read_text
-from rmvdsl.codes import CODES, explain
 from rmvdsl.deep import deep
-from rmvdsl.diagnostics import Diagnostic, Severity
-from rmvdsl.numbers import NumberError, exact_or_quotient
-from rmvdsl.render import render_json, render_sarif, render_text, summary
-from rmvdsl.runtime.values import exact_text
-from rmvdsl.source import SourceMap
+from rmvdsl.errors import UsageError
 
 if TYPE_CHECKING:
+    from rmvdsl import check_results as results
     from rmvdsl.check.properties import PropertyReport
+    from rmvdsl.diagnostics import Diagnostic
     from rmvdsl.logic.evaluate import Streamed
     from rmvdsl.logic.sat import Answer
     from rmvdsl.logic.traces import TraceFile, TraceStream
@@ -179,7 +174,10 @@ spec has errors), 2 usage or I/O problem, or a recording that does not match the
     replay_parser.add_argument("--to", dest="stop", metavar="T", help="stop at T (as --from)")
     replay_parser.add_argument("--format", choices=("text", "json", "jsonl"), default="text")
     replay_parser.add_argument(
-        "--report", metavar="FILE", help="draw a timeline: FILE.png (matplotlib) or FILE.html"
+        "--report",
+        metavar="FILE",
+        help="draw a timeline: FILE.html (with every record), FILE.svg, or FILE.png "
+        "(needs matplotlib: the report extra)",
     )
     replay_parser.add_argument(
         "--run-actions", action="store_true",
@@ -365,28 +363,39 @@ def _use_color(args: argparse.Namespace) -> bool:
 
 
 def _message_options(args: argparse.Namespace) -> None:
-    from rmvdsl.check.msgtypes import DISTROS
-
-    if args.ros is not None and args.ros not in DISTROS:
-        raise UsageError(f"unknown ROS distribution `{args.ros}`; known: {', '.join(DISTROS)}")
+    if args.ros is not None and args.ros not in _distros():
+        raise UsageError(f"unknown ROS distribution `{args.ros}`; known: {', '.join(_distros())}")
     for folder in args.messages:
         if not os.path.isdir(folder):
             raise UsageError(f"--messages {folder}: no such folder")
+
+
+def _distros() -> tuple[str, ...]:
+    from rmvdsl.check.msgtypes import DISTROS
+
+    return tuple(DISTROS)
 
 
 def _replay(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from rmvdsl import replay
+    from rmvdsl.check import check
     from rmvdsl.ir import lower
+    from rmvdsl.render import render_text
+    from rmvdsl.runtime.wording import counted
 
     _message_options(args)
-    if args.report and not args.report.endswith((".png", ".html")):
-        raise UsageError(f"--report {args.report}: the file must end in .png or .html")
+    if args.report:
+        from rmvdsl.report import unavailable
+
+        reason = unavailable(args.report)
+        if reason is not None:
+            raise UsageError(reason)
     result = check(args.spec, ros=args.ros, messages=tuple(args.messages))
     if result.errors:
         sys.stderr.write(render_text(result.errors, result.model.sources, False))
-        print(f"rmv replay: {args.spec}: {len(result.errors)} errors", file=sys.stderr)
+        print(f"rmv replay: {args.spec}: {counted(len(result.errors), 'error')}", file=sys.stderr)
         return EXIT_ERRORS
     progress = replay.progress_bar() if sys.stderr.isatty() else None
     try:
@@ -404,14 +413,18 @@ def _replay(args: argparse.Namespace) -> int:
 
 
 def _build(args: argparse.Namespace) -> int:
+    from rmvdsl.check import check
     from rmvdsl.ir import dump, lower
+    from rmvdsl.render import render_text
+    from rmvdsl.runtime.wording import counted
 
     _message_options(args)
     result = check(args.spec, ros=args.ros, messages=tuple(args.messages))
     if result.errors:
         sys.stderr.write(render_text(result.errors, result.model.sources, False))
         print(
-            f"rmv build: {args.spec}: {len(result.errors)} errors: nothing built", file=sys.stderr
+            f"rmv build: {args.spec}: {counted(len(result.errors), 'error')}: nothing built",
+            file=sys.stderr,
         )
         return EXIT_ERRORS
     spec = lower(result)
@@ -431,6 +444,7 @@ def _build_ros2(args: argparse.Namespace, spec: ir_spec.Spec) -> int:
     from pathlib import Path
 
     from rmvdsl.codegen import ros2
+    from rmvdsl.runtime.wording import counted
 
     if not args.output:
         raise UsageError("--target ros2 needs -o OUT, the folder of the package to write")
@@ -441,7 +455,8 @@ def _build_ros2(args: argparse.Namespace, spec: ir_spec.Spec) -> int:
     except OSError as exc:
         raise UsageError(f"{args.output}: {exc.strerror or exc}") from None
     name = ros2.package_name(spec, args.package)
-    print(f"rmv build: wrote the ros2 package `{name}` to {args.output} ({len(written)} files)")
+    files = counted(len(written), "file")
+    print(f"rmv build: wrote the ros2 package `{name}` to {args.output} ({files})")
     return EXIT_OK
 
 
@@ -449,6 +464,7 @@ def _build_kapacitor(args: argparse.Namespace, spec: ir_spec.Spec) -> int:
     from pathlib import Path
 
     from rmvdsl.codegen import kapacitor
+    from rmvdsl.runtime.wording import counted
 
     if not args.output:
         raise UsageError("--target kapacitor needs -o OUT, the folder to write")
@@ -461,8 +477,8 @@ def _build_kapacitor(args: argparse.Namespace, spec: ir_spec.Spec) -> int:
     for line in report:
         print(f"rmv build: {line}", file=sys.stderr)
     print(
-        f"rmv build: wrote the kapacitor target to {args.output} ({len(written)} files; "
-        f"{len(report)} parts of the spec left to the ros2 monitor, listed in README.md)"
+        f"rmv build: wrote the kapacitor target to {args.output} ({counted(len(written), 'file')}; "
+        f"{counted(len(report), 'part')} of the spec left to the ros2 monitor, listed in README.md)"
     )
     return EXIT_OK
 
@@ -478,6 +494,7 @@ def _deploy(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from rmvdsl import deploy
+    from rmvdsl.runtime.wording import counted
 
     out = Path(args.out)
     if not (out / deploy.MANIFEST).is_file():
@@ -492,19 +509,46 @@ def _deploy(args: argparse.Namespace) -> int:
     for line in report.applied:
         print(f"rmv deploy: {line}")
     print(
-        f"rmv deploy: {len(report.applied)} changes, {len(report.unchanged)} parts already as built"
+        f"rmv deploy: {counted(len(report.applied), 'change')}, "
+        f"{counted(len(report.unchanged), 'part')} already as built"
     )
     return EXIT_OK
 
 
 def _check(args: argparse.Namespace) -> int:
+    from rmvdsl import check_results as results
+
     _message_options(args)
-    all_diagnostics: list[Diagnostic] = []
-    sources = SourceMap()
-    usage_problem = False
-    checked: list[str] = []
+    # A re-check of unchanged inputs prints what the last one printed (docs/cli.md).
+    asked = [f"{k}={v!r}" for k, v in sorted(vars(args).items()) if k != "func"]
+    entry = None if args.witnesses else results.key([*asked, f"color={_use_color(args)}"])
+    stored = results.lookup(entry) if entry else None
+    if stored is None:
+        stored = _checked(args, entry)
+    sys.stdout.write(stored.stdout)
+    sys.stderr.write(stored.stderr)
+    return stored.code
+
+
+# A check that reported one of these is not stored: a missing file or folder it
+# names may appear, and an undecided property may be decided with more time.
+_NOT_STORED = {"RMV001", "RMV003", "RMV306", "RMV307", "RMV516"}
+
+
+def _checked(args: argparse.Namespace, entry: str | None) -> results.Stored:
+    import io
+
+    from rmvdsl import check_results as results
+    from rmvdsl.check.msgtypes import folders_read
+    from rmvdsl.diagnostics import Severity
+    from rmvdsl.render import render_json, render_sarif, render_text, summary
+    from rmvdsl.source import SourceMap
     from rmvdsl.workspace import Workspace
 
+    all_diagnostics: list[Diagnostic] = []
+    sources = SourceMap()
+    usage_problems: list[str] = []
+    checked: list[str] = []
     workspace = Workspace()  # as `rmv lsp` checks, with no document open
     for path in args.files:
         try:
@@ -516,8 +560,7 @@ def _check(args: argparse.Namespace) -> int:
                 solver_jobs=args.jobs,
             )
         except UsageError as exc:
-            print(f"rmv: error: {exc}", file=sys.stderr)
-            usage_problem = True
+            usage_problems.append(f"rmv: error: {exc}\n")
             continue
         checked.append(path)
         all_diagnostics.extend(result.diagnostics)
@@ -525,21 +568,29 @@ def _check(args: argparse.Namespace) -> int:
             _write_witnesses(args.witnesses, result.properties)
         for source in result.model.sources:
             sources.add(source)
+    out = io.StringIO()
     if args.format == "json":
-        sys.stdout.write(render_json(all_diagnostics, sources))
+        out.write(render_json(all_diagnostics, sources))
     elif args.format == "sarif":
-        sys.stdout.write(render_sarif(all_diagnostics, sources))
+        out.write(render_sarif(all_diagnostics, sources))
     else:
-        sys.stdout.write(render_text(all_diagnostics, sources, _use_color(args)))
+        out.write(render_text(all_diagnostics, sources, _use_color(args)))
         if checked:
-            print(summary(checked, all_diagnostics))
-    if usage_problem:
-        return EXIT_USAGE
+            out.write(summary(checked, all_diagnostics) + "\n")
     failing = {Severity.ERROR, Severity.WARNING} if args.strict else {Severity.ERROR}
-    return EXIT_ERRORS if any(d.severity in failing for d in all_diagnostics) else EXIT_OK
+    failed = any(d.severity in failing for d in all_diagnostics)
+    code = EXIT_USAGE if usage_problems else EXIT_ERRORS if failed else EXIT_OK
+    output = results.Stored(out.getvalue(), "".join(usage_problems), code)
+    if entry and not usage_problems and not {d.code for d in all_diagnostics} & _NOT_STORED:
+        configs = [os.path.join(os.path.dirname(p) or ".", "rmv.toml") for p in checked]
+        read = [s.path for s in sources if os.path.isfile(s.path)]
+        results.store(entry, output, [*read, *configs], folders_read())
+    return output
 
 
 def _explain(code: str) -> int:
+    from rmvdsl.codes import CODES, explain
+
     text = explain(code)
     if text is None:
         known = ", ".join(sorted(CODES))
@@ -550,8 +601,10 @@ def _explain(code: str) -> int:
 
 
 def _fmt(args: argparse.Namespace) -> int:
+    from rmvdsl.check.loader import read_stdin, read_text
     from rmvdsl.grammar.formatter import format_source
-    from rmvdsl.source import SourceFile
+    from rmvdsl.render import render_text
+    from rmvdsl.source import SourceFile, SourceMap
 
     status = EXIT_OK
     for path in args.files:
@@ -583,6 +636,7 @@ def _fmt(args: argparse.Namespace) -> int:
 def _eval(args: argparse.Namespace) -> int:
     from rmvdsl.logic import evaluate as ev
     from rmvdsl.logic.traces import SCALE
+    from rmvdsl.numbers import NumberError, exact_or_quotient
 
     try:
         at = exact_or_quotient(args.at)
@@ -621,6 +675,7 @@ def _eval_output(args: argparse.Namespace, run: Streamed, at: Fraction) -> str |
     """`--all`: every segment written as it is decided (None); else the verdict at
     `at`, the stream read to its end."""
     from rmvdsl.logic import evaluate as ev
+    from rmvdsl.runtime.values import exact_text
 
     if args.all and args.format == "json":
         ev.write_all_json(sys.stdout, run)
@@ -661,6 +716,7 @@ def _trace_stream(path: str) -> Iterator[TraceStream]:
 
 
 def _whole_trace(path: str) -> TraceFile:
+    from rmvdsl.check.loader import read_text
     from rmvdsl.logic.traces import TraceError, read_trace
 
     try:
@@ -673,6 +729,7 @@ def _eval_term(
     args: argparse.Namespace, node: Any, diagnostics: list[Diagnostic], at: Fraction
 ) -> int:
     from rmvdsl.logic import evaluate as ev
+    from rmvdsl.runtime.values import exact_text
 
     trace = _whole_trace(args.trace)
     compiled = None
@@ -788,7 +845,8 @@ def _sat(args: argparse.Namespace) -> int:
 
 def _formula_errors(args: argparse.Namespace, diagnostics: list[Diagnostic]) -> int:
     """What is wrong with a --formula, on standard error."""
-    from rmvdsl.source import SourceFile
+    from rmvdsl.render import render_text
+    from rmvdsl.source import SourceFile, SourceMap
 
     sources = SourceMap()
     sources.add(SourceFile("<formula>", args.formula))
@@ -803,9 +861,12 @@ def _answer_text(answer: Answer) -> str:
 
 
 def _graph(args: argparse.Namespace) -> int:
+    from rmvdsl.check import check
     from rmvdsl.check.analysis import TransducerFacts
     from rmvdsl.diagnostics import did_you_mean
     from rmvdsl.graph import RENDERERS
+    from rmvdsl.render import render_text
+    from rmvdsl.runtime.wording import counted
 
     result = check(args.spec)
     transducers = result.model.transducers
@@ -821,7 +882,9 @@ def _graph(args: argparse.Namespace) -> int:
     broken = [d for d in result.errors if not d.code.startswith("RMV5")]
     if broken:
         sys.stderr.write(render_text(broken, result.model.sources, False))
-        print(f"rmv graph: {args.spec}: {len(broken)} errors: not drawn", file=sys.stderr)
+        print(
+            f"rmv graph: {args.spec}: {counted(len(broken), 'error')}: not drawn", file=sys.stderr
+        )
         return EXIT_ERRORS
     if result.errors:
         sys.stderr.write(render_text(result.errors, result.model.sources, False))

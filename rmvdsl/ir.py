@@ -24,6 +24,7 @@ from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.rmtld3 import facts
 from rmvdsl.runtime.spec import dump, load, pattern
 from rmvdsl.runtime.values import literal
+from rmvdsl.runtime.wording import counted
 
 __all__ = ["LowerError", "dump", "load", "lower"]
 
@@ -38,7 +39,7 @@ class LowerError(ValueError):
 
 def lower(result: CheckResult) -> ir.Spec:
     if result.errors or result.types is None:
-        raise LowerError(f"the spec has {len(result.errors)} errors: fix them first")
+        raise LowerError(f"the spec has {counted(len(result.errors), 'error')}: fix them first")
     return _Lowering(result.model, result.types).spec()
 
 

@@ -15,10 +15,11 @@ from decimal import Decimal, localcontext
 from fractions import Fraction
 
 from rmvdsl.runtime.values import exact_decimal
+from rmvdsl.runtime.wording import counted
 
 MAX_DIGITS = 100
 MAX_MAGNITUDE = 300  # 10^300: doubles reach 1.8 x 10^308
-RANGE_TEXT = f"at most {MAX_DIGITS} digits, and a magnitude below 10^{MAX_MAGNITUDE}"
+RANGE_TEXT = f"at most {counted(MAX_DIGITS, 'digit')}, and a magnitude below 10^{MAX_MAGNITUDE}"
 
 _NUMBER = re.compile(r"^\s*([+-]?)(\d*)(?:\.(\d*))?(?:[eE]([+-]?\d+))?\s*$")
 
@@ -36,7 +37,9 @@ def exact(text: str) -> Fraction:
     fraction = fraction or ""
     digits = (whole + fraction).lstrip("0")
     if len(digits) > MAX_DIGITS:
-        raise NumberError(f"`{_short(text)}` has {len(digits)} digits: numbers have {RANGE_TEXT}")
+        raise NumberError(
+            f"`{_short(text)}` has {counted(len(digits), 'digit')}: numbers have {RANGE_TEXT}"
+        )
     if not digits:
         return Fraction(0)
     if exponent_text is not None and len(exponent_text.lstrip("+-").lstrip("0")) > 6:

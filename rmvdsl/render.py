@@ -16,6 +16,7 @@ from typing import Any
 from rmvdsl import __version__
 from rmvdsl.codes import CODES
 from rmvdsl.diagnostics import Diagnostic, Fix, Severity, fixes_of
+from rmvdsl.runtime.wording import counted
 from rmvdsl.source import SourceMap, Span
 
 
@@ -145,12 +146,8 @@ def _snippet(
 def summary(paths: list[str], diagnostics: list[Diagnostic]) -> str:
     errors = sum(d.severity is Severity.ERROR for d in diagnostics)
     warnings = sum(d.severity is Severity.WARNING for d in diagnostics)
-    files = paths[0] if len(paths) == 1 else f"{len(paths)} files"
-    return f"{files}: {_count(errors, 'error')}, {_count(warnings, 'warning')}"
-
-
-def _count(number: int, word: str) -> str:
-    return f"{number} {word}{'' if number == 1 else 's'}"
+    files = paths[0] if len(paths) == 1 else counted(len(paths), "file")
+    return f"{files}: {counted(errors, 'error')}, {counted(warnings, 'warning')}"
 
 
 def as_json_objects(diagnostics: Iterable[Diagnostic], sources: SourceMap) -> list[dict[str, Any]]:

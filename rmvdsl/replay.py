@@ -24,6 +24,7 @@ from rmvdsl.runtime.engine import (
     can_refuse,
     seconds,
 )
+from rmvdsl.runtime.wording import counted
 
 
 class ReplayError(Exception):
@@ -217,7 +218,8 @@ def progress_bar(stream: Any = sys.stderr) -> Callable[[int, int], None]:
     def draw(done: int, total: int) -> None:
         fraction = done / total if total else 1.0
         filled = int(fraction * 30)
-        stream.write(f"\r[{'#' * filled}{'.' * (30 - filled)}] {done:,}/{total:,} messages")
+        messages = counted(total, "message", grouped=True)
+        stream.write(f"\r[{'#' * filled}{'.' * (30 - filled)}] {done:,}/{messages}")
         if done >= total:
             stream.write("\n")
         stream.flush()
@@ -380,12 +382,17 @@ def run(
         repeats.flush(out)
         verdict = "FAILED" if summary.failed else "incomplete" if summary.warnings else "passed"
         out.write(
-            f"{verdict}: {summary.violations} violations, {summary.intrusions} intrusions"
-            + (f", {summary.warnings} warnings about the recording" if summary.warnings else "")
+            f"{verdict}: {counted(summary.violations, 'violation')}, "
+            f"{counted(summary.intrusions, 'intrusion')}"
+            + (
+                f", {counted(summary.warnings, 'warning')} about the recording"
+                if summary.warnings
+                else ""
+            )
             + "\n"
         )
     if report:
-        from rmvdsl import timeline
+        from rmvdsl import report as reports
 
-        timeline.write(report, spec, kept)
+        reports.write(report, spec, kept)
     return summary

@@ -1,6 +1,7 @@
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -17,6 +18,36 @@ FIXTURES = Path(__file__).resolve().parent / "fixtures"
 # The solver's answer cache: one per test session (shared with the processes the
 # tests start), never the user's.
 os.environ["RMV_CACHE_DIR"] = tempfile.mkdtemp(prefix="rmv-cache-")
+
+# RMV_TEST_INSTALLED=1 (tests/installed.sh): the suite runs against the wheel
+# installed into a venv, and must not import the checkout's rmvdsl/ by accident.
+INSTALLED = os.environ.get("RMV_TEST_INSTALLED") == "1"
+
+
+def _rmv_command() -> list[str]:
+    """How a user's shell starts rmv: the console script the install wrote beside
+    this interpreter (`python -m rmvdsl.cli` would import rmvdsl/ from the current
+    folder, the checkout, instead of what is installed)."""
+    beside = Path(sys.executable).parent / "rmv"
+    script = str(beside) if beside.exists() else shutil.which("rmv")
+    if script:
+        return [script]
+    assert not INSTALLED, "the installed package has no `rmv` script beside its Python"
+    return [sys.executable, "-m", "rmvdsl.cli"]
+
+
+RMV = _rmv_command()
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    import rmvdsl
+
+    where = Path(rmvdsl.__file__).resolve()
+    if INSTALLED and ROOT in where.parents:
+        raise pytest.UsageError(
+            f"RMV_TEST_INSTALLED=1 but rmvdsl is imported from the checkout ({where}): "
+            "run pytest from the venv's bin folder (tests/installed.sh), not `python -m pytest`"
+        )
 
 
 @dataclass
@@ -48,14 +79,7 @@ def rmv(capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch):
 
 def rmv_process(args: Sequence[str], cwd: Path = ROOT, stdin: str | None = None) -> Run:
     """Run `rmv` as a separate process: what a user's shell sees."""
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
     completed = subprocess.run(
-        [sys.executable, "-m", "rmvdsl.cli", *args],
-        cwd=cwd,
-        input=stdin,
-        capture_output=True,
-        text=True,
-        env=env,
-        timeout=120,
+        [*RMV, *args], cwd=cwd, input=stdin, capture_output=True, text=True, timeout=120
     )
     return Run(completed.returncode, completed.stdout, completed.stderr)

@@ -5,12 +5,11 @@ from __future__ import annotations
 
 import asyncio
 import random
-import sys
 from pathlib import Path
 
 import pytest
 import pytest_lsp
-from conftest import EXAMPLES, ROOT
+from conftest import EXAMPLES, RMV, ROOT
 from lsprotocol import types
 from pytest_lsp import ClientServerConfig, LanguageClient
 
@@ -21,7 +20,7 @@ WAIT = 120.0  # seconds for a check, solver stages included, on a loaded machine
 
 
 @pytest_lsp.fixture(
-    config=ClientServerConfig(server_command=[sys.executable, "-m", "rmvdsl.cli", "lsp"]),
+    config=ClientServerConfig(server_command=[*RMV, "lsp"]),
     params=ENCODINGS,
 )
 async def client(lsp_client: LanguageClient, request: pytest.FixtureRequest):

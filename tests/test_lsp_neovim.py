@@ -7,10 +7,9 @@ import json
 import os
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
-from conftest import ROOT
+from conftest import RMV
 
 from rmvdsl.workspace import Workspace, formatted
 
@@ -33,12 +32,11 @@ def test_neovim_sees_diagnostics_hover_completion_definition_and_formats(tmp_pat
     out = tmp_path / "seen.json"
     environment = {
         **os.environ,
-        "RMV_LSP_COMMAND": json.dumps([sys.executable, "-m", "rmvdsl.cli", "lsp"]),
+        "RMV_LSP_COMMAND": json.dumps([*RMV, "lsp"]),
         "RMV_FILE": str(spec),
         "RMV_HOVER": f"3,{len('event Fast when ') + 1}",  # on `Speed`
         "RMV_COMPLETE": f"5,{len('property P: not ')}",
         "RMV_OUT": str(out),
-        "PYTHONPATH": str(ROOT),
         "XDG_CONFIG_HOME": str(tmp_path / "config"),
         "XDG_DATA_HOME": str(tmp_path / "data"),
         "XDG_STATE_HOME": str(tmp_path / "state"),

@@ -86,7 +86,7 @@ def test_text_output_and_a_report(rmv, recordings, tmp_path):
     result = _replay(rmv, recordings / "braking.bag", "--report", str(png))
     assert result.code == 1
     assert "verdict   ABSCheck: false on [1700000009.7, 1700000019]" in result.out
-    assert result.out.rstrip().endswith("FAILED: 1 violations, 0 intrusions")
+    assert result.out.rstrip().endswith("FAILED: 1 violation, 0 intrusions")
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     page = tmp_path / "timeline.html"
     assert _replay(rmv, recordings / "braking.bag", "--report", str(page)).code == 1
@@ -273,7 +273,7 @@ def test_a_damaged_recording_is_reported_and_the_rest_still_runs(rmv, tmp_path):
     text = _replay(rmv, bag)
     assert f"warning   1700000000 {EXAMPLES / 'carla' / 'abs.rmv'}:{line}:7: topic" in text.out
     assert text.out.rstrip().endswith(
-        "FAILED: 1 violations, 1 intrusions, 2 warnings about the recording"
+        "FAILED: 1 violation, 1 intrusion, 2 warnings about the recording"
     )
 
 
@@ -298,7 +298,7 @@ def test_a_recording_without_a_topic_exits_2(rmv, recordings, tmp_path):
     missing = "topic `vehicle_status` (/carla/hero/vehicle_status) is not in the recording"
     assert missing in result.out
     assert result.out.rstrip().endswith(
-        "incomplete: 0 violations, 0 intrusions, 1 warnings about the recording"
+        "incomplete: 0 violations, 0 intrusions, 1 warning about the recording"
     )
 
 

@@ -7,13 +7,12 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from rmvdsl.diagnostics import Diagnostic, closest, error
+from rmvdsl.errors import UsageError
 from rmvdsl.grammar import ast
 from rmvdsl.grammar.parser import parse_source
 from rmvdsl.source import SourceFile, SourceMap
 
-
-class UsageError(Exception):
-    """A problem with the command line's own input (exit code 2), not with a spec."""
+__all__ = ["UsageError"]
 
 
 def read_text(path: str) -> str:

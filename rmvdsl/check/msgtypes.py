@@ -316,6 +316,8 @@ class TypeRegistry:
 
     def add_folder(self, folder: str, declared_at: Span | None = None) -> None:
         self._closest.clear()  # new types: other answers
+        with _CACHE_LOCK:
+            _ASKED.add(folder)
         if not os.path.isdir(folder):
             if declared_at is not None:
                 self.diagnostics.append(
@@ -359,6 +361,17 @@ class _FileRead:
 _FILES: dict[tuple[str, str, bool], tuple[tuple[int, int], _FileRead]] = {}
 _LISTINGS: dict[str, tuple[tuple[tuple[str, int], ...], list[tuple[str, str]]]] = {}
 _CACHE_LOCK = threading.Lock()
+
+
+_ASKED: set[str] = set()
+
+
+def folders_read() -> set[str]:
+    """Every message folder asked for in this process, and every folder listed
+    below one (a file added to or removed from one of them changes its mtime)."""
+    with _CACHE_LOCK:
+        listed = {d for stamps, _ in _LISTINGS.values() for d, _ in stamps}
+        return _ASKED | listed
 
 
 def _stamp(path: str) -> tuple[int, int]:

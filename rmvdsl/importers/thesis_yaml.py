@@ -25,6 +25,7 @@ from rmvdsl.grammar.printer import quote
 from rmvdsl.importers.influxql import influx_expression
 from rmvdsl.importers.tickscript import convert_tickscript
 from rmvdsl.render import visible
+from rmvdsl.runtime.wording import counted
 from rmvdsl.source import SourceFile
 
 # Message types of the CARLA topics of thesis table 4.1 (the YAML files of
@@ -126,7 +127,8 @@ def _check_size(root: yaml.Node, path: str) -> None:
             mark = node.start_mark
             raise UsageError(
                 f"{path}:{mark.line + 1}:{mark.column + 1}: the document expands to more than "
-                f"{MAX_NODES:,} values (aliases repeated inside aliases): refused"
+                f"{counted(MAX_NODES, 'value', grouped=True)} "
+                "(aliases repeated inside aliases): refused"
             )
         if isinstance(node, yaml.SequenceNode):
             stack.extend(node.value)

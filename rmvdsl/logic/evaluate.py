@@ -19,6 +19,7 @@ from rmvdsl.logic.validate import check_formula
 from rmvdsl.numbers import to_json
 from rmvdsl.runtime.rmtld3 import BATCH, Monitor, Segment, merge, merged
 from rmvdsl.runtime.values import exact_text
+from rmvdsl.runtime.wording import counted
 
 
 @dataclass
@@ -32,7 +33,8 @@ class Evaluation:
     def bound(self) -> str:
         """The static memory bound (docs/semantics.md)."""
         return (
-            f"at most {self.nodes} subformulas x (2 x (horizon {exact_text(self.horizon)} + 1)"
+            f"at most {counted(self.nodes, 'subformula')} x "
+            f"(2 x (horizon {exact_text(self.horizon)} + 1)"
             f" x state changes per time unit + {BATCH + 3}) breakpoints"
         )
 

@@ -35,6 +35,7 @@ from rmvdsl.logic.system import System
 from rmvdsl.logic.terms import assert_all, conjunction, disjunction, implication, negation
 from rmvdsl.runtime.rmtld3 import Monitor, facts
 from rmvdsl.runtime.values import exact_text as number
+from rmvdsl.runtime.wording import counted
 
 # Bump when an encoding changes: cached answers carry it in their key.
 ENCODING_VERSION = "2"  # 2: durations pinned by always/eventually in the refutation
@@ -329,10 +330,12 @@ class _Question:
             note = "the solver's limit was reached before an answer"
         else:
             note = (
-                f"no witness with at most {max(sizes) - 1} changes, and no proof that none exists"
+                f"no witness with at most {counted(max(sizes) - 1, 'change')}, "
+                "and no proof that none exists"
             )
         if self.replay_failures:
-            note += f" ({self.replay_failures} candidate traces did not replay: a bug, reported)"
+            failed = counted(self.replay_failures, "candidate trace")
+            note += f" ({failed} did not replay: a bug, reported)"
         return Answer(UNKNOWN, False, note=note, timed_out=self.timed_out)
 
     def search(self, segments: int) -> Witness | None:

@@ -16,6 +16,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
 
+from rmvdsl.runtime.wording import counted
+
 
 @dataclass(frozen=True)
 class Machine:
@@ -91,7 +93,7 @@ class System:
             current = [[s for s in machine.states if s in state] for state in states]
             for time, now in zip(times, current, strict=True):
                 if len(now) != 1:
-                    return f"{machine.name} is in {len(now)} states at {time}"
+                    return f"{machine.name} is in {counted(len(now), 'state')} at {time}"
             if machine.initial is not None and current[0] != [machine.initial]:
                 return f"{machine.name} does not start in {machine.initial}"
             for before, after in itertools.pairwise(current):

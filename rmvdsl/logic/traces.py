@@ -37,6 +37,7 @@ from typing import BinaryIO
 
 from rmvdsl.grammar.formula import TIME_UNITS
 from rmvdsl.numbers import NumberError, exact_or_quotient
+from rmvdsl.runtime.wording import counted
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_^{}]*$")
 
@@ -200,7 +201,12 @@ class _Reader:
         row = next(csv.reader([raw]), [])
         header = self.header
         if len(row) != len(header):
-            raise TraceError(self.path, number, 1, f"{len(row)} cells for {len(header)} columns")
+            raise TraceError(
+                self.path,
+                number,
+                1,
+                f"{counted(len(row), 'cell')} for {counted(len(header), 'column')}",
+            )
         cells = dict(zip(header, (c.strip() for c in row), strict=True))
         t = _time(cells["t"], self.path, number, 1)
         if cells.get("end", "").lower() in ("true", "1", "yes"):

@@ -4,11 +4,15 @@ UTF-16 unless it asked for another)."""
 
 from __future__ import annotations
 
+import functools
+import os
 from pathlib import Path
 
 from lsprotocol import types
 from pygls.workspace import TextDocument
 
+from rmvdsl.cache import cache_folder, digest
+from rmvdsl.codes import diagnostics_markdown
 from rmvdsl.diagnostics import Diagnostic, Severity, fixes_of
 from rmvdsl.source import SourceFile, SourceMap, Span
 from rmvdsl.workspace import TOKEN_TYPES, Token
@@ -17,8 +21,28 @@ SEVERITY = {
     Severity.ERROR: types.DiagnosticSeverity.Error,
     Severity.WARNING: types.DiagnosticSeverity.Warning,
 }
-# docs/diagnostics.md beside the package (a source checkout): each code's explanation.
-_EXPLANATIONS = Path(__file__).resolve().parents[2] / "docs" / "diagnostics.md"
+
+
+@functools.cache
+def explanations() -> Path | None:
+    """A file holding docs/diagnostics.md, each code's explanation, for the codes'
+    links: rendered from the code registry (the docs page is the same text) into
+    the cache folder, since an installed package has no docs/ beside it. None when
+    there is no folder to write to."""
+    folder = cache_folder()
+    if folder is None:
+        return None
+    text = diagnostics_markdown()
+    path = Path(folder) / f"diagnostics-{digest(text)[:12]}.md"
+    try:
+        if not path.exists():
+            path.parent.mkdir(parents=True, exist_ok=True)
+            temporary = path.with_name(f".{path.name}.{os.getpid()}")
+            temporary.write_text(text, encoding="utf-8")
+            os.replace(temporary, path)
+    except OSError:
+        return None
+    return path
 
 
 def lsp_range(source: SourceFile, span: Span, encoding: str) -> types.Range:
@@ -72,8 +96,9 @@ def diagnostic(found: Diagnostic, sources: SourceMap, encoding: str) -> types.Di
     for note in found.notes:
         message += f"\n{note}"
     description = None
-    if _EXPLANATIONS.exists():
-        description = types.CodeDescription(href=f"{_EXPLANATIONS.as_uri()}#{found.code.lower()}")
+    page = explanations()
+    if page is not None:
+        description = types.CodeDescription(href=f"{page.as_uri()}#{found.code.lower()}")
     fixes = [
         {"title": fix.title, "uri": uri_of(fix.span.path),
          "range": _json_range(lsp_range(fix_source, fix.span, encoding)), "newText": fix.text}

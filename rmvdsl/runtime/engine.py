@@ -31,6 +31,7 @@ from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.formulas import to_lists
 from rmvdsl.runtime.rmtld3 import Monitor
 from rmvdsl.runtime.values import exact_decimal, exact_text
+from rmvdsl.runtime.wording import counted
 
 NS = influx.NS
 _FOREVER = 1 << 126
@@ -598,7 +599,7 @@ class Runtime:
         """Messages the transport lost (a host that sees gaps in the publishers'
         sequence numbers reports them)."""
         text = (
-            f"{topic}: {count} messages lost before the monitor could read them "
+            f"{topic}: {counted(count, 'message')} lost before the monitor could read them "
             "(a deeper `depth` in the topic's qos block keeps more waiting)"
         )
         self._input_lost(time, topic, f"lost messages: {topic}", count, text)

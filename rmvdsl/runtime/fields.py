@@ -14,6 +14,7 @@ from fractions import Fraction
 from typing import Any
 
 from rmvdsl.runtime.spec import EachStep, FieldStep, IndexStep, Variable
+from rmvdsl.runtime.wording import counted
 
 
 class Missing:
@@ -92,7 +93,7 @@ def read(variable: Variable, message: Any) -> Any:
     if variable.aggregate is not None:
         return aggregate(variable.aggregate, converted)
     if fanned or len(converted) != 1:
-        raise FieldError(f"`{variable.name}` reads {len(converted)} values, not one")
+        raise FieldError(f"`{variable.name}` reads {counted(len(converted), 'value')}, not one")
     return converted[0]
 
 

@@ -46,10 +46,11 @@ def python() -> str:
     wanted = "\n".join(WHEELS)
     if binary.exists() and marker.exists() and marker.read_text() == wanted:
         return str(binary)
-    subprocess.run([sys.executable, "-m", "venv", "--clear", str(VENV)], check=True)
+    scrubbed = {k: v for k, v in os.environ.items() if k not in FOREIGN}
+    subprocess.run([sys.executable, "-m", "venv", "--clear", str(VENV)], check=True, env=scrubbed)
     install = subprocess.run(
         [str(binary), "-m", "pip", "install", "--quiet", *WHEELS],
-        capture_output=True, text=True, timeout=1200,
+        capture_output=True, text=True, timeout=1200, env=scrubbed,
     )  # fmt: skip
     if install.returncode != 0:
         raise RosError(f"pip could not install the ROS 2 wheels:\n{install.stderr[-3000:]}")
@@ -93,6 +94,8 @@ def environment(domain: int, **extra: str) -> dict[str, str]:
         "RMW_IMPLEMENTATION": "rmw_fastrtps_cpp",
         "AMENT_PREFIX_PATH": prefix,
         "CMAKE_PREFIX_PATH": prefix,
+        # as if .ros-venv were the activated venv, whichever one the tests run from
+        "VIRTUAL_ENV": prefix,
         "PATH": f"{VENV / 'bin'}{os.pathsep}{os.environ.get('PATH', '')}",
         # cyclonedds (the bare-DDS writer) on loopback, unicast, meeting Fast DDS
         "CYCLONEDDS_URI": CYCLONE_CONFIG,
@@ -100,10 +103,12 @@ def environment(domain: int, **extra: str) -> dict[str, str]:
     }
 
 
-# Paths another ROS installation (or a Python that imported one) may have left.
+# Paths another ROS installation, an activated venv (the tests' own, say) or a
+# Python that imported one may have left.
 FOREIGN = frozenset(
-    ("LD_LIBRARY_PATH", "PYTHONPATH", "AMENT_PREFIX_PATH", "CMAKE_PREFIX_PATH",
-     "COLCON_PREFIX_PATH", "ROS_DISTRO", "ROS_VERSION", "RMW_IMPLEMENTATION")
+    ("LD_LIBRARY_PATH", "PYTHONPATH", "PYTHONHOME", "VIRTUAL_ENV", "AMENT_PREFIX_PATH",
+     "CMAKE_PREFIX_PATH", "COLCON_PREFIX_PATH", "ROS_DISTRO", "ROS_VERSION",
+     "RMW_IMPLEMENTATION")
 )  # fmt: skip
 CYCLONE_CONFIG = (
     "<CycloneDDS><Domain Id='any'><General><Interfaces><NetworkInterface name='lo'/>"

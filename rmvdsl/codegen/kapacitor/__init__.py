@@ -41,7 +41,6 @@ from rmvdsl.codegen.kapacitor.quoting import (
 from rmvdsl.runtime import lineproto
 from rmvdsl.runtime import spec as ir
 
-TEMPLATES = Path(__file__).resolve().parent / "templates"
 # The file every alert handler that writes a log appends to (Kapacitor's `.log`).
 LOG_FOLDER = "/var/log/kapacitor"
 KAPACITOR_URL = "http://127.0.0.1:9092"  # Kapacitor's own default
@@ -354,7 +353,7 @@ def manifest(build: Build) -> dict[str, Any]:
 def _environment() -> jinja2.Environment:
     """This target's templates (and, for the collector, the ros2 target's), with
     the quoting filters of both."""
-    env = ros2.environment(TEMPLATES)
+    env = ros2.environment(__name__)
     env.filters["ident"] = influxql_identifier
     env.filters["iql_string"] = influxql_string
     env.filters["duration"] = influxql_duration
@@ -393,6 +392,10 @@ def dashboard_files(build: Build, env: jinja2.Environment) -> dict[str, str]:
 COLLECTOR = (ros2.NodeEntry("collector", "collector_node", "rmv_collector"),)
 
 
+# The collector publishes no String (no verdicts): the ros2 target's base less std_msgs.
+COLLECTOR_DEPENDENCIES = tuple(d for d in ros2.BASE_DEPENDENCIES if d != "std_msgs")
+
+
 def collector_files(build: Build, env: jinja2.Environment | None = None) -> dict[str, str]:
     """The collector: an ament_python package, `collector/` in the build, sharing
     the ros2 target's ROS I/O (ros_io.py) and embedding the runtime's reading of
@@ -400,7 +403,7 @@ def collector_files(build: Build, env: jinja2.Environment | None = None) -> dict
     spec = build.spec
     name = f"{ros2.package_name(spec)}_collector"
     package = ros2.Package(
-        name, spec, (*ros2.BASE_DEPENDENCIES, *ros2.message_packages(spec)),
+        name, spec, ros2.dependencies(COLLECTOR_DEPENDENCIES, spec),
         "InfluxDB collector", "kapacitor", COLLECTOR, "launch/collector.launch.py",
     )  # fmt: skip
     templates = {

@@ -11,17 +11,18 @@ from __future__ import annotations
 import json
 import re
 from dataclasses import dataclass
+from importlib import resources
 from pathlib import Path
 
 import jinja2
 
 from rmvdsl.runtime import spec as ir
 
-TEMPLATES = Path(__file__).resolve().parent / "templates"
-RUNTIME = Path(__file__).resolve().parents[2] / "runtime"
-BUILTINS = Path(__file__).resolve().parents[2] / "builtins.py"
-# Run dependencies every package has; the spec adds its message packages.
-BASE_DEPENDENCIES = ("rclpy", "std_msgs", "diagnostic_msgs")
+# Run dependencies every package has; the spec adds its message packages. The
+# launch file imports launch, launch_ros and ament_index_python.
+BASE_DEPENDENCIES = (
+    "rclpy", "std_msgs", "diagnostic_msgs", "launch", "launch_ros", "ament_index_python",
+)  # fmt: skip
 
 
 class BuildError(ValueError):
@@ -68,7 +69,13 @@ def message_packages(spec: ir.Spec) -> tuple[str, ...]:
     found = {m.name.split("/")[0] for m in spec.messages}
     found |= {t.message_type.split("/")[0] for t in spec.topics}
     found.discard("builtin_interfaces")  # comes with rclpy
-    return tuple(sorted(found - set(BASE_DEPENDENCIES)))
+    return tuple(sorted(found))
+
+
+def dependencies(base: tuple[str, ...], spec: ir.Spec) -> tuple[str, ...]:
+    """A package's exec_depends: what its code imports (`base`), then the message
+    packages of the spec's topics not among them."""
+    return (*base, *(p for p in message_packages(spec) if p not in base))
 
 
 def py_string(value: str) -> str:
@@ -91,11 +98,13 @@ def yaml_string(value: str) -> str:
     return json.dumps(str(value), ensure_ascii=True)
 
 
-def environment(*folders: Path) -> jinja2.Environment:
-    """The templates of `folders`, then this target's (a package of another target
-    finds the shared ones here), with the quoting filters."""
+def environment(*packages: str) -> jinja2.Environment:
+    """The templates of each of `packages` (their `templates` folder, read as
+    package data), then this target's (a package of another target finds the
+    shared ones here), with the quoting filters."""
+    loaders = [jinja2.PackageLoader(p, "templates") for p in (*packages, __name__)]
     env = jinja2.Environment(
-        loader=jinja2.FileSystemLoader([*(str(f) for f in folders), str(TEMPLATES)]),
+        loader=jinja2.ChoiceLoader(loaders),
         autoescape=False,
         keep_trailing_newline=True,
         trim_blocks=True,
@@ -151,9 +160,11 @@ def ament_package(
     out = {path: env.get_template(t).render(**context) for path, t in rendered.items()}
     out[f"{name}/spec.json"] = ir.dump(package.spec) + "\n"
     runtime = f"{name}/rmv_runtime"
-    for module in sorted(RUNTIME.glob("*.py")):
+    modules = resources.files("rmvdsl.runtime").iterdir()
+    for module in sorted((m for m in modules if m.name.endswith(".py")), key=lambda m: m.name):
         out[f"{runtime}/{module.name}"] = _vendored(module.read_text(encoding="utf-8"))
-    out[f"{runtime}/builtins.py"] = _vendored(BUILTINS.read_text(encoding="utf-8"))
+    builtins = resources.files("rmvdsl").joinpath("builtins.py")
+    out[f"{runtime}/builtins.py"] = _vendored(builtins.read_text(encoding="utf-8"))
     return out
 
 
@@ -161,7 +172,7 @@ def files(spec: ir.Spec, package: str | None = None) -> dict[str, str]:
     """Every file of the package, by path relative to its folder."""
     name = package_name(spec, package)
     pkg = Package(
-        name, spec, (*BASE_DEPENDENCIES, *message_packages(spec)),
+        name, spec, dependencies(BASE_DEPENDENCIES, spec),
         "Runtime monitor", "ros2", MONITOR_NODES, "launch/monitor.launch.py",
     )  # fmt: skip
     return ament_package(

@@ -1,0 +1,114 @@
+"""A whole `rmv check`'s output, remembered between processes: a re-check of specs
+whose every input is unchanged prints the stored output without parsing anything.
+
+An entry is keyed by what the command was asked (the files named, the options,
+the folder it ran in, the environment variables that choose message folders, and
+the versions of rmvdsl, rosbags and z3) and holds what it printed, its exit code,
+and the inputs it read: every file (the specs, their imports, rmv.toml, each
+message definition) by the SHA-256 of its bytes, each file looked for and not
+found, and each message folder by its modification time (a file added or removed
+changes it). The entry answers only while every one of them is as it was; then
+the check runs as usual and replaces it. One entry per key: editing a spec
+replaces its entry, so the folder grows only with the specs and options checked.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import os
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from importlib import metadata
+
+from rmvdsl import __version__
+from rmvdsl.cache import cache_folder
+
+FORMAT = 1
+# Environment variables that change which message definitions a check finds.
+ENVIRONMENT = ("AMENT_PREFIX_PATH", "ROS_PACKAGE_PATH", "CMAKE_PREFIX_PATH", "ROS_DISTRO")
+
+
+@dataclass(frozen=True)
+class Stored:
+    stdout: str
+    stderr: str
+    code: int
+
+
+def key(arguments: Sequence[str]) -> str:
+    """The key of a check: its arguments, where and with what it runs."""
+    parts = {
+        "format": FORMAT,
+        "arguments": list(arguments),
+        "folder": os.getcwd(),
+        "environment": {name: os.environ.get(name) for name in ENVIRONMENT},
+        "versions": [__version__, *(_version(p) for p in ("rosbags", "z3-solver"))],
+    }
+    return hashlib.sha256(json.dumps(parts, sort_keys=True).encode()).hexdigest()[:32]
+
+
+def _version(package: str) -> str | None:
+    try:
+        return metadata.version(package)
+    except metadata.PackageNotFoundError:
+        return None
+
+
+def _path(entry: str) -> str | None:
+    folder = cache_folder()
+    return os.path.join(folder, "checks", entry + ".json") if folder else None
+
+
+def lookup(entry: str) -> Stored | None:
+    """The stored output of the check `entry`, if every input it read is unchanged."""
+    path = _path(entry)
+    if path is None:
+        return None
+    try:
+        with open(path, encoding="utf-8") as handle:
+            stored = json.load(handle)
+        files, folders = stored["files"], stored["folders"]
+        if any(_digest(name) != digest for name, digest in files):
+            return None
+        if any(_mtime(name) != mtime for name, mtime in folders):
+            return None
+        return Stored(stored["stdout"], stored["stderr"], int(stored["code"]))
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def store(entry: str, output: Stored, files: Iterable[str], folders: Iterable[str]) -> None:
+    """Remember a check's output with the files and folders it read (a cache that
+    cannot be written only costs time)."""
+    path = _path(entry)
+    if path is None:
+        return
+    value = {
+        "stdout": output.stdout, "stderr": output.stderr, "code": output.code,
+        "files": [[name, _digest(name)] for name in sorted(set(files))],
+        "folders": [[name, _mtime(name)] for name in sorted(set(folders))],
+    }  # fmt: skip
+    with contextlib.suppress(OSError):
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+        temporary = f"{path}.{os.getpid()}"
+        with open(temporary, "w", encoding="utf-8") as handle:
+            json.dump(value, handle)
+        os.replace(temporary, path)
+
+
+def _digest(path: str) -> str | None:
+    """The SHA-256 of a file's bytes; None for a file that is not there."""
+    try:
+        with open(path, "rb") as handle:
+            return hashlib.sha256(handle.read()).hexdigest()
+    except OSError:
+        return None
+
+
+def _mtime(path: str) -> int | None:
+    try:
+        return os.stat(path).st_mtime_ns
+    except OSError:
+        return None

@@ -1,0 +1,8 @@
+"""Exceptions the command line catches, in a module that imports nothing, so that
+`rmv --version` and `rmv --help` load no checker."""
+
+from __future__ import annotations
+
+
+class UsageError(Exception):
+    """A problem with the command line's own input (exit code 2), not with a spec."""

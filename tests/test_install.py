@@ -1,0 +1,158 @@
+"""What a user installs is what the tests ran: the wheel holds every file of
+rmvdsl/ that git holds, data is read as package data (never by a path beside the
+source that only a checkout has), and a generated ROS package declares every
+package it imports."""
+
+from __future__ import annotations
+
+import ast
+import os
+import re
+import shutil
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import pytest
+from conftest import EXAMPLES, INSTALLED, ROOT
+
+import rmvdsl
+from rmvdsl.check import check
+from rmvdsl.codegen import kapacitor, ros2
+from rmvdsl.ir import lower
+
+PACKAGE = Path(rmvdsl.__file__).parent
+
+
+def _tracked() -> set[str]:
+    """The files under rmvdsl/ that git tracks or would track (not ignored)."""
+    listed = subprocess.run(
+        ["git", "ls-files", "--cached", "--others", "--exclude-standard", "rmvdsl"],
+        cwd=ROOT, capture_output=True, text=True, check=True,
+    ).stdout.split()  # fmt: skip
+    return {p for p in listed if (ROOT / p).exists()}
+
+
+@pytest.fixture(scope="module")
+def wheel(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The wheel tests/installed.sh installed, or one built now from the checkout."""
+    if os.environ.get("RMV_WHEEL"):
+        return Path(os.environ["RMV_WHEEL"])
+    if not (ROOT / ".git").exists():
+        pytest.skip("not a git checkout: tests/installed.sh gives the wheel")
+    source, out = tmp_path_factory.mktemp("source"), tmp_path_factory.mktemp("wheel")
+    listed = subprocess.run(
+        ["git", "ls-files", "--cached", "--others", "--exclude-standard"],
+        cwd=ROOT, capture_output=True, text=True, check=True,
+    ).stdout.split("\n")  # fmt: skip
+    for relative in filter(None, listed):
+        if (ROOT / relative).is_file():
+            (source / relative).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(ROOT / relative, source / relative)
+    subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "--wheel-dir", str(out),
+         str(source)],
+        check=True, capture_output=True, timeout=600,
+    )  # fmt: skip
+    return next(out.glob("rmvdsl-*.whl"))
+
+
+def test_the_wheel_holds_every_file_git_holds(wheel: Path):
+    if not (ROOT / ".git").exists():
+        pytest.skip("not a git checkout: nothing to compare the wheel with")
+    with zipfile.ZipFile(wheel) as archive:
+        packed = {n for n in archive.namelist() if n.startswith("rmvdsl/")}
+    assert packed == _tracked()
+
+
+def test_what_is_installed_is_the_wheel(wheel: Path):
+    if not INSTALLED:
+        pytest.skip("an editable install reads the checkout: tests/installed.sh installs the wheel")
+    installed = {
+        str(p.relative_to(PACKAGE.parent)) for p in PACKAGE.rglob("*")
+        if p.is_file() and "__pycache__" not in p.parts
+    }  # fmt: skip
+    with zipfile.ZipFile(wheel) as archive:
+        assert installed == {n for n in archive.namelist() if n.startswith("rmvdsl/")}
+
+
+def test_a_child_python_imports_the_installed_package(tmp_path: Path):
+    """Processes the tests start see the same rmvdsl as the tests."""
+    where = subprocess.run(
+        [sys.executable, "-c", "import rmvdsl; print(rmvdsl.__file__)"],
+        cwd=tmp_path, capture_output=True, text=True, check=True,
+    ).stdout.strip()  # fmt: skip
+    assert Path(where).resolve() == Path(rmvdsl.__file__).resolve()
+    if INSTALLED:
+        assert ROOT not in Path(where).resolve().parents
+
+
+# Modules that may name __file__: to find the package itself, not data beside it.
+FINDS_ITSELF = {"logic/parallel.py"}
+
+
+def test_data_is_read_as_package_data():
+    """No module finds a data file by a path from __file__ (it would hold in a
+    checkout only); templates and runtime sources come through importlib.resources."""
+    naming = {
+        str(p.relative_to(PACKAGE)) for p in PACKAGE.rglob("*.py")
+        if re.search(r"\b__file__\b", p.read_text(encoding="utf-8"))
+    }  # fmt: skip
+    assert naming <= FINDS_ITSELF, naming - FINDS_ITSELF
+
+
+def _imported(source: str) -> set[str]:
+    """The top-level packages a Python file imports absolutely (importlib's dynamic
+    imports of message packages aside)."""
+    found = set()
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            found |= {alias.name.split(".")[0] for alias in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            found.add(node.module.split(".")[0])
+    return found - set(sys.stdlib_module_names) - {"__future__"}
+
+
+def _declared(package_xml: str) -> set[str]:
+    return set(re.findall(r"<(?:exec_|build_)?depend>([^<]+)</", package_xml))
+
+
+def _packages() -> dict[str, dict[str, str]]:
+    """Each ament package the targets write for the examples: folder -> files."""
+    out: dict[str, dict[str, str]] = {}
+    for spec_path in (EXAMPLES / "carla" / "abs.rmv", EXAMPLES / "gazebo" / "prius_platoon.rmv"):
+        spec = lower(check(str(spec_path)))
+        out[f"ros2 {spec_path.name}"] = ros2.files(spec)
+        texts, _ = kapacitor.files(spec, Path("build"))
+        collector = {p.removeprefix("collector/"): t for p, t in texts.items()
+                     if p.startswith("collector/")}  # fmt: skip
+        out[f"kapacitor {spec_path.name}"] = collector
+    return out
+
+
+@pytest.mark.parametrize("name", sorted(_packages()))
+def test_a_generated_package_declares_what_it_imports(name: str):
+    files = _packages()[name]
+    own = re.search(r"<name>([^<]+)</name>", files["package.xml"]).group(1)  # type: ignore[union-attr]
+    declared = _declared(files["package.xml"])
+    imported: set[str] = set()
+    for path, text in files.items():
+        if path.endswith(".py") and path != "setup.py":  # setup.py: ament_python's own build
+            imported |= _imported(text)
+    imported.discard(own)
+    assert imported - declared == set(), f"imported but not in package.xml: {imported - declared}"
+    # Message packages are imported by name when the node starts (ros_io.message_class).
+    unused = declared - imported - set(ros2.message_packages(lower(check(str(_spec_of(name))))))
+    assert unused == set(), f"declared but never imported: {unused}"
+
+
+def _spec_of(name: str) -> Path:
+    file = name.split()[1]
+    return next(EXAMPLES.rglob(file))
+
+
+def test_the_check_finds_an_undeclared_import():
+    text = "import launch_ros\nfrom rclpy.node import Node\nimport json\n"
+    assert _imported(text) == {"launch_ros", "rclpy"}
+    assert _declared("<exec_depend>rclpy</exec_depend>") == {"rclpy"}
