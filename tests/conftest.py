@@ -43,7 +43,7 @@ def pytest_configure(config: pytest.Config) -> None:
     import rmvdsl
 
     where = Path(rmvdsl.__file__).resolve()
-    if INSTALLED and ROOT in where.parents:
+    if INSTALLED and where.parent == ROOT / "rmvdsl":
         raise pytest.UsageError(
             f"RMV_TEST_INSTALLED=1 but rmvdsl is imported from the checkout ({where}): "
             "run pytest from the venv's bin folder (tests/installed.sh), not `python -m pytest`"

@@ -10,6 +10,7 @@ import re
 import subprocess
 import sys
 from fractions import Fraction
+from xml.etree import ElementTree
 
 import pytest
 from conftest import EXAMPLES, ROOT
@@ -91,8 +92,61 @@ def test_text_output_and_a_report(rmv, recordings, tmp_path):
     page = tmp_path / "timeline.html"
     assert _replay(rmv, recordings / "braking.bag", "--report", str(page)).code == 1
     text = page.read_text(encoding="utf-8")
-    assert "data:image/png;base64," in text
     assert not re.search(r"(src|href)=.https?:", text)  # nothing fetched from a network
+    assert "verdict   ABSCheck: false on [1700000009.7, 1700000019]" in text
+    drawing = ElementTree.fromstring(re.search(r"<svg.*</svg>", text, re.DOTALL).group(0))
+    svg = tmp_path / "timeline.svg"
+    assert _replay(rmv, recordings / "braking.bag", "--report", str(svg)).code == 1
+    assert ElementTree.tostring(ElementTree.parse(svg).getroot()) == ElementTree.tostring(drawing)
+    # ABSCheck's row holds its verdicts: green, then red from 9.7 s to 19 s of 29.9 s.
+    names = [e.text for e in drawing.iter(f"{SVG}text")]
+    assert {"ABSCheck", "Braking", "HardBrake", "Velocity"} <= set(names)
+    red = [e for e in drawing.iter(f"{SVG}rect") if e.get("fill") == "#c62828"]
+    assert len(red) == 1
+
+
+SVG = "{http://www.w3.org/2000/svg}"
+
+
+def test_a_png_report_without_matplotlib_stops_before_the_replay(rmv, recordings, monkeypatch,
+                                                                 tmp_path):  # fmt: skip
+    import importlib.util
+
+    real = importlib.util.find_spec
+
+    def hidden(name: str, *rest: object) -> object:
+        return None if name == "matplotlib" else real(name, *rest)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(importlib.util, "find_spec", hidden)
+    png = tmp_path / "timeline.png"
+    result = _replay(rmv, recordings / "braking.bag", "--report", str(png))
+    assert (result.code, result.out) == (2, "")
+    assert (
+        result.err == f"rmv: error: --report {png} needs matplotlib: pip install 'rmvdsl[report]'\n"
+    )
+    assert not png.exists()
+    html = _replay(rmv, recordings / "braking.bag", "--report", str(tmp_path / "t.html"))
+    assert html.code == 1  # the HTML and SVG reports need no matplotlib
+    assert _replay(rmv, recordings / "braking.bag", "--report", str(tmp_path / "t.pdf")).code == 2
+
+
+def test_the_svg_painter_quotes_any_text_and_thins_long_series():
+    from rmvdsl.report import svg
+    from rmvdsl.report.layout import Bar, Line, Timeline
+
+    hostile = "a<b>&\"c'\x00\x1b\ufffe"
+    line = Line(hostile, tuple((i / 100, float(i % 7)) for i in range(100_000)))
+    timeline = Timeline(hostile, 0.0, 1000.0, (hostile,),
+                        (Bar(0, 0.0, 10.0, "#000", 0.8, None, hostile),), (), (line,))  # fmt: skip
+    drawing = svg.render(timeline)
+    root = ElementTree.fromstring(drawing)  # well-formed XML 1.0 whatever the names hold
+    assert hostile.replace("\x00", "").replace("\x1b", "").replace("\ufffe", "") in [
+        e.text for e in root.iter(f"{SVG}text")
+    ]
+    assert len(drawing) < 200_000  # 100,000 points thinned to about four a pixel column
+    kept = svg.decimated(line.points, 900)
+    assert len(kept) <= 4 * 900
+    assert max(v for _, v in kept) == 6.0 and min(v for _, v in kept) == 0.0
 
 
 def test_damaged_and_missing_input(rmv, recordings, tmp_path):
