@@ -599,7 +599,8 @@ class Runtime:
         """Messages the transport lost (a host that sees gaps in the publishers'
         sequence numbers reports them)."""
         text = (
-            f"{topic}: {counted(count, 'message')} lost before the monitor could read them "
+            f"{topic}: {counted(count, 'message')} lost before the monitor could read "
+            f"{'it' if count == 1 else 'them'} "
             "(a deeper `depth` in the topic's qos block keeps more waiting)"
         )
         self._input_lost(time, topic, f"lost messages: {topic}", count, text)
