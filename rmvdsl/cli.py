@@ -15,19 +15,18 @@ from fractions import Fraction
 from typing import TYPE_CHECKING, Any
 
 from rmvdsl import __version__
+from rmvdsl.commands import write_text
 from rmvdsl.deep import deep
-from rmvdsl.errors import UsageError
+from rmvdsl.errors import EXIT_ERRORS, EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, UsageError
+from rmvdsl.runtime.wording import counted
 
 if TYPE_CHECKING:
-    from rmvdsl import check_results as results
-    from rmvdsl.check.properties import PropertyReport
     from rmvdsl.diagnostics import Diagnostic
     from rmvdsl.logic.evaluate import Streamed
     from rmvdsl.logic.sat import Answer
     from rmvdsl.logic.traces import TraceFile, TraceStream
     from rmvdsl.runtime import spec as ir_spec
 
-EXIT_OK, EXIT_ERRORS, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 70
 TARGETS = ("ir", "ros2", "kapacitor")
 
 
@@ -363,17 +362,14 @@ def _use_color(args: argparse.Namespace) -> bool:
 
 
 def _message_options(args: argparse.Namespace) -> None:
-    if args.ros is not None and args.ros not in _distros():
-        raise UsageError(f"unknown ROS distribution `{args.ros}`; known: {', '.join(_distros())}")
+    if args.ros is not None:
+        from rmvdsl.check.msgtypes import DISTROS  # not on the path of a stored re-check
+
+        if args.ros not in DISTROS:
+            raise UsageError(f"unknown ROS distribution `{args.ros}`; known: {', '.join(DISTROS)}")
     for folder in args.messages:
         if not os.path.isdir(folder):
             raise UsageError(f"--messages {folder}: no such folder")
-
-
-def _distros() -> tuple[str, ...]:
-    from rmvdsl.check.msgtypes import DISTROS
-
-    return tuple(DISTROS)
 
 
 def _replay(args: argparse.Namespace) -> int:
@@ -383,7 +379,6 @@ def _replay(args: argparse.Namespace) -> int:
     from rmvdsl.check import check
     from rmvdsl.ir import lower
     from rmvdsl.render import render_text
-    from rmvdsl.runtime.wording import counted
 
     _message_options(args)
     if args.report:
@@ -416,7 +411,6 @@ def _build(args: argparse.Namespace) -> int:
     from rmvdsl.check import check
     from rmvdsl.ir import dump, lower
     from rmvdsl.render import render_text
-    from rmvdsl.runtime.wording import counted
 
     _message_options(args)
     result = check(args.spec, ros=args.ros, messages=tuple(args.messages))
@@ -434,7 +428,7 @@ def _build(args: argparse.Namespace) -> int:
         return _build_kapacitor(args, spec)
     text = dump(spec) + "\n"
     if args.output:
-        _write(args.output, text)
+        write_text(args.output, text)
     else:
         sys.stdout.write(text)
     return EXIT_OK
@@ -444,7 +438,6 @@ def _build_ros2(args: argparse.Namespace, spec: ir_spec.Spec) -> int:
     from pathlib import Path
 
     from rmvdsl.codegen import ros2
-    from rmvdsl.runtime.wording import counted
 
     if not args.output:
         raise UsageError("--target ros2 needs -o OUT, the folder of the package to write")
@@ -464,7 +457,6 @@ def _build_kapacitor(args: argparse.Namespace, spec: ir_spec.Spec) -> int:
     from pathlib import Path
 
     from rmvdsl.codegen import kapacitor
-    from rmvdsl.runtime.wording import counted
 
     if not args.output:
         raise UsageError("--target kapacitor needs -o OUT, the folder to write")
@@ -494,7 +486,6 @@ def _deploy(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from rmvdsl import deploy
-    from rmvdsl.runtime.wording import counted
 
     out = Path(args.out)
     if not (out / deploy.MANIFEST).is_file():
@@ -516,76 +507,20 @@ def _deploy(args: argparse.Namespace) -> int:
 
 
 def _check(args: argparse.Namespace) -> int:
-    from rmvdsl import check_results as results
+    from rmvdsl.commands import stored
 
     _message_options(args)
     # A re-check of unchanged inputs prints what the last one printed (docs/cli.md).
     asked = [f"{k}={v!r}" for k, v in sorted(vars(args).items()) if k != "func"]
-    entry = None if args.witnesses else results.key([*asked, f"color={_use_color(args)}"])
-    stored = results.lookup(entry) if entry else None
-    if stored is None:
-        stored = _checked(args, entry)
-    sys.stdout.write(stored.stdout)
-    sys.stderr.write(stored.stderr)
-    return stored.code
+    entry = None if args.witnesses else stored.key([*asked, f"color={_use_color(args)}"])
+    output = stored.lookup(entry) if entry else None
+    if output is None:
+        from rmvdsl.commands import check  # the checker: only when there is checking to do
 
-
-# A check that reported one of these is not stored: a missing file or folder it
-# names may appear, and an undecided property may be decided with more time.
-_NOT_STORED = {"RMV001", "RMV003", "RMV306", "RMV307", "RMV516"}
-
-
-def _checked(args: argparse.Namespace, entry: str | None) -> results.Stored:
-    import io
-
-    from rmvdsl import check_results as results
-    from rmvdsl.check.msgtypes import folders_read
-    from rmvdsl.diagnostics import Severity
-    from rmvdsl.render import render_json, render_sarif, render_text, summary
-    from rmvdsl.source import SourceMap
-    from rmvdsl.workspace import Workspace
-
-    all_diagnostics: list[Diagnostic] = []
-    sources = SourceMap()
-    usage_problems: list[str] = []
-    checked: list[str] = []
-    workspace = Workspace()  # as `rmv lsp` checks, with no document open
-    for path in args.files:
-        try:
-            result = workspace.check(
-                path,
-                ros=args.ros,
-                messages=tuple(args.messages),
-                solver_timeout=args.timeout,
-                solver_jobs=args.jobs,
-            )
-        except UsageError as exc:
-            usage_problems.append(f"rmv: error: {exc}\n")
-            continue
-        checked.append(path)
-        all_diagnostics.extend(result.diagnostics)
-        if args.witnesses and result.properties is not None:
-            _write_witnesses(args.witnesses, result.properties)
-        for source in result.model.sources:
-            sources.add(source)
-    out = io.StringIO()
-    if args.format == "json":
-        out.write(render_json(all_diagnostics, sources))
-    elif args.format == "sarif":
-        out.write(render_sarif(all_diagnostics, sources))
-    else:
-        out.write(render_text(all_diagnostics, sources, _use_color(args)))
-        if checked:
-            out.write(summary(checked, all_diagnostics) + "\n")
-    failing = {Severity.ERROR, Severity.WARNING} if args.strict else {Severity.ERROR}
-    failed = any(d.severity in failing for d in all_diagnostics)
-    code = EXIT_USAGE if usage_problems else EXIT_ERRORS if failed else EXIT_OK
-    output = results.Stored(out.getvalue(), "".join(usage_problems), code)
-    if entry and not usage_problems and not {d.code for d in all_diagnostics} & _NOT_STORED:
-        configs = [os.path.join(os.path.dirname(p) or ".", "rmv.toml") for p in checked]
-        read = [s.path for s in sources if os.path.isfile(s.path)]
-        results.store(entry, output, [*read, *configs], folders_read())
-    return output
+        output = check.run(args, _use_color(args), entry)
+    sys.stdout.write(output.stdout)
+    sys.stderr.write(output.stderr)
+    return output.code
 
 
 def _explain(code: str) -> int:
@@ -628,7 +563,7 @@ def _fmt(args: argparse.Namespace) -> int:
                 print(f"would reformat {path}")
                 status = EXIT_ERRORS
             else:
-                _write(path, formatted)
+                write_text(path, formatted)
                 print(f"reformatted {path}")
     return status
 
@@ -786,27 +721,6 @@ def _seconds(text: str) -> float:
     return value
 
 
-def _write_witnesses(folder: str, report: PropertyReport) -> None:
-    try:
-        os.makedirs(folder, exist_ok=True)
-    except OSError as exc:
-        raise UsageError(f"--witnesses {folder}: {exc.strerror or exc}") from None
-    for name, facts in report.facts.items():
-        found = [
-            ("holds", "true", facts.satisfiable),
-            ("fails", "false", facts.valid),
-        ]
-        for suffix, verdict, answer in found:
-            if answer is None or answer.witness is None:
-                continue
-            if (suffix == "holds") != (answer.value == "yes"):
-                continue
-            path = os.path.join(folder, f"{name}.{suffix}.jsonl")
-            _write(path, answer.witness.jsonl())
-            at = answer.witness.as_json()["at"]
-            print(f"rmv: {path}: `{name}` is {verdict} at t = {at}", file=sys.stderr)
-
-
 def _sat(args: argparse.Namespace) -> int:
     from rmvdsl.logic import evaluate as ev
     from rmvdsl.logic.sat import NO, YES, Limits, satisfiable, valid
@@ -866,7 +780,6 @@ def _graph(args: argparse.Namespace) -> int:
     from rmvdsl.diagnostics import did_you_mean
     from rmvdsl.graph import RENDERERS
     from rmvdsl.render import render_text
-    from rmvdsl.runtime.wording import counted
 
     result = check(args.spec)
     transducers = result.model.transducers
@@ -893,18 +806,10 @@ def _graph(args: argparse.Namespace) -> int:
     render = RENDERERS[args.format]
     text = "\n".join(render(decl, facts.get(decl.name.name, TransducerFacts())) for decl in chosen)
     if args.output:
-        _write(args.output, text)
+        write_text(args.output, text)
     else:
         sys.stdout.write(text)
     return EXIT_OK
-
-
-def _write(path: str, text: str) -> None:
-    try:
-        with open(path, "w", encoding="utf-8") as handle:
-            handle.write(text)
-    except OSError as exc:
-        raise UsageError(f"{path}: cannot write: {exc.strerror}") from None
 
 
 def _import(args: argparse.Namespace) -> int:
@@ -914,7 +819,7 @@ def _import(args: argparse.Namespace) -> int:
     for note in result.notes:
         print(f"rmv import: {note}", file=sys.stderr)
     if args.output:
-        _write(args.output, result.text)
+        write_text(args.output, result.text)
         print(f"wrote {args.output}", file=sys.stderr)
     else:
         sys.stdout.write(result.text)

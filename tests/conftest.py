@@ -19,9 +19,11 @@ FIXTURES = Path(__file__).resolve().parent / "fixtures"
 # tests start), never the user's.
 os.environ["RMV_CACHE_DIR"] = tempfile.mkdtemp(prefix="rmv-cache-")
 
-# RMV_TEST_INSTALLED=1 (tests/installed.sh): the suite runs against the wheel
-# installed into a venv, and must not import the checkout's rmvdsl/ by accident.
-INSTALLED = os.environ.get("RMV_TEST_INSTALLED") == "1"
+# Run from the venv tests/install-wheel.sh made (it keeps the wheel in its wheel/
+# folder), the suite tests the installed wheel and must not import the checkout's
+# rmvdsl/ by accident.
+INSTALLED_WHEEL = next(Path(sys.prefix, "wheel").glob("rmvdsl-*.whl"), None)
+INSTALLED = INSTALLED_WHEEL is not None
 
 
 def _rmv_command() -> list[str]:
@@ -45,8 +47,8 @@ def pytest_configure(config: pytest.Config) -> None:
     where = Path(rmvdsl.__file__).resolve()
     if INSTALLED and where.parent == ROOT / "rmvdsl":
         raise pytest.UsageError(
-            f"RMV_TEST_INSTALLED=1 but rmvdsl is imported from the checkout ({where}): "
-            "run pytest from the venv's bin folder (tests/installed.sh), not `python -m pytest`"
+            f"the venv holds the installed wheel, but rmvdsl is imported from the checkout "
+            f"({where}): run the venv's `pytest`, not `python -m pytest` (README)"
         )
 
 

@@ -1,5 +1,5 @@
 """A re-check of unchanged inputs prints what the last check printed without
-parsing (rmvdsl.check_results); any change to an input the check read makes it
+parsing (rmvdsl.commands.stored); any change to an input the check read makes it
 check again. Run as new processes, as users run `rmv check`."""
 
 from __future__ import annotations

@@ -85,7 +85,8 @@ def test_readme_commands_exist():
     ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8")
     test_command = re.search(r"Run the tests \(what CI runs\):\n\n```sh\n(.*?)\n```", readme)
     assert test_command, "README states the test command in a ```sh block"
-    assert test_command.group(1) == "bash tests/installed.sh"
+    wanted = "bash tests/install-wheel.sh && . .venv-installed/bin/activate && pytest"
+    assert test_command.group(1) == wanted
     assert ci.rstrip().endswith(test_command.group(1)), "CI runs README's test command, last"
 
 

@@ -6,16 +6,14 @@ package it imports."""
 from __future__ import annotations
 
 import ast
-import os
 import re
-import shutil
 import subprocess
 import sys
 import zipfile
 from pathlib import Path
 
 import pytest
-from conftest import EXAMPLES, INSTALLED, ROOT
+from conftest import EXAMPLES, INSTALLED, INSTALLED_WHEEL, ROOT
 
 import rmvdsl
 from rmvdsl.check import check
@@ -36,45 +34,43 @@ def _tracked() -> set[str]:
 
 @pytest.fixture(scope="module")
 def wheel(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The wheel tests/installed.sh installed, or one built now from the checkout."""
-    if os.environ.get("RMV_WHEEL"):
-        return Path(os.environ["RMV_WHEEL"])
-    if not (ROOT / ".git").exists():
-        pytest.skip("not a git checkout: tests/installed.sh gives the wheel")
-    source, out = tmp_path_factory.mktemp("source"), tmp_path_factory.mktemp("wheel")
-    listed = subprocess.run(
-        ["git", "ls-files", "--cached", "--others", "--exclude-standard"],
-        cwd=ROOT, capture_output=True, text=True, check=True,
-    ).stdout.split("\n")  # fmt: skip
-    for relative in filter(None, listed):
-        if (ROOT / relative).is_file():
-            (source / relative).parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(ROOT / relative, source / relative)
-    subprocess.run(
-        [sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "--wheel-dir", str(out),
-         str(source)],
-        check=True, capture_output=True, timeout=600,
-    )  # fmt: skip
+    """The wheel the suite's venv was installed from, or one built now from the
+    checkout by the same script."""
+    if INSTALLED_WHEEL is not None:
+        return INSTALLED_WHEEL
+    out = tmp_path_factory.mktemp("wheel")
+    subprocess.run(["bash", str(ROOT / "tests" / "install-wheel.sh"), "--wheel-only", str(out)],
+                   check=True, capture_output=True, timeout=600)  # fmt: skip
     return next(out.glob("rmvdsl-*.whl"))
 
 
+def _files(folder: Path) -> set[str]:
+    """The files of the rmvdsl package installed in `folder` (bytecode aside)."""
+    return {
+        p.relative_to(folder).as_posix() for p in (folder / "rmvdsl").rglob("*")
+        if p.is_file() and "__pycache__" not in p.parts
+    }  # fmt: skip
+
+
 def test_the_wheel_holds_every_file_git_holds(wheel: Path):
-    if not (ROOT / ".git").exists():
-        pytest.skip("not a git checkout: nothing to compare the wheel with")
+    assert (ROOT / ".git").exists(), "the tests run in a git checkout: git lists its files"
     with zipfile.ZipFile(wheel) as archive:
         packed = {n for n in archive.namelist() if n.startswith("rmvdsl/")}
     assert packed == _tracked()
 
 
-def test_what_is_installed_is_the_wheel(wheel: Path):
-    if not INSTALLED:
-        pytest.skip("an editable install reads the checkout: tests/installed.sh installs the wheel")
-    installed = {
-        str(p.relative_to(PACKAGE.parent)) for p in PACKAGE.rglob("*")
-        if p.is_file() and "__pycache__" not in p.parts
-    }  # fmt: skip
+def test_what_is_installed_is_the_wheel(wheel: Path, tmp_path: Path):
+    """pip installs every file of the wheel: into the suite's venv (run installed),
+    or here into a folder of its own (run from an editable install)."""
+    if INSTALLED:
+        folder = PACKAGE.parent
+    else:
+        subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "--no-deps",
+                        "--target", str(tmp_path), str(wheel)],
+                       check=True, capture_output=True, timeout=300)  # fmt: skip
+        folder = tmp_path
     with zipfile.ZipFile(wheel) as archive:
-        assert installed == {n for n in archive.namelist() if n.startswith("rmvdsl/")}
+        assert _files(folder) == {n for n in archive.namelist() if n.startswith("rmvdsl/")}
 
 
 def test_a_child_python_imports_the_installed_package(tmp_path: Path):

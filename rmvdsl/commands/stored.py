@@ -1,4 +1,4 @@
-"""A whole `rmv check`'s output, remembered between processes: a re-check of specs
+"""A whole `rmv check`'s output, stored between processes: a re-check of specs
 whose every input is unchanged prints the stored output without parsing anything.
 
 An entry is keyed by what the command was asked (the files named, the options,
@@ -28,6 +28,16 @@ from rmvdsl.cache import cache_folder
 FORMAT = 1
 # Environment variables that change which message definitions a check finds.
 ENVIRONMENT = ("AMENT_PREFIX_PATH", "ROS_PACKAGE_PATH", "CMAKE_PREFIX_PATH", "ROS_DISTRO")
+
+
+# A check that reported one of these is not stored: a missing file or folder it
+# names may appear, and an undecided property may be decided with more time.
+NOT_STORED = frozenset({"RMV001", "RMV003", "RMV306", "RMV307", "RMV516"})
+
+
+def storable(codes: Iterable[str]) -> bool:
+    """May a check that reported these codes answer a later run?"""
+    return NOT_STORED.isdisjoint(codes)
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,86 @@
+"""`rmv check`: check each spec, render every diagnostic, and store the output
+with the inputs it read (rmvdsl.commands.stored answers the next unchanged run)."""
+
+from __future__ import annotations
+
+import argparse
+import io
+import os
+import sys
+
+from rmvdsl.check.msgtypes import folders_read
+from rmvdsl.check.properties import PropertyReport
+from rmvdsl.commands import stored, write_text
+from rmvdsl.diagnostics import Diagnostic, Severity
+from rmvdsl.errors import EXIT_ERRORS, EXIT_OK, EXIT_USAGE, UsageError
+from rmvdsl.render import render_json, render_sarif, render_text, summary
+from rmvdsl.source import SourceMap
+from rmvdsl.workspace import Workspace
+
+
+def run(args: argparse.Namespace, color: bool, entry: str | None) -> stored.Stored:
+    """Check `args.files` as `rmv check` was asked; the output, stored under
+    `entry` when it may answer a later run."""
+    all_diagnostics: list[Diagnostic] = []
+    sources = SourceMap()
+    usage_problems: list[str] = []
+    checked: list[str] = []
+    workspace = Workspace()  # as `rmv lsp` checks, with no document open
+    for path in args.files:
+        try:
+            result = workspace.check(
+                path,
+                ros=args.ros,
+                messages=tuple(args.messages),
+                solver_timeout=args.timeout,
+                solver_jobs=args.jobs,
+            )
+        except UsageError as exc:
+            usage_problems.append(f"rmv: error: {exc}\n")
+            continue
+        checked.append(path)
+        all_diagnostics.extend(result.diagnostics)
+        if args.witnesses and result.properties is not None:
+            write_witnesses(args.witnesses, result.properties)
+        for source in result.model.sources:
+            sources.add(source)
+    out = io.StringIO()
+    if args.format == "json":
+        out.write(render_json(all_diagnostics, sources))
+    elif args.format == "sarif":
+        out.write(render_sarif(all_diagnostics, sources))
+    else:
+        out.write(render_text(all_diagnostics, sources, color))
+        if checked:
+            out.write(summary(checked, all_diagnostics) + "\n")
+    failing = {Severity.ERROR, Severity.WARNING} if args.strict else {Severity.ERROR}
+    failed = any(d.severity in failing for d in all_diagnostics)
+    code = EXIT_USAGE if usage_problems else EXIT_ERRORS if failed else EXIT_OK
+    output = stored.Stored(out.getvalue(), "".join(usage_problems), code)
+    if entry and not usage_problems and stored.storable(d.code for d in all_diagnostics):
+        configs = [os.path.join(os.path.dirname(p) or ".", "rmv.toml") for p in checked]
+        read = [s.path for s in sources if os.path.isfile(s.path)]
+        stored.store(entry, output, [*read, *configs], folders_read())
+    return output
+
+
+def write_witnesses(folder: str, report: PropertyReport) -> None:
+    """For each property, a trace where it holds and one where it fails (JSONL)."""
+    try:
+        os.makedirs(folder, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"--witnesses {folder}: {exc.strerror or exc}") from None
+    for name, facts in report.facts.items():
+        found = [
+            ("holds", "true", facts.satisfiable),
+            ("fails", "false", facts.valid),
+        ]
+        for suffix, verdict, answer in found:
+            if answer is None or answer.witness is None:
+                continue
+            if (suffix == "holds") != (answer.value == "yes"):
+                continue
+            path = os.path.join(folder, f"{name}.{suffix}.jsonl")
+            write_text(path, answer.witness.jsonl())
+            at = answer.witness.as_json()["at"]
+            print(f"rmv: {path}: `{name}` is {verdict} at t = {at}", file=sys.stderr)
