@@ -209,3 +209,31 @@ def test_batches_of_any_size_give_the_same_verdicts(formula, random):
         patch.setattr(rmtld3, "BATCH", 1)
         patch.setattr(rmtld3, "SPARSE_HORIZONS", 1)
         assert run() == batched
+
+
+def test_a_late_sample_is_revised_from_the_history_kept():
+    """Found by the test above: a sample late by two seconds under a two-second
+    horizon re-evaluated nodes whose history was already dropped, and the pointwise
+    evaluation then read unknown where the sweep read the kept signal."""
+    from rmvdsl.runtime import rmtld3
+
+    one = Fraction(1)
+    formula = ("not", ("until", "<", one, ("const", True),
+                       ("not", ("until", "<", one, ("const", True), ("prop", "a")))))  # fmt: skip
+    order = [0, 1, 2, 5, 4, 6, 3]
+
+    def run() -> list:
+        monitor = Monitor(formula, lateness=Fraction(0))
+        for t in order:
+            monitor.step(Fraction(t), frozenset())
+        monitor.end(Fraction(7))
+        return [*merge(monitor.verdicts()), *monitor.beyond()]
+
+    swept = run()
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(rmtld3.Temporal, "update", rmtld3.Evaluated.update)
+        pointwise = run()
+    assert swept == pointwise
+    # `a` is unknown from 3 on: the verdict is unknown from just after 2 (its horizon).
+    revised = [s for s in swept if s[4] == "unknown (revised: late input)"]
+    assert (Fraction(2), Fraction(4), False, True) in [s[:4] for s in revised]

@@ -797,7 +797,9 @@ class Monitor:
         self.written, self.written_state = self.known, self.state
         self.changes.clear()
         self._update_nodes(begin)
-        keep = self.known - self.horizon - 1
+        # History for the verdicts still to come (a horizon back) and for revising
+        # them after a sample late by up to one more horizon (`_late_sample`).
+        keep = self.known - 2 * self.horizon - 1
         for node in self.order:
             node.signal.drop_before(min(keep, self.emitted) if node is self.root else keep)
 
@@ -810,8 +812,9 @@ class Monitor:
     def _late_sample(self, t: Any) -> None:
         self._flush()
         self.late.append(t)
-        oldest = min((p.signal.starts[0] for p in self.props.values()), default=self.start)
-        if t < oldest:
+        # Re-evaluating from t reads every node's signal from a horizon before t.
+        oldest = max((n.signal.starts[0] for n in self.order), default=self.start)
+        if max(t - self.horizon, self.start) < oldest:
             return  # older than the history kept: counted, not re-evaluated
         for prop in self.props.values():
             signal = prop.signal
