@@ -256,8 +256,10 @@ Array aggregates are `min`, `max`, `sum`, `mean`, `count`, `any`, `all`.""",
     (
         "RMV219",
         "time bound not positive",
-        """A time bound, duration window, group-by interval or rate is zero or negative.
-Bounds of temporal operators must be positive: `until[<0s]` can never hold.""",
+        """A time bound, duration window, group-by interval or rate is zero or negative,
+or shorter than a nanosecond. Bounds of temporal operators must be positive:
+`until[<0s]` can never hold. Times are whole nanoseconds, as InfluxDB's: a window
+of `0.5ns` would be 0 ns long, and no run could execute it.""",
     ),
     (
         "RMV220",

@@ -53,12 +53,6 @@ def exact(text: str) -> Fraction:
     return -value if sign == "-" else value
 
 
-def in_range(value: Fraction) -> bool:
-    """True for a value `exact` could have read (results of arithmetic may leave it)."""
-    magnitude = abs(value)
-    return magnitude == 0 or Fraction(1, 10**MAX_MAGNITUDE) <= magnitude < 10**MAX_MAGNITUDE
-
-
 def _short(text: str) -> str:
     text = text.strip()
     return text if len(text) <= 24 else f"{text[:10]}…{text[-10:]}"

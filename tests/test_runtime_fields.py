@@ -8,6 +8,8 @@ from fractions import Fraction
 
 import pytest
 from conftest import EXAMPLES, ROOT
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from rmvdsl.check import check
 from rmvdsl.ir import lower
@@ -124,3 +126,63 @@ def test_array_aggregates(name, values, expected):
         if expected is not MISSING
         else (aggregate(name, values) is MISSING)
     )
+
+
+NAN, INF = float("nan"), float("inf")
+
+
+@pytest.mark.parametrize(
+    ("name", "values", "expected"),
+    [
+        ("min", [NAN, 0.1, 5.0], 0.1),  # a driver's missed return first ...
+        ("min", [5.0, 0.1, NAN], 0.1),  # ... or last: the same minimum
+        ("max", [NAN, NAN], MISSING),  # no reading at all
+        ("mean", [NAN, 1.0, 2.0], 1.5),
+        ("sum", [NAN, 1.0], 1.0),
+        ("sum", [INF, -INF], NAN),
+        ("count", [NAN, 1.0], 2),  # the elements, as written
+        ("sum", [2**63 - 1, 1], -(2**63)),  # int64, as the runtime holds integers
+        ("mean", [2**63 - 1, 2**63 - 1], float(2**63 - 1)),  # exact, no wrap
+    ],
+)
+def test_nan_is_no_reading(name, values, expected):
+    found = aggregate(name, values)
+    if expected is MISSING:
+        assert found is MISSING
+    elif expected != expected:
+        assert found != found
+    else:
+        assert found == expected and type(found) is type(expected)
+
+
+@settings(max_examples=500, deadline=None)
+@given(
+    st.sampled_from(["min", "max", "sum", "mean", "count", "any", "all"]),
+    st.lists(st.one_of(st.floats(), st.sampled_from([0.0, -0.0, NAN, INF, -INF])), max_size=8),
+    st.randoms(use_true_random=False),
+)
+def test_no_array_aggregate_depends_on_element_order(name, values, random):
+    shuffled = list(values)
+    random.shuffle(shuffled)
+    assert repr(aggregate(name, values)) == repr(aggregate(name, shuffled))
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.integers(-(2**64), 2**64), max_size=6), st.randoms(use_true_random=False))
+def test_integer_aggregates_do_not_depend_on_element_order(values, random):
+    shuffled = list(values)
+    random.shuffle(shuffled)
+    for name in ("min", "max", "sum", "mean"):
+        assert repr(aggregate(name, values)) == repr(aggregate(name, shuffled))
+
+
+def test_a_uint64_above_int64_wraps_as_the_docs_say():
+    """InfluxDB's integers are int64: the runtime holds 2^64 - 1 as -1, as the
+    solver's 64-bit bit-vectors do (`not (U = 18446744073709551615)` never fails)."""
+    variable = ir.Variable(
+        "U", "/u", (ir.FieldStep("data", "data", "uint64"),), None,
+        ir.ValueType("int", "uint64"), "", "",
+    )  # fmt: skip
+    assert read(variable, {"data": 2**64 - 1}) == -1
+    assert read(variable, {"data": 2**63}) == -(2**63)
+    assert read(variable, {"data": 7}) == 7

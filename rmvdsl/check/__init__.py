@@ -10,6 +10,7 @@ later analysis and target reads.
 
 from __future__ import annotations
 
+import bisect
 import contextlib
 import gc
 import os
@@ -21,7 +22,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, cast
 
 from rmvdsl.check.loader import Reader, UsageError, load, read_text
-from rmvdsl.check.model import Model
+from rmvdsl.check.model import Kind, Model
 from rmvdsl.check.msgtypes import DISTROS
 from rmvdsl.check.names import check_names
 from rmvdsl.check.types import TypeConfig, TypeInfo, check_types
@@ -160,8 +161,9 @@ def _check(
     # networkx and z3 load only when a check runs, not for `rmv --version` or `fmt`.
     from rmvdsl.check.analysis import analyze
 
+    found = [*loaded.diagnostics, *config_diagnostics, *name_diagnostics, *type_diagnostics]
     with SOLVER_LOCK:
-        analysis, analysis_diagnostics = analyze(model, types)
+        analysis, analysis_diagnostics = analyze(model, types, broken_declarations(model, found))
     earlier = _quieted(
         model,
         [*loaded.diagnostics, *config_diagnostics],
@@ -188,16 +190,52 @@ def _quieted(
 
 
 def broken_declarations(model: Model, diagnostics: list[Diagnostic]) -> set[str]:
-    """Properties and transducers with an error inside (or a syntax error)."""
+    """The declarations with an error inside (or a syntax error), and every one that
+    reads one of them, directly or through others: no analysis claims anything
+    about them (a name that does not resolve is not a free value to solve for)."""
     errors = [d.span for d in diagnostics if d.severity is Severity.ERROR]
-    out = set()
-    for name, decl in [*model.properties.items(), *model.transducers.items()]:
-        span = decl.span
-        if model.in_damaged(span) or any(
-            e.path == span.path and span.start <= e.start < span.end for e in errors
-        ):
-            out.add(name)
-    return out
+    declared = _declaration_spans(model)
+    broken = {
+        name
+        for name, span in declared.items()
+        if model.in_damaged(span)
+        or any(e.path == span.path and span.start <= e.start < span.end for e in errors)
+    }
+    reads = _reads(model, declared)
+    while True:
+        more = {name for name, names in reads.items() if name not in broken and names & broken}
+        if not more:
+            return broken
+        broken |= more
+
+
+def _declaration_spans(model: Model) -> dict[str, Span]:
+    groups = (model.variables, model.events, model.transducers, model.properties, model.alerts)
+    return {name: decl.span for group in groups for name, decl in group.items()}
+
+
+def _reads(model: Model, declared: dict[str, Span]) -> dict[str, set[str]]:
+    """The declarations each declaration reads (a state or an emitted event stands
+    for its transducer)."""
+    starts: dict[str, list[tuple[int, int, str]]] = {}
+    for name, span in declared.items():
+        starts.setdefault(span.path, []).append((span.start, span.end, name))
+    for spans in starts.values():
+        spans.sort()
+    reads: dict[str, set[str]] = {}
+    for reference in model.references:
+        spans = starts.get(reference.span.path, [])
+        index = bisect.bisect_right(spans, (reference.span.start, _END, "")) - 1
+        if index < 0 or reference.span.start >= spans[index][1]:
+            continue
+        symbol = reference.symbol
+        target = symbol.owner if symbol.kind in (Kind.STATE, Kind.EMITTED_EVENT) else symbol.name
+        if target is not None and target != spans[index][2]:
+            reads.setdefault(spans[index][2], set()).add(target)
+    return reads
+
+
+_END = 1 << 62
 
 
 @dataclass(frozen=True)

@@ -51,9 +51,12 @@ def _unreachable(decl: ast.TransducerDecl, graph: nx.MultiDiGraph, untaken: set[
 
 
 class Analyzer:
-    def __init__(self, model: Model, types: TypeInfo | None) -> None:
+    def __init__(
+        self, model: Model, types: TypeInfo | None, broken: frozenset[str] = frozenset()
+    ) -> None:
         self.model = model
         self.types = types
+        self.broken = broken  # declarations with errors: nothing is claimed about them
         self.diagnostics: list[Diagnostic] = []
         self.result = AnalysisResult()
         self.conditions = Conditions(model, types)
@@ -70,6 +73,8 @@ class Analyzer:
         untaken = self.untaken_transitions(graphs)
         silent = self.never_emitted()  # once: it reads every transducer
         for name, decl in self.model.transducers.items():
+            if name in self.broken:
+                continue
             facts = self.result.transducers[name]
             self.reachability(decl, graphs[name], facts, untaken)
             self.determinism(decl, facts, silent)
@@ -242,7 +247,12 @@ class Analyzer:
                 if inputs
                 else z3.BoolVal(True)
             )
-            answer, found = self.conditions.solve([none])
+            # Once a topic has published its values stay: only the initial state
+            # can meet a value that is not there yet.
+            answer, found = self.conditions.solve([none, self.conditions.present([none])])
+            initial = decl.initial is not None and decl.initial.name == state.name
+            if answer != "sat" and initial:
+                answer, found = self.conditions.solve([none])
             if answer != "sat":
                 continue
             values = (found or "any values") if inputs else "any values"
@@ -270,7 +280,9 @@ class Analyzer:
     def unproduced_inputs(self) -> None:
         silent = self.never_emitted()
         reachable_emitters = {name: name not in silent for name in self.model.emitted}
-        for decl in self.model.transducers.values():
+        for owner, decl in self.model.transducers.items():
+            if owner in self.broken:
+                continue
             for transition in decl.transitions:
                 name = transition.input.name
                 reason = self.never_holds(name, reachable_emitters)
@@ -356,5 +368,8 @@ class Analyzer:
             )
 
 
-def analyze(model: Model, types: TypeInfo | None) -> tuple[AnalysisResult, list[Diagnostic]]:
-    return Analyzer(model, types).run()
+def analyze(
+    model: Model, types: TypeInfo | None, broken: set[str] | frozenset[str] = frozenset()
+) -> tuple[AnalysisResult, list[Diagnostic]]:
+    """The transducer analyses, on the declarations not in `broken`."""
+    return Analyzer(model, types, frozenset(broken)).run()

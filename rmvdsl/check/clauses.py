@@ -4,6 +4,7 @@ group by, fill, order, limit, resample, range), and events defined in a cycle.""
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
+from fractions import Fraction
 
 from rmvdsl import builtins
 from rmvdsl.check.model import EVENT_KINDS, Kind, Model, Symbol
@@ -17,6 +18,9 @@ FILL_NAMES = builtins.FILLS
 
 
 _AGGREGATING = ("aggregation", "selector")
+
+
+NANOSECOND = Fraction(1, 10**9)
 
 
 def _group(call: ast.Call) -> str | None:
@@ -213,6 +217,16 @@ class EventChecks:
         elif time.value < 0 or (time.value == 0 and not allow_zero):
             self.report(
                 error("RMV219", f"the {what} must be positive", time.span, label=f"`{time.text}`")
+            )
+        elif 0 < (time.seconds() or 0) < NANOSECOND:
+            self.report(
+                error(
+                    "RMV219",
+                    f"the {what} must be at least 1ns",
+                    time.span,
+                    label=f"`{time.text}` is 0 whole nanoseconds",
+                    help="times are whole nanoseconds, as InfluxDB's: write `1ns` or more",
+                )
             )
 
     def check_expression(self, expr: ast.Node, allowed: frozenset[Kind]) -> list[ast.Node]:

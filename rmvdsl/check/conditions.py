@@ -18,6 +18,7 @@ from __future__ import annotations
 import struct
 import threading
 from collections.abc import Iterable
+from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
@@ -36,6 +37,54 @@ ROUNDING = z3.RNE()  # IEEE's default, and Go's
 _ORDERS = ("<", "<=", ">", ">=")
 
 
+ALWAYS = z3.BoolVal(True)
+
+
+@dataclass(frozen=True)
+class Term:
+    """A value as the runtime holds it: `value` where `present`, else absent (the
+    runtime's MISSING: a topic not yet published). A boolean term is three-valued:
+    true where `present and value`, false where `present and not value`, unknown
+    elsewhere (docs/semantics.md, "Absent values")."""
+
+    value: Any
+    present: Any = ALWAYS
+
+    @property
+    def true(self) -> Any:
+        """Where the term is `True`: where a condition holds."""
+        if z3.is_true(self.present):
+            return as_bool(self.value)
+        return z3.And(self.present, as_bool(self.value))
+
+    @property
+    def false(self) -> Any:
+        if z3.is_true(self.present):
+            return z3.Not(as_bool(self.value))
+        return z3.And(self.present, z3.Not(as_bool(self.value)))
+
+
+def _both(left: Term, right: Term) -> Any:
+    if z3.is_true(left.present):
+        return right.present
+    if z3.is_true(right.present):
+        return left.present
+    return z3.And(left.present, right.present)
+
+
+def kleene(op: str, left: Term, right: Term) -> Term:
+    """`and`/`or` over three values, as rmvdsl.runtime.influx.kleene_and/or: false
+    (true) decides an `and` (an `or`) whatever the other side is."""
+    if op == "and":
+        holds, fails = z3.And(left.true, right.true), z3.Or(left.false, right.false)
+    else:
+        holds, fails = z3.Or(left.true, right.true), z3.And(left.false, right.false)
+    present = _both(left, right)
+    if z3.is_true(present):
+        return Term(holds)
+    return Term(holds, z3.Or(holds, fails))
+
+
 class Conditions:
     """The z3 formula of each boolean event; `symbols` names the free values."""
 
@@ -47,20 +96,21 @@ class Conditions:
         self._inlining: set[str] = set()
 
     def of_event(self, name: str) -> Any:
-        """The condition under which the input `name` holds."""
+        """Where the boolean event `name` holds: where its condition (and `where`)
+        is true. An unknown condition does not hold, as in the runtime."""
         decl = self.model.events.get(name)
         if decl is None or not decl.boolean or name in self._inlining:
-            return self.free(f"event {name}", "bool")
+            return self.free(f"event {name}", "bool").true
         self._inlining.add(name)
         try:
-            condition = as_bool(self.expr(decl.expr))
+            condition = self.expr(decl.expr).true
             where = decl.clause("where")
             if where is not None:
-                condition = z3.And(condition, as_bool(self.expr(where.value)))
+                condition = z3.And(condition, self.expr(where.value).true)
             return condition
         except (z3.Z3Exception, TypeError, AttributeError):
             # Sorts that do not fit (the types stage reports why): no claim at all.
-            return self.free(f"event {name}", "bool")
+            return self.free(f"event {name}", "bool").true
         finally:
             self._inlining.discard(name)
 
@@ -73,47 +123,59 @@ class Conditions:
         symbols = {name: self.symbols[name] for name in sorted(used) if name in self.symbols}
         return solve(constraints, domains, symbols, values)
 
+    def present(self, constraints: list[Any]) -> Any:
+        """Every value these constraints read has a value (each topic has published):
+        true after the start, whatever state a transducer is in."""
+        flags = [self.symbols[n] for n in sorted(_names_in(constraints)) if n.startswith(PRESENT)]
+        return z3.And(*flags) if flags else z3.BoolVal(True)
+
     def names_of_event(self, name: str) -> set[str]:
         """The variables and values an event's condition reads (two conditions that
         share none are independent)."""
-        return _names_in([self.of_event(name)])
+        return {_value_name(n) for n in _names_in([self.of_event(name)])}
 
-    def free(self, key: str, kind: str) -> Any:
-        """A value of its own, one per key (the same text means the same value)."""
+    def free(self, key: str, kind: str, may_be_absent: bool = True) -> Term:
+        """A value of its own, one per key (the same text means the same value),
+        absent where its own presence flag is false."""
         if key not in self.symbols:
             self.symbols[key] = _constant(key, kind)
-        return self.symbols[key]
+        if not may_be_absent:
+            return Term(self.symbols[key])
+        flag = PRESENT + key
+        if flag not in self.symbols:
+            self.symbols[flag] = z3.Bool(flag)
+        return Term(self.symbols[key], self.symbols[flag])
 
-    def variable(self, name: str) -> Any:
-        if name in self.symbols:
-            return self.symbols[name]
-        vtype = self.types.variables.get(name) if self.types else None
-        kind = vtype.kind if vtype is not None else "float"
-        symbol = _constant(name, kind)
-        self.symbols[name] = symbol
-        if vtype is not None and vtype.ros in INTEGER_RANGES:
-            least, most = INTEGER_RANGES[vtype.ros]
-            self.domains[name] = [symbol >= least, symbol <= most]
-        return symbol
+    def variable(self, name: str) -> Term:
+        if name not in self.symbols:
+            vtype = self.types.variables.get(name) if self.types else None
+            kind = vtype.kind if vtype is not None else "float"
+            symbol = self.symbols[name] = _constant(name, kind)
+            if vtype is not None and vtype.ros in INTEGER_RANGES:
+                least, most = INTEGER_RANGES[vtype.ros]
+                self.domains[name] = [symbol >= least, symbol <= most]
+        return self.free(name, "")
 
-    def expr(self, node: ast.Node) -> Any:
+    def expr(self, node: ast.Node) -> Term:
         match node:
             case ast.NumberLit():
                 kind = "int" if isinstance(literal(node.text), int) else "float"
-                return number(node.value, kind)
+                return Term(number(node.value, kind))
             case ast.BoolLit():
-                return z3.BoolVal(node.value)
+                return Term(z3.BoolVal(node.value))
             case ast.StringLit():
-                return z3.StringVal(node.value)
+                return Term(z3.StringVal(node.value))
             case ast.TimeLit():
-                return number(node.time.seconds() or Fraction(0), "float")
+                return Term(number(node.time.seconds() or Fraction(0), "float"))
             case ast.RateLit():
-                return number(node.hertz, "float")
+                return Term(number(node.hertz, "float"))
             case ast.NameRef():
                 return self.name(node.ident.name)
             case ast.UnaryOp():
                 operand = self.expr(node.operand)
-                return z3.Not(as_bool(operand)) if node.op == "not" else negate(operand)
+                if node.op == "not":
+                    return Term(z3.Not(as_bool(operand.value)), operand.present)
+                return Term(negate(operand.value), operand.present)
             case ast.BinOp():
                 return self.binary(node)
         return self.free(expression(node), self._kind_of(node))
@@ -124,31 +186,40 @@ class Conditions:
             return "int"
         return "float"
 
-    def name(self, name: str) -> Any:
+    def name(self, name: str) -> Term:
         symbol = self.model.symbols.get(name)
         if symbol is None:
             return self.free(name, "float")
         if symbol.kind is Kind.VARIABLE:
             return self.variable(name)
         if symbol.kind is Kind.BOOL_EVENT:
-            return self.of_event(name)
+            # An event holds or does not: never unknown (its unknown condition
+            # does not hold), so `not E` holds where E's condition is unknown.
+            return Term(self.of_event(name))
         if symbol.kind is Kind.EMITTED_EVENT:
-            return self.free(f"event {name}", "bool")
+            return self.free(f"event {name}", "bool", may_be_absent=False)
         vtype = self.types.events.get(name) if self.types else None
-        return self.free(name, _sort_kind(vtype))  # a value event: its value
+        return self.free(name, _sort_kind(vtype))  # a value event: its newest value
 
-    def binary(self, node: ast.BinOp) -> Any:
+    def binary(self, node: ast.BinOp) -> Term:
         left, right = self.expr(node.left), self.expr(node.right)
         op = node.op
         if op in ("and", "or"):
-            return (z3.And if op == "and" else z3.Or)(as_bool(left), as_bool(right))
+            return kleene(op, left, right)
         if op in ("=~", "!~"):
             return self.free(expression(node), "bool")
         try:
-            return apply(op, left, right)
+            return Term(apply(op, left.value, right.value), _both(left, right))
         except (z3.Z3Exception, TypeError, KeyError):
             kind = "bool" if op in ("=", "!=", *_ORDERS) else "float"
             return self.free(expression(node), kind)
+
+
+PRESENT = "present "  # the prefix of a value's presence flag
+
+
+def _value_name(name: str) -> str:
+    return name.removeprefix(PRESENT)
 
 
 def _sort_kind(vtype: VType | None) -> str:
@@ -331,7 +402,7 @@ def solve(
     constraints = list(constraints)
     declared = sorted(f"{name}: {symbol.sort()}" for name, symbol in symbols.items())
     terms = [c.sexpr() for c in [*domains, *constraints]]
-    key = digest("conditions", "3", z3.get_version_string(), declared, terms)
+    key = digest("conditions", "5", z3.get_version_string(), declared, terms)
     cache = default_cache()
     cached = cache.get(key)
     if cached is not None and isinstance(cached.get("answer"), str):
@@ -390,6 +461,8 @@ def round_values(solver: Any, symbols: dict[str, Any]) -> Any:
             continue
         for text in ["0", "1", *constants][:8]:
             candidate = number(Fraction(text), "int" if z3.is_bv(symbol) else "float")
+            if not candidate.sort().eq(symbol.sort()):
+                continue  # a float constant is no round value of an integer
             solver.push()
             solver.add(symbol == candidate)
             if solver.check() == z3.sat:
@@ -418,12 +491,20 @@ def _constants(terms: Iterable[Any]) -> set[Fraction]:
 
 
 def witness(model: Any, symbols: dict[str, Any]) -> str:
-    """`BrakePedal = 0.9, Velocity = 6` from a z3 model."""
+    """`BrakePedal = 0.9, Velocity = 6` from a z3 model (`Velocity has no value`
+    where the model needs it absent)."""
     parts = []
     for name, symbol in sorted(symbols.items()):
-        if name.startswith("event "):
+        if name.startswith(("event ", PRESENT)):
             continue
-        value = model.eval(symbol, model_completion=False)
+        flag = symbols.get(PRESENT + name)
+        presence = None if flag is None else model.eval(flag, model_completion=False)
+        if presence is not None and z3.is_false(presence):
+            parts.append(f"{name} has no value")
+            continue
+        # A value that must be there, whatever it is, is named with one that works.
+        needed = presence is not None and z3.is_true(presence)
+        value = model.eval(symbol, model_completion=needed)
         if value.eq(symbol):
             continue
         parts.append(f"{name} = {value_text(value)}")

@@ -8,7 +8,6 @@ Whitelist patterns may use `*` for any run of characters.
 
 from __future__ import annotations
 
-import fnmatch
 import re
 
 _TOKEN = r"[A-Za-z_][A-Za-z0-9_]*"
@@ -64,7 +63,3 @@ def message_type_problem(parts: list[str]) -> str | None:
     if not _TYPE.match(type_name):
         return f"the type name `{type_name}` must be a letter then letters, digits or `_`"
     return None
-
-
-def pattern_matches(pattern: str, name: str) -> bool:
-    return fnmatch.fnmatchcase(name, pattern)

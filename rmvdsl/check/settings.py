@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
+from fractions import Fraction
 
 from rmvdsl import builtins
 from rmvdsl.diagnostics import Diagnostic, Label, did_you_mean, error
@@ -62,9 +63,15 @@ def _integer(low: int, high: int | None = None) -> Validator:
     return check
 
 
+_NANOSECOND = Fraction(1, 10**9)  # times are whole nanoseconds, as InfluxDB's
+
+
 def _time(value: ast.Value) -> str | None:
     if isinstance(value, ast.TimeLit):
-        return None if value.time.value > 0 else "expected a positive time"
+        if value.time.value <= 0:
+            return "expected a positive time"
+        seconds = value.time.seconds()
+        return None if seconds is None or seconds >= _NANOSECOND else "expected at least 1ns"
     return "expected a time with a unit, such as `10s` or `100ms`"
 
 
@@ -76,7 +83,9 @@ def _time_or_infinite(value: ast.Value) -> str | None:
 
 def _rate(value: ast.Value) -> str | None:
     if isinstance(value, ast.RateLit):
-        return None if value.hertz > 0 else "expected a positive rate"
+        if value.hertz <= 0:
+            return "expected a positive rate"
+        return None if value.hertz <= 1 / _NANOSECOND else "expected at most 1e9Hz (1ns apart)"
     return "expected a rate in Hz, such as `10Hz`"
 
 

@@ -40,6 +40,7 @@ _SEVERITY = {"info": 1, "warn": 2, "crit": 3}
 _LOG_LEVEL = {"OK": "info", "INFO": "info", "WARNING": "warn", "CRITICAL": "error"}
 
 Item = tuple[int, int, str, Any, str]  # time, sequence, name, value, source
+START = ""  # the name of the item that makes a condition evaluate at the first instant
 Record = dict[str, Any]
 
 
@@ -219,10 +220,14 @@ class Condition(Node):
 
     def process(self, bound: int, emit: Callable[[int, str, Any, str], None]) -> None:
         for time, items in _instants(self.take(bound)):
-            pulses = []
+            pulses, raised = [], set()
             for _, _, name, value, _ in items:
-                if self.current.get(name) is True and value is False:
-                    pulses.append(name)  # held and released at one instant
+                if name is START:
+                    continue
+                if value is True:
+                    raised.add(name)
+                elif value is False and name in raised:
+                    pulses.append(name)  # raised and released at this instant: a pulse
                 self.current[name] = value
             for name in pulses:
                 self.current[name] = True
@@ -266,6 +271,7 @@ class Transducer(Node):
         self, time: int, pulsed: set[str], emit: Callable[[int, str, Any, str], None]
     ) -> None:
         taken: set[int] = set()
+        before = self.state
         while True:
             for index, transition in enumerate(self.transducer.transitions):
                 if index in taken or transition.source != self.state:
@@ -273,14 +279,17 @@ class Transducer(Node):
                 if self.held.get(transition.input) or transition.input in pulsed:
                     break
             else:
-                return
+                break
             taken.add(index)
             self.state = transition.dest
             self.steps += 1
-            emit(time, self.name, transition.dest, self.name)
             if transition.emit is not None:
                 emit(time, transition.emit, True, self.name)
                 emit(time, transition.emit, False, self.name)
+        # In exactly one state at every instant: the one the instant's steps end in
+        # (states passed through within it hold at no time).
+        if self.state != before:
+            emit(time, self.name, self.state, self.name)
 
 
 # ---- consumers: properties and alerts ----
@@ -630,6 +639,11 @@ class Runtime:
 
     def _begin(self, time: int) -> None:
         self.started = time
+        # Each condition is evaluated at the first instant, changed input or not:
+        # `not E` holds from the start while E does not.
+        for node in self.nodes:
+            if isinstance(node, Condition):
+                heapq.heappush(node.inbox, (time, 0, START, None, ""))
         initial = frozenset(t.initial for t in self.spec.transducers)
         self.properties = [PropertyMonitor(p, time, initial) for p in self.spec.properties]
         for transducer in self.spec.transducers:
@@ -861,6 +875,13 @@ def _dataflow(spec: ir.Spec) -> list[Node]:
             nodes[event.name] = RawEvent(event)
     for transducer in spec.transducers:
         nodes[transducer.name] = Transducer(transducer)
+    # A boolean event holds or not, from the start: never absent, as a value is
+    # before its first sample (docs/semantics.md, "Absent values").
+    signals = {e.name for e in spec.events if e.kind == "boolean" and e.window is None}
+    signals |= {name for t in spec.transducers for name in t.emits}
+    for node in nodes.values():
+        if isinstance(node, Condition):
+            node.current.update(dict.fromkeys(signals.intersection(node.reads), False))
     producer = {w: key for key, node in nodes.items() for w in node.writes}
     sorter: graphlib.TopologicalSorter[str] = graphlib.TopologicalSorter()
     for key, node in nodes.items():

@@ -9,11 +9,13 @@ element, reduced by the variable's aggregate).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping, Sequence
 from fractions import Fraction
 from typing import Any
 
 from rmvdsl.runtime.spec import EachStep, FieldStep, IndexStep, Variable
+from rmvdsl.runtime.values import INT_MAX, INT_MIN, wrap
 from rmvdsl.runtime.wording import counted
 
 
@@ -41,7 +43,14 @@ class FieldError(ValueError):
     an array where a value was expected): the recording and the spec disagree."""
 
 
-_SCALARS: dict[str, Any] = {"bool": bool, "int": int, "float": float}
+def _int(value: Any) -> int:
+    """An integer as the runtime holds it: int64, so a uint64 above 2^63 - 1 wraps
+    to a negative number, as InfluxDB stores it (docs/runtime.md, "Values")."""
+    number = int(value)
+    return number if INT_MIN <= number <= INT_MAX else wrap(number)
+
+
+_SCALARS: dict[str, Any] = {"bool": bool, "int": _int, "float": float}
 _PLAIN = frozenset({bool, int, float})
 
 
@@ -98,7 +107,10 @@ def read(variable: Variable, message: Any) -> Any:
 
 
 def aggregate(name: str, values: Sequence[Any]) -> Any:
-    """An array aggregate (rmvdsl.builtins.ARRAY_AGGREGATES, and `number`)."""
+    """An array aggregate (rmvdsl.builtins.ARRAY_AGGREGATES, and `number`). A NaN
+    element is no reading (a laser's missed return): `min`, `max`, `sum` and `mean`
+    skip it, as numpy's `nanmin` and InfluxDB do, and none depends on the order of
+    the elements."""
     if name == "number":
         return 1 if values[0] else 0
     if name == "count":
@@ -107,17 +119,44 @@ def aggregate(name: str, values: Sequence[Any]) -> Any:
         return any(values)
     if name == "all":
         return all(values)
+    numbers = [v for v in values if v == v]  # NaN is the one value unequal to itself
     if name == "sum":
-        return sum(values) if values else 0
-    if not values:
+        return _sum(numbers)
+    if not numbers:
         return MISSING
     if name == "min":
-        return min(values)
+        return min(numbers, key=_order) if _floats(numbers) else min(numbers)
     if name == "max":
-        return max(values)
-    if name == "mean":
-        return sum(float(v) for v in values) / len(values)
+        return max(numbers, key=_order) if _floats(numbers) else max(numbers)
+    if name == "mean":  # integers: their exact sum, divided once; floats: fsum's
+        total = _sum(numbers) if _floats(numbers) else sum(numbers)
+        return total / len(numbers)
     raise ValueError(f"unknown array aggregate {name!r}")
+
+
+def _floats(numbers: Sequence[Any]) -> bool:
+    return any(type(v) is float for v in numbers)
+
+
+def _order(value: Any) -> tuple[float, float]:
+    """-0.0 before 0.0: equal numbers, but which one `min` returns must not depend
+    on which came first."""
+    return (value, math.copysign(1.0, value))
+
+
+def _sum(numbers: Sequence[Any]) -> Any:
+    """Integers wrap at 64 bits (any order gives the same); floats are summed exactly
+    and rounded once (`math.fsum`), so the order does not change the last digit."""
+    if not _floats(numbers):
+        return wrap(sum(numbers))
+    floats = [float(v) for v in numbers]
+    infinite = {v for v in floats if math.isinf(v)}
+    if infinite:
+        return math.nan if len(infinite) == 2 else infinite.pop()
+    try:
+        return math.fsum(floats)
+    except OverflowError:
+        return math.copysign(math.inf, sum(floats))
 
 
 def _field(value: Any, step: FieldStep) -> Any:
@@ -161,7 +200,7 @@ def _convert(value: Any, kind: str, name: str) -> Any:
         if kind == "bool":
             return bool(value)
         if kind == "int":
-            return int(value)
+            return _int(value)
         if kind == "float":
             return float(value)
         if kind == "string":

@@ -54,8 +54,10 @@ def _window_start(t: int, interval: int, offset: int) -> int:
 
 def evaluate(expr: ir.Expr, lookup: Callable[[str], Any]) -> Any:
     """The value of an expression with no function calls, or MISSING when a name it
-    reads has no value (InfluxQL's null: arithmetic with null is null, and a
-    comparison with null is false)."""
+    reads has no value. MISSING is SQL's null, read as "unknown" (docs/semantics.md,
+    "Absent values"): arithmetic and comparisons with it are MISSING, `not MISSING`
+    is MISSING, and `and`/`or` are Kleene's (`false and MISSING` is false, `true or
+    MISSING` is true). A condition holds only where it is `True`."""
     return compiled(expr)(lookup)
 
 
@@ -98,9 +100,9 @@ def _constant(value: Any) -> Evaluator:
 def _compile_binary(expr: ir.Binary, left: Evaluator, right: Evaluator) -> Evaluator:
     op = expr.op
     if op == "and":
-        return lambda lookup: left(lookup) is True and right(lookup) is True
+        return lambda lookup: kleene_and(left(lookup), lambda: right(lookup))
     if op == "or":
-        return lambda lookup: left(lookup) is True or right(lookup) is True
+        return lambda lookup: kleene_or(left(lookup), lambda: right(lookup))
     if op in _ORDERING:
         compare = _ORDERING[op]
 
@@ -110,7 +112,7 @@ def _compile_binary(expr: ir.Binary, left: Evaluator, right: Evaluator) -> Evalu
             if kinds == (float, float) or kinds == (int, int):
                 return compare(a, b)  # the common case: no conversion to decide
             if a is MISSING or b is MISSING:
-                return False
+                return MISSING
             return values.compare(op, a, b)
 
         return ordering
@@ -123,9 +125,31 @@ _ORDERING: dict[str, Callable[[Any, Any], bool]] = {
 
 
 def unary(op: str, operand: Any) -> Any:
+    if operand is MISSING:
+        return MISSING
     if op == "not":
         return operand is False
-    return MISSING if operand is MISSING else values.negate(operand)
+    return values.negate(operand)
+
+
+def kleene_and(left: Any, right_of: Callable[[], Any]) -> Any:
+    """`and` over true, false and MISSING (unknown): false wins, then unknown."""
+    if left is False:
+        return False
+    right = right_of()
+    if right is False:
+        return False
+    return True if left is True and right is True else MISSING
+
+
+def kleene_or(left: Any, right_of: Callable[[], Any]) -> Any:
+    """`or` over true, false and MISSING (unknown): true wins, then unknown."""
+    if left is True:
+        return True
+    right = right_of()
+    if right is True:
+        return True
+    return False if left is False and right is False else MISSING
 
 
 def _number(node: ir.Number) -> int | float:
@@ -135,19 +159,18 @@ def _number(node: ir.Number) -> int | float:
 def _binary(expr: ir.Binary, left: Any, right_of: Callable[[], Any]) -> Any:
     op = expr.op
     if op == "and":
-        return left is True and right_of() is True
+        return kleene_and(left, right_of)
     if op == "or":
-        return left is True or right_of() is True
+        return kleene_or(left, right_of)
     right = right_of()
     if left is MISSING or right is MISSING:
-        return False if op in _COMPARISONS else MISSING
+        return MISSING
     if op in ("=~", "!~"):
         found = _regex(right).search(left) is not None
         return found if op == "=~" else not found
     return values.binary(op, left, right)
 
 
-_COMPARISONS = frozenset({"=", "!=", "<", "<=", ">", ">=", "=~", "!~"})
 _REGEXES: dict[str, Any] = {}
 
 
@@ -585,10 +608,12 @@ class WindowedQuery:
         return evaluate(expr, lambda name: MISSING)
 
     def _points(self, arg: ir.Expr, rows: list[Row]) -> list[tuple[int, Any]]:
+        """The values a function reads: a NaN is no point (InfluxDB refuses to store
+        one), so `min`, `max` and the rest skip it, as numpy's `nanmin` does."""
         out = []
         for row in rows:
             value = evaluate(arg, row.fields.get)
-            if value is not MISSING:
+            if value is not MISSING and not _nan(value):
                 out.append((row.time, value))
         return out
 
@@ -755,7 +780,6 @@ class EventState:
     written: dict[int, Any] = field(default_factory=dict)
     next_run: int | None = None
     final: int | None = None  # points before this time are final
-    runs: int = 0
 
     def add(self, row: Row) -> None:
         index = bisect.bisect_right(self.times, row.time)
@@ -777,7 +801,6 @@ class EventState:
                 if high > low:
                     for time, value in query.execute(run, self.rows[low:high]):
                         self.written[time] = value
-                    self.runs += 1
             self.next_run += query.every
             boundary = query.run_at(self.next_run).start
             out.extend(self._settle(boundary))

@@ -655,7 +655,6 @@ class Monitor:
         self.count = 0
         self.newest: Any = None
         self.late: list[Any] = []
-        self.revised = 0
         self._out: list[Segment] = []
 
     # ---- input ----
@@ -814,7 +813,7 @@ class Monitor:
         self.late.append(t)
         # Re-evaluating from t reads every node's signal from a horizon before t.
         oldest = max((n.signal.starts[0] for n in self.order), default=self.start)
-        if max(t - self.horizon, self.start) < oldest:
+        if t < self.start or max(t - self.horizon, self.start) < oldest:
             return  # older than the history kept: counted, not re-evaluated
         for prop in self.props.values():
             signal = prop.signal
@@ -839,7 +838,6 @@ class Monitor:
         for segment in self._segments(since, self.emitted):
             if segment[4] == "unknown":
                 self._out.append((*segment[:4], "unknown (revised: late input)"))
-                self.revised += 1
 
     # ---- output ----
 

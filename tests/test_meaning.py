@@ -1,0 +1,153 @@
+"""One meaning (issue 30): what `rmv check` claims and what the runtime computes
+agree on absent values, instants and errors. Each case was a contradiction found
+by hand or by tests/differential.py, minimised."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from rmvdsl.check import check
+from rmvdsl.ir import lower
+from rmvdsl.runtime import engine, influx
+from rmvdsl.runtime import spec as ir
+
+NS = 10**9
+HEAD = 'system s\nros humble\ntopic a: std_msgs/Int32 = "/a"\ntopic b: std_msgs/Int32 = "/b"\n'
+HEAD += "var A = a.data\nvar B = b.data\n"
+
+
+def _checked(tmp_path: Path, body: str):
+    path = tmp_path / "spec.rmv"
+    path.write_text(HEAD + body, encoding="utf-8")
+    return check(str(path), use_environment=False)
+
+
+def _codes(result) -> list[str]:
+    """The diagnostics but RMV203 (a variable the case does not read)."""
+    return [d.code for d in result.diagnostics if d.code != "RMV203"]
+
+
+def _records(result, messages, end=3 * NS):
+    runtime = engine.Runtime(lower(result))
+    for time, topic, value in messages:
+        runtime.message(time, topic, {"data": value})
+    runtime.end(end)
+    return runtime.records()
+
+
+def _verdicts(records, name):
+    return {r["verdict"] for r in records if r["kind"] == "verdict" and r["property"] == name}
+
+
+def test_a_comparison_with_a_value_never_published_is_unknown(tmp_path):
+    """The issue's example: only /b publishes. `not (A > 5)` is unknown, not true,
+    so E1 and E2 never hold together, as the checker says (RMV512)."""
+    result = _checked(
+        tmp_path,
+        "event E1 when B > 0 and not (A > 5)\nevent E2 when B > 0 and not (A <= 5)\n"
+        "property Both: not (E1 and E2)\n",
+    )
+    assert _codes(result) == ["RMV512"]
+    only_b = [(NS + k * NS // 10, "/b", 1) for k in range(20)]
+    assert _verdicts(_records(result, only_b), "Both") == {"true"}
+
+
+def test_kleene_connectives_in_the_runtime():
+    def value(text_expr):
+        return influx.evaluate(text_expr, {"A": None, "T": True, "F": False}.get)
+
+    ref = {name: ir.Ref(name, "variable", ir.ValueType("bool")) for name in ("A", "T", "F")}
+    and_ = lambda x, y: ir.Binary("and", ref[x], ref[y], ir.ValueType("bool"))  # noqa: E731
+    or_ = lambda x, y: ir.Binary("or", ref[x], ref[y], ir.ValueType("bool"))  # noqa: E731
+    assert value(and_("A", "F")) is False and value(and_("F", "A")) is False
+    assert value(and_("A", "T")) is None
+    assert value(or_("A", "T")) is True and value(or_("T", "A")) is True
+    assert value(or_("A", "F")) is None
+    assert value(ir.Unary("not", ref["A"], ir.ValueType("bool"))) is None
+
+
+def test_an_event_released_while_another_input_changes_is_not_a_pulse(tmp_path):
+    """`Glitch` reads `On` and A: when A goes from 7 to 1, `On` is false at that
+    instant, not true for an instant (tests/differential.py, seed 153)."""
+    result = _checked(
+        tmp_path,
+        "event On when A > 5\nevent Glitch when A < 5 and On\nproperty G: not Glitch\n",
+    )
+    assert _codes(result) == ["RMV512"]
+    records = _records(result, [(NS, "/a", 7), (2 * NS, "/a", 1)])
+    assert _verdicts(records, "G") == {"true"}
+
+
+def test_an_event_that_never_changed_reads_false_from_the_start(tmp_path):
+    """`Off when not High` holds from the first instant, though High never changes
+    (tests/differential.py, seed 228)."""
+    result = _checked(tmp_path, "event High when A > 5\nevent Off when not High\n"
+                      "property P: not Off\n")  # fmt: skip
+    records = _records(result, [(NS, "/b", 1)])
+    assert {(r["name"], r["value"]) for r in records if r["kind"] == "event"} == {("Off", True)}
+
+
+def test_a_transducer_is_in_one_state_at_every_instant(tmp_path):
+    """Two transitions on one input at one instant: S0 -> S1 -> S0 passes through S1
+    in no time, so `not (S0 and S1)` holds (RMV512), in the runtime too."""
+    result = _checked(
+        tmp_path,
+        "event E when A > 0\ntransducer T {\n    states S0, S1\n    initial S0\n"
+        "    S0 -> S1 on E\n    S1 -> S0 on E\n}\nproperty P: not (S0 and S1)\n",
+    )
+    assert _codes(result) == ["RMV512"]
+    records = _records(result, [(NS, "/a", 0), (2 * NS, "/a", 1), (2 * NS + 1, "/a", 0)])
+    assert _verdicts(records, "P") == {"true"}
+    assert [r["state"] for r in records if r["kind"] == "state"] == ["S0"]
+
+
+def test_no_claim_is_built_on_an_undefined_name(tmp_path):
+    """`BrakePedl` (a typo) is not a free value for z3: the transducer reading it
+    gets no RMV505 ("not deterministic ... when BrakePedl = 1.0")."""
+    result = _checked(
+        tmp_path,
+        "event Soft when A > 3\nevent Hard when Bp > 8\ntransducer T {\n"
+        "    states Idle, Braked\n    initial Idle\n    Idle -> Braked on Soft\n"
+        "    Idle -> Idle on Hard\n    Braked -> Idle on Hard\n}\n"
+        "property P: always[<=10s] not Braked\n",
+    )
+    assert _codes(result) == ["RMV200"]
+
+
+def test_a_witness_names_every_value_it_needs(tmp_path):
+    """`E0 when A <= 2147483647` holds whenever A has a value: the witness of the
+    conflict must give A one (tests/differential.py, seed 565)."""
+    result = _checked(
+        tmp_path,
+        "event E0 when A <= 2147483647\nevent E1 when B > 5\ntransducer T {\n"
+        "    states S0, S1, S2\n    initial S0\n    S0 -> S1 on E1\n    S0 -> S2 on E0\n"
+        "    S1 -> S0 on E0\n    S2 -> S0 on E1\n}\nproperty P: always[<=1s] not S1\n",
+    )
+    conflict = next(d for d in result.diagnostics if d.code == "RMV505")
+    assert "A = " in (conflict.help or "") and "B = " in (conflict.help or "")
+
+
+def test_round_values_never_mix_integer_and_float_sorts(tmp_path):
+    """A float constant in the conditions is not a candidate round value for an
+    integer variable (z3 raised `sort mismatch`: an internal error)."""
+    result = _checked(
+        tmp_path,
+        "event E0 when A * 2 > 1\nevent E1 when B > 2.5 or A > 1\ntransducer T {\n"
+        "    states S0, S1\n    initial S0\n    S0 -> S1 on E0\n    S0 -> S0 on E1\n"
+        "    S1 -> S0 on E1\n}\nproperty P: always[<=1s] not S1\n",
+    )
+    assert "RMV505" in [d.code for d in result.diagnostics]
+
+
+def test_a_window_or_rate_the_runtime_cannot_run_is_an_error(tmp_path):
+    """`group by time(0.5ns)` is 0 whole nanoseconds, `rate = 2e9Hz` samples closer
+    than 1 ns: `rmv check` said 0 errors and the replay failed with `integer modulo
+    by zero` and no location."""
+    result = _checked(
+        tmp_path,
+        "event M = mean(A) group by time(0.5ns)\nevent H when B > 1\n"
+        "property P: not H { rate = 2e9Hz }\n",
+    )
+    found = {(d.code, d.span.start) for d in result.errors}
+    text = (tmp_path / "spec.rmv").read_text(encoding="utf-8")
+    assert found == {("RMV219", text.index("0.5ns")), ("RMV208", text.index("2e9Hz"))}
