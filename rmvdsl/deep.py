@@ -34,19 +34,37 @@ def deep(function: Callable[..., T], *args: object) -> T:
         except BaseException as exc:  # handed to the caller's thread as it is
             errors.append(exc)
 
-    if sys.getrecursionlimit() < RECURSION_LIMIT:
-        sys.setrecursionlimit(RECURSION_LIMIT)
-    previous = threading.stack_size()
-    threading.stack_size(STACK_BYTES)
+    global _active, _saved_limit
+    with _lock:
+        # The recursion limit is the interpreter's, not the thread's: raised while
+        # a deep call runs and given back after the last one, so a deep recursion
+        # elsewhere later fails with RecursionError, not a crash of its small stack.
+        if _active == 0:
+            _saved_limit = sys.getrecursionlimit()
+            sys.setrecursionlimit(max(_saved_limit, RECURSION_LIMIT))
+        _active += 1
+        # The stack size is process-wide too: set only for the moment this thread
+        # starts, under the lock, so two deep calls never race on it.
+        previous = threading.stack_size()
+        threading.stack_size(STACK_BYTES)
+        try:
+            thread = threading.Thread(target=run, name=_THREAD_NAME, daemon=True)
+            thread.start()
+        finally:
+            threading.stack_size(previous)
     try:
-        thread = threading.Thread(target=run, name=_THREAD_NAME, daemon=True)
-        thread.start()
+        thread.join()
     finally:
-        threading.stack_size(previous)
-    thread.join()
+        with _lock:
+            _active -= 1
+            if _active == 0:
+                sys.setrecursionlimit(_saved_limit)
     if errors:
         raise errors[0]
     return results[0]
 
 
 _THREAD_NAME = "rmv-deep-stack"
+_lock = threading.Lock()
+_active = 0  # deep calls running
+_saved_limit = 1000  # the recursion limit before the first of them

@@ -4,6 +4,7 @@ by hand or by tests/differential.py, minimised."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 from rmvdsl.check import check
@@ -151,3 +152,36 @@ def test_a_window_or_rate_the_runtime_cannot_run_is_an_error(tmp_path):
     found = {(d.code, d.span.start) for d in result.errors}
     text = (tmp_path / "spec.rmv").read_text(encoding="utf-8")
     assert found == {("RMV219", text.index("0.5ns")), ("RMV208", text.index("2e9Hz"))}
+
+
+def test_witness_files_say_their_time_unit(tmp_path, rmv):
+    """Under `time unit ms` a witness's times are milliseconds: the file says so on
+    its first line, and `rmv eval` reads it so (it read them as seconds)."""
+    spec = tmp_path / "ms.rmv"
+    spec.write_text(
+        'system ms\nros humble\ntime unit ms\ntopic a: std_msgs/Bool = "/a"\nvar X = a.data\n'
+        "event On when X\nproperty P: always[<=300] not On\n",
+        encoding="utf-8",
+    )
+    result = rmv("check", str(spec), "--witnesses", str(tmp_path / "w"))
+    assert result.code == 0, result.err
+    fails = tmp_path / "w" / "P.fails.jsonl"
+    lines = fails.read_text(encoding="utf-8").splitlines()
+    assert lines[0] == '{"unit": "ms"}'
+    said = re.search(r"`P` is false at t = (\S+) ms", result.err)
+    assert said, result.err
+    evaluated = rmv("eval", "--formula", "always[<=300] not On", "--trace", str(fails),
+                    "--at", said.group(1))  # fmt: skip
+    assert evaluated.out.strip() == "false", evaluated
+
+
+def test_a_deep_call_gives_the_recursion_limit_back():
+    """rmvdsl.deep raised the interpreter's recursion limit for good: a later deep
+    `json.dumps` on the main thread's small stack then crashed the process."""
+    import sys
+
+    from rmvdsl.deep import deep
+
+    before = sys.getrecursionlimit()
+    assert deep(sys.getrecursionlimit) >= 1_000_000
+    assert sys.getrecursionlimit() == before

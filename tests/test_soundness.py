@@ -251,7 +251,7 @@ def test_numbers_out_of_range_are_refused_at_once(rmv, tmp_path: Path, text: str
     if text.startswith("-"):
         return  # not a bound at all: a syntax error
     result = rmv("sat", "--formula", f"eventually[<{text}] p")
-    assert result.code in (1, 2) and "RMV106" in result.out + result.err
+    assert result.code == 1 and "RMV106" in result.out + result.err
     spec = tmp_path / "spec.rmv"
     spec.write_text(TOGGLE.format() + f"property P: eventually[<={text}s] B\n")
     result = rmv("check", str(spec))
@@ -338,28 +338,29 @@ def test_deep_inputs_are_checked_and_formatted(rmv, tmp_path: Path, declaration:
     spec = tmp_path / "deep.rmv"
     spec.write_text(_BOOL_SPEC + declaration + "\n", encoding="utf-8")
     checked = rmv("check", str(spec))
-    assert checked.code in (0, 1) and "internal error" not in checked.err, checked.err[-300:]
+    assert checked.code == 0, checked.err[-300:]  # warnings only (unused names)
     assert "RMV1" not in checked.out  # no syntax error: the whole input was read
     formatted = rmv("fmt", "--check", str(spec))
-    assert formatted.code in (0, 1) and "internal error" not in formatted.err
+    # Already as `rmv fmt` writes it, but for the parentheses it drops.
+    assert formatted.code == (1 if declaration.startswith("property R") else 0), formatted.err
 
 
 @pytest.mark.parametrize(
-    "formula",
+    ("formula", "verdict"),
     [
-        " and ".join(["p"] * 40_000),
-        "not " * 40_000 + "p",
-        "duration[3](p) > " + " + ".join(["1"] * 100_000),
+        (" and ".join(["p"] * 40_000), "true"),
+        ("not " * 40_000 + "p", "true"),  # an even number of `not`s
+        ("duration[3](p) > " + " + ".join(["1"] * 100_000), "false"),  # 3 > 100,000
     ],
     ids=["and", "not", "sum"],
 )
-def test_deep_formulas_in_sat_and_eval(rmv, tmp_path: Path, formula: str):
+def test_deep_formulas_in_sat_and_eval(rmv, tmp_path: Path, formula: str, verdict: str):
     trace = tmp_path / "t.jsonl"
     trace.write_text('{"t": 0, "props": ["p"]}\n{"t": 3, "end": true}\n')
     answered = rmv("sat", "--formula", formula)
     assert answered.code == 0 and "satisfiable:" in answered.out, answered.err[-300:]
     evaluated = rmv("eval", "--formula", formula, "--trace", str(trace))
-    assert evaluated.code == 0 and evaluated.out.strip() in ("true", "false", "unknown")
+    assert evaluated.code == 0 and evaluated.out.strip() == verdict
 
 
 # ---- 15. one file, however it is named ----

@@ -41,7 +41,7 @@ def run(args: argparse.Namespace, color: bool, entry: str | None) -> stored.Stor
         checked.append(path)
         all_diagnostics.extend(result.diagnostics)
         if args.witnesses and result.properties is not None:
-            write_witnesses(args.witnesses, result.properties)
+            write_witnesses(args.witnesses, result.properties, result.model.time_unit)
         for source in result.model.sources:
             sources.add(source)
     out = io.StringIO()
@@ -64,8 +64,9 @@ def run(args: argparse.Namespace, color: bool, entry: str | None) -> stored.Stor
     return output
 
 
-def write_witnesses(folder: str, report: PropertyReport) -> None:
-    """For each property, a trace where it holds and one where it fails (JSONL)."""
+def write_witnesses(folder: str, report: PropertyReport, unit: str | None = None) -> None:
+    """For each property, a trace where it holds and one where it fails (JSONL), its
+    times in the spec's time unit, which the file says (`rmv eval` reads it)."""
     try:
         os.makedirs(folder, exist_ok=True)
     except OSError as exc:
@@ -81,6 +82,7 @@ def write_witnesses(folder: str, report: PropertyReport) -> None:
             if (suffix == "holds") != (answer.value == "yes"):
                 continue
             path = os.path.join(folder, f"{name}.{suffix}.jsonl")
-            write_text(path, answer.witness.jsonl())
+            write_text(path, answer.witness.jsonl(unit))
             at = answer.witness.as_json()["at"]
-            print(f"rmv: {path}: `{name}` is {verdict} at t = {at}", file=sys.stderr)
+            suffix = f" {unit}" if unit not in (None, "s") else ""
+            print(f"rmv: {path}: `{name}` is {verdict} at t = {at}{suffix}", file=sys.stderr)

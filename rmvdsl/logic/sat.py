@@ -110,9 +110,11 @@ class Witness:
             ],
         }
 
-    def jsonl(self) -> str:
-        """The trace in the format `rmv eval` reads."""
-        lines = [json.dumps(item) for item in self.as_json()["trace"]]
+    def jsonl(self, unit: str | None = None) -> str:
+        """The trace in the format `rmv eval` reads: its times in `unit` (the spec's
+        `time unit`), said on the first line when it is not seconds."""
+        lines = [json.dumps({"unit": unit})] if unit not in (None, "s") else []
+        lines += [json.dumps(item) for item in self.as_json()["trace"]]
         lines.append(json.dumps({"t": _json_number(self.end), "end": True}))
         return "\n".join(lines) + "\n"
 

@@ -62,6 +62,7 @@ def evaluate(expr: ir.Expr, lookup: Callable[[str], Any]) -> Any:
 
 
 Evaluator = Callable[[Callable[[str], Any]], Any]
+CACHE_LIMIT = 4096  # expressions (and regular expressions) kept compiled
 _COMPILED: dict[int, tuple[ir.Expr, Evaluator]] = {}
 
 
@@ -70,6 +71,8 @@ def compiled(expr: ir.Expr) -> Evaluator:
     a condition at every message."""
     found = _COMPILED.get(id(expr))
     if found is None or found[0] is not expr:
+        if len(_COMPILED) >= CACHE_LIMIT:
+            _COMPILED.clear()  # a long-lived process (the editor) checks spec after spec
         found = _COMPILED[id(expr)] = (expr, _compile(expr))
     return found[1]
 
@@ -177,6 +180,8 @@ _REGEXES: dict[str, Any] = {}
 def _regex(text: str) -> Any:
     found = _REGEXES.get(text)
     if found is None:
+        if len(_REGEXES) >= CACHE_LIMIT:
+            _REGEXES.clear()
         found = _REGEXES[text] = re.compile(text)
     return found
 
