@@ -162,9 +162,11 @@ def check_case(case: Case, folder: Path) -> Any:
 
 
 def run(spec: Any, messages: Iterable[tuple[int, str, Any]], end: int = 4 * NS) -> list[dict]:
+    """The records of the runtime, started at 0.5 s (before any message)."""
     from rmvdsl.runtime import engine
 
     runtime = engine.Runtime(spec)
+    runtime.start(NS // 2)
     for time, topic, message in messages:
         runtime.message(time, topic, message)
     runtime.end(end)
@@ -275,7 +277,11 @@ def _replay_witness(case: Case, spec: Any, diagnostic: Any) -> Iterable[str]:
                 value += 2**64  # the bytes of a uint64 that the runtime reads as `value`
             messages.append((NS, topic, {"data": value}))
     records = run(spec, messages, end=2 * NS)
-    holding = {r["name"] for r in records if r["kind"] == "event" and r["value"] is True}
+    last: dict[str, Any] = {}
+    for record in records:
+        if record["kind"] == "event":
+            last[record["name"]] = record["value"]
+    holding = {name for name, value in last.items() if value is True}  # at the values
     names = _named(diagnostic.message)
     if diagnostic.code == "RMV505":
         pair = names[2:4]

@@ -185,3 +185,16 @@ def test_a_deep_call_gives_the_recursion_limit_back():
     before = sys.getrecursionlimit()
     assert deep(sys.getrecursionlimit) >= 1_000_000
     assert sys.getrecursionlimit() == before
+
+
+def test_a_run_started_before_any_message(tmp_path):
+    """A live node starts before the topics publish: at its start every value is
+    missing, the conditions are evaluated all the same."""
+    result = _checked(tmp_path, "event High when A > 5\nevent Off when not High\n"
+                      "property P: not Off\n")  # fmt: skip
+    runtime = engine.Runtime(lower(result))
+    runtime.start(NS)
+    runtime.end(2 * NS)
+    records = runtime.records()
+    assert [(r["name"], r["value"]) for r in records if r["kind"] == "event"] == [("Off", True)]
+    assert _verdicts(records, "P") == {"false"}

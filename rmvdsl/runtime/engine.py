@@ -572,6 +572,15 @@ class Runtime:
                 return time  # `message` reports it
         return time
 
+    def start(self, time: int) -> None:
+        """The run begins at `time` before any message (a live node starts before
+        the topics publish): the transducers are in their initial states and every
+        condition is evaluated over values not there yet."""
+        if self.started is None:
+            self._begin(time)
+            self.now = max(self.now, time)
+            self.instants += 1
+
     def _ingest(self, time: int, topic: str, message: Any) -> None:
         if time < self.now or time < self.complete_before:
             late = exact_text(seconds(max(self.now, self.complete_before) - time))

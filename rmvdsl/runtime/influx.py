@@ -137,22 +137,23 @@ def unary(op: str, operand: Any) -> Any:
 
 def kleene_and(left: Any, right_of: Callable[[], Any]) -> Any:
     """`and` over true, false and MISSING (unknown): false wins, then unknown."""
-    if left is False:
-        return False
-    right = right_of()
-    if right is False:
-        return False
-    return True if left is True and right is True else MISSING
+    return _kleene(False, left, right_of)
 
 
 def kleene_or(left: Any, right_of: Callable[[], Any]) -> Any:
     """`or` over true, false and MISSING (unknown): true wins, then unknown."""
-    if left is True:
-        return True
+    return _kleene(True, left, right_of)
+
+
+def _kleene(deciding: bool, left: Any, right_of: Callable[[], Any]) -> Any:
+    """A connective whose `deciding` operand decides it whatever the other is (the
+    right one is not evaluated then); two of the other value give that value."""
+    if left is deciding:
+        return deciding
     right = right_of()
-    if right is True:
-        return True
-    return False if left is False and right is False else MISSING
+    if right is deciding:
+        return deciding
+    return (not deciding) if left is (not deciding) and right is (not deciding) else MISSING
 
 
 def _number(node: ir.Number) -> int | float:
