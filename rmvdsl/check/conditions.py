@@ -5,9 +5,12 @@ integers are 64-bit bit-vectors (wrapping `+ - *`, Go's `%`, bitwise operators),
 floats are IEEE doubles (z3's floating-point theory: rounding, NaN and infinities
 included), `/` divides as floats and gives 0 for a zero divisor. A variable ranges
 over its ROS type (an `int8` over -128..127, a `float64` over every double,
-NaN included). What z3 cannot model exactly — a function of the data (`mean(V)`),
-a value event, a regular-expression match — is a free value of its sort, so an
-answer "can hold" is a possibility the spec leaves open and "never holds" is exact.
+NaN included), and may have no value yet: each value has a presence flag, and a
+condition is three-valued as in the runtime (Kleene's `and`/`or`, an event holds
+where its condition is true; docs/semantics.md, "Absent values"). What z3 cannot
+model exactly — a function of the data (`mean(V)`), a value event, a
+regular-expression match — is a free value of its sort, so an answer "can hold" is
+a possibility the spec leaves open and "never holds" is exact.
 
 `solve` asks z3 (each answer cached by its question), with round values in the
 witnesses it returns.
@@ -100,7 +103,7 @@ class Conditions:
         is true. An unknown condition does not hold, as in the runtime."""
         decl = self.model.events.get(name)
         if decl is None or not decl.boolean or name in self._inlining:
-            return self.free(f"event {name}", "bool").true
+            return self.free(f"event {name}", "bool", may_be_absent=False).true
         self._inlining.add(name)
         try:
             condition = self.expr(decl.expr).true
@@ -110,7 +113,7 @@ class Conditions:
             return condition
         except (z3.Z3Exception, TypeError, AttributeError):
             # Sorts that do not fit (the types stage reports why): no claim at all.
-            return self.free(f"event {name}", "bool").true
+            return self.free(f"event {name}", "bool", may_be_absent=False).true
         finally:
             self._inlining.discard(name)
 
