@@ -14,10 +14,10 @@ from typing import Any
 
 from rmvdsl import builtins
 from rmvdsl.check import CheckResult
-from rmvdsl.check.model import Kind, Model
+from rmvdsl.check.lowering import NotLowered, lower_expr, value_type
+from rmvdsl.check.model import Model
 from rmvdsl.check.msgtypes import FieldType, TypeRegistry, canonical
 from rmvdsl.check.types import TypeInfo
-from rmvdsl.check.vtypes import VType
 from rmvdsl.grammar import ast, printer
 from rmvdsl.grammar.formula import TIME_UNITS
 from rmvdsl.runtime import spec as ir
@@ -30,7 +30,6 @@ __all__ = ["LowerError", "dump", "load", "lower"]
 
 # ROS 1 time fields as a decoded message names them (rosbags and rclpy alike).
 _ROS1_TIME_READS = {"secs": "sec", "nsecs": "nanosec"}
-_EXPRESSION_OPS = {"<>": "!="}
 
 
 class LowerError(ValueError):
@@ -199,7 +198,7 @@ class _Lowering:
             topic=decl.source.topic.name,
             path=tuple(steps),
             aggregate=decl.aggregate.name if decl.aggregate else None,
-            type=_value_type(self.types.variables[name]),
+            type=value_type(self.types.variables[name]),
             origin=self.origin(decl.name),
             doc=decl.doc,
         )
@@ -213,36 +212,10 @@ class _Lowering:
     # ---- expressions ----
 
     def expr(self, node: ast.Node) -> ir.Expr:
-        value_type = _value_type(self.types.type_of(node))
-        match node:
-            case ast.NumberLit():
-                return ir.Number(node.text, node.value, value_type)
-            case ast.StringLit():
-                return ir.String(node.value, value_type)
-            case ast.BoolLit():
-                return ir.Boolean(node.value, value_type)
-            case ast.TimeLit():
-                seconds = node.time.seconds(self.model.time_unit)
-                assert seconds is not None, "a time without a unit passed the checker"
-                return ir.Time(node.time.text, seconds, value_type)
-            case ast.NameRef():
-                return ir.Ref(node.ident.name, self.ref_kind(node.ident.name), value_type)
-            case ast.UnaryOp():
-                return ir.Unary(node.op, self.expr(node.operand), value_type)
-            case ast.BinOp():
-                op = _EXPRESSION_OPS.get(node.op, node.op)
-                return ir.Binary(op, self.expr(node.left), self.expr(node.right), value_type)
-            case ast.Call():
-                builtins.function(node.func.name)
-                args = tuple(self.expr(a) for a in node.args)
-                return ir.Call(node.func.name, args, value_type)
-        raise LowerError(f"not an expression: {type(node).__name__}")
-
-    def ref_kind(self, name: str) -> str:
-        kind = self.model.symbols[name].kind
-        if kind is Kind.VARIABLE:
-            return "variable"
-        return "emitted" if kind is Kind.EMITTED_EVENT else "event"
+        try:
+            return lower_expr(self.model, self.types, node)
+        except NotLowered as error:
+            raise LowerError(str(error)) from None
 
     # ---- events ----
 
@@ -289,7 +262,7 @@ class _Lowering:
             name=decl.name.name,
             kind="boolean" if decl.boolean else "value",
             expr=self.expr(decl.expr),
-            type=_value_type(self.types.events[decl.name.name]),
+            type=value_type(self.types.events[decl.name.name]),
             reads=tuple(sorted(_reads(decl))),
             where=self.expr(where) if where is not None else None,
             window=window,
@@ -505,10 +478,6 @@ def _credential(value: Any) -> ir.Credential | None:
 
 def _patterns(items: tuple[ast.StringLit, ...] | None) -> tuple[ir.Pattern, ...] | None:
     return None if items is None else tuple(pattern(i.value) for i in items)
-
-
-def _value_type(value: VType) -> ir.ValueType:
-    return ir.ValueType(value.kind, value.ros, value.rate)
 
 
 def _reads(decl: ast.EventDecl) -> set[str]:

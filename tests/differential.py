@@ -15,6 +15,10 @@ recording, and every witness it prints is replayed through the runtime:
 - RMV505: at the witness values both events hold.
 - RMV506: at the witness values no input of the state holds.
 
+Properties are sometimes sampled at a `rate` or run under a `trigger`; a value
+event over a window (a free value to the solver) is sometimes read by a condition;
+InfluxQL's `<>` appears beside `!=`.
+
     python tests/differential.py --seeds 10000        # the long run
     python tests/differential.py --seed 1234 --show   # one case, spec and findings
 """
@@ -47,7 +51,7 @@ CONSTANTS = {
     "UInt64": ["0", "5", "9223372036854775807", "-1"],
     "Float64": ["0.0", "1.0", "5.0", "-2.5", "5.5"],
 }
-COMPARISONS = ("=", "!=", "<", "<=", ">", ">=")
+COMPARISONS = ("=", "!=", "<>", "<", "<=", ">", ">=")
 
 
 @dataclass
@@ -67,11 +71,15 @@ class SpecMaker:
         self.rng = rng
         self.kinds: dict[str, str] = {}  # variable -> message type
         self.events: list[str] = []
+        self.windowed: list[str] = []  # value events over windows (free values to z3)
 
     def atom(self) -> str:
         rng = self.rng
         name = rng.choice(sorted(self.kinds))
         kind = self.kinds[name]
+        if self.windowed and rng.random() < 0.15:
+            window = rng.choice(self.windowed)
+            return f"{window} {rng.choice(COMPARISONS)} {rng.choice(['0', '1.0', '5.0'])}"
         if kind == "Bool":
             return rng.choice([name, f"not {name}", f"{name} = true", f"{name} != false"])
         if self.events and rng.random() < 0.2:
@@ -108,6 +116,12 @@ def make_case(seed: int) -> Case:
         lines.append(f"var V{index} = t{index}.data")
         maker.kinds[f"V{index}"] = kind
         variables[f"V{index}"] = ros_name
+    numeric = sorted(v for v, k in maker.kinds.items() if k in ("Int32", "Float64"))
+    if numeric and rng.random() < 0.4:
+        function = rng.choice(["max", "min", "mean", "count", "last"])
+        interval = rng.choice(["500ms", "1s"])
+        lines.append(f"event W = {function}({rng.choice(numeric)}) group by time({interval})")
+        maker.windowed.append("W")
     for index in range(rng.randint(2, 4)):
         lines.append(f"event E{index} when {maker.condition(2)}")
         maker.events.append(f"E{index}")
@@ -125,7 +139,14 @@ def make_case(seed: int) -> Case:
             f"not ({a} and {b})", f"always[<=1s] not {a}", f"{a} -> {b}", f"not {a}",
             f"eventually[<=1s] {a}", f"duration[1s]({a}) < 0.5s", f"{a} or not {b}",
         ])  # fmt: skip
-        lines.append(f"property P{index}: {formula}")
+        settings = []
+        if rng.random() < 0.2:
+            settings.append(f"rate = {rng.choice(['10Hz', '4Hz'])}")
+        if rng.random() < 0.2:
+            settings.append(f"trigger = {rng.choice(names)}")
+        block = "".join(f"\n    {line}" for line in settings)
+        block = f" {{{block}\n}}" if settings else ""
+        lines.append(f"property P{index}: {formula}{block}")
     text = "\n".join(lines) + "\n"
     case = Case(seed, text, topics, variables)
     case.recordings = [make_recording(rng, topics) for _ in range(3)]

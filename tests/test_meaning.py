@@ -198,3 +198,19 @@ def test_a_run_started_before_any_message(tmp_path):
     records = runtime.records()
     assert [(r["name"], r["value"]) for r in records if r["kind"] == "event"] == [("Off", True)]
     assert _verdicts(records, "P") == {"false"}
+
+
+def test_properties_sampled_differently_are_not_compared(tmp_path):
+    """`always[<=1s] not E` sampled at 4 Hz misses an E between two ticks that
+    `eventually[<=1s] E` sees: both can be true on one run, so no RMV514
+    (tests/differential.py, seed 257). At one sampling they still conflict."""
+    body = "event E when A >= -1\nproperty P0: eventually[<=1s] E\n"
+    sampled = body + "property P2: always[<=1s] not E {\n    rate = 4Hz\n}\n"
+    assert "RMV514" not in _codes(_checked(tmp_path, sampled))
+    dense = body + "property P2: always[<=1s] not E\n"
+    assert "RMV514" in _codes(_checked(tmp_path, dense))
+    records = _records(
+        _checked(tmp_path, sampled), [(NS, "/a", 0), (NS + NS // 10, "/a", -5)], end=3 * NS
+    )
+    true_at = {name: _verdicts(records, name) for name in ("P0", "P2")}
+    assert "true" in true_at["P0"] and "true" in true_at["P2"]

@@ -28,10 +28,10 @@ from typing import Any
 import z3
 
 from rmvdsl.cache import default_cache, digest
-from rmvdsl.check.model import Kind, Model
-from rmvdsl.check.types import TypeInfo, VType
-from rmvdsl.grammar import ast
-from rmvdsl.grammar.printer import expression
+from rmvdsl.check.lowering import NotLowered, lower_expr
+from rmvdsl.check.model import Model
+from rmvdsl.check.types import TypeInfo
+from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.values import INT_BITS, INTEGER_RANGES, literal
 
 SOLVER_TIMEOUT_MS = 2000
@@ -102,16 +102,18 @@ class Conditions:
         """Where the boolean event `name` holds: where its condition (and `where`)
         is true. An unknown condition does not hold, as in the runtime."""
         decl = self.model.events.get(name)
-        if decl is None or not decl.boolean or name in self._inlining:
+        if decl is None or not decl.boolean or name in self._inlining or self.types is None:
             return self.free(f"event {name}", "bool", may_be_absent=False).true
         self._inlining.add(name)
         try:
-            condition = self.expr(decl.expr).true
+            # The typed trees the runtime evaluates (rmvdsl.check.lowering).
+            condition = self.expr(lower_expr(self.model, self.types, decl.expr)).true
             where = decl.clause("where")
             if where is not None:
-                condition = z3.And(condition, self.expr(where.value).true)
+                lowered = lower_expr(self.model, self.types, where.value)
+                condition = z3.And(condition, self.expr(lowered).true)
             return condition
-        except (z3.Z3Exception, TypeError, AttributeError):
+        except (z3.Z3Exception, TypeError, AttributeError, NotLowered):
             # Sorts that do not fit (the types stage reports why): no claim at all.
             return self.free(f"event {name}", "bool", may_be_absent=False).true
         finally:
@@ -149,73 +151,88 @@ class Conditions:
             self.symbols[flag] = z3.Bool(flag)
         return Term(self.symbols[key], self.symbols[flag])
 
-    def variable(self, name: str) -> Term:
+    def variable(self, name: str, vtype: ir.ValueType) -> Term:
         if name not in self.symbols:
-            vtype = self.types.variables.get(name) if self.types else None
-            kind = vtype.kind if vtype is not None else "float"
-            symbol = self.symbols[name] = _constant(name, kind)
-            if vtype is not None and vtype.ros in INTEGER_RANGES:
+            symbol = self.symbols[name] = _constant(name, _sort_kind(vtype.kind))
+            if vtype.ros in INTEGER_RANGES:
                 least, most = INTEGER_RANGES[vtype.ros]
                 self.domains[name] = [symbol >= least, symbol <= most]
         return self.free(name, "")
 
-    def expr(self, node: ast.Node) -> Term:
+    def expr(self, node: ir.Expr) -> Term:
+        """A lowered expression as z3 computes it, with where it has a value."""
         match node:
-            case ast.NumberLit():
+            case ir.Number():
                 kind = "int" if isinstance(literal(node.text), int) else "float"
                 return Term(number(node.value, kind))
-            case ast.BoolLit():
+            case ir.Boolean():
                 return Term(z3.BoolVal(node.value))
-            case ast.StringLit():
+            case ir.String():
                 return Term(z3.StringVal(node.value))
-            case ast.TimeLit():
-                return Term(number(node.time.seconds() or Fraction(0), "float"))
-            case ast.RateLit():
-                return Term(number(node.hertz, "float"))
-            case ast.NameRef():
-                return self.name(node.ident.name)
-            case ast.UnaryOp():
+            case ir.Time():
+                return Term(number(node.seconds, "float"))
+            case ir.Ref():
+                return self.name(node)
+            case ir.Unary():
                 operand = self.expr(node.operand)
                 if node.op == "not":
                     return Term(z3.Not(as_bool(operand.value)), operand.present)
                 return Term(negate(operand.value), operand.present)
-            case ast.BinOp():
+            case ir.Binary():
                 return self.binary(node)
-        return self.free(expression(node), self._kind_of(node))
+        # A function of the data: a value of its own, of its type's sort.
+        return self.free(text(node), _sort_kind(node.type.kind))
 
-    def _kind_of(self, node: ast.Node) -> str:
-        """The sort of a function of the data: its type, when the types stage knows it."""
-        if isinstance(node, ast.Call) and node.func.name == "count":
-            return "int"
-        return "float"
-
-    def name(self, name: str) -> Term:
-        symbol = self.model.symbols.get(name)
-        if symbol is None:
-            return self.free(name, "float")
-        if symbol.kind is Kind.VARIABLE:
-            return self.variable(name)
-        if symbol.kind is Kind.BOOL_EVENT:
+    def name(self, ref: ir.Ref) -> Term:
+        name = ref.name
+        if ref.kind == "variable":
+            return self.variable(name, ref.type)
+        if ref.kind == "emitted":
+            return self.free(f"event {name}", "bool", may_be_absent=False)
+        decl = self.model.events.get(name)
+        if decl is not None and decl.boolean:
             # An event holds or does not: never unknown (its unknown condition
             # does not hold), so `not E` holds where E's condition is unknown.
             return Term(self.of_event(name))
-        if symbol.kind is Kind.EMITTED_EVENT:
-            return self.free(f"event {name}", "bool", may_be_absent=False)
-        vtype = self.types.events.get(name) if self.types else None
-        return self.free(name, _sort_kind(vtype))  # a value event: its newest value
+        return self.free(name, _sort_kind(ref.type.kind))  # a value event: its newest value
 
-    def binary(self, node: ast.BinOp) -> Term:
+    def binary(self, node: ir.Binary) -> Term:
         left, right = self.expr(node.left), self.expr(node.right)
         op = node.op
         if op in ("and", "or"):
             return kleene(op, left, right)
         if op in ("=~", "!~"):
-            return self.free(expression(node), "bool")
+            return self.free(text(node), "bool")
         try:
             return Term(apply(op, left.value, right.value), _both(left, right))
         except (z3.Z3Exception, TypeError, KeyError):
             kind = "bool" if op in ("=", "!=", *_ORDERS) else "float"
-            return self.free(expression(node), kind)
+            return self.free(text(node), kind)
+
+
+def text(node: ir.Expr) -> str:
+    """An expression's text, the name of its free value: the same text, the same
+    value (`mean(V)` in two events)."""
+    match node:
+        case ir.Number() | ir.Time():
+            return node.text
+        case ir.String():
+            return repr(node.value)
+        case ir.Boolean():
+            return "true" if node.value else "false"
+        case ir.Ref():
+            return node.name
+        case ir.Unary():
+            return (
+                f"{node.op} ({text(node.operand)})"
+                if node.op == "not"
+                else f"-({text(node.operand)})"
+            )
+        case ir.Binary():
+            return f"({text(node.left)}) {node.op} ({text(node.right)})"
+        case ir.Call():
+            return f"{node.function}({', '.join(text(a) for a in node.args)})"
+    return repr(node)
 
 
 PRESENT = "present "  # the prefix of a value's presence flag
@@ -225,10 +242,9 @@ def _value_name(name: str) -> str:
     return name.removeprefix(PRESENT)
 
 
-def _sort_kind(vtype: VType | None) -> str:
-    if vtype is None or vtype.kind not in ("bool", "int", "string"):
-        return "float"
-    return vtype.kind
+def _sort_kind(kind: str) -> str:
+    """The z3 sort of a value of this kind: times and durations are seconds."""
+    return kind if kind in ("bool", "int", "string") else "float"
 
 
 def _constant(name: str, kind: str) -> Any:

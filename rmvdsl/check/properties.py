@@ -175,10 +175,22 @@ class _PropertyAnalyzer:
             self.report.facts[name] = facts
             if self.single(name, f, facts):
                 consistent_candidates.append(name)
-        groups = [g for g in self.groups(consistent_candidates) if len(g) > 1]
+        # Properties sampled at a rate see the trace at its ticks only, not the one a
+        # property without a rate sees: their verdicts are compared within one
+        # sampling, never across (a change between two ticks is seen by one alone).
+        samplings: dict[str, list[str]] = {}
+        for name in consistent_candidates:
+            samplings.setdefault(self.sampling(name), []).append(name)
+        groups = [g for names in samplings.values() for g in self.groups(names) if len(g) > 1]
         self.prefetch([[([self.compiled[n] for n in g], self.system)] for g in groups])
         self.redundancy([g for g in groups if self.together(g)])
         return self.report
+
+    def sampling(self, name: str) -> str:
+        """How the property's monitor reads the trace: its `rate`, or "" (every change)."""
+        decl = self.model.properties[name]
+        rate = next((s.value for s in decl.settings if s.key.name == "rate"), None)
+        return str(rate.hertz) if isinstance(rate, ast.RateLit) else ""
 
     def prefetch(self, batches: list[list[Question]]) -> None:
         """Answer these questions in parallel; the answers a time limit cut short
