@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
-from rmvdsl.runtime.rmtld3 import arithmetic, compare
+from rmvdsl.runtime.rmtld3 import arithmetic, compare, continues, extended
 
 FALSE, UNKNOWN, TRUE = 0, 1, 2
 
@@ -223,10 +223,11 @@ class Reference:
             else:
                 a, b = samples[index - 1][0], samples[index + 1][0]
                 a_closed = b_closed = False
-            if out and out[-1][4] == name and out[-1][1] == a and (out[-1][3] or a_closed):
-                out[-1] = (out[-1][0], b, out[-1][2], b_closed, name)
+            segment = (a, b, a_closed, b_closed, name)
+            if out and continues(out[-1], segment):
+                out[-1] = extended(out[-1], segment)
             else:
-                out.append((a, b, a_closed, b_closed, name))
+                out.append(segment)
         return out
 
 

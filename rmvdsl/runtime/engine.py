@@ -29,7 +29,7 @@ from typing import Any, Protocol
 from rmvdsl.runtime import fields, influx
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.formulas import to_lists
-from rmvdsl.runtime.rmtld3 import Monitor
+from rmvdsl.runtime.rmtld3 import Monitor, continues
 from rmvdsl.runtime.values import exact_decimal, exact_text
 from rmvdsl.runtime.wording import counted
 
@@ -820,12 +820,7 @@ class Runtime:
             value = verdict.split(" ")[0]
             segment = [start, stop, start_closed, stop_closed, value]
             pending = self.pending_segments.get(name)
-            if (
-                pending is not None
-                and pending[4] == value
-                and pending[1] == start
-                and (pending[3] or start_closed)
-            ):
+            if pending is not None and continues(pending, segment):
                 pending[1], pending[3] = stop, stop_closed
                 continue
             if pending is not None:

@@ -26,7 +26,7 @@ import bisect
 import heapq
 import itertools
 from abc import ABC, abstractmethod
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Sequence
 from fractions import Fraction
 from typing import Any, NamedTuple
 
@@ -848,11 +848,11 @@ class Monitor:
         out: list[Segment] = []
 
         def add(a: Any, b: Any, a_closed: bool, b_closed: bool, value: int) -> None:
-            name = NAMES[value]
-            if out and out[-1][4] == name and out[-1][1] == a and (out[-1][3] or a_closed):
-                out[-1] = (out[-1][0], b, out[-1][2], b_closed, name)
+            segment = (a, b, a_closed, b_closed, NAMES[value])
+            if out and continues(out[-1], segment):
+                out[-1] = extended(out[-1], segment)
             elif a < b or (a_closed and b_closed):
-                out.append((a, b, a_closed, b_closed, name))
+                out.append(segment)
 
         i = signal.index(low)
         for k in range(i, len(signal.starts)):
@@ -934,6 +934,18 @@ def facts(formula: Any) -> Facts:
     return Facts(future, past, tuple(names), backwards)
 
 
+def continues(earlier: Sequence[Any], later: Sequence[Any]) -> bool:
+    """Whether `later` extends `earlier` into one segment: the same verdict, and it
+    starts where `earlier` ends with that point covered by one of them. The one rule
+    of joining segments: the monitor, the runtime's records, `merge` and the
+    reference evaluator all use it."""
+    return earlier[4] == later[4] and earlier[1] == later[0] and bool(earlier[3] or later[2])
+
+
+def extended(earlier: Segment, later: Segment) -> Segment:
+    return (earlier[0], later[1], earlier[2], later[3], earlier[4])
+
+
 def merge(segments: Iterable[Segment]) -> list[Segment]:
     """Join adjacent segments of the same value."""
     return list(merged(segments))
@@ -943,13 +955,8 @@ def merged(segments: Iterable[Segment]) -> Iterator[Segment]:
     """`merge` as the segments come: each is given once the next does not extend it."""
     pending: Segment | None = None
     for segment in segments:
-        if (
-            pending is not None
-            and pending[4] == segment[4]
-            and pending[1] == segment[0]
-            and (pending[3] or segment[2])
-        ):
-            pending = (pending[0], segment[1], pending[2], segment[3], segment[4])
+        if pending is not None and continues(pending, segment):
+            pending = extended(pending, segment)
             continue
         if pending is not None:
             yield pending
