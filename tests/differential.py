@@ -14,6 +14,8 @@ recording, and every witness it prints is replayed through the runtime:
 - RMV515: where the others are all true, the implied one is not false.
 - RMV505: at the witness values both events hold.
 - RMV506: at the witness values no input of the state holds.
+- `--witnesses`: each property's trace where it holds (fails), run through the
+  runtime's monitor, is true (false) at the time the checker names.
 
 Properties are sometimes sampled at a `rate` or run under a `trigger`; a value
 event over a window (a free value to the solver) is sometimes read by a condition;
@@ -239,7 +241,38 @@ def contradictions(case: Case, result: Any) -> list[str]:
     for diagnostic in result.diagnostics:
         for problem in _judge(case, spec, diagnostic, runs):
             found.append(f"{diagnostic.code} ({diagnostic.message}): {problem}")
-    return found
+    return found + list(_property_witnesses(result))
+
+
+def _property_witnesses(result: Any) -> Iterable[str]:
+    """Each trace `rmv check --witnesses` would write, run through the runtime's
+    monitor: the property has the verdict the checker says at the time it says."""
+    from rmvdsl.runtime.rmtld3 import Monitor
+
+    for name, facts in result.properties.facts.items() if result.properties else ():
+        for verdict, answer in (("true", facts.satisfiable), ("false", facts.valid)):
+            if (
+                answer is None
+                or answer.witness is None
+                or (verdict == "true") != (answer.value == "yes")
+            ):
+                continue
+            witness = answer.witness
+            monitor = Monitor(facts.formula)
+            for time, state in zip(witness.times, witness.states, strict=True):
+                monitor.step(time, state)
+            monitor.end(witness.end)
+            found = _value_at([*monitor.verdicts(), *monitor.beyond()], witness.at)
+            if found != verdict:
+                yield f"the witness of `{name}` {verdict} at {witness.at} reads {found}"
+
+
+def _value_at(segments: list[Any], at: Fraction) -> str:
+    value = "unknown"
+    for low, high, low_closed, high_closed, verdict in segments:
+        if low < at < high or (at == low and low_closed) or (at == high and high_closed):
+            value = verdict.split(" ")[0]
+    return value
 
 
 def _judge(case: Case, spec: Any, diagnostic: Any, runs: list[list[dict]]) -> Iterable[str]:
@@ -363,6 +396,8 @@ def examine(seed: int, folder: Path) -> Outcome:
     if own_errors:
         return Outcome(seed, False, 0, [])
     claims = sum(1 for d in result.diagnostics if d.code in CLAIMS)
+    facts = result.properties.facts.values() if result.properties else ()
+    claims += sum(1 for f in facts for a in (f.satisfiable, f.valid) if a and a.witness)
     return Outcome(seed, True, claims, contradictions(case, result))
 
 
