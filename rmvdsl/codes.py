@@ -299,6 +299,15 @@ the edit), or remove it where it is wrong.
 Only exact names are compared: a pattern on both sides may or may not overlap.""",
     ),
     (
+        "RMV223",
+        "costly window",
+        """(warning) A `group by time(...)` window or a `resample every` shorter than 1ms.
+The runtime computes a continuous query the way InfluxDB does: one run per `every`,
+one window per interval, whether or not a message falls in it. A window of 1us is
+1,000,000 runs per second of input: a one-hour recording takes 3.6 billion. Use a
+window of 1ms or more, or, to see every message, an event without a window.""",
+    ),
+    (
         "RMV300",
         "unknown message type",
         """A topic's message type is not among the definitions rmvdsl knows: the

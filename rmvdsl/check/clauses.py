@@ -8,7 +8,7 @@ from fractions import Fraction
 
 from rmvdsl import builtins
 from rmvdsl.check.model import EVENT_KINDS, Kind, Model, Symbol
-from rmvdsl.diagnostics import Diagnostic, did_you_mean, error
+from rmvdsl.diagnostics import Diagnostic, did_you_mean, error, warning
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
 from rmvdsl.source import Span
@@ -21,6 +21,7 @@ _AGGREGATING = ("aggregation", "selector")
 
 
 NANOSECOND = Fraction(1, 10**9)
+COSTLY_BELOW = Fraction(1, 1000)  # windows and runs shorter than this warn (RMV223)
 
 
 def _group(call: ast.Call) -> str | None:
@@ -157,6 +158,8 @@ class EventChecks:
                         self.check_positive_time(
                             time.time, "group-by interval", allow_zero=time is value.offset
                         )
+                if value.interval is not None:
+                    self.check_cost(value.interval.time, "window")
             case "fill":
                 self.check_fill(value)
             case "order":
@@ -175,6 +178,8 @@ class EventChecks:
                 for time in (value.every, value.for_):
                     if time is not None:
                         self.check_positive_time(time.time, "resample interval")
+                if value.every is not None:
+                    self.check_cost(value.every.time, "query run")
             case "range":
                 assert isinstance(value, ast.TimeLit)
                 self.check_positive_time(value.time, "range")
@@ -228,6 +233,24 @@ class EventChecks:
                     help="times are whole nanoseconds, as InfluxDB's: write `1ns` or more",
                 )
             )
+
+    def check_cost(self, time: fm.TimeValue, what: str) -> None:
+        """A window or run shorter than COSTLY_BELOW: the runtime (and InfluxDB)
+        compute one per interval of input time, so a replay takes that many per
+        second of recording."""
+        seconds = time.seconds()
+        if seconds is None or not NANOSECOND <= seconds < COSTLY_BELOW:
+            return
+        per_second = round(1 / seconds)
+        self.report(
+            warning(
+                "RMV223",
+                f"a {what} every {time.text} is {per_second:,} per second of input",
+                time.span,
+                label=f"{per_second * 3600:,} for an hour's recording",
+                help="use a window of 1ms or more; for every message, drop the window",
+            )
+        )
 
     def check_expression(self, expr: ast.Node, allowed: frozenset[Kind]) -> list[ast.Node]:
         """Resolves the names an expression reads; returns its nodes."""
