@@ -18,7 +18,6 @@ limit cut it short. Answers are cached by formula.
 from __future__ import annotations
 
 import itertools
-import json
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -113,9 +112,14 @@ class Witness:
     def jsonl(self, unit: str | None = None) -> str:
         """The trace in the format `rmv eval` reads: its times in `unit` (the spec's
         `time unit`), said on the first line when it is not seconds."""
-        lines = [json.dumps({"unit": unit})] if unit not in (None, "s") else []
-        lines += [json.dumps(item) for item in self.as_json()["trace"]]
-        lines.append(json.dumps({"t": _json_number(self.end), "end": True}))
+        from rmvdsl.runtime.engine import to_json  # the runtime's one JSON number rule
+
+        lines = [to_json({"unit": unit})] if unit not in (None, "s") else []
+        lines += [
+            to_json({"t": t, "props": sorted(s)})
+            for t, s in zip(self.times, self.states, strict=True)
+        ]
+        lines.append(to_json({"t": self.end, "end": True}))
         return "\n".join(lines) + "\n"
 
     @classmethod
