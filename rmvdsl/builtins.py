@@ -124,6 +124,14 @@ ARRAY_AGGREGATES: dict[str, str] = {
 }
 NUMBER = "number"  # `number(path)`: one bool as 0 or 1
 FILLS = ("none", "null", "previous", "linear")  # or a number
+# The rosbags type store of each ROS distribution: the checker's message types and
+# the replay's decoder read the same one.
+TYPE_STORES = {
+    "noetic": "ROS1_NOETIC", "melodic": "ROS1_NOETIC", "kinetic": "ROS1_NOETIC",
+    "dashing": "ROS2_DASHING", "eloquent": "ROS2_ELOQUENT", "foxy": "ROS2_FOXY",
+    "galactic": "ROS2_GALACTIC", "humble": "ROS2_HUMBLE", "iron": "ROS2_IRON",
+    "jazzy": "ROS2_JAZZY", "kilted": "ROS2_KILTED",
+}  # fmt: skip
 ORDERS = ("asc", "desc")
 
 

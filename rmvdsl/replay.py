@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from rmvdsl import builtins
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.engine import (
     Endpoint,
@@ -51,7 +52,8 @@ def _typestore(spec: ir.Spec) -> Any:
     resolved (custom messages included), for recordings without their own."""
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
-    store = get_typestore(Stores.ROS1_NOETIC if spec.ros.version == 1 else Stores.ROS2_HUMBLE)
+    default = "ROS1_NOETIC" if spec.ros.version == 1 else "ROS2_HUMBLE"
+    store = get_typestore(getattr(Stores, builtins.TYPE_STORES.get(spec.ros.distro, default)))
     for message in spec.messages:
         if message.name not in store.fielddefs:
             try:

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from functools import cache
 from typing import Any
 
+from rmvdsl import builtins
 from rmvdsl.diagnostics import Diagnostic, closest, error
 from rmvdsl.source import SourceFile, SourceMap, Span
 
@@ -210,27 +211,13 @@ def environment_folders() -> list[str]:
 
 # ---- rosbags type stores ----
 
-_STORES = {
-    "noetic": "ROS1_NOETIC",
-    "melodic": "ROS1_NOETIC",
-    "kinetic": "ROS1_NOETIC",
-    "dashing": "ROS2_DASHING",
-    "eloquent": "ROS2_ELOQUENT",
-    "foxy": "ROS2_FOXY",
-    "galactic": "ROS2_GALACTIC",
-    "humble": "ROS2_HUMBLE",
-    "iron": "ROS2_IRON",
-    "jazzy": "ROS2_JAZZY",
-    "kilted": "ROS2_KILTED",
-}
-
 
 @cache
 def _store_definitions(distro: str) -> dict[str, MessageDef]:
     from rosbags.typesys import Stores, get_typestore
     from rosbags.typesys.base import Nodetype
 
-    store = getattr(Stores, _STORES[distro])
+    store = getattr(Stores, builtins.TYPE_STORES[distro])
     typestore = get_typestore(store)
     ros1 = ros_version(distro) == 1
     definitions = {}
