@@ -249,12 +249,13 @@ class _Lowering:
             if interval is not None:
                 window = ir.Window(interval, self.seconds(group.offset) or Fraction(0))
         resample = clauses.get("resample")
-        # InfluxDB's continuous querier: a query runs every group-by interval and
-        # reads that interval, or the EVERY interval when that is longer.
-        every = lookback = window.interval if window else None
+        every = lookback = None
         if isinstance(resample, ast.Resample):
-            every = self.seconds(resample.every) or every
-            lookback = self.seconds(resample.for_) or _longest(lookback, every)
+            every, lookback = self.seconds(resample.every), self.seconds(resample.for_)
+        if window is not None:  # InfluxDB's continuous querier's defaults, filled in
+            every, lookback = ir.resampling(window.interval, every, lookback)
+        elif every is not None:
+            lookback = lookback or every
         where = clauses.get("where")
         limit = clauses.get("limit")
         order = clauses.get("order")
@@ -487,7 +488,3 @@ def _reads(decl: ast.EventDecl) -> set[str]:
 
 def _primitive(base: str) -> bool:
     return FieldType(base).is_primitive
-
-
-def _longest(a: Fraction | None, b: Fraction | None) -> Fraction | None:
-    return max((x for x in (a, b) if x is not None), default=None)

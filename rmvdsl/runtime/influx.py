@@ -534,9 +534,8 @@ class WindowedQuery:
         self.offset = nanoseconds(event.window.offset) % self.interval
         # The resolved spec fills InfluxDB's defaults: every = the interval, and
         # for = the longer of the interval and every.
-        every = event.resample_every or event.window.interval
-        self.every = nanoseconds(every)
-        self.span = nanoseconds(event.resample_for or max(every, event.window.interval))
+        every, span = ir.resampling(event.window.interval, event.resample_every, event.resample_for)
+        self.every, self.span = nanoseconds(every), nanoseconds(span)
         # How far before a run's range its rows reach (one window for LOOKBACK).
         looks_back = any(c.function in LOOKBACK for c in _calls(event.expr))
         self.lookback = self.interval if looks_back else 0

@@ -273,6 +273,16 @@ class Window:
     offset: Fraction
 
 
+def resampling(
+    interval: Fraction, every: Fraction | None, lookback: Fraction | None
+) -> tuple[Fraction, Fraction]:
+    """InfluxDB's continuous querier's defaults, the one place they are written: a
+    query runs every `every` (default: the window) and each run reads `for` back
+    (default: the longer of the window and `every`)."""
+    every = every or interval
+    return every, lookback or max(every, interval)
+
+
 @dataclass(frozen=True)
 class Fill:
     mode: str  # none | null | previous | linear | number
