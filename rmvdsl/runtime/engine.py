@@ -507,7 +507,7 @@ class Runtime:
         self.by_topic: dict[str, list[tuple[ir.Variable, Callable[[Any], Any]]]] = {}
         topic_names = {t.name: t.ros_name for t in spec.topics}
         self.topic_origin = {t.ros_name: t.origin for t in spec.topics}
-        self.stamped = frozenset(t.ros_name for t in spec.topics if t.time_source == "header")
+        self.stamped = fields.stamped_topics(spec.topics)
         skipped = frozenset(skip)  # variables the input cannot give (the replay checked)
         for variable in spec.variables:
             variables = self.by_topic.setdefault(topic_names[variable.topic], [])

@@ -14,7 +14,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from fractions import Fraction
 from typing import Any
 
-from rmvdsl.runtime.spec import EachStep, FieldStep, IndexStep, Variable
+from rmvdsl.runtime.spec import EachStep, FieldStep, IndexStep, Topic, Variable
 from rmvdsl.runtime.values import INT_MAX, INT_MIN, wrap
 from rmvdsl.runtime.wording import counted
 
@@ -225,6 +225,12 @@ def _seconds(value: Any) -> Fraction:
     if seconds is None or nanoseconds is None:
         raise TypeError(f"not a ROS time: {type(value).__name__}")
     return Fraction(int(seconds)) + Fraction(int(nanoseconds), 10**9)
+
+
+def stamped_topics(topics: Iterable[Topic]) -> frozenset[str]:
+    """The ROS names of the topics whose messages take their time from their
+    `header.stamp` (`time = header`); the others take the time they arrive."""
+    return frozenset(t.ros_name for t in topics if t.time_source == "header")
 
 
 def stamp(message: Any) -> int:

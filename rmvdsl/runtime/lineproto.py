@@ -85,7 +85,7 @@ class PointWriter:
         for variable in spec.variables:
             topic = ros_names[variable.topic]
             self.readers.setdefault(topic, []).append((variable.name, fields.reader(variable)))
-        self.stamped = frozenset(t.ros_name for t in spec.topics if t.time_source == "header")
+        self.stamped = fields.stamped_topics(spec.topics)
         self.dropped: Counter[str] = Counter()
 
     def point(self, time: int, topic: str, message: Any) -> tuple[int, str] | None:
