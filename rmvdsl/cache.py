@@ -3,7 +3,9 @@ nothing (the editor re-checks on every change).
 
 Entries are small JSON objects keyed by a digest of the question: in memory, and
 as files in `RMV_CACHE_DIR` (default `$XDG_CACHE_HOME/rmvdsl` or `~/.cache/rmvdsl`;
-empty: no files). A cache that cannot be read or written only costs time.
+empty: no files). A cache that cannot be read or written only costs time. Both are
+bounded (the sizes below): memory drops its oldest half when full, and a folder is
+pruned of files unused for MAX_AGE_DAYS, then of the least recently used.
 """
 
 from __future__ import annotations
@@ -11,8 +13,17 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import time
 from dataclasses import dataclass, field
 from typing import Any
+
+# How much is kept, in one place: answers in memory (a long editor session), files
+# per folder of the cache, and how old an unread file may grow.
+MEMORY_ENTRIES = 200_000
+FOLDER_ENTRIES = 50_000  # about 25 MB of answers
+STORED_CHECKS = 2_000  # whole `rmv check` outputs (rmvdsl.commands.stored)
+MAX_AGE_DAYS = 90
+PRUNE_EVERY = 1_000  # writes between two looks at a folder's size
 
 
 @dataclass
@@ -26,25 +37,29 @@ class Cache:
         folder = cache_folder()
         return cls(os.path.join(folder, "answers") if folder else None)
 
+    writes: int = 0
+
     def get(self, key: str) -> dict[str, Any] | None:
         if key in self.memory:
             self.hits += 1
             return self.memory[key]
         if self.folder is None:
             return None
+        path = os.path.join(self.folder, key + ".json")
         try:
-            with open(os.path.join(self.folder, key + ".json"), encoding="utf-8") as handle:
+            with open(path, encoding="utf-8") as handle:
                 value = json.load(handle)
+            os.utime(path)  # read: kept the longest when the folder is pruned
         except (OSError, ValueError):
             return None
         if not isinstance(value, dict):
             return None
-        self.memory[key] = value
+        self._remember(key, value)
         self.hits += 1
         return value
 
     def put(self, key: str, value: dict[str, Any]) -> None:
-        self.memory[key] = value
+        self._remember(key, value)
         if self.folder is None:
             return
         try:
@@ -54,7 +69,39 @@ class Cache:
                 json.dump(value, handle)
             os.replace(temporary, os.path.join(self.folder, key + ".json"))
         except OSError:
+            return
+        if self.writes % PRUNE_EVERY == 0:
+            prune(self.folder)
+        self.writes += 1
+
+    def _remember(self, key: str, value: dict[str, Any]) -> None:
+        if len(self.memory) >= MEMORY_ENTRIES:
+            for old in list(self.memory)[: MEMORY_ENTRIES // 2]:  # the oldest half
+                del self.memory[old]
+        self.memory[key] = value
+
+
+def prune(folder: str, entries: int = FOLDER_ENTRIES, days: float = MAX_AGE_DAYS) -> int:
+    """Remove the files of `folder` not read or written for `days`, then the least
+    recently used ones past `entries`. The number removed."""
+    try:
+        with os.scandir(folder) as found:
+            files = [(e.stat().st_mtime, e.path) for e in found if e.is_file()]
+    except OSError:
+        return 0
+    files.sort()
+    cutoff = time.time() - days * 86400
+    stale = [path for mtime, path in files if mtime < cutoff]
+    keep = len(files) - len(stale)
+    excess = [path for _, path in files[len(stale) :]][: max(0, keep - entries)]
+    removed = 0
+    for path in [*stale, *excess]:
+        try:
+            os.remove(path)
+            removed += 1
+        except OSError:
             pass
+    return removed
 
 
 @dataclass

@@ -223,3 +223,27 @@ def test_a_window_that_makes_the_replay_slow_is_a_warning(tmp_path):
                       "property P: not H\nevent N = mean(B) group by time(1ms)\n")  # fmt: skip
     costly = [d for d in result.diagnostics if d.code == "RMV223"]
     assert [d.message for d in costly] == ["a window every 1us is 1,000,000 per second of input"]
+
+
+def test_the_caches_are_bounded(tmp_path, monkeypatch):
+    """The answer cache kept every answer in memory and on disk for ever: memory
+    drops its oldest half when full, a folder loses its stale and least recently
+    used files."""
+    import os
+    import time
+
+    from rmvdsl import cache
+
+    monkeypatch.setattr(cache, "MEMORY_ENTRIES", 10)
+    answers = cache.Cache(str(tmp_path / "answers"))
+    for index in range(25):
+        answers.put(f"k{index}", {"answer": index})
+    assert len(answers.memory) <= 10 and "k24" in answers.memory and "k0" not in answers.memory
+    folder = tmp_path / "answers"
+    old = time.time() - 100 * 86400
+    os.utime(folder / "k0.json", (old, old))  # unused for 100 days
+    for index in range(1, 25):
+        os.utime(folder / f"k{index}.json", (time.time() - 25 + index,) * 2)
+    assert cache.prune(str(folder), entries=20) == 1 + 4  # the stale one, then the 4 oldest
+    assert sorted(p.name for p in folder.iterdir())[:2] == ["k10.json", "k11.json"]
+    assert answers.get("k0") is None and answers.get("k24") == {"answer": 24}

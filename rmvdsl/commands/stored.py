@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from importlib import metadata, resources
 
 from rmvdsl import __version__
-from rmvdsl.cache import cache_folder
+from rmvdsl.cache import STORED_CHECKS, cache_folder, prune
 
 FORMAT = 1
 # Environment variables that change which message definitions a check finds.
@@ -127,6 +127,7 @@ def store(entry: str, output: Stored, files: Iterable[str], folders: Iterable[st
         with open(temporary, "w", encoding="utf-8") as handle:
             json.dump(value, handle)
         os.replace(temporary, path)
+    prune(os.path.dirname(path), STORED_CHECKS)
 
 
 def _digest(path: str) -> str | None:
