@@ -184,12 +184,16 @@ def check_case(case: Case, folder: Path) -> Any:
     return check(str(path), use_environment=False)
 
 
-def run(spec: Any, messages: Iterable[tuple[int, str, Any]], end: int = 4 * NS) -> list[dict]:
-    """The records of the runtime, started at 0.5 s (before any message)."""
+def run(
+    spec: Any, messages: Iterable[tuple[int, str, Any]], end: int = 4 * NS, early: bool = True
+) -> list[dict]:
+    """The records of the runtime, started at 0.5 s (before any message) when
+    `early`, else at the first message, as `rmv replay` starts."""
     from rmvdsl.runtime import engine
 
     runtime = engine.Runtime(spec)
-    runtime.start(NS // 2)
+    if early:
+        runtime.start(NS // 2)
     for time, topic, message in messages:
         runtime.message(time, topic, message)
     runtime.end(end)
@@ -236,7 +240,7 @@ def contradictions(case: Case, result: Any) -> list[str]:
     # The analyses' own errors are the claims under test: the spec still runs.
     kept = [d for d in result.diagnostics if d.code not in ANALYSIS_ERRORS]
     spec = lower(dataclasses.replace(result, diagnostics=kept))
-    runs = [run(spec, recording) for recording in case.recordings]
+    runs = [run(spec, r, early=index > 0) for index, r in enumerate(case.recordings)]
     found = []
     for diagnostic in result.diagnostics:
         for problem in _judge(case, spec, diagnostic, runs):

@@ -5,6 +5,7 @@ by hand or by tests/differential.py, minimised."""
 from __future__ import annotations
 
 import re
+from fractions import Fraction
 from pathlib import Path
 
 from rmvdsl.check import check
@@ -247,3 +248,22 @@ def test_the_caches_are_bounded(tmp_path, monkeypatch):
     assert cache.prune(str(folder), entries=20) == 1 + 4  # the stale one, then the 4 oldest
     assert sorted(p.name for p in folder.iterdir())[:2] == ["k10.json", "k11.json"]
     assert answers.get("k0") is None and answers.get("k24") == {"answer": 24}
+
+
+def test_a_window_point_stamped_before_the_run_takes_effect_at_its_start(tmp_path):
+    """The window [1 s, 2 s) is stamped 1 s, before the first message (1.3 s): the
+    transducer took its transition before its initial state, and `not S1` said true
+    throughout. The point now takes effect at the run's first instant."""
+    result = _checked(
+        tmp_path,
+        "event W = max(A) group by time(1s)\nevent High when W > 1\nevent Low when W < 1\n"
+        "transducer T {\n    states S0, S1\n    initial S0\n    S0 -> S1 on High\n"
+        "    S1 -> S0 on Low\n}\nproperty P: not S1\n",
+    )
+    start = NS + 3 * NS // 10
+    records = _records(result, [(start + k * 4 * NS // 10, "/a", 5) for k in range(5)], 4 * NS)
+    states = [(r["time"], r["state"]) for r in records if r["kind"] == "state"]
+    assert states == [(Fraction(13, 10), "S0"), (Fraction(13, 10), "S1")]
+    assert _verdicts(records, "P") == {"false"}
+    window = [r["time"] for r in records if r["kind"] == "event" and r["name"] == "W"]
+    assert window[0] == 1  # the record keeps InfluxDB's stamp

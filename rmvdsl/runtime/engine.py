@@ -738,7 +738,11 @@ class Runtime:
 
     def _emit(self, time: int, name: str, value: Any, source: str) -> None:
         self.sequence += 1
-        item = (time, self.sequence, name, value, source)
+        # A window's point is stamped at the window's start, which can precede the
+        # first message of the run: it takes effect at the run's first instant
+        # (nothing happens before the run starts); its record keeps the stamp.
+        at = time if self.started is None or time >= self.started else self.started
+        item = (at, self.sequence, name, value, source)
         for node in self.subscribers.get(name, ()):
             heapq.heappush(node.inbox, item)
         if name in self.consumed:
