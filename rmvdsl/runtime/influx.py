@@ -102,10 +102,8 @@ def _constant(value: Any) -> Evaluator:
 
 def _compile_binary(expr: ir.Binary, left: Evaluator, right: Evaluator) -> Evaluator:
     op = expr.op
-    if op == "and":
-        return lambda lookup: kleene_and(left(lookup), lambda: right(lookup))
-    if op == "or":
-        return lambda lookup: kleene_or(left(lookup), lambda: right(lookup))
+    if op in ("and", "or"):
+        return _connective(op == "or", left, right)
     if op in _ORDERING:
         compare = _ORDERING[op]
 
@@ -133,6 +131,23 @@ def unary(op: str, operand: Any) -> Any:
     if op == "not":
         return operand is False
     return values.negate(operand)
+
+
+def _connective(deciding: bool, left: Evaluator, right: Evaluator) -> Evaluator:
+    """`_kleene` compiled for the runtime's hot path (a condition at every message):
+    no closure made per evaluation."""
+    other = not deciding
+
+    def connective(lookup: Callable[[str], Any]) -> Any:
+        a = left(lookup)
+        if a is deciding:
+            return deciding
+        b = right(lookup)
+        if b is deciding:
+            return deciding
+        return other if a is other and b is other else MISSING
+
+    return connective
 
 
 def kleene_and(left: Any, right_of: Callable[[], Any]) -> Any:
