@@ -81,15 +81,17 @@ def exact_or_quotient(text: str) -> Fraction:
 
 
 def to_json(payload: object, indent: int | None = 2) -> str:
-    """JSON text in which every Fraction is a number written exactly (a decimal where
-    one is exact, else 17 significant digits): no float rounds it or overflows."""
+    """JSON text in which every Fraction is written exactly by the runtime's one
+    rule (rmvdsl.runtime.engine.to_json): a decimal where one is exact, else the
+    quotient as a string (`"1/3"`, which `rmv eval` reads back). No float rounds it."""
     import json
 
     numbers: list[str] = []
 
     def mark(value: object) -> object:
         if isinstance(value, Fraction):
-            numbers.append(decimal(value))
+            exact_text = exact_decimal(value)
+            numbers.append(exact_text if exact_text is not None else json.dumps(str(value)))
             return f"\x00{len(numbers) - 1}\x00"
         if isinstance(value, dict):
             return {key: mark(item) for key, item in value.items()}

@@ -267,3 +267,19 @@ def test_a_window_point_stamped_before_the_run_takes_effect_at_its_start(tmp_pat
     assert _verdicts(records, "P") == {"false"}
     window = [r["time"] for r in records if r["kind"] == "event" and r["name"] == "W"]
     assert window[0] == 1  # the record keeps InfluxDB's stamp
+
+
+def test_one_json_rule_for_exact_times(rmv, tmp_path):
+    """A time with no exact decimal: `rmv eval --format json` wrote 17 significant
+    digits, `rmv replay --format json` the quotient. Both write `"1/3"` now, and
+    `rmv eval` reads it back exactly."""
+    import json
+
+    from rmvdsl.runtime.engine import to_json
+
+    trace = tmp_path / "t.jsonl"
+    trace.write_text('{"t": 0, "props": ["p"]}\n{"t": "1/3", "props": []}\n{"t": 1, "end": true}\n')
+    result = rmv("eval", "--formula", "p", "--trace", str(trace), "--all", "--format", "json")
+    segments = json.loads(result.out)["segments"]
+    assert [s["to"] for s in segments] == ["1/3", 1]
+    assert json.loads(to_json({"t": Fraction(1, 3)})) == {"t": "1/3"}
