@@ -10,6 +10,7 @@ recording, and every witness it prints is replayed through the runtime:
 
 - RMV500: the state is never entered.      - RMV502: the input never holds.
 - RMV510/RMV511: the property is never true.  - RMV512: it is never false.
+- RMV513: the implication's antecedent, monitored alone, is never true.
 - RMV514: the properties are never all true at one time.
 - RMV515: where the others are all true, the implied one is not false.
 - RMV505: at the witness values both events hold.
@@ -21,7 +22,7 @@ Properties are sometimes sampled at a `rate` or run under a `trigger`; a value
 event over a window (a free value to the solver) is sometimes read by a condition;
 InfluxQL's `<>` appears beside `!=`.
 
-    python tests/differential.py --seeds 10000        # the long run
+    python tests/differential.py --long               # the long run: 10,000 seeds
     python tests/differential.py --seed 1234 --show   # one case, spec and findings
 """
 
@@ -312,6 +313,24 @@ def _judge(case: Case, spec: Any, diagnostic: Any, runs: list[list[dict]]) -> It
                 yield f"`{implied}` false where the others hold, recording {index}"
     if code in ("RMV505", "RMV506"):
         yield from _replay_witness(case, spec, diagnostic)
+    if code == "RMV513":
+        yield from _antecedent(case, names[1])
+
+
+def _antecedent(case: Case, antecedent: str) -> Iterable[str]:
+    """RMV513: the antecedent, monitored as a property of its own on the same
+    recordings, is never true."""
+    from rmvdsl.ir import lower
+
+    with tempfile.TemporaryDirectory() as folder:
+        extra = Case(case.seed, case.text + f"property Antecedent: {antecedent}\n",
+                     case.topics, case.variables, case.recordings)  # fmt: skip
+        result = check_case(extra, Path(folder))
+    kept = [d for d in result.diagnostics if d.code not in ANALYSIS_ERRORS]
+    spec = lower(dataclasses.replace(result, diagnostics=kept))
+    for index, recording in enumerate(case.recordings):
+        if _during(run(spec, recording, early=index > 0), "Antecedent", "true"):
+            yield f"`{antecedent}` holds in recording {index}"
 
 
 def _replay_witness(case: Case, spec: Any, diagnostic: Any) -> Iterable[str]:
@@ -390,7 +409,7 @@ class Outcome:
 
 
 CLAIMS = frozenset({"RMV500", "RMV502", "RMV505", "RMV506", "RMV510", "RMV511", "RMV512",
-                    "RMV514", "RMV515"})  # fmt: skip
+                    "RMV513", "RMV514", "RMV515"})  # fmt: skip
 
 
 def examine(seed: int, folder: Path) -> Outcome:
@@ -408,10 +427,13 @@ def examine(seed: int, folder: Path) -> Outcome:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=int, default=200, help="how many seeds, from --first")
+    parser.add_argument("--long", action="store_true", help="the long run: 10,000 seeds")
     parser.add_argument("--first", type=int, default=0)
     parser.add_argument("--seed", type=int, help="one seed only")
     parser.add_argument("--show", action="store_true", help="print each spec and its findings")
     args = parser.parse_args(argv)
+    if args.long:
+        args.seeds = 10_000
     seeds = [args.seed] if args.seed is not None else range(args.first, args.first + args.seeds)
     failed, checked, claims = [], 0, 0
     with tempfile.TemporaryDirectory() as folder:
