@@ -1,5 +1,5 @@
 """`rmv check`'s exact claims against the runtime on random whole specs and random
-recordings (tests/differential.py; `python tests/differential.py --seeds 10000`
+recordings (tests/differential.py; `python tests/differential.py --long`
 is the long run). Each seed is one spec and three recordings."""
 
 from __future__ import annotations
