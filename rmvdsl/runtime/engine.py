@@ -370,6 +370,12 @@ class PropertyMonitor:
             self.monitor.step(seconds(last), state, frozenset())
         self.next_tick = last + self.period
 
+    def advance(self, bound: int) -> None:
+        """Nothing changed before `bound`: the monitor knows its input up to there
+        (a rate's ticks say it for a sampled property)."""
+        if self.period is None and self.monitor is not None and bound > self.start:
+            self.monitor.advance(seconds(bound))
+
     def verdicts(self) -> list[tuple]:
         if self.monitor is not None:
             self.segments.extend(self.monitor.verdicts())
@@ -869,6 +875,12 @@ class Runtime:
             self.complete_before = max(self.complete_before, complete_before)
             bound = max(bound, self.complete_before)
         self._pump(bound)
+        # Silence decides too: a state that holds while time passes (docs/runtime.md,
+        # "Deciding as time passes"). Only what every node has made final counts.
+        final = min((p.final for p in self.consumer_upstream), default=bound)
+        for monitor in self.properties:
+            monitor.advance(min(bound, final))
+            self._verdicts(monitor)
 
 
 def _dataflow(spec: ir.Spec) -> list[Node]:

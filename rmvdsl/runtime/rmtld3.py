@@ -702,6 +702,14 @@ class Monitor:
                 self._flush()
         self.known, self.state = known, current
 
+    def advance(self, t: Any) -> None:
+        """The input is known, unchanged, up to t (a live host's clock passed it
+        with no new sample): decide everything that decides, now."""
+        if self.start is None or self.lateness or t <= self.known:
+            return
+        self.known = t
+        self._flush()
+
     def end(self, t: Any) -> None:
         """The input ends at t: the last state held until t; nothing is known after."""
         while self.pending:
