@@ -319,7 +319,8 @@ Custom messages: put their folder on the path, in the spec or on the command lin
     messages "msg"                  // <pkg>/msg/*.msg below ./msg
     rmv check --messages ~/ws/src spec.rmv
 
-A sourced ROS workspace (AMENT_PREFIX_PATH, ROS_PACKAGE_PATH) is searched too.""",
+A sourced ROS workspace (AMENT_PREFIX_PATH, CMAKE_PREFIX_PATH, ROS_PACKAGE_PATH) is
+searched too.""",
     ),
     (
         "RMV301",

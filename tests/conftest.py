@@ -79,9 +79,14 @@ def rmv(capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch):
     return run
 
 
-def rmv_process(args: Sequence[str], cwd: Path = ROOT, stdin: str | None = None) -> Run:
+def rmv_process(
+    args: Sequence[str],
+    cwd: Path = ROOT,
+    stdin: str | None = None,
+    env: dict[str, str] | None = None,
+) -> Run:
     """Run `rmv` as a separate process: what a user's shell sees."""
     completed = subprocess.run(
-        [*RMV, *args], cwd=cwd, input=stdin, capture_output=True, text=True, timeout=120
+        [*RMV, *args], cwd=cwd, input=stdin, capture_output=True, text=True, timeout=120, env=env
     )
     return Run(completed.returncode, completed.stdout, completed.stderr)

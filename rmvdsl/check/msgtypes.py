@@ -180,7 +180,14 @@ def _msg_files(folder: str) -> Iterator[tuple[str, str]]:
         entries = sorted(os.listdir(folder))
     except OSError:
         return
-    direct = [entry for entry in entries if entry.endswith((".msg", ".idl"))]
+    # A ROS 2 install holds each message twice: X.msg and the X.idl generated from
+    # it. The .msg is read; an .idl only where no .msg stands beside it.
+    messages = {entry[:-4] for entry in entries if entry.endswith(".msg")}
+    direct = [
+        entry
+        for entry in entries
+        if entry.endswith(".msg") or (entry.endswith(".idl") and entry[:-4] not in messages)
+    ]
     if direct:
         owner = os.path.dirname(folder) if os.path.basename(folder) == "msg" else folder
         package = os.path.basename(owner)
@@ -198,11 +205,14 @@ def _msg_files(folder: str) -> Iterator[tuple[str, str]]:
 
 def environment_folders() -> list[str]:
     """The message folders of a sourced ROS workspace."""
-    folders = []
-    for prefix in filter(None, os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep)):
-        share = os.path.join(prefix, "share")
-        if os.path.isdir(share):
-            folders.append(share)
+    folders: list[str] = []
+    # ROS 2's setup scripts set AMENT_PREFIX_PATH, ROS 1's (catkin) CMAKE_PREFIX_PATH:
+    # each prefix holds its packages' messages under share/.
+    for variable in ("AMENT_PREFIX_PATH", "CMAKE_PREFIX_PATH"):
+        for prefix in filter(None, os.environ.get(variable, "").split(os.pathsep)):
+            share = os.path.join(prefix, "share")
+            if os.path.isdir(share) and share not in folders:
+                folders.append(share)
     folders.extend(
         p for p in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if os.path.isdir(p)
     )
@@ -418,6 +428,9 @@ def _read_msg(name: str, path: str) -> _FileRead:
     return _FileRead(source, {name: definition}, tuple(problems))
 
 
+_PREPROCESSOR = re.compile(r"(?m)^[ \t]*#.*$")
+
+
 def _read_idl(name: str, path: str, ros1: bool) -> _FileRead:
     """A ROS 2 .idl file, read by rosbags; its errors come with an offset."""
     from rosbags.typesys import get_types_from_idl
@@ -428,7 +441,10 @@ def _read_idl(name: str, path: str, ros1: bool) -> _FileRead:
         return source
     text = source.text
     try:
-        types = get_types_from_idl(text)
+        # rosbags reads no preprocessor lines (`#include "pkg/msg/X.idl"`): the types
+        # they name are found by name among the others. Blanked, not removed, so
+        # the offsets of errors stay where they are.
+        types = get_types_from_idl(_PREPROCESSOR.sub(lambda m: " " * len(m.group()), text))
     except Exception as exc:  # rosbags raises its TypesysError, with the offset in it
         lines = str(exc).splitlines()
         offset = int(lines[2]) if len(lines) > 2 and lines[2].strip().isdigit() else 0
