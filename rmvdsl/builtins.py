@@ -124,6 +124,13 @@ ARRAY_AGGREGATES: dict[str, str] = {
 }
 NUMBER = "number"  # `number(path)`: one bool as 0 or 1
 FILLS = ("none", "null", "previous", "linear")  # or a number
+# What ROS itself has every node use (`intrusion { infrastructure = ros }`), by ROS
+# version and role: never an intrusion, unless a whitelist names the topic.
+INFRASTRUCTURE: dict[int, dict[str, tuple[str, ...]]] = {
+    1: {"publisher": ("/rosout",), "subscriber": ("/clock",)},
+    2: {"publisher": ("/rosout", "/parameter_events"),
+        "subscriber": ("/parameter_events", "/clock")},
+}  # fmt: skip
 # The rosbags type store of each ROS distribution: the checker's message types and
 # the replay's decoder read the same one.
 TYPE_STORES = {
@@ -339,6 +346,8 @@ BLOCKS: dict[str, Block] = {
         _s("default", "names", "allow", "topics without a whitelist: `allow` or `deny`",
            "`allow`", choices=("allow", "deny")),
         _s("ignore_nodes", "string_list", (), "node patterns never reported", "`[]`"),
+        _s("infrastructure", "names", "ros", "what every node may use: `ros` (the "
+           "topics ROS itself gives every node), or `none`", "`ros`", choices=("ros", "none")),
     ),
 }  # fmt: skip
 

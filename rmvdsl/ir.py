@@ -438,6 +438,7 @@ class _Lowering:
             poll=values["poll"],
             default=values["default"],
             ignore_nodes=tuple(pattern(p) for p in values["ignore_nodes"]),
+            infrastructure=values["infrastructure"],
             actions=self.actions(decl.actions) if decl else (),
             origin=self.origin(decl) if decl else "",
         )

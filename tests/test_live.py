@@ -62,3 +62,63 @@ def test_deciding_early_changes_nothing_in_the_result(tmp_path):
         return sorted(map(engine.to_json, out + runtime.records()))
 
     assert records(live=True) == records(live=False)
+
+
+BRIDGE = """system bridge
+ros noetic
+topic odom: nav_msgs/Odometry = "/odom"
+var X = odom.pose.pose.position.x
+event Far when X > 100
+property Near: not Far
+node "/bridge" {
+    publishes: "/odom"
+}
+whitelist odom {
+    publishers: "/bridge"
+}
+intrusion {
+    default = deny
+    action publish("/rmv/intrusion")
+}
+"""
+
+
+def _intrusions(runtime: engine.Runtime, endpoints: list[engine.Endpoint]) -> list[dict]:
+    runtime.message(NS, "/odom", {"pose": {"pose": {"position": {"x": 1.0}}}})
+    runtime.graph(NS, endpoints)
+    return [r for r in runtime.records() if r["kind"] == "intrusion"]
+
+
+def test_what_ros_has_every_node_do_is_no_intrusion(tmp_path):
+    """The spec's own bridge, on ROS 2, publishes /parameter_events and /rosout and
+    listens to /parameter_events and /clock, as every ROS 2 node does: it was
+    reported about a second after it started, every run. A rogue publisher on
+    /odom still is, and its record says who once."""
+    endpoints = [
+        engine.Endpoint("/bridge", "/odom", "publisher"),
+        engine.Endpoint("/bridge", "/parameter_events", "publisher"),
+        engine.Endpoint("/bridge", "/rosout", "publisher"),
+        engine.Endpoint("/bridge", "/parameter_events", "subscriber"),
+        engine.Endpoint("/bridge", "/clock", "subscriber"),
+        engine.Endpoint("/rogue", "/odom", "publisher"),
+    ]
+    path = tmp_path / "spec.rmv"
+    path.write_text(BRIDGE, encoding="utf-8")
+    spec = lower(check(str(path), use_environment=False))
+    found = _intrusions(engine.Runtime(spec, ros_version=2), endpoints)
+    assert [(r["node"], r["topic"], r["reason"]) for r in found] == [
+        ("/rogue", "/odom", "not in the publishers allowed on /odom")
+    ]
+    # ROS 1 has no /parameter_events: there it is an intrusion.
+    found = _intrusions(engine.Runtime(spec, ros_version=1), endpoints)
+    assert ("/bridge", "/parameter_events") in {(r["node"], r["topic"]) for r in found}
+    # `infrastructure = none` removes the exception; a `node` rule then says why,
+    # naming the node once.
+    strict = BRIDGE.replace("default = deny", "infrastructure = none")
+    path.write_text(strict, encoding="utf-8")
+    found = _intrusions(
+        engine.Runtime(lower(check(str(path), use_environment=False)), ros_version=2),
+        endpoints,
+    )
+    reasons = {(r["node"], r["topic"]): r["reason"] for r in found}
+    assert reasons[("/bridge", "/rosout")] == "may not publish on /rosout"

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any, Protocol
 
+from rmvdsl.builtins import INFRASTRUCTURE
 from rmvdsl.runtime import fields, influx
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.formulas import to_lists
@@ -461,24 +462,38 @@ def can_refuse(spec: ir.Spec) -> bool:
     return bool(spec.whitelists or spec.nodes or spec.intrusion.default == "deny")
 
 
-def verdict_of(spec: ir.Spec, endpoint: Endpoint) -> tuple[str, Any] | None:
-    """Why an endpoint is not allowed (and the rule that refused it), or None."""
+def verdict_of(
+    spec: ir.Spec, endpoint: Endpoint, ros_version: int | None = None
+) -> tuple[str, Any] | None:
+    """Why an endpoint is not allowed (and the rule that refused it), or None, on a
+    system of `ros_version` (default: the spec's)."""
     if _matches(spec.intrusion.ignore_nodes, endpoint.node):
         return None
     publisher = endpoint.role == "publisher"
     lists = [w for w in spec.whitelists if re.match(w.topic.regex, endpoint.topic)]
+    intrusion = spec.intrusion
+    if intrusion.infrastructure == "ros" and not lists:
+        given = INFRASTRUCTURE.get(ros_version or spec.ros.version, {})
+        infrastructure = given.get(endpoint.role, ())
+    else:
+        infrastructure = ()
+    if endpoint.topic in infrastructure:
+        return None  # ROS's own, which every node uses (docs/runtime.md, "Intrusions")
+    # The reason says what and why; the record and the action's text say who.
     for rule in lists:
         allowed = rule.publishers if publisher else rule.subscribers
         if allowed is not None and not _matches(allowed, endpoint.node):
             return f"not in the {endpoint.role}s allowed on {rule.topic.text}", rule
-    if not lists and spec.intrusion.default == "deny":
+    if not lists and intrusion.default == "deny":
         return f"no whitelist for {endpoint.topic}, and the default is deny", None
     for node_rule in spec.nodes:
         if re.match(node_rule.node.regex, endpoint.node):
             allowed = node_rule.publishes if publisher else node_rule.subscribes
             verb = "publish" if publisher else "subscribe"
             if allowed is not None and not _matches(allowed, endpoint.topic):
-                return f"{node_rule.node.text} may not {verb} on {endpoint.topic}", node_rule
+                rule_name = node_rule.node.text
+                by = f" (node {rule_name})" if rule_name != endpoint.node else ""
+                return f"may not {verb} on {endpoint.topic}{by}", node_rule
     return None
 
 
@@ -496,8 +511,12 @@ class Runtime:
         host: Host | None = None,
         record: Iterable[str] = ("state", "event"),
         skip: Iterable[str] = (),
+        ros_version: int | None = None,
     ) -> None:
         self.spec = spec
+        # The ROS the monitor runs on (a ROS 2 node for a spec written for noetic):
+        # what ROS itself has every node use depends on it.
+        self.ros_version = ros_version or spec.ros.version
         self.host: Host = host or RecordingHost()
         self.recorded = frozenset(record)
         self.counters: Counter[str] = Counter()
@@ -674,7 +693,7 @@ class Runtime:
         present: dict[Endpoint, str] = {}
         rules: dict[Endpoint, Any] = {}
         for endpoint in endpoints:
-            found = verdict_of(self.spec, endpoint)
+            found = verdict_of(self.spec, endpoint, self.ros_version)
             if found is not None:
                 present[endpoint], rules[endpoint] = found
         for endpoint, reason in present.items():

@@ -442,6 +442,10 @@ class Intrusion:
     poll: Fraction
     default: str  # allow | deny
     ignore_nodes: tuple[Pattern, ...]
+    # `ros`: the topics ROS itself has every node use (builtins.INFRASTRUCTURE, by
+    # the ROS version the monitor runs on) are never intrusions, unless a whitelist
+    # names the topic; `none`: no exception.
+    infrastructure: str
     actions: tuple[Action, ...]
     origin: str  # empty without an `intrusion` block
 
