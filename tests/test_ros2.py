@@ -46,6 +46,16 @@ intrusion {
 }
 """
 TWIST = "geometry_msgs/msg/TwistStamped"
+# A violation that lasts with no message while it does (issue 31): decided when
+# time passes, its alert published to subscribers that come later.
+OVERSPEED = """system overspeed "a robot over speed for long"
+topic twist: geometry_msgs/msg/TwistStamped = "/vehicle/twist"
+var Speed = twist.twist.linear.x
+event Overspeed when Speed > 25
+property NoLongOverspeed: duration[2s](Overspeed) < 1s {
+    action publish("/rmv/alerts")
+}
+"""
 # A reader that keeps one message: a burst overflows it.
 LOSSY = """system lossy "a topic read with depth 1"
 time unit s
@@ -123,6 +133,7 @@ def specs(tmp_path_factory) -> dict[str, Path]:
         "carla_abs": _checked(folder / "carla_abs.rmv", _carla_spec()),
         "lossy": _checked(folder / "lossy.rmv", LOSSY),
         "collected": _checked(folder / "collected.rmv", COLLECTED),
+        "overspeed": _checked(folder / "overspeed.rmv", OVERSPEED),
     }
 
 
@@ -441,3 +452,26 @@ def test_the_alert_handler_publishes_any_alert_text_as_data(tmp_path):
     seen = json.loads(run.stdout)
     assert seen["code"] == 0, seen["output"]
     assert seen["received"] == [message]
+
+
+def test_a_lasting_violation_is_decided_live_and_its_alert_kept(workspace, tmp_path):
+    """Over speed, then silence: the node decides the violation when 1 s of it has
+    passed (the message that started it is the last), shows it in /diagnostics within
+    a decide period and a diagnostics period of that, and a subscriber that starts
+    later, transient_local, still gets the alert."""
+    command = [_executable(workspace, "overspeed", "monitor"), "--ros-args",
+               "-p", "diagnostics_period:=0.05", "-p", "decide_period:=0.05"]  # fmt: skip
+    status = "rmv_monitor: property NoLongOverspeed"
+    seen = _drive(workspace, {
+        "monitor": command, "publishers": {"/vehicle/twist": TWIST},
+        "steps": [_publish("/vehicle/twist", _twist_cdr(0, 5.0)),
+                  _publish("/vehicle/twist", _twist_cdr(0, 30.0)),
+                  ["status", status, "false", 15.0]],
+        "late": ["/rmv/alerts"],
+    }, tmp_path, rosenv.DOMAIN + 7)  # fmt: skip
+    [(_, _, waited)] = seen["waits"]
+    print(f"decided {waited} s after the last message")
+    # Decidable 1 s after the last message; out within 0.05 + 0.05 s of that, with
+    # room for a loaded 2-core machine (measured figures in the closing note).
+    assert waited is not None and 1.0 <= waited < 1.6, seen["waits"]
+    assert seen["late"] == {"/rmv/alerts": ["NoLongOverspeed violated"]}, seen["late"]

@@ -273,6 +273,18 @@ class Window:
     offset: Fraction
 
 
+def published_topics(spec: Spec) -> tuple[str, ...]:
+    """Every topic a `publish` action of the spec writes on, in declaration order:
+    a live host makes their publishers at start-up (a publisher made at the first
+    alert loses it to subscribers not yet matched)."""
+    actions: list[Action] = [a for p in spec.properties for a in p.actions]
+    actions += [a for alert in spec.alerts for a in alert.actions]
+    actions += [a for w in spec.whitelists for a in w.actions]
+    actions += [a for n in spec.nodes for a in n.actions]
+    actions += spec.intrusion.actions
+    return tuple(dict.fromkeys(a.topic for a in actions if isinstance(a, Publish)))
+
+
 def resampling(
     interval: Fraction, every: Fraction | None, lookback: Fraction | None
 ) -> tuple[Fraction, Fraction]:

@@ -7,8 +7,12 @@ The scenario (JSON) names the monitor's command line, the topics to publish with
 types, and the steps: `["publish", topic, base64 CDR bytes]` sends recorded bytes as
 they are (any type, decoded only by the node), `["clock", ns]` publishes /clock and
 waits until the node's clock has reached it, `["settle"]` waits until the node has
-counted every message sent so far. Prints, as JSON, the node's verdict
-segments, its last diagnostics, its log and its exit code.
+counted every message sent so far, `["status", NAME, MESSAGE, SECONDS]` waits (at
+most SECONDS) until the node's /diagnostics show status NAME with MESSAGE and notes
+how long after the last publish it came. `late` names topics subscribed to only
+after the steps, transient_local, as a subscriber that starts late would. Prints, as
+JSON, the node's verdict segments, its last diagnostics, the status waits, what the
+late subscribers got, its log and its exit code.
 """
 
 from __future__ import annotations
@@ -44,6 +48,8 @@ class Player:
         self.verdicts: list[str] = []
         self.statuses: dict[str, dict[str, str]] = {}
         self.clock_ns = -1
+        self.last_publish = time.monotonic()
+        self.waits: list[list[Any]] = []
         self.node.create_subscription(
             String, "/rmv/verdicts", lambda m: self.verdicts.append(m.data), 1000
         )
@@ -84,6 +90,30 @@ class Player:
             during=lambda: self.clock.publish(message),
         )  # fmt: skip
 
+    def wait_status(self, name: str, message: str, seconds: float) -> None:
+        def shown() -> bool:
+            return self.statuses.get(name, {}).get("message") == message
+
+        deadline = time.monotonic() + seconds
+        while not shown() and time.monotonic() < deadline:
+            rclpy.spin_once(self.node, timeout_sec=0.01)
+        waited = time.monotonic() - self.last_publish
+        self.waits.append([name, message, round(waited, 3) if shown() else None])
+
+    def subscribe_late(self, topics: list[str]) -> dict[str, list[str]]:
+        """What subscribers that start now get of what was published before."""
+        got: dict[str, list[str]] = {topic: [] for topic in topics}
+        qos = QoSProfile(depth=100, history=HistoryPolicy.KEEP_LAST,
+                         reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)  # fmt: skip
+        for topic in topics:
+            self.node.create_subscription(String, topic, lambda m, t=topic: got[t].append(m.data),
+                                          qos)  # fmt: skip
+        deadline = time.monotonic() + 5.0
+        while not all(got.values()) and time.monotonic() < deadline:
+            rclpy.spin_once(self.node, timeout_sec=0.05)
+        return got
+
     def counted(self) -> int:
         """The messages the monitor has read or knows it lost."""
         counters = self.statuses.get("rmv_monitor: monitor", {})
@@ -96,10 +126,14 @@ class Player:
             if step[0] == "clock":
                 self.set_clock(step[1])
                 continue
+            if step[0] == "status":
+                self.wait_status(*step[1:])
+                continue
             if step[0] == "settle":  # until the monitor has counted all sent so far
                 self.wait_for(lambda n=published: self.counted() >= n, "the monitor to settle")
                 continue
             self.publishers[step[1]].publish(base64.b64decode(step[2]))
+            self.last_publish = time.monotonic()
             published += 1
             deadline = time.monotonic() + pace
             rclpy.spin_once(self.node, timeout_sec=0)
@@ -117,12 +151,14 @@ def main(scenario_path: str) -> int:
     monitor = subprocess.Popen(scenario["monitor"], stdout=log_file, stderr=subprocess.STDOUT)
     rclpy.init()
     player = Player(scenario)
+    late: dict[str, list[str]] = {}
     try:
         for topic, publisher in player.publishers.items():
             player.wait_for(lambda p=publisher: p.get_subscription_count() > 0, f"{topic}'s reader")
         player.wait_for(lambda: player.node.count_publishers("/rmv/verdicts") > 0, "verdicts")
         count = player.play(scenario["steps"], scenario.get("pace", 0.001))
         player.wait_for(lambda: player.counted() == count, f"the monitor to count all {count}")
+        late = player.subscribe_late(scenario.get("late", []))
         monitor.send_signal(signal.SIGINT)
         player.wait_for(lambda: monitor.poll() is not None, "the monitor to stop")
         end = time.monotonic()
@@ -138,7 +174,8 @@ def main(scenario_path: str) -> int:
         player.node.destroy_node()
         rclpy.shutdown()
     print(json.dumps({"verdicts": player.verdicts, "diagnostics": player.statuses,
-                      "log": log, "code": monitor.returncode}))  # fmt: skip
+                      "waits": player.waits, "late": late, "log": log,
+                      "code": monitor.returncode}))  # fmt: skip
     return 0
 
 
