@@ -122,3 +122,36 @@ def test_what_ros_has_every_node_do_is_no_intrusion(tmp_path):
     )
     reasons = {(r["node"], r["topic"]): r["reason"] for r in found}
     assert reasons[("/bridge", "/rosout")] == "may not publish on /rosout"
+
+
+STAMPED = """system stamped
+ros humble
+topic a: geometry_msgs/TwistStamped = "/a" qos { time = header }
+topic b: geometry_msgs/TwistStamped = "/b" qos { time = header }
+topic c: geometry_msgs/TwistStamped = "/c"
+var A = a.twist.linear.x
+var B = b.twist.linear.x
+var C = c.twist.linear.x
+event Both when A > 1 and B > 1
+event Apart when A > 1 and C > 1
+transducer T {
+    states Idle, Busy
+    initial Idle
+    Idle -> Busy on Both
+    Busy -> Idle on Apart
+}
+property P1: not Busy
+property P2: not Apart
+property P3: not Busy { lateness = 100ms }
+"""
+
+
+def test_stamped_topics_feeding_one_property_need_a_lateness(tmp_path):
+    """P1 reads /a and /b through the transducer, both timed by their stamps, with
+    no `lateness`: RMV224. P2 reads one stamped topic; P3 has a lateness."""
+    path = tmp_path / "spec.rmv"
+    path.write_text(STAMPED, encoding="utf-8")
+    found = [d for d in check(str(path), use_environment=False).diagnostics if d.code == "RMV224"]
+    assert [d.message for d in found] == [
+        "property `P1` reads 2 topics timed by their header stamps (`a`, `b`) and has no `lateness`"
+    ]

@@ -10,7 +10,6 @@ later analysis and target reads.
 
 from __future__ import annotations
 
-import bisect
 import contextlib
 import gc
 import os
@@ -21,8 +20,9 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, cast
 
+from rmvdsl.check.lateness import lateness_warnings
 from rmvdsl.check.loader import Reader, UsageError, load, read_text
-from rmvdsl.check.model import Kind, Model
+from rmvdsl.check.model import Model
 from rmvdsl.check.msgtypes import DISTROS
 from rmvdsl.check.names import check_names
 from rmvdsl.check.types import TypeConfig, TypeInfo, check_types
@@ -153,6 +153,7 @@ def _check(
         use_environment=use_environment,
     )
     types, type_diagnostics = check_types(model, config, folder, incremental)
+    type_diagnostics = [*type_diagnostics, *lateness_warnings(model)]
     if not solver:
         fast = _quieted(
             model, [*loaded.diagnostics, *config_diagnostics], name_diagnostics, type_diagnostics
@@ -194,48 +195,19 @@ def broken_declarations(model: Model, diagnostics: list[Diagnostic]) -> set[str]
     reads one of them, directly or through others: no analysis claims anything
     about them (a name that does not resolve is not a free value to solve for)."""
     errors = [d.span for d in diagnostics if d.severity is Severity.ERROR]
-    declared = _declaration_spans(model)
+    declared = model.declaration_spans()
     broken = {
         name
         for name, span in declared.items()
         if model.in_damaged(span)
         or any(e.path == span.path and span.start <= e.start < span.end for e in errors)
     }
-    reads = _reads(model, declared)
+    reads = model.reads()
     while True:
         more = {name for name, names in reads.items() if name not in broken and names & broken}
         if not more:
             return broken
         broken |= more
-
-
-def _declaration_spans(model: Model) -> dict[str, Span]:
-    groups = (model.variables, model.events, model.transducers, model.properties, model.alerts)
-    return {name: decl.span for group in groups for name, decl in group.items()}
-
-
-def _reads(model: Model, declared: dict[str, Span]) -> dict[str, set[str]]:
-    """The declarations each declaration reads (a state or an emitted event stands
-    for its transducer)."""
-    starts: dict[str, list[tuple[int, int, str]]] = {}
-    for name, span in declared.items():
-        starts.setdefault(span.path, []).append((span.start, span.end, name))
-    for spans in starts.values():
-        spans.sort()
-    reads: dict[str, set[str]] = {}
-    for reference in model.references:
-        spans = starts.get(reference.span.path, [])
-        index = bisect.bisect_right(spans, (reference.span.start, _END, "")) - 1
-        if index < 0 or reference.span.start >= spans[index][1]:
-            continue
-        symbol = reference.symbol
-        target = symbol.owner if symbol.kind in (Kind.STATE, Kind.EMITTED_EVENT) else symbol.name
-        if target is not None and target != spans[index][2]:
-            reads.setdefault(spans[index][2], set()).add(target)
-    return reads
-
-
-_END = 1 << 62
 
 
 @dataclass(frozen=True)

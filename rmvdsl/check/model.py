@@ -7,6 +7,7 @@ go-to-definition and rename will read `references`).
 
 from __future__ import annotations
 
+import bisect
 import enum
 from dataclasses import dataclass, field
 from typing import cast
@@ -135,6 +136,36 @@ class Model:
     def uses_of(self, symbol: Symbol) -> list[Reference]:
         return [r for r in self.references if r.symbol is symbol]
 
+    def declaration_spans(self) -> dict[str, Span]:
+        """Where each named declaration a name can read stands (variables, events,
+        transducers, properties, alerts)."""
+        groups = (self.variables, self.events, self.transducers, self.properties, self.alerts)
+        return {name: decl.span for group in groups for name, decl in group.items()}
+
+    def reads(self) -> dict[str, set[str]]:
+        """The declarations each declaration reads, from the references inside it (a
+        state or an emitted event stands for its transducer)."""
+        starts: dict[str, list[tuple[int, int, str]]] = {}
+        for name, span in self.declaration_spans().items():
+            starts.setdefault(span.path, []).append((span.start, span.end, name))
+        for spans in starts.values():
+            spans.sort()
+        reads: dict[str, set[str]] = {}
+        for reference in self.references:
+            spans = starts.get(reference.span.path, [])
+            index = bisect.bisect_right(spans, (reference.span.start, _END, "")) - 1
+            if index < 0 or reference.span.start >= spans[index][1]:
+                continue
+            symbol = reference.symbol
+            owned = symbol.kind in (Kind.STATE, Kind.EMITTED_EVENT)
+            target = symbol.owner if owned else symbol.name
+            if target is not None and target != spans[index][2]:
+                reads.setdefault(spans[index][2], set()).add(target)
+        return reads
+
     def state_owner(self, name: str) -> str | None:
         symbol = self.symbols.get(name)
         return symbol.owner if symbol is not None and symbol.kind is Kind.STATE else None
+
+
+_END = 1 << 62  # past any offset
