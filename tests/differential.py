@@ -121,7 +121,7 @@ def make_case(seed: int) -> Case:
         variables[f"V{index}"] = ros_name
     numeric = sorted(v for v, k in maker.kinds.items() if k in ("Int32", "Float64"))
     if numeric and rng.random() < 0.4:
-        function = rng.choice(["max", "min", "mean", "count", "last"])
+        function = rng.choice(["max", "min", "mean", "count", "last", "integral"])
         interval = rng.choice(["500ms", "1s"])
         lines.append(f"event W = {function}({rng.choice(numeric)}) group by time({interval})")
         maker.windowed.append("W")
