@@ -9,6 +9,7 @@ from __future__ import annotations
 from rmvdsl.check.model import Model
 from rmvdsl.diagnostics import Diagnostic, warning
 from rmvdsl.grammar import ast
+from rmvdsl.runtime.wording import counted
 
 
 def lateness_warnings(model: Model) -> list[Diagnostic]:
@@ -27,8 +28,8 @@ def lateness_warnings(model: Model) -> list[Diagnostic]:
         found.append(
             warning(
                 "RMV224",
-                f"property `{name}` reads {len(topics)} topics timed by their header "
-                f"stamps ({listed}) and has no `lateness`",
+                f"property `{name}` reads {counted(len(topics), 'topic')} timed by their "
+                f"header stamps ({listed}) and has no `lateness`",
                 decl.name.span,
                 label="a message stamped before one already read is dropped",
                 help="give it the most the stamps of two topics can disagree, e.g. "
