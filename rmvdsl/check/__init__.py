@@ -10,6 +10,7 @@ later analysis and target reads.
 
 from __future__ import annotations
 
+import bisect
 import contextlib
 import gc
 import os
@@ -194,20 +195,29 @@ def broken_declarations(model: Model, diagnostics: list[Diagnostic]) -> set[str]
     """The declarations with an error inside (or a syntax error), and every one that
     reads one of them, directly or through others: no analysis claims anything
     about them (a name that does not resolve is not a free value to solve for)."""
-    errors = [d.span for d in diagnostics if d.severity is Severity.ERROR]
-    declared = model.declaration_spans()
-    broken = {
-        name
-        for name, span in declared.items()
-        if model.in_damaged(span)
-        or any(e.path == span.path and span.start <= e.start < span.end for e in errors)
-    }
-    reads = model.reads()
-    while True:
-        more = {name for name, names in reads.items() if name not in broken and names & broken}
-        if not more:
-            return broken
-        broken |= more
+    errors: dict[str, list[int]] = {}
+    for d in diagnostics:
+        if d.severity is Severity.ERROR:
+            errors.setdefault(d.span.path, []).append(d.span.start)
+    for starts in errors.values():
+        starts.sort()
+    broken = set()
+    for name, span in model.declaration_spans().items():
+        starts = errors.get(span.path, [])
+        first = bisect.bisect_left(starts, span.start)  # the first error at or after it
+        if model.in_damaged(span) or (first < len(starts) and starts[first] < span.end):
+            broken.add(name)
+    readers: dict[str, set[str]] = {}
+    for name, names in model.reads().items():
+        for read in names:
+            readers.setdefault(read, set()).add(name)
+    pending = list(broken)
+    while pending:  # each declaration once: a chain of 10,000 events is one walk
+        for reader in readers.get(pending.pop(), ()):
+            if reader not in broken:
+                broken.add(reader)
+                pending.append(reader)
+    return broken
 
 
 @dataclass(frozen=True)

@@ -107,6 +107,7 @@ class Model:
     symbols: dict[str, Symbol] = field(default_factory=dict)
     # Each use of a name, in the order of the declarations (read `references`).
     uses: list[Reference | ReusedReferences] = field(default_factory=list, repr=False)
+    _reads: dict[str, set[str]] | None = field(default=None, repr=False, compare=False)
 
     @property
     def references(self) -> list[Reference]:
@@ -144,7 +145,13 @@ class Model:
 
     def reads(self) -> dict[str, set[str]]:
         """The declarations each declaration reads, from the references inside it (a
-        state or an emitted event stands for its transducer)."""
+        state or an emitted event stands for its transducer). Found once a check:
+        three stages ask (the transducer and property analyses, RMV224)."""
+        if self._reads is None:
+            self._reads = self._find_reads()
+        return self._reads
+
+    def _find_reads(self) -> dict[str, set[str]]:
         starts: dict[str, list[tuple[int, int, str]]] = {}
         for name, span in self.declaration_spans().items():
             starts.setdefault(span.path, []).append((span.start, span.end, name))
