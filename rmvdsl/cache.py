@@ -5,7 +5,9 @@ Entries are small JSON objects keyed by a digest of the question: in memory, and
 as files in `RMV_CACHE_DIR` (default `$XDG_CACHE_HOME/rmvdsl` or `~/.cache/rmvdsl`;
 empty: no files). A cache that cannot be read or written only costs time. Both are
 bounded (the sizes below): memory drops its oldest half when full, and a folder is
-pruned of files unused for MAX_AGE_DAYS, then of the least recently used.
+pruned of files written more than MAX_AGE_DAYS ago, then of the oldest. (Reads do
+not touch a file: a re-check after an edit reads thousands of answers, and a
+syscall each would cost more than answering again the few a prune drops.)
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from typing import Any
 MEMORY_ENTRIES = 200_000
 FOLDER_ENTRIES = 50_000  # about 25 MB of answers
 STORED_CHECKS = 2_000  # whole `rmv check` outputs (rmvdsl.commands.stored)
-MAX_AGE_DAYS = 90
+MAX_AGE_DAYS = 90  # since written
 PRUNE_EVERY = 1_000  # writes between two looks at a folder's size
 
 
@@ -45,11 +47,9 @@ class Cache:
             return self.memory[key]
         if self.folder is None:
             return None
-        path = os.path.join(self.folder, key + ".json")
         try:
-            with open(path, encoding="utf-8") as handle:
+            with open(os.path.join(self.folder, key + ".json"), encoding="utf-8") as handle:
                 value = json.load(handle)
-            os.utime(path)  # read: kept the longest when the folder is pruned
         except (OSError, ValueError):
             return None
         if not isinstance(value, dict):
@@ -82,8 +82,8 @@ class Cache:
 
 
 def prune(folder: str, entries: int = FOLDER_ENTRIES, days: float = MAX_AGE_DAYS) -> int:
-    """Remove the files of `folder` not read or written for `days`, then the least
-    recently used ones past `entries`. The number removed."""
+    """Remove the files of `folder` written more than `days` ago, then the oldest
+    past `entries`. The number removed."""
     try:
         with os.scandir(folder) as found:
             files = [(e.stat().st_mtime, e.path) for e in found if e.is_file()]

@@ -228,8 +228,8 @@ def test_a_window_that_makes_the_replay_slow_is_a_warning(tmp_path):
 
 def test_the_caches_are_bounded(tmp_path, monkeypatch):
     """The answer cache kept every answer in memory and on disk for ever: memory
-    drops its oldest half when full, a folder loses its stale and least recently
-    used files."""
+    drops its oldest half when full, a folder loses its stale and then its oldest
+    files."""
     import os
     import time
 
@@ -242,7 +242,7 @@ def test_the_caches_are_bounded(tmp_path, monkeypatch):
     assert len(answers.memory) <= 10 and "k24" in answers.memory and "k0" not in answers.memory
     folder = tmp_path / "answers"
     old = time.time() - 100 * 86400
-    os.utime(folder / "k0.json", (old, old))  # unused for 100 days
+    os.utime(folder / "k0.json", (old, old))  # written 100 days ago
     for index in range(1, 25):
         os.utime(folder / f"k{index}.json", (time.time() - 25 + index,) * 2)
     assert cache.prune(str(folder), entries=20) == 1 + 4  # the stale one, then the 4 oldest
