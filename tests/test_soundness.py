@@ -16,7 +16,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from rmvdsl.check import check
-from rmvdsl.check.conditions import apply, as_python_float, negate, number
+from rmvdsl.check.operators import apply, negate, number
+from rmvdsl.check.solving import as_python_float
 from rmvdsl.grammar.formula import TIME_UNITS
 from rmvdsl.runtime import values
 

@@ -7,7 +7,7 @@
   which a state has no transition.
 
 Boolean events are conditions over variables, as z3 formulas with the runtime's
-operator semantics (rmvdsl/check/conditions.py).
+operator semantics (rmvdsl/check/conditions.py, rmvdsl/check/operators.py).
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """What the operators of event expressions compute: InfluxQL's semantics, exactly.
 
 This module uses the Python standard library only. It is the one definition of an
-operator's meaning; the solver model of `rmv check` (rmvdsl/check/conditions.py) is
+operator's meaning; the solver model of `rmv check` (rmvdsl/check/operators.py) is
 tested against it value by value, and so will every target be (docs/runtime.md).
 
 Values are `bool`, `int` (64-bit two's complement, as InfluxDB stores integers),
