@@ -67,23 +67,20 @@ class FieldPaths:
 
     def check_time_source(self, topic: ast.TopicDecl, definition: MessageDef) -> None:
         """`time = header` needs a `header` that is a std_msgs/Header."""
-        for setting in topic.qos:
-            value = setting.value
-            if setting.key.name != "time" or not isinstance(value, ast.NameValue):
-                continue
-            if value.ident.name != "header":
-                continue
-            header = definition.fields.get("header")
-            if header is None or header.array or canonical(header.base) != "std_msgs/msg/Header":
-                self.report(
-                    error(
-                        "RMV322",
-                        f"`{definition.name}` has no header stamp to take the time from",
-                        setting.value.span,
-                        label="its messages have no `header` field of type std_msgs/Header",
-                        help="use `time = receipt` (the time a message arrives)",
-                    )
+        value = topic.time_setting
+        if value is None or value.ident.name != "header":
+            return
+        header = definition.fields.get("header")
+        if header is None or header.array or canonical(header.base) != "std_msgs/msg/Header":
+            self.report(
+                error(
+                    "RMV322",
+                    f"`{definition.name}` has no header stamp to take the time from",
+                    value.span,
+                    label="its messages have no `header` field of type std_msgs/Header",
+                    help="use `time = receipt` (the time a message arrives)",
                 )
+            )
 
     def type_variable(self, variable: ast.VarDecl) -> VType:
         topic = self.info.topics.get(variable.source.topic.name)

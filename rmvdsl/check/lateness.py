@@ -8,12 +8,15 @@ from __future__ import annotations
 
 from rmvdsl.check.model import Model
 from rmvdsl.diagnostics import Diagnostic, warning
-from rmvdsl.grammar import ast
 from rmvdsl.runtime.wording import counted
 
 
 def lateness_warnings(model: Model) -> list[Diagnostic]:
-    stamped = {name for name, decl in model.topics.items() if _time_source(decl) == "header"}
+    stamped = {
+        name
+        for name, decl in model.topics.items()
+        if decl.time_setting is not None and decl.time_setting.ident.name == "header"
+    }
     if len(stamped) < 2:
         return []
     reads = model.reads()
@@ -37,13 +40,6 @@ def lateness_warnings(model: Model) -> list[Diagnostic]:
             )
         )
     return found
-
-
-def _time_source(decl: ast.TopicDecl) -> str:
-    for setting in decl.qos:
-        if setting.key.name == "time" and isinstance(setting.value, ast.NameValue):
-            return setting.value.ident.name
-    return "receipt"
 
 
 def _topics_read(model: Model, reads: dict[str, set[str]], root: str) -> set[str]:

@@ -232,6 +232,14 @@ class TopicDecl(Decl):
     doc: str = field(default="", compare=False)
     span: Span = field(default=NO_SPAN, compare=False)
 
+    @property
+    def time_setting(self) -> NameValue | None:
+        """The block's `time = receipt|header`, as written (None: not given)."""
+        for setting in self.qos:
+            if setting.key.name == "time" and isinstance(setting.value, NameValue):
+                return setting.value
+        return None
+
 
 @dataclass(frozen=True)
 class Segment(Node):
