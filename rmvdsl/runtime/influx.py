@@ -136,16 +136,10 @@ def unary(op: str, operand: Any) -> Any:
 def _connective(deciding: bool, left: Evaluator, right: Evaluator) -> Evaluator:
     """`_kleene` compiled for the runtime's hot path (a condition at every message):
     no closure made per evaluation."""
-    other = not deciding
 
     def connective(lookup: Callable[[str], Any]) -> Any:
         a = left(lookup)
-        if a is deciding:
-            return deciding
-        b = right(lookup)
-        if b is deciding:
-            return deciding
-        return other if a is other and b is other else MISSING
+        return deciding if a is deciding else _settled(deciding, a, right(lookup))
 
     return connective
 
@@ -162,13 +156,17 @@ def kleene_or(left: Any, right_of: Callable[[], Any]) -> Any:
 
 def _kleene(deciding: bool, left: Any, right_of: Callable[[], Any]) -> Any:
     """A connective whose `deciding` operand decides it whatever the other is (the
-    right one is not evaluated then); two of the other value give that value."""
-    if left is deciding:
-        return deciding
-    right = right_of()
+    right one is not evaluated then)."""
+    return deciding if left is deciding else _settled(deciding, left, right_of())
+
+
+def _settled(deciding: bool, left: Any, right: Any) -> Any:
+    """The connective once the left side has not decided it: the right one may; two
+    of the other value give that value; anything else is unknown."""
     if right is deciding:
         return deciding
-    return (not deciding) if left is (not deciding) and right is (not deciding) else MISSING
+    other = not deciding
+    return other if left is other and right is other else MISSING
 
 
 def _number(node: ir.Number) -> int | float:
