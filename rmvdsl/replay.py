@@ -257,7 +257,8 @@ def text_line(record: Record) -> str | None:
     if kind == "verdict":
         open_, close = record["bounds"]
         span = f"{open_}{_decimal(record['from'])}, {_decimal(record['to'])}{close}"
-        return f"verdict   {record['property']}: {record['verdict']} on {span}"
+        revised = " (revised: late input)" if record.get("revised") else ""
+        return f"verdict   {record['property']}: {record['verdict']} on {span}{revised}"
     if kind == "alert":
         if record["level"] == record["previous"]:
             return None  # a repeat at the same level: JSON has every point, text the changes

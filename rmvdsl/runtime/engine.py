@@ -30,7 +30,8 @@ from rmvdsl.builtins import INFRASTRUCTURE
 from rmvdsl.runtime import fields, influx
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.formulas import to_lists
-from rmvdsl.runtime.rmtld3 import Monitor, continues
+from rmvdsl.runtime.rmtld3 import Monitor, build, continues
+from rmvdsl.runtime.uncertain import Uncertain
 from rmvdsl.runtime.values import exact_decimal, exact_text
 from rmvdsl.runtime.wording import counted
 
@@ -131,6 +132,7 @@ class Node(ABC):
     reads: tuple[str, ...]
     writes: tuple[str, ...]
     reactive = True  # changes only when an input arrives (a query runs on a clock)
+    lead = 0  # an input at t changes this node's output from t - lead on (ns)
 
     def __init__(self) -> None:
         self.inbox: list[Item] = []
@@ -186,6 +188,10 @@ class WindowedEvent(Node):
         self.name, self.reads, self.writes = event.name, event.reads, (event.name,)
         self.state = influx.EventState(influx.WindowedQuery(event))
         self.draining_until: int | None = None
+        # A point is stamped at its window's start: an input changes the windows
+        # that began up to one interval before it.
+        assert event.window is not None
+        self.lead = influx.nanoseconds(event.window.interval)
 
     def process(self, bound: int, emit: Callable[[int, str, Any, str], None]) -> None:
         for row in _rows(self.take(bound)):
@@ -312,6 +318,10 @@ class PropertyMonitor:
         self.monitor: Monitor | None = None
         self.segments: list[tuple] = []
         self.start = start
+        # How far a verdict reads its input ahead and back (seconds): a verdict at s
+        # reads the input on [s - past, s + future].
+        root = build(self.formula, {})
+        self.future, self.past = root.future, root.past
         if self._triggered():
             self._open(start)
 
@@ -559,6 +569,13 @@ class Runtime:
         self.consumer_inbox: list[Item] = []
         self.consumer_upstream = self._producers(self.consumed)
         self.pending_segments: dict[str, list[Any]] = {}
+        # Late input (docs/runtime.md, "Late input"): per property, the verdict
+        # time it made unknown; the end of the verdicts given out so far.
+        self.uncertain = {p.name: Uncertain() for p in spec.properties}
+        self.given_to: dict[str, tuple[Fraction, bool]] = {}
+        self.last_on: dict[str, int] = {}  # the newest message fed, per topic
+        # Intervals that end when their topic publishes again, and how long after.
+        self.until_next: dict[str, list[tuple[list[Any], Fraction]]] = {}
         self.intrusions: dict[Endpoint, str] = {}
         self.reported: set[str] = set()  # counters of lost input already reported
 
@@ -614,9 +631,14 @@ class Runtime:
                 "allows: dropped (set `lateness` on a property)"
             )
             self._input_lost(time, topic, f"late messages dropped: {topic}", 1, text)
+            self._late_input(time, topic)
             return
         if self.started is None:
             self._begin(time)
+        self.last_on[topic] = time
+        if self.until_next:
+            for interval, past in self.until_next.pop(topic, ()):
+                interval[1] = seconds(time) + past
         if time > self.now:
             self.now = time
             self.instants += 1
@@ -632,6 +654,61 @@ class Runtime:
                 self.counters[f"no sample: {variable.name}"] += 1
                 continue
             self._emit(time, variable.name, value, topic)
+
+    def _late_input(self, time: int, topic: str) -> None:
+        """A message of `topic` at `time` came after the monitor had passed its time:
+        every property reading the topic is unknown where its verdict reads the
+        input from `time` to the newest the monitor had (and on, until the topic
+        publishes again, if it has not since), and what was given out there is
+        revised."""
+        assert self.started is not None  # a message is late only after others
+        noticed = seconds(max(self.now, self.complete_before))
+        superseded = self.last_on.get(topic, -_FOREVER) > time
+        reach = self._reach(topic)
+        for monitor in self.properties:
+            name = monitor.prop.name
+            if name not in reach:
+                continue
+            # A window's point is stamped up to an interval before its input and
+            # holds until the next: the stretch widens by the lead on both sides.
+            lead = seconds(reach[name] + (monitor.period or 0))
+            low = max(seconds(time) - lead - monitor.future, seconds(self.started))
+            after = lead + monitor.past
+            high = noticed + after if superseded else None
+            interval = self.uncertain[name].add(low, high)
+            if not superseded:
+                self.until_next.setdefault(topic, []).append((interval, after))
+            self._revise(name, low, high)
+
+    def _reach(self, topic: str) -> dict[str, int]:
+        """The properties that read `topic`, each with how far before an input's
+        time it can change their propositions (windows stamp points at their start)."""
+        lead = {variable.name: 0 for variable, _ in self.by_topic.get(topic, ())}
+        for node in self.nodes:  # in dependency order
+            reached = [lead[name] for name in node.reads if name in lead]
+            if reached:
+                for name in node.writes:
+                    lead[name] = max(reached) + node.lead
+        found: dict[str, int] = {}
+        for monitor in self.properties:
+            prop = monitor.prop
+            # A state is reached through its transducer.
+            names = {self.state_of.get(n, n) for n in (*prop.propositions, prop.trigger)}
+            leads = [lead[n] for n in names if n in lead]
+            if leads:
+                found[prop.name] = max(leads)
+        return found
+
+    def _revise(self, name: str, low: Fraction, high: Fraction | None) -> None:
+        """The verdicts given out on [low, high] are unknown: one record says so,
+        marked `revised` (it overlaps records before it)."""
+        given = self.given_to.get(name)
+        if given is None or low > given[0] or (low == given[0] and not given[1]):
+            return
+        if name in self.pending_segments:
+            self._flush_segment(name)
+        stop, stop_closed = given if high is None or high >= given[0] else (high, True)
+        self.pending_segments[name] = [low, stop, True, stop_closed, "unknown", True]
 
     def damaged(self, time: int, topic: str, reason: str) -> None:
         """A message that could not be decoded."""
@@ -845,18 +922,34 @@ class Runtime:
 
     def _verdicts(self, monitor: PropertyMonitor) -> None:
         name = monitor.prop.name
-        for start, stop, start_closed, stop_closed, verdict in monitor.verdicts():
-            value = verdict.split(" ")[0]
-            segment = [start, stop, start_closed, stop_closed, value]
-            pending = self.pending_segments.get(name)
-            if pending is not None and continues(pending, segment):
-                pending[1], pending[3] = stop, stop_closed
-                continue
-            if pending is not None:
-                self._flush_segment(name)
-            self.pending_segments[name] = segment
-            if value == "false":
-                self._violated(monitor.prop, segment)
+        uncertain = self.uncertain[name]
+        for given in monitor.verdicts():
+            self.given_to[name] = (given[1], given[3])
+            for start, stop, start_closed, stop_closed, verdict in uncertain.mask(given):
+                self._verdict(monitor.prop, start, stop, start_closed, stop_closed, verdict)
+
+    def _verdict(
+        self,
+        prop: ir.Property,
+        start: Any,
+        stop: Any,
+        start_closed: bool,
+        stop_closed: bool,
+        verdict: str,
+    ) -> None:
+        """One segment in order: joined to the one before when it continues it."""
+        name = prop.name
+        value = verdict.split(" ")[0]
+        segment = [start, stop, start_closed, stop_closed, value]
+        pending = self.pending_segments.get(name)
+        if pending is not None and continues(pending, segment):
+            pending[1], pending[3] = stop, stop_closed
+            return
+        if pending is not None:
+            self._flush_segment(name)
+        self.pending_segments[name] = segment
+        if value == "false":
+            self._violated(prop, segment)
 
     def _violated(self, prop: ir.Property, segment: list[Any]) -> None:
         self.counters[f"violations: {prop.name}"] += 1
@@ -869,14 +962,15 @@ class Runtime:
             )
 
     def _flush_segment(self, name: str) -> None:
-        start, stop, start_closed, stop_closed, value = self.pending_segments.pop(name)
+        start, stop, start_closed, stop_closed, value, *revised = self.pending_segments.pop(name)
         bounds = ("[" if start_closed else "(") + ("]" if stop_closed else ")")
-        self.out.append(
-            {
-                "kind": "verdict", "property": name, "verdict": value, "from": start,
-                "to": stop, "bounds": bounds,
-            }
-        )  # fmt: skip
+        record = {
+            "kind": "verdict", "property": name, "verdict": value, "from": start,
+            "to": stop, "bounds": bounds,
+        }  # fmt: skip
+        if revised:
+            record["revised"] = True
+        self.out.append(record)
 
     def decide(self, complete_before: int | None = None) -> None:
         """Compute everything the input so far decides (a live host calls this on a
