@@ -131,6 +131,23 @@ INFRASTRUCTURE: dict[int, dict[str, tuple[str, ...]]] = {
     2: {"publisher": ("/rosout", "/parameter_events"),
         "subscriber": ("/parameter_events", "/clock")},
 }  # fmt: skip
+
+
+def _infrastructure_text() -> str:
+    """INFRASTRUCTURE in words, for the setting's hover and the docs' table."""
+    parts = []
+    for version, given in INFRASTRUCTURE.items():
+        uses = ", ".join(
+            f"{_VERBS[role]} {' and '.join(f'`{t}`' for t in topics)}"
+            for role, topics in given.items()
+        )
+        parts.append(f"ROS {version}: {uses}")
+    return "; ".join(parts)
+
+
+_VERBS = {"publisher": "publish", "subscriber": "subscribe to"}
+
+
 # The rosbags type store of each ROS distribution: the checker's message types and
 # the replay's decoder read the same one.
 TYPE_STORES = {
@@ -346,8 +363,8 @@ BLOCKS: dict[str, Block] = {
         _s("default", "names", "allow", "topics without a whitelist: `allow` or `deny`",
            "`allow`", choices=("allow", "deny")),
         _s("ignore_nodes", "string_list", (), "node patterns never reported", "`[]`"),
-        _s("infrastructure", "names", "ros", "what every node may use: `ros` (the "
-           "topics ROS itself gives every node), or `none`", "`ros`", choices=("ros", "none")),
+        _s("infrastructure", "names", "ros", "what every node may use: `ros` (ROS's own "
+           f"topics: {_infrastructure_text()}), or `none`", "`ros`", choices=("ros", "none")),
     ),
 }  # fmt: skip
 

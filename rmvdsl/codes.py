@@ -313,13 +313,29 @@ window of 1ms or more, or, to see every message, an event without a window.""",
         """(warning) A property reads two or more topics whose time is their
 `header.stamp` (`time = header`) and has no `lateness`. Messages of two publishers
 do not arrive in the order of their stamps: one stamped before a message already
-read is late, and dropped (counted, reported, never used). With `time = header` on
+read is late, and dropped (counted, reported, never used; the verdicts that would have read
+it are `unknown`, docs/runtime.md "Late input"). With `time = header` on
 two topics at 10x playback, 3 of 600 messages were dropped as 0.05 s late. Give the
 property the most the two topics' stamps can disagree on arrival:
 
     property P: ... { lateness = 100ms }
 
 The monitor then holds input that long and puts it in order.""",
+    ),
+    (
+        "RMV225",
+        "ROS's own topics in the whitelists",
+        """(warning) What ROS itself has every node do, against a whitelist that says
+otherwise. With `infrastructure = ros` (the default), every node may publish
+`/rosout` (and, on ROS 2, `/parameter_events`) and subscribe to `/clock` (and
+`/parameter_events`) — unless a whitelist names the topic: then its lists decide,
+and every node they leave out is reported, though every node uses the topic.
+
+    whitelist "/rosout" { publishers: "/logger" }   // RMV225: every node publishes /rosout
+
+With `infrastructure = none`, a node declaration that lists what the node
+publishes or subscribes to but leaves out ROS's own topics is reported for them as
+soon as the node runs (an editor offers the edit that adds them).""",
     ),
     (
         "RMV300",

@@ -34,7 +34,7 @@ def lateness_warnings(model: Model) -> list[Diagnostic]:
                 f"property `{name}` reads {counted(len(topics), 'topic')} timed by their "
                 f"header stamps ({listed}) and has no `lateness`",
                 decl.name.span,
-                label="a message stamped before one already read is dropped",
+                label="a message stamped before one already read is dropped: unknown there",
                 help="give it the most the stamps of two topics can disagree, e.g. "
                 "`lateness = 100ms` in its settings (docs/runtime.md)",
             )

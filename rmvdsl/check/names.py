@@ -14,6 +14,7 @@ from rmvdsl.bounded import Bounded
 from rmvdsl.check import settings as schemas
 from rmvdsl.check.actions import ActionChecks
 from rmvdsl.check.clauses import EventChecks
+from rmvdsl.check.infrastructure import infrastructure_warnings
 from rmvdsl.check.memo import MEMO_SIZE, Key, declaration_key
 from rmvdsl.check.model import (
     BOOLEAN_KINDS,
@@ -90,6 +91,7 @@ class NameChecker(ActionChecks, EventChecks):
         self.check_event_cycles()
         self.check_whitelist_duplicates()
         self.diagnostics += check_whitelist_agreement(self.model)
+        self.diagnostics += infrastructure_warnings(self.model)
         self.report_unused()
         return self.model, self.diagnostics
 
