@@ -64,3 +64,52 @@ def test_a_package_with_idl_only(sourced, tmp_path):
     spec.write_text(wrong, encoding="utf-8")
     result = rmv_process(["check", "--no-color", str(spec)], cwd=tmp_path, env=sourced)
     assert result.code == 1 and "gears" in result.out, result.out
+
+
+# ---- ROS 1, as Debian installs it (.ci/run installs ros-*-msgs) ----
+
+DEBIAN_ROS1 = Path("/usr/share")
+
+
+@pytest.fixture(scope="module")
+def sourced_ros1() -> dict[str, str]:
+    """ROS 1's environment: ROS_PACKAGE_PATH names the folders of packages (Debian
+    installs each package's messages under /usr/share/PACKAGE/msg)."""
+    assert (DEBIAN_ROS1 / "std_msgs" / "msg" / "Header.msg").is_file(), "apt: ros-std-msgs"
+    return {**os.environ, "ROS_PACKAGE_PATH": str(DEBIAN_ROS1)}
+
+
+@pytest.mark.parametrize("spec", GOOD)
+def test_every_example_checks_in_a_sourced_ros1_environment(spec, sourced_ros1, tmp_path):
+    copy = tmp_path / "examples"
+    shutil.copytree(EXAMPLES, copy)
+    result = rmv_process(["check", "--no-color", str(copy / spec)], cwd=tmp_path, env=sourced_ros1)
+    assert result.code == 0, result.out + result.err
+    assert result.out.strip().endswith("0 errors, 0 warnings"), result.out
+
+
+def test_a_ros1_package_on_the_package_path_uses_debian_s_messages(sourced_ros1, tmp_path):
+    """A workspace package (on ROS_PACKAGE_PATH beside Debian's) whose message
+    embeds std_msgs/Header and geometry_msgs/Twist: its fields resolve through
+    the installed definitions, and a wrong one is found."""
+    package = tmp_path / "src" / "robot_msgs" / "msg"
+    package.mkdir(parents=True)
+    (package / "Drive.msg").write_text(
+        "Header header\ngeometry_msgs/Twist command\nuint8 gear\nfloat64[4] wheel_speeds\n",
+        encoding="utf-8",
+    )
+    env = {**sourced_ros1, "ROS_PACKAGE_PATH": f"{tmp_path / 'src'}{os.pathsep}{DEBIAN_ROS1}"}
+    spec = tmp_path / "drive.rmv"
+    spec.write_text(
+        'system drive\nros noetic\ntopic drive: robot_msgs/Drive = "/drive" qos { time = header }\n'
+        "var Speed = drive.command.linear.x\nvar Gear = drive.gear\nvar Frame = drive.header.seq\n"
+        "event TooFast when Speed > 10 and Gear < 2 and Frame > 0\n"
+        "property Safe: not TooFast\n",
+        encoding="utf-8",
+    )
+    result = rmv_process(["check", "--no-color", str(spec)], cwd=tmp_path, env=env)
+    assert result.code == 0, result.out + result.err
+    wrong = spec.read_text(encoding="utf-8").replace("linear.x", "linear.w")
+    spec.write_text(wrong, encoding="utf-8")
+    result = rmv_process(["check", "--no-color", str(spec)], cwd=tmp_path, env=env)
+    assert result.code == 1 and "`w`" in result.out, result.out
