@@ -14,7 +14,7 @@ from collections.abc import Iterator, Sequence
 from fractions import Fraction
 from typing import TYPE_CHECKING, Any
 
-from rmvdsl import __version__
+from rmvdsl import __version__, targets
 from rmvdsl.commands import write_text
 from rmvdsl.deep import deep
 from rmvdsl.errors import EXIT_ERRORS, EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, UsageError
@@ -25,9 +25,6 @@ if TYPE_CHECKING:
     from rmvdsl.logic.evaluate import Streamed
     from rmvdsl.logic.sat import Answer
     from rmvdsl.logic.traces import TraceFile, TraceStream
-    from rmvdsl.runtime import spec as ir_spec
-
-TARGETS = ("ir", "ros2", "kapacitor")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -108,14 +105,20 @@ exit codes: 0 no errors, 1 errors (or warnings with --strict), 2 usage or I/O pr
 exit codes: 0 built, 1 the spec has errors (shown on standard error), 2 usage or I/O problem""",
     )
     build_parser.add_argument("spec", metavar="SPEC")
-    build_parser.add_argument("--target", required=True, choices=TARGETS)
+    declared = targets.targets()
+    build_parser.add_argument("--target", required=True, choices=[t.name for t in declared])
+    files = ", ".join(t.name for t in declared if t.output == "file")
+    folders = ", ".join(t.name for t in declared if t.output == "folder")
     build_parser.add_argument(
         "-o", "--output", metavar="OUT",
-        help="write here (ir: a file, default stdout; ros2, kapacitor: a folder, required)",
+        help=f"write here ({files}: a file, default stdout; {folders}: a folder, required)",
     )  # fmt: skip
-    build_parser.add_argument(
-        "--package", metavar="NAME", help="ros2: the package's name (default: from `system`)"
-    )
+    for target in declared:  # each target's own options, as it declares them
+        for option in target.options:
+            build_parser.add_argument(
+                option.flag, dest=option.name, metavar=option.metavar,
+                help=f"{target.name}: {option.help}",
+            )  # fmt: skip
     build_parser.add_argument("--no-color", action="store_true")
     _add_message_options(build_parser)
 
@@ -139,6 +142,13 @@ reached (the message says what was applied before), 2 usage or I/O problem""",
     deploy_parser.add_argument("--influx", metavar="URL", help="InfluxDB (default: the spec's)")
     deploy_parser.add_argument(
         "--kapacitor", metavar="URL", help="Kapacitor (default: http://127.0.0.1:9092)"
+    )
+
+    commands.add_parser(
+        "targets",
+        help="list the targets of `rmv build`, one line each",
+        description="Every target `rmv build --target NAME` can write, with what it writes, "
+        "its options and its documentation page.",
     )
 
     commands.add_parser(
@@ -341,6 +351,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _run(args: argparse.Namespace) -> int:
     commands = {
         "build": _build,
+        "targets": _targets,
         "check": _check,
         "deploy": _deploy,
         "lsp": _lsp,
@@ -409,7 +420,7 @@ def _replay(args: argparse.Namespace) -> int:
 
 def _build(args: argparse.Namespace) -> int:
     from rmvdsl.check import check
-    from rmvdsl.ir import dump, lower
+    from rmvdsl.ir import lower
     from rmvdsl.render import render_text
 
     _message_options(args)
@@ -421,57 +432,36 @@ def _build(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return EXIT_ERRORS
-    spec = lower(result)
-    if args.target == "ros2":
-        return _build_ros2(args, spec)
-    if args.target == "kapacitor":
-        return _build_kapacitor(args, spec)
-    text = dump(spec) + "\n"
-    if args.output:
-        write_text(args.output, text)
-    else:
-        sys.stdout.write(text)
-    return EXIT_OK
-
-
-def _build_ros2(args: argparse.Namespace, spec: ir_spec.Spec) -> int:
     from pathlib import Path
 
-    from rmvdsl.codegen import ros2
-
-    if not args.output:
-        raise UsageError("--target ros2 needs -o OUT, the folder of the package to write")
+    spec = lower(result)
+    target = targets.target(args.target)
+    options = {o.name: getattr(args, o.name) for o in target.options}
+    for other in targets.targets():  # an option of another target is a mistake
+        for option in other.options:
+            if other is not target and getattr(args, option.name) is not None:
+                raise UsageError(f"{option.flag} is an option of --target {other.name}")
+    out = Path(args.output) if args.output else None
     try:
-        written = ros2.build(spec, Path(args.output), args.package)
-    except ros2.BuildError as exc:
+        built = target.build(spec, out, options)
+    except targets.TargetError as exc:
         raise UsageError(str(exc)) from None
     except OSError as exc:
         raise UsageError(f"{args.output}: {exc.strerror or exc}") from None
-    name = ros2.package_name(spec, args.package)
-    files = counted(len(written), "file")
-    print(f"rmv build: wrote the ros2 package `{name}` to {args.output} ({files})")
+    for line in built.notes:
+        print(f"rmv build: {line}", file=sys.stderr)
+    if built.text is not None:
+        sys.stdout.write(built.text)
+    elif built.summary:
+        print(f"rmv build: {built.summary}")
     return EXIT_OK
 
 
-def _build_kapacitor(args: argparse.Namespace, spec: ir_spec.Spec) -> int:
-    from pathlib import Path
-
-    from rmvdsl.codegen import kapacitor
-
-    if not args.output:
-        raise UsageError("--target kapacitor needs -o OUT, the folder to write")
-    try:
-        written, report = kapacitor.write(spec, Path(args.output))
-    except kapacitor.BuildError as exc:
-        raise UsageError(f"{args.spec}: {exc}") from None
-    except OSError as exc:
-        raise UsageError(f"{args.output}: {exc.strerror or exc}") from None
-    for line in report:
-        print(f"rmv build: {line}", file=sys.stderr)
-    print(
-        f"rmv build: wrote the kapacitor target to {args.output} ({counted(len(written), 'file')}; "
-        f"{counted(len(report), 'part')} of the spec left to the ros2 monitor, listed in README.md)"
-    )
+def _targets(args: argparse.Namespace) -> int:
+    for target in targets.targets():
+        options = "".join(f" [{o.flag} {o.metavar}]" for o in target.options)
+        out = "-o FILE" if target.output == "file" else "-o FOLDER"
+        print(f"{target.name:<10} {target.summary} ({out}{options}; {target.docs})")
     return EXIT_OK
 
 

@@ -219,3 +219,31 @@ def test_console_script_is_installed():
         timeout=60,
     )
     assert completed.returncode == 0 and completed.stdout.startswith("rmv ")
+
+
+def test_targets_come_from_the_registry(rmv):
+    """`rmv targets` and `rmv build --target` read one declaration per target."""
+    from rmvdsl.targets import REGISTRY, targets
+
+    listed = rmv("targets")
+    assert listed.code == 0
+    names = [line.split()[0] for line in listed.out.splitlines()]
+    assert names == list(REGISTRY) == [t.name for t in targets()]
+    wrong = rmv("build", "--target", "ir", "examples/carla/abs.rmv", "--package", "x")
+    assert wrong.code == 2 and "--package is an option of --target ros2" in wrong.err
+    missing = rmv("build", "--target", "ros2", "examples/carla/abs.rmv")
+    assert missing.code == 2 and "--target ros2 needs -o OUT" in missing.err
+
+
+def test_a_target_s_package_is_light_to_import():
+    """The command line reads every declaration for its --help: no target's own
+    import may pull in its generator (jinja2)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys; from rmvdsl.targets import targets; targets(); "
+        "print(sorted(m for m in sys.modules if m.startswith('jinja2') or m.endswith('.generate')))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"

@@ -17,8 +17,8 @@ from conftest import EXAMPLES, INSTALLED, INSTALLED_WHEEL, ROOT
 
 import rmvdsl
 from rmvdsl.check import check
-from rmvdsl.codegen import kapacitor, ros2
 from rmvdsl.ir import lower
+from rmvdsl.targets import kapacitor, ros2
 
 PACKAGE = Path(rmvdsl.__file__).parent
 

@@ -4,6 +4,7 @@ network namespace holding only loopback: nothing can leave the machine."""
 from __future__ import annotations
 
 import base64
+import itertools
 import json
 import re
 import subprocess
@@ -14,8 +15,8 @@ import pytest
 from conftest import ROOT
 
 from rmvdsl.check import check
-from rmvdsl.codegen import kapacitor, ros2
 from rmvdsl.ir import lower
+from rmvdsl.targets import kapacitor, ros2
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "ros2"))
 import rosenv
@@ -55,6 +56,31 @@ event Overspeed when Speed > 25
 property NoLongOverspeed: duration[2s](Overspeed) < 1s {
     action publish("/rmv/alerts")
 }
+whitelist twist {
+    publishers: "/player"
+}
+intrusion {
+    poll = 200ms
+    action publish("/rmv/intrusion")
+}
+"""
+# Two topics timed by their stamps and no lateness (RMV224 warns): a stamp older
+# than one already fed is dropped, and the property is unknown where it reads it.
+STAMPED = """system stamped "two topics timed by their stamps"
+topic left: geometry_msgs/msg/TwistStamped = "/left" qos {
+    depth = 1000
+    durability = transient_local
+    time = header
+}
+topic right: geometry_msgs/msg/TwistStamped = "/right" qos {
+    depth = 1000
+    durability = transient_local
+    time = header
+}
+var Left = left.twist.linear.x
+var Right = right.twist.linear.x
+event Apart when Left - Right > 5 or Right - Left > 5
+property Together: not Apart
 """
 # A reader that keeps one message: a burst overflows it.
 LOSSY = """system lossy "a topic read with depth 1"
@@ -134,6 +160,7 @@ def specs(tmp_path_factory) -> dict[str, Path]:
         "lossy": _checked(folder / "lossy.rmv", LOSSY),
         "collected": _checked(folder / "collected.rmv", COLLECTED),
         "overspeed": _checked(folder / "overspeed.rmv", OVERSPEED),
+        "stamped": _checked(folder / "stamped.rmv", STAMPED),
     }
 
 
@@ -197,16 +224,26 @@ def _twist_cdr(stamp: int, speed: float) -> bytes:
     return bytes(store.serialize_cdr(message, TWIST))
 
 
-def _record(path: Path, messages: list[tuple[int, float]], stamps: list[int]) -> None:
-    """The twist messages as a ROS 2 bag, logged at `stamps`."""
+def _record(
+    path: Path,
+    messages: list[tuple[int, float]],
+    stamps: list[int],
+    topics: list[str] | None = None,
+) -> None:
+    """The twist messages as a ROS 2 bag, logged at `stamps` (on /vehicle/twist, or
+    each on its topic of `topics`)."""
     from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import Stores, get_typestore
 
     store = get_typestore(Stores.ROS2_HUMBLE)
+    topics = topics or ["/vehicle/twist"] * len(messages)
     with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
-        connection = writer.add_connection("/vehicle/twist", TWIST, typestore=store)
-        for (stamp, speed), logged in zip(messages, stamps, strict=True):
-            writer.write(connection, logged, _twist_cdr(stamp, speed))
+        connections = {
+            topic: writer.add_connection(topic, TWIST, typestore=store)
+            for topic in dict.fromkeys(topics)
+        }
+        for (stamp, speed), logged, topic in zip(messages, stamps, topics, strict=True):
+            writer.write(connections[topic], logged, _twist_cdr(stamp, speed))
 
 
 def _verdicts(replay_out: str) -> list[dict]:
@@ -220,6 +257,30 @@ def _per_property(verdicts: list[dict]) -> dict[str, list[dict]]:
     out: dict[str, list[dict]] = {}
     for verdict in verdicts:
         out.setdefault(verdict["property"], []).append(verdict)
+    return out
+
+
+def _instants(verdicts: list[dict]) -> list[float]:
+    """Every bound of a segment, and a time between each two."""
+    bounds = sorted({float(v[k]) for v in verdicts for k in ("from", "to")})
+    return sorted(bounds + [(a + b) / 2 for a, b in itertools.pairwise(bounds)])
+
+
+def _read_at(verdicts: list[dict], instants: list[float]) -> list[tuple]:
+    """Each property's verdict at each instant, by the last record covering it (a
+    revision overrides what came before)."""
+    out = []
+    for name in sorted({v["property"] for v in verdicts}):
+        for time in instants:
+            said = None
+            for v in verdicts:
+                low, high = float(v["from"]), float(v["to"])
+                inside = (low < time or (low == time and v["bounds"][0] == "[")) and (
+                    time < high or (time == high and v["bounds"][1] == "]")
+                )
+                if v["property"] == name and inside:
+                    said = v["verdict"]
+            out.append((name, time, said))
     return out
 
 
@@ -454,24 +515,79 @@ def test_the_alert_handler_publishes_any_alert_text_as_data(tmp_path):
     assert seen["received"] == [message]
 
 
-def test_a_lasting_violation_is_decided_live_and_its_alert_kept(workspace, tmp_path):
-    """Over speed, then silence: the node decides the violation when 1 s of it has
-    passed (the message that started it is the last), shows it in /diagnostics within
-    a decide period and a diagnostics period of that, and a subscriber that starts
-    later, transient_local, still gets the alert."""
+def test_the_first_hour_live(workspace, tmp_path):
+    """Issue 31's first hour, in one run of the generated package's two nodes, with
+    rclpy's ordinary nodes (each publishes /parameter_events and /rosout):
+
+    - Over speed, then silence: the node decides the violation when 1 s of it has
+      passed (the message that started it is the last) and shows it in
+      /diagnostics within a decide period and a diagnostics period of that.
+    - The allowed publisher (/player) is never reported, ROS's own topics included;
+      a rogue node is, once, saying who, what and where once each.
+    - Subscribers that start after both, transient_local, still get the alert and
+      the intrusion.
+    (The sourced environment: tests/test_ros_environment.py; late input:
+    test_late_input_is_reported_and_unknown_live below.)"""
     command = [_executable(workspace, "overspeed", "monitor"), "--ros-args",
                "-p", "diagnostics_period:=0.05", "-p", "decide_period:=0.05"]  # fmt: skip
     status = "rmv_monitor: property NoLongOverspeed"
     seen = _drive(workspace, {
-        "monitor": command, "publishers": {"/vehicle/twist": TWIST},
+        "monitor": command, "also": [[_executable(workspace, "overspeed", "intrusion")]],
+        "publishers": {"/vehicle/twist": TWIST},
         "steps": [_publish("/vehicle/twist", _twist_cdr(0, 5.0)),
                   _publish("/vehicle/twist", _twist_cdr(0, 30.0)),
-                  ["status", status, "false", 15.0]],
-        "late": ["/rmv/alerts"],
+                  ["status", status, "false", 15.0],
+                  ["intruder", "ros", "/vehicle/twist"],
+                  ["status", "rmv_intrusion: intrusions", "1 intrusion", 15.0]],
+        "late": ["/rmv/alerts", "/rmv/intrusion"],
     }, tmp_path, rosenv.DOMAIN + 7)  # fmt: skip
-    [(_, _, waited)] = seen["waits"]
+    [(_, _, waited), (_, _, reported)] = seen["waits"]
     print(f"decided {waited} s after the last message")
     # Decidable 1 s after the last message; out within 0.05 + 0.05 s of that, with
     # room for a loaded 2-core machine (measured figures in the closing note).
     assert waited is not None and 1.0 <= waited < 1.6, seen["waits"]
-    assert seen["late"] == {"/rmv/alerts": ["NoLongOverspeed violated"]}, seen["late"]
+    assert reported is not None, seen["waits"]
+    rogue = "intrusion: /rogue not in the publishers allowed on /vehicle/twist"
+    assert seen["late"] == {"/rmv/alerts": ["NoLongOverspeed violated"], "/rmv/intrusion": [rogue]}
+    assert "/player" not in seen["log"] and seen["log"].count(rogue) == 1, seen["log"]
+    assert seen["others"] == [0]
+
+
+def test_late_input_is_reported_and_unknown_live(specs, workspace, tmp_path, rmv):
+    """Two stamped topics, no lateness: /right's message stamped 1.5 s comes after
+    /left's stamped 2 s was fed. The node drops it, counts it per topic in
+    /diagnostics, warns once, and its verdicts say unknown where the message would
+    have counted, as the replay of the same arrival order does."""
+    second = 10**9
+    arrivals = [
+        ("/left", START + second, 1.0), ("/right", START + second, 1.0),
+        ("/left", START + 2 * second, 1.0), ("/right", START + 3 * second // 2, 9.0),
+        ("/right", START + 3 * second, 1.0), ("/left", START + 4 * second, 1.0),
+    ]  # fmt: skip
+    steps: list[list] = []
+    for topic, stamp, speed in arrivals:  # each fed before the next is sent
+        steps += [_publish(topic, _twist_cdr(stamp, speed)), ["settle"]]
+    seen = _drive(workspace, {
+        "monitor": [_executable(workspace, "stamped", "monitor")],
+        "publishers": {"/left": TWIST, "/right": TWIST}, "steps": steps,
+    }, tmp_path, rosenv.DOMAIN + 8)  # fmt: skip
+    from_node = [json.loads(v) for v in seen["verdicts"]]
+    counters = seen["diagnostics"]["rmv_monitor: monitor"]
+    assert counters["late messages dropped: /right"] == "1", counters
+    assert seen["log"].count("a message came 0.5 s late") == 1, seen["log"]
+    unknown = [(v["from"], v["to"]) for v in from_node if v["verdict"] == "unknown"]
+    # From 1.5 s until /right publishes again (3 s): nothing on /right replaced it.
+    assert unknown == [(START // second + 1.5, START // second + 3)], from_node
+
+    recording = tmp_path / "arrivals"
+    _record(
+        recording, [(stamp, speed) for _, stamp, speed in arrivals],
+        [START + k for k in range(len(arrivals))], [topic for topic, _, _ in arrivals],
+    )  # fmt: skip
+    replay = rmv("replay", str(specs["stamped"]), str(recording), "--format", "jsonl")
+    # Live, the verdict up to 2 s was out before the message came: revised, where
+    # the replay (deciding later) had not given it yet. Each instant reads the same.
+    assert [v.get("revised", False) for v in from_node] == [False, True, False]
+    from_replay = _verdicts(replay.out)
+    instants = _instants(from_node + from_replay)
+    assert _read_at(from_node, instants) == _read_at(from_replay, instants)

@@ -495,7 +495,8 @@ def verdict_of(
         if allowed is not None and not _matches(allowed, endpoint.node):
             return f"not in the {endpoint.role}s allowed on {rule.topic.text}", rule
     if not lists and intrusion.default == "deny":
-        return f"no whitelist for {endpoint.topic}, and the default is deny", None
+        does = "publishes on" if publisher else "subscribes to"
+        return f"{does} {endpoint.topic}, which has no whitelist, and the default is deny", None
     for node_rule in spec.nodes:
         if re.match(node_rule.node.regex, endpoint.node):
             allowed = node_rule.publishes if publisher else node_rule.subscribes

@@ -9,7 +9,9 @@ they are (any type, decoded only by the node), `["clock", ns]` publishes /clock 
 waits until the node's clock has reached it, `["settle"]` waits until the node has
 counted every message sent so far, `["status", NAME, MESSAGE, SECONDS]` waits (at
 most SECONDS) until the node's /diagnostics show status NAME with MESSAGE and notes
-how long after the last publish it came. `late` names topics subscribed to only
+how long after the last publish it came, `["intruder", ros|dds, TOPIC]` starts an
+intruder (tests/ros2/intruder.py) that stays until the end. `also` names more nodes
+to start beside the monitor (its intrusion node). `late` names topics subscribed to only
 after the steps, transient_local, as a subscriber that starts late would. Prints, as
 JSON, the node's verdict segments, its last diagnostics, the status waits, what the
 late subscribers got, its log and its exit code.
@@ -25,6 +27,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from pathlib import Path
 from typing import Any
 
 import rclpy
@@ -34,6 +37,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import String
 
+INTRUDER = Path(__file__).resolve().parent / "intruder.py"
 DEADLINE = 30.0  # seconds for discovery and for each wait: discovery is racy on 2 cores
 
 
@@ -63,6 +67,17 @@ class Player:
             for topic, kind in scenario["publishers"].items()
         }
         self.clock = self.node.create_publisher(Clock, "/clock", 10)
+        self.intruders: list[subprocess.Popen[str]] = []
+
+    def intrude(self, kind: str, topic: str) -> None:
+        intruder = subprocess.Popen(
+            [sys.executable, str(INTRUDER), kind, topic],
+            stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+        )  # fmt: skip
+        self.intruders.append(intruder)
+        assert intruder.stdout is not None
+        if intruder.stdout.readline().strip() != "ready":
+            raise SystemExit(f"the {kind} intruder did not start")
 
     def on_diagnostics(self, array: DiagnosticArray) -> None:
         stamp = array.header.stamp.sec * 10**9 + array.header.stamp.nanosec
@@ -129,6 +144,9 @@ class Player:
             if step[0] == "status":
                 self.wait_status(*step[1:])
                 continue
+            if step[0] == "intruder":
+                self.intrude(*step[1:])
+                continue
             if step[0] == "settle":  # until the monitor has counted all sent so far
                 self.wait_for(lambda n=published: self.counted() >= n, "the monitor to settle")
                 continue
@@ -149,6 +167,10 @@ def main(scenario_path: str) -> int:
     # fill and stop the node mid-run.
     log_file = tempfile.TemporaryFile(mode="w+")  # noqa: SIM115 (lives as long as the node)
     monitor = subprocess.Popen(scenario["monitor"], stdout=log_file, stderr=subprocess.STDOUT)
+    others = [
+        subprocess.Popen(command, stdout=log_file, stderr=subprocess.STDOUT)
+        for command in scenario.get("also", [])
+    ]
     rclpy.init()
     player = Player(scenario)
     late: dict[str, list[str]] = {}
@@ -165,9 +187,18 @@ def main(scenario_path: str) -> int:
         while time.monotonic() - end < 1.0:  # the last segments may still be in flight
             rclpy.spin_once(player.node, timeout_sec=0.05)
     finally:
-        if monitor.poll() is None:
-            monitor.kill()
-        monitor.wait()
+        for intruder in player.intruders:
+            if intruder.poll() is None:
+                intruder.communicate("")  # stdin closed: it leaves cleanly
+        for process in (monitor, *others):
+            if process.poll() is None:
+                process.send_signal(signal.SIGINT)
+        for process in (monitor, *others):
+            try:
+                process.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.wait()
         log_file.seek(0)
         log = log_file.read()
         print(f"the monitor's log:\n{log}", file=sys.stderr)
@@ -175,7 +206,8 @@ def main(scenario_path: str) -> int:
         rclpy.shutdown()
     print(json.dumps({"verdicts": player.verdicts, "diagnostics": player.statuses,
                       "waits": player.waits, "late": late, "log": log,
-                      "code": monitor.returncode}))  # fmt: skip
+                      "code": monitor.returncode,
+                      "others": [p.returncode for p in others]}))  # fmt: skip
     return 0
 
 

@@ -17,6 +17,7 @@ from pathlib import Path
 import jinja2
 
 from rmvdsl.runtime import spec as ir
+from rmvdsl.targets import TargetError
 
 # Run dependencies every package has; the spec adds its message packages. The
 # launch file imports launch, launch_ros and ament_index_python.
@@ -25,7 +26,7 @@ BASE_DEPENDENCIES = (
 )  # fmt: skip
 
 
-class BuildError(ValueError):
+class BuildError(TargetError):
     """A spec or a package name this target cannot build."""
 
 
@@ -102,7 +103,7 @@ def environment(*packages: str) -> jinja2.Environment:
     """The templates of each of `packages` (their `templates` folder, read as
     package data), then this target's (a package of another target finds the
     shared ones here), with the quoting filters."""
-    loaders = [jinja2.PackageLoader(p, "templates") for p in (*packages, __name__)]
+    loaders = [jinja2.PackageLoader(p, "templates") for p in (*packages, __package__)]
     env = jinja2.Environment(
         loader=jinja2.ChoiceLoader(loaders),
         autoescape=False,

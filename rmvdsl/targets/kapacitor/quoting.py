@@ -7,9 +7,10 @@ from __future__ import annotations
 from fractions import Fraction
 
 from rmvdsl.runtime import spec as ir
+from rmvdsl.targets import TargetError
 
 
-class BuildError(ValueError):
+class BuildError(TargetError):
     """A spec this target cannot express."""
 
 

@@ -23,9 +23,11 @@ from typing import Any
 
 import jinja2
 
-from rmvdsl.codegen import ros2
-from rmvdsl.codegen.kapacitor import dashboards
-from rmvdsl.codegen.kapacitor.quoting import (
+from rmvdsl.runtime import lineproto
+from rmvdsl.runtime import spec as ir
+from rmvdsl.targets import ros2
+from rmvdsl.targets.kapacitor import dashboards
+from rmvdsl.targets.kapacitor.quoting import (
     BuildError,
     Unsupported,
     go_template_text,
@@ -38,8 +40,6 @@ from rmvdsl.codegen.kapacitor.quoting import (
     tick_reference,
     tick_string,
 )
-from rmvdsl.runtime import lineproto
-from rmvdsl.runtime import spec as ir
 
 # The file every alert handler that writes a log appends to (Kapacitor's `.log`).
 LOG_FOLDER = "/var/log/kapacitor"
@@ -353,7 +353,7 @@ def manifest(build: Build) -> dict[str, Any]:
 def _environment() -> jinja2.Environment:
     """This target's templates (and, for the collector, the ros2 target's), with
     the quoting filters of both."""
-    env = ros2.environment(__name__)
+    env = ros2.environment(__package__)
     env.filters["ident"] = influxql_identifier
     env.filters["iql_string"] = influxql_string
     env.filters["duration"] = influxql_duration

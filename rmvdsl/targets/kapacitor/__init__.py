@@ -1,0 +1,43 @@
+"""`rmv build --target kapacitor`: InfluxDB's schema and continuous queries, one
+TICKscript per alert, their handlers and the collector (docs/kapacitor.md). The
+generator is `generate`; its names are read through this package too, imported
+when first used."""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from rmvdsl.runtime import spec as ir
+from rmvdsl.runtime.wording import counted
+from rmvdsl.targets import Built, Target, folder_output
+
+
+def _build(spec: ir.Spec, out: Path | None, options: Mapping[str, str | None]) -> Built:
+    generate = importlib.import_module("rmvdsl.targets.kapacitor.generate")
+    folder = folder_output("kapacitor", out)
+    written, report = generate.write(spec, folder)
+    summary = (
+        f"wrote the kapacitor target to {folder} ({counted(len(written), 'file')}; "
+        f"{counted(len(report), 'part')} of the spec left to the ros2 monitor, listed in "
+        "README.md)"
+    )
+    return Built(tuple(written), summary, tuple(report))
+
+
+TARGET = Target(
+    name="kapacitor",
+    summary="InfluxDB queries, TICKscripts and their handlers, a collector node",
+    docs="docs/kapacitor.md",
+    output="folder",
+    build=_build,
+)
+
+
+def __getattr__(name: str) -> Any:
+    # import_module, not `from . import generate`: that asks this very hook first.
+    if name.startswith("__"):
+        raise AttributeError(name)
+    return getattr(importlib.import_module("rmvdsl.targets.kapacitor.generate"), name)
