@@ -1,0 +1,27 @@
+"""The carla_abs_collector package: InfluxDB collector."""
+
+from setuptools import setup
+
+PACKAGE = "carla_abs_collector"
+
+setup(
+    name=PACKAGE,
+    version="0.1.0",
+    packages=[PACKAGE, f"{PACKAGE}.rmv_runtime"],
+    package_data={PACKAGE: ["spec.json"]},
+    data_files=[
+        ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
+        (f"share/{PACKAGE}", ["package.xml", "README.md"]),
+        (f"share/{PACKAGE}/launch", ["launch/collector.launch.py"]),
+        (f"share/{PACKAGE}/config", ["config/params.yaml"]),
+    ],
+    install_requires=["setuptools"],
+    zip_safe=True,
+    description="InfluxDB collector",
+    license="Apache-2.0",
+    entry_points={
+        "console_scripts": [
+            f"collector = {PACKAGE}.collector_node:main",
+        ],
+    },
+)
