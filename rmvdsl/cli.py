@@ -85,6 +85,11 @@ exit codes: 0 no errors, 1 errors (or warnings with --strict), 2 usage or I/O pr
         help="write, for each property, a trace where it holds and one where it fails "
         "(JSONL, replayable with `rmv eval`)",
     )
+    check_parser.add_argument(
+        "--target", choices=list(targets.REGISTRY),
+        help="also say what this target of `rmv build` cannot build (RMV600) or leaves "
+        "to another (RMV601), before anything is built",
+    )  # fmt: skip
     _add_message_options(check_parser)
 
     build_parser = commands.add_parser(

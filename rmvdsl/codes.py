@@ -642,6 +642,28 @@ property can hold (or fail). Nothing is claimed. Raise the limit with
 `rmv check --timeout SECONDS` (default 5 s per solver call), or split the
 property.""",
     ),
+    (
+        "RMV600",
+        "the target cannot build the spec",
+        """Only with `rmv check --target NAME`: the spec checks clean, but the target of
+`rmv build` named cannot build it, and says why at the declaration it needs or
+cannot express. The kapacitor target stores the variables in InfluxDB, so it needs
+a `database` block:
+
+    database { name = "robot" }
+
+`rmv build --target NAME` on the same spec stops with the same reason (exit 2).""",
+    ),
+    (
+        "RMV601",
+        "the target leaves a part out",
+        """(note) Only with `rmv check --target NAME`: a part of the spec that the named
+target does not compute, at its declaration, and which target does. The kapacitor
+target writes continuous queries for windowed events and TICKscripts for alerts;
+boolean events, transducers, RMTLD3 properties and whitelists are computed by the
+ros2 target's monitor and intrusion nodes, and `rmv build --target kapacitor` lists
+the same parts in its README.md.""",
+    ),
 ]
 
 CODES: dict[str, Code] = {code: Code(code, title, text) for code, title, text in _TABLE}

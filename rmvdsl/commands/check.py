@@ -6,15 +6,17 @@ from __future__ import annotations
 import argparse
 import io
 import os
+import re
 import sys
 
+from rmvdsl.check import CheckResult
 from rmvdsl.check.msgtypes import folders_read
 from rmvdsl.check.properties import PropertyReport
 from rmvdsl.commands import stored, write_text
-from rmvdsl.diagnostics import Diagnostic, Severity
+from rmvdsl.diagnostics import Diagnostic, Severity, error
 from rmvdsl.errors import EXIT_ERRORS, EXIT_OK, EXIT_USAGE, UsageError
 from rmvdsl.render import render_json, render_sarif, render_text, summary
-from rmvdsl.source import SourceMap
+from rmvdsl.source import SourceMap, Span
 from rmvdsl.workspace import Workspace
 
 
@@ -40,6 +42,8 @@ def run(args: argparse.Namespace, color: bool, entry: str | None) -> stored.Stor
             continue
         checked.append(path)
         all_diagnostics.extend(result.diagnostics)
+        if args.target and not result.errors:
+            all_diagnostics.extend(target_diagnostics(result, args.target))
         if args.witnesses and result.properties is not None:
             write_witnesses(args.witnesses, result.properties, result.model.time_unit)
         for source in result.model.sources:
@@ -62,6 +66,52 @@ def run(args: argparse.Namespace, color: bool, entry: str | None) -> stored.Stor
         read = [s.path for s in sources if os.path.isfile(s.path)]
         stored.store(entry, output, [*read, *configs], folders_read())
     return output
+
+
+_NAME = re.compile(r'[\w/]+|"(?:[^"\\]|\\.)*"')
+
+
+def target_diagnostics(result: CheckResult, name: str) -> list[Diagnostic]:
+    """What the target `name` says of a spec that checks clean, at the declarations
+    it names (the `system` declaration when it names none)."""
+    from rmvdsl.ir import lower
+    from rmvdsl.targets import target
+
+    found = []
+    for finding in target(name).findings(lower(result)):
+        span = _span_of(result, finding.origin)
+        if finding.severity == "error":
+            found.append(
+                error("RMV600", finding.message, span,
+                      label=f"the {name} target cannot build this",
+                      help=finding.help or None)
+            )  # fmt: skip
+        else:
+            found.append(
+                Diagnostic("RMV601", Severity.NOTE, finding.message, span,
+                           f"left out by the {name} target", help=finding.help or None)
+            )  # fmt: skip
+    return found
+
+
+def _span_of(result: CheckResult, origin: str) -> Span:
+    """The span of the name at `origin` ("path:line:column"), or the root file's
+    first line."""
+    path, _, place = origin.rpartition(":")
+    path, _, line = path.rpartition(":")
+    source = result.model.sources.get(path) if path else None
+    if source is None or not line.isdigit() or not place.isdigit():
+        system = result.model.system
+        if system is not None:
+            return system.name.span
+        root = result.model.root
+        first = result.model.sources.get(root.path) if root is not None else None
+        if first is None:
+            first = next(iter(result.model.sources))
+        return first.span(0, len(first.line_text(1)))
+    start = source.offset(int(line), int(place))
+    name = _NAME.match(source.text, start)
+    return source.span(start, name.end() if name else start + 1)
 
 
 def write_witnesses(folder: str, report: PropertyReport, unit: str | None = None) -> None:

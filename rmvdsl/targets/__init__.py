@@ -57,6 +57,21 @@ Build = Callable[["ir.Spec", "Path | None", Mapping[str, "str | None"]], Built]
 
 
 @dataclass(frozen=True)
+class Finding:
+    """What a target says of a spec before it builds anything (`rmv check --target`):
+    an `error` it cannot build, or a `note` on a part it leaves to another target."""
+
+    severity: str  # "error" or "note"
+    origin: str  # "path:line:column" of the declaration; "" for the spec as a whole
+    message: str
+    help: str = ""
+
+
+def no_findings(spec: ir.Spec) -> list[Finding]:
+    return []
+
+
+@dataclass(frozen=True)
 class Target:
     name: str
     summary: str  # one line: what it writes
@@ -64,6 +79,8 @@ class Target:
     output: str  # what -o names: "file" (default: standard output) or "folder" (required)
     build: Build
     options: tuple[Option, ...] = ()
+    # What it cannot build, or leaves out, said with where the spec declares it.
+    findings: Callable[[ir.Spec], list[Finding]] = no_findings
 
 
 def target(name: str) -> Target:

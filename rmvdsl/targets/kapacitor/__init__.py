@@ -12,7 +12,7 @@ from typing import Any
 
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.wording import counted
-from rmvdsl.targets import Built, Target, folder_output
+from rmvdsl.targets import Built, Finding, Target, TargetError, folder_output
 
 
 def _build(spec: ir.Spec, out: Path | None, options: Mapping[str, str | None]) -> Built:
@@ -27,12 +27,22 @@ def _build(spec: ir.Spec, out: Path | None, options: Mapping[str, str | None]) -
     return Built(tuple(written), summary, tuple(report))
 
 
+def _findings(spec: ir.Spec) -> list[Finding]:
+    generate = importlib.import_module("rmvdsl.targets.kapacitor.generate")
+    try:
+        build = generate.plan(spec, Path("handlers"))
+    except TargetError as exc:
+        return [Finding("error", getattr(exc, "origin", ""), str(exc))]
+    return [Finding("note", line.origin, str(line)) for line in build.report]
+
+
 TARGET = Target(
     name="kapacitor",
     summary="InfluxDB queries, TICKscripts and their handlers, a collector node",
     docs="docs/kapacitor.md",
     output="folder",
     build=_build,
+    findings=_findings,
 )
 
 

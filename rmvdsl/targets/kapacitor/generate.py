@@ -97,8 +97,20 @@ class Build:
     alerts_measurement: str
     queries: list[Query] = field(default_factory=list)
     alerts: list[TickAlert] = field(default_factory=list)
-    report: list[str] = field(default_factory=list)
+    report: list[Left] = field(default_factory=list)
     publishes: bool = False
+
+
+class Left(str):
+    """A line of the report: a part of the spec this target leaves to the ros2
+    monitor, and where the spec declares it (`rmv check --target` points there)."""
+
+    origin: str
+
+    def __new__(cls, text: str, origin: str) -> Left:
+        line = super().__new__(cls, text)
+        line.origin = origin
+        return line
 
 
 def _database(spec: ir.Spec) -> ir.Database:
@@ -155,10 +167,10 @@ def _downsample_query(build: Build, downsample: ir.Downsample) -> Query:
     names = downsample.measurements if downsample.measurements is not None else tuple(numeric)
     for name in names:
         if name not in numeric:
-            build.report.append(
+            build.report.append(Left(
                 f"downsample {downsample.name}: `{name}` is not a stored number "
-                f"(`{downsample.aggregate}` needs one): not downsampled"
-            )
+                f"(`{downsample.aggregate}` needs one): not downsampled", downsample.origin,
+            ))  # fmt: skip
     columns = [
         f"{downsample.aggregate}({influxql_identifier(n)}) AS {influxql_identifier(n)}"
         for n in names
@@ -182,17 +194,18 @@ def _downsample_query(build: Build, downsample: ir.Downsample) -> Query:
     )
 
 
-def _handlers(build: Build, owner: str, actions: tuple[ir.Action, ...]) -> tuple[Handler, ...]:
+def _handlers(build: Build, alert: ir.Alert) -> tuple[Handler, ...]:
+    owner, actions = alert.name, alert.actions
     handlers = []
     for action in actions:
         if isinstance(action, ir.Log):
             path = f"{LOG_FOLDER}/{build.spec.system.name}.{owner}.log"
             handlers.append(Handler("log", (tick_string(path),)))
             if action.message is not None:
-                build.report.append(
+                build.report.append(Left(
                     f"alert {owner}: Kapacitor's log handler writes the alert's message, "
-                    f"not the action's own {action.message!r}"
-                )
+                    f"not the action's own {action.message!r}", alert.origin,
+                ))  # fmt: skip
         elif isinstance(action, ir.Publish):
             build.publishes = True
             args: tuple[str, ...] = (
@@ -248,7 +261,7 @@ def _alert(build: Build, alert: ir.Alert) -> TickAlert:
         details=tick_string(go_template_text(alert.details)) if alert.details else "",
         state_changes_only=alert.state_changes_only,
         no_recoveries=alert.no_recoveries,
-        handlers=_handlers(build, alert.name, alert.actions),
+        handlers=_handlers(build, alert),
     )
 
 
@@ -262,61 +275,66 @@ def plan(spec: ir.Spec, handlers: Path) -> Build:
     )
     for event in spec.events:
         if event.kind == "boolean":
-            build.report.append(
+            build.report.append(Left(
                 f"event {event.name}: a boolean event (a condition over the newest values) "
-                "is not stored; transducers and properties read it in the ros2 monitor"
-            )
+                "is not stored; transducers and properties read it in the ros2 monitor",
+                event.origin,
+            ))  # fmt: skip
         elif event.window is None:
-            build.report.append(
+            build.report.append(Left(
                 f"event {event.name}: no `group by time(...)`: a continuous query needs a "
-                "window; the ros2 monitor computes it"
-            )
+                "window; the ros2 monitor computes it", event.origin,
+            ))  # fmt: skip
         else:
-            _add_query(build, f"event {event.name}", _event_query, event)
+            _add_query(build, f"event {event.name}", _event_query, event, event.origin)
             if event.range is not None:
-                build.report.append(
+                build.report.append(Left(
                     f"event {event.name}: `range` is left out: each run of a continuous "
-                    "query reads its own time range (the runtime does the same)"
-                )
+                    "query reads its own time range (the runtime does the same)", event.origin,
+                ))  # fmt: skip
             if event.tags:
-                build.report.append(
+                build.report.append(Left(
                     f"event {event.name}: tags are left out of GROUP BY, as the runtime "
-                    "ignores them (a ROS message is one series)"
-                )
+                    "ignores them (a ROS message is one series)", event.origin,
+                ))  # fmt: skip
     for downsample in database.downsamples:
-        _add_query(build, f"downsample {downsample.name}", _downsample_query, downsample)
+        what = f"downsample {downsample.name}"
+        _add_query(build, what, _downsample_query, downsample, downsample.origin)
     for alert in spec.alerts:
         try:
             build.alerts.append(_alert(build, alert))
         except Unsupported as why:
-            build.report.append(f"alert {alert.name}: not a TICKscript ({why}): "
-                                "the ros2 monitor raises it")  # fmt: skip
+            build.report.append(Left(f"alert {alert.name}: not a TICKscript ({why}): "
+                                     "the ros2 monitor raises it", alert.origin))  # fmt: skip
     for transducer in spec.transducers:
-        build.report.append(
+        build.report.append(Left(
             f"transducer {transducer.name}: Kapacitor has no state transducers: the "
             "collector runs it in the runtime and stores its states (for the dashboards); "
-            "properties over them need the ros2 monitor"
-        )
+            "properties over them need the ros2 monitor", transducer.origin,
+        ))  # fmt: skip
     for prop in spec.properties:
-        build.report.append(
+        build.report.append(Left(
             f"property {prop.name}: an RMTLD3 property over transducer states and "
             "boolean events needs the ros2 target's monitor (no stateDuration/"
-            "stateCount pipeline computes it exactly)"
-        )
+            "stateCount pipeline computes it exactly)", prop.origin,
+        ))  # fmt: skip
     if spec.whitelists or spec.nodes:
-        build.report.append("whitelists: intrusion detection reads the ROS graph: the ros2 "
-                            "target's intrusion node")  # fmt: skip
+        first = spec.whitelists[0].origin if spec.whitelists else spec.nodes[0].origin
+        build.report.append(Left("whitelists: intrusion detection reads the ROS graph: the ros2 "
+                                 "target's intrusion node", first))  # fmt: skip
     return build
 
 
-def _add_query(build: Build, what: str, make: Callable[[Build, Any], Query], part: Any) -> None:
+def _add_query(
+    build: Build, what: str, make: Callable[[Build, Any], Query], part: Any, origin: str
+) -> None:
     """The continuous query of an event or a downsample, or a line in the report
     saying why there is none."""
     try:
         build.queries.append(make(build, part))
     except Unsupported as why:
-        build.report.append(f"{what}: no continuous query ({why}): the ros2 monitor "
-                            "computes it")  # fmt: skip
+        build.report.append(Left(f"{what}: no continuous query ({why}): the ros2 monitor "
+                                 "computes it", origin))  # fmt: skip
 
 
 def task_id(spec: ir.Spec, alert: str) -> str:
@@ -416,7 +434,7 @@ def collector_files(build: Build, env: jinja2.Environment | None = None) -> dict
     return {f"collector/{path}": text for path, text in found.items()}
 
 
-def files(spec: ir.Spec, out: Path) -> tuple[dict[str, str], list[str]]:
+def files(spec: ir.Spec, out: Path) -> tuple[dict[str, str], list[Left]]:
     """Every file of the build by path relative to `out`, and the report."""
     build = plan(spec, out.resolve() / "handlers")
     env = _environment()
@@ -438,7 +456,7 @@ def files(spec: ir.Spec, out: Path) -> tuple[dict[str, str], list[str]]:
     return written, build.report
 
 
-def write(spec: ir.Spec, out: Path) -> tuple[list[Path], list[str]]:
+def write(spec: ir.Spec, out: Path) -> tuple[list[Path], list[Left]]:
     """Write the build into `out`; the paths written and the report."""
     texts, report = files(spec, out)
     return ros2.write(texts, out), report
