@@ -2,15 +2,16 @@
 a move or a redesign of the targets keeps their output byte for byte.
 
 Regenerate with `UPDATE_GOLDEN=1 pytest tests/test_builds.py` after a deliberate
-change and read `git diff tests/golden/builds` as code. The ros2 package's copy of
-the runtime (rmv_runtime/) is left out: it is rmvdsl/runtime/, and
-tests/test_install.py runs it as built; a package's spec.json is compared with the
-ir target's output.
+change and read `git diff tests/golden/builds` as code. A package's copies of the
+runtime (rmv_runtime/) and of the host (rmv_host/) are left out: they are
+rmvdsl/runtime/ and rmvdsl/host/, and tests/test_install.py runs them as built; a
+package's spec.json is compared with the ir target's output.
 """
 
 from __future__ import annotations
 
 import os
+import shutil
 from pathlib import Path
 
 import pytest
@@ -29,7 +30,7 @@ def _written(folder: Path) -> dict[str, str]:
         str(p.relative_to(folder)): p.read_text(encoding="utf-8").replace(str(folder), OUT)
         for p in sorted(folder.rglob("*"))
         if p.is_file() and p.name != "spec.json"
-        and "rmv_runtime" not in p.parts and "__pycache__" not in p.parts
+        and not {"rmv_runtime", "rmv_host", "__pycache__"} & set(p.parts)
     }  # fmt: skip
 
 
@@ -50,6 +51,7 @@ def test_every_target_builds_every_example_as_before(rmv, tmp_path, spec, target
         written = {"out": out.read_text(encoding="utf-8")}
     folder = GOLDEN / Path(spec).stem / target
     if os.environ.get("UPDATE_GOLDEN"):
+        shutil.rmtree(folder, ignore_errors=True)
         for relative, text in written.items():
             (folder / relative).parent.mkdir(parents=True, exist_ok=True)
             (folder / relative).write_text(text, encoding="utf-8")

@@ -138,7 +138,7 @@ def test_a_generated_package_declares_what_it_imports(name: str):
             imported |= _imported(text)
     imported.discard(own)
     assert imported - declared == set(), f"imported but not in package.xml: {imported - declared}"
-    # Message packages are imported by name when the node starts (ros_io.message_class).
+    # Message packages are imported by name when the node starts (rmv_host.ros2.message_class).
     unused = declared - imported - set(ros2.message_packages(lower(check(str(_spec_of(name))))))
     assert unused == set(), f"declared but never imported: {unused}"
 

@@ -559,7 +559,8 @@ def test_generated_python_is_lint_clean(tmp_path):
                 capture_output=True, text=True,
             )  # fmt: skip
             assert lint.returncode == 0, (path.name, lint.stdout + lint.stderr)
-    assert (tmp_path / "abs" / "collector" / "carla_abs_collector" / "ros_io.py").exists()
+    collector = tmp_path / "abs" / "collector" / "carla_abs_collector"
+    assert (collector / "rmv_host" / "ros2.py").exists()
 
 
 GOLDEN = ROOT / "tests" / "golden" / "kapacitor"

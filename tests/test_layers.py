@@ -82,3 +82,54 @@ def test_the_language_server_is_a_layer_over_the_workspace():
     for path in sorted(PACKAGE.rglob("*.py")):
         if "lsp" not in path.parts and path.name != "cli.py":  # `rmv lsp` starts it
             assert not any(m.startswith("rmvdsl.lsp") for m in _imports(path)), path
+
+
+def test_the_host_is_the_runtime_s_and_the_standard_library_s():
+    """rmvdsl/host/ is copied into generated packages beside the runtime: it reads
+    only the runtime, itself and the standard library; ros2.py alone adds ROS."""
+    ros = {"rclpy", "diagnostic_msgs", "std_msgs"}
+    for path in _modules("host"):
+        for module in _imports(path):
+            top = module.split(".")[0]
+            own = module.startswith(("rmvdsl.runtime", "rmvdsl.host"))
+            allowed = own or (top in sys.stdlib_module_names and top != "rmvdsl")
+            allowed = allowed or (path.name == "ros2.py" and top in ros)
+            assert allowed, f"{path.relative_to(ROOT)} imports {module}"
+
+
+def test_a_target_is_imported_from_its_own_folder_only():
+    """Adding a target touches its folder and one line of the registry: no module
+    outside rmvdsl/targets/NAME/ imports it (the registry names it as a string)."""
+    from rmvdsl.targets import REGISTRY
+
+    found = {}
+    for name, module in REGISTRY.items():
+        folder = PACKAGE / "targets" / name
+        importers = sorted(
+            str(path.relative_to(ROOT))
+            for path in PACKAGE.rglob("*.py")
+            if folder not in path.parents and any(
+                m == module or m.startswith(module + ".") for m in _names_imported(path)
+            )
+        )  # fmt: skip
+        if importers:
+            found[name] = importers
+    assert found == KNOWN_CROSSINGS
+
+
+# Imports of a target from outside its folder, each a debt of issue 32: `rmv deploy`
+# is the kapacitor target's, and the collector is built as a ROS 2 package.
+KNOWN_CROSSINGS = {
+    "kapacitor": ["rmvdsl/deploy.py"],
+    "ros2": ["rmvdsl/targets/kapacitor/generate.py"],
+}
+
+
+def _names_imported(path: Path) -> set[str]:
+    """Every module imported, a name imported from a package counted as its module
+    (`from rmvdsl.targets import ros2` imports rmvdsl.targets.ros2)."""
+    found = _imports(path)
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            found |= {f"{node.module}.{alias.name}" for alias in node.names}
+    return found

@@ -55,6 +55,8 @@ var Speed = twist.twist.linear.x
 event Overspeed when Speed > 25
 property NoLongOverspeed: duration[2s](Overspeed) < 1s {
     action publish("/rmv/alerts")
+    action log("over speed for too long", level = warn)
+    action log("stop the robot", level = error)
 }
 whitelist twist {
     publishers: "/player"
@@ -550,6 +552,9 @@ def test_the_first_hour_live(workspace, tmp_path):
     rogue = "intrusion: /rogue not in the publishers allowed on /vehicle/twist"
     assert seen["late"] == {"/rmv/alerts": ["NoLongOverspeed violated"], "/rmv/intrusion": [rogue]}
     assert "/player" not in seen["log"] and seen["log"].count(rogue) == 1, seen["log"]
+    # Two levels from one node's actions (rclpy refuses two severities at one call site).
+    assert "[WARN]" in seen["log"] and "over speed for too long" in seen["log"]
+    assert "[ERROR]" in seen["log"] and "stop the robot" in seen["log"]
     assert seen["others"] == [0]
 
 

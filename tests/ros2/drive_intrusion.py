@@ -111,6 +111,7 @@ def main(scenario_path: str) -> int:
             node.wait()
         log_file.seek(0)
         log = log_file.read()
+        print(f"the intrusion node's log:\n{log}", file=sys.stderr)
         watcher.node.destroy_node()
         rclpy.shutdown()
     print(json.dumps({

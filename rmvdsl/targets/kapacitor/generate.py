@@ -416,7 +416,7 @@ COLLECTOR_DEPENDENCIES = tuple(d for d in ros2.BASE_DEPENDENCIES if d != "std_ms
 
 def collector_files(build: Build, env: jinja2.Environment | None = None) -> dict[str, str]:
     """The collector: an ament_python package, `collector/` in the build, sharing
-    the ros2 target's ROS I/O (ros_io.py) and embedding the runtime's reading of
+    the ros2 target's host (rmv_host/) and embedding the runtime's reading of
     variables and its line protocol."""
     spec = build.spec
     name = f"{ros2.package_name(spec)}_collector"

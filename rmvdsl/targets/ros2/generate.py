@@ -125,13 +125,38 @@ def _vendored(source: str) -> str:
     text = re.sub(r"^from rmvdsl\.builtins import ", "from .builtins import ", text, flags=re.M)
     if re.search(r"^\s*(from|import) rmvdsl\b", text, flags=re.M):
         raise BuildError("the runtime imports rmvdsl in a way the ros2 target cannot embed")
-    return re.sub(r"(?:^from \.\S* import .*\n)+", _sorted_block, text, flags=re.M)
+    return _RELATIVE_BLOCK.sub(_sorted_block, text)
+
+
+def _vendored_host(source: str) -> str:
+    """A host module with its imports made relative: the host's own (`.`) and the
+    runtime's, beside it in the package (`..rmv_runtime`)."""
+    text = re.sub(r"^from rmvdsl\.host import ", "from . import ", source, flags=re.M)
+    text = re.sub(r"^from rmvdsl\.host\.(\w+) import ", r"from .\1 import ", text, flags=re.M)
+    text = re.sub(r"^from rmvdsl\.runtime import ", "from ..rmv_runtime import ", text, flags=re.M)
+    text = re.sub(
+        r"^from rmvdsl\.runtime\.(\w+) import ", r"from ..rmv_runtime.\1 import ", text, flags=re.M
+    )
+    if re.search(r"^\s*(from|import) rmvdsl\b", text, flags=re.M):
+        raise BuildError("the host imports rmvdsl in a way the ros2 target cannot embed")
+    return _RELATIVE_BLOCK.sub(_sorted_block, text)
+
+
+# One relative import, on one line or parenthesised over several; a run of them.
+_RELATIVE = r"^from \.\S* import (?:\([^)]*\)|.*)\n"
+_RELATIVE_BLOCK = re.compile(f"(?:{_RELATIVE})+", re.M)
 
 
 def _sorted_block(match: re.Match[str]) -> str:
-    """Relative imports in isort's order (`from . import` before `from .x import`)."""
-    lines = match.group(0).splitlines(keepends=True)
-    return "".join(sorted(lines, key=lambda line: line.split(" import ")[0]))
+    """Relative imports in isort's order: the furthest first (`..x` before `.`),
+    then `from . import` before `from .x import`, as ruff orders them."""
+    statements = re.findall(_RELATIVE, match.group(0), flags=re.M)
+    return "".join(sorted(statements, key=_relative_order))
+
+
+def _relative_order(line: str) -> tuple[int, str]:
+    module = line.split(" import ")[0].removeprefix("from ")
+    return -(len(module) - len(module.lstrip("."))), module
 
 
 MONITOR_NODES = (
@@ -145,7 +170,8 @@ def ament_package(
 ) -> dict[str, str]:
     """Every file of an ament_python package that hosts the runtime: the package's
     own `templates` (path -> template) beside what every such package holds
-    (package.xml, setup.py, the launch file, ros_io.py, the spec and the runtime)."""
+    (package.xml, setup.py, the launch file, the spec, and copies of the runtime
+    and of the host)."""
     name = package.name
     context = {"package": package, "spec": package.spec, **context}
     rendered = {
@@ -154,7 +180,6 @@ def ament_package(
         "setup.cfg": "setup.cfg.j2",
         f"resource/{name}": "resource.j2",
         f"{name}/__init__.py": "init.py.j2",
-        f"{name}/ros_io.py": "ros_io.py.j2",
         package.launch: "launch/nodes.launch.py.j2",
         **templates,
     }
@@ -166,6 +191,9 @@ def ament_package(
         out[f"{runtime}/{module.name}"] = _vendored(module.read_text(encoding="utf-8"))
     builtins = resources.files("rmvdsl").joinpath("builtins.py")
     out[f"{runtime}/builtins.py"] = _vendored(builtins.read_text(encoding="utf-8"))
+    host = resources.files("rmvdsl.host").iterdir()
+    for module in sorted((m for m in host if m.name.endswith(".py")), key=lambda m: m.name):
+        out[f"{name}/rmv_host/{module.name}"] = _vendored_host(module.read_text(encoding="utf-8"))
     return out
 
 

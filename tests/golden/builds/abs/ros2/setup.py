@@ -7,7 +7,7 @@ PACKAGE = "carla_abs"
 setup(
     name=PACKAGE,
     version="0.1.0",
-    packages=[PACKAGE, f"{PACKAGE}.rmv_runtime"],
+    packages=[PACKAGE, f"{PACKAGE}.rmv_runtime", f"{PACKAGE}.rmv_host"],
     package_data={PACKAGE: ["spec.json"]},
     data_files=[
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),

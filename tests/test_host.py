@@ -1,0 +1,242 @@
+"""The host of generated nodes (rmvdsl/host/), run with no ROS: what the monitor,
+intrusion and collector nodes do, given what rclpy would hand them. The same
+modules, copied into a package, run under ROS in tests/test_ros2.py."""
+
+from __future__ import annotations
+
+import http.server
+import json
+import threading
+from fractions import Fraction
+from typing import Any, ClassVar
+
+from conftest import EXAMPLES
+
+from rmvdsl.check import check
+from rmvdsl.host import collector, intrusion, monitor, status
+from rmvdsl.host.actions import NodeActions
+from rmvdsl.host.gaps import Gaps
+from rmvdsl.ir import lower
+from rmvdsl.runtime.engine import RecordingHost, Runtime, to_json
+
+SPEC = """system host
+topic twist: geometry_msgs/msg/TwistStamped = "/vehicle/twist"
+var Speed = twist.twist.linear.x
+event Fast when Speed > 25
+event MeanSpeed = mean(Speed)
+    group by time(1s)
+transducer Motion {
+    states Slow, Quick
+    initial Slow
+    Slow -> Quick on Fast
+    final Quick
+}
+property NeverFast: not Fast {
+    action publish("/rmv/alerts")
+    action log("fast")
+}
+whitelist twist {
+    publishers: "/player"
+}
+database {
+    name = "host"
+    batch_size = 3
+    flush_interval = 50ms
+}
+"""
+
+
+def _spec(tmp_path, text=SPEC):
+    path = tmp_path / "host.rmv"
+    path.write_text(text, encoding="utf-8")
+    return lower(check(str(path)))
+
+
+def _twist(speed: float) -> dict[str, Any]:
+    return {"twist": {"linear": {"x": speed}}}
+
+
+class Outputs:
+    def __init__(self) -> None:
+        self.verdicts: list[str] = []
+        self.reports: list[list[status.Status]] = []
+        self.warnings: list[str] = []
+        self.logged: list[tuple[str, str]] = []
+        self.published: list[tuple[str, str]] = []
+
+    def verdict(self, text: str) -> None:
+        self.verdicts.append(text)
+
+    def statuses(self, statuses: list[status.Status]) -> None:
+        self.reports.append(statuses)
+
+    def warn(self, text: str) -> None:
+        self.warnings.append(text)
+
+    def log(self, level: str, text: str) -> None:
+        self.logged.append((level, text))
+
+    def actions(self) -> NodeActions:
+        return NodeActions(self.log, lambda topic, text: self.published.append((topic, text)))
+
+
+def test_the_monitor_hands_out_what_the_runtime_decides(tmp_path):
+    """Messages taken at a clock's times, fed by the worker thread: the verdict
+    segments are the runtime's on the same input, the actions ran, the statuses say
+    the property's verdict and count every message."""
+    spec = _spec(tmp_path)
+    now = [0]
+    out = Outputs()
+    node = monitor.Monitor(spec, out.actions(), out, lambda: now[0], decide_period=0.01)
+    node.start()
+    speeds = [10.0, 30.0, 30.0, 10.0, 12.0]
+    times = [10**9 + k * 10**8 for k in range(len(speeds))]
+    for time, speed in zip(times, speeds, strict=True):
+        now[0] = time
+        node.take("/vehicle/twist", _twist(speed), {})
+    node.finish()
+
+    runtime = Runtime(spec, RecordingHost(), record=("state",))
+    for time, speed in zip(times, speeds, strict=True):
+        runtime.message(time, "/vehicle/twist", _twist(speed))
+    runtime.end()
+    expected = [to_json(status.verdict_segment(r)) for r in runtime.records()
+                if r["kind"] == "verdict"]  # fmt: skip
+    assert out.verdicts == expected and len(expected) == 3
+    assert out.published == [("/rmv/alerts", "NeverFast violated")]
+    assert out.logged == [("error", "fast")]
+    last = {s.name: s for s in out.reports[-1]}
+    assert last["property NeverFast"].message == "true"  # the last segment's
+    assert last["monitor"].values["messages"] == "5"
+
+
+def test_lost_messages_are_counted_from_sequence_gaps():
+    gaps = Gaps()
+    first = {"publication_sequence_number": 1, "publisher_gid": {"data": b"a"}}
+    later = {"publication_sequence_number": 5, "publisher_gid": {"data": b"a"}}
+    other = {"publication_sequence_number": 9, "publisher_gid": {"data": b"b"}}
+    assert [gaps.lost("/t", first), gaps.lost("/t", later), gaps.lost("/t", other)] == [0, 3, 0]
+
+
+def test_the_intrusion_watch_waits_for_names_and_says_each_thing_once(tmp_path):
+    spec = _spec(tmp_path)
+    out = Outputs()
+    watch = intrusion.IntrusionWatch(spec, out.actions(), own=("/rmv_intrusion",))
+
+    def seen(*nodes: tuple[str, str]) -> list[intrusion.Seen]:
+        return [intrusion.Seen("/vehicle/twist", "publisher", ns, name, name.encode())
+                for ns, name in nodes]  # fmt: skip
+
+    graph = seen(("/", "player"), ("/", "rmv_intrusion"), ("/", intrusion.UNKNOWN_NODE))
+    assert watch.poll(0, graph, now=0.0) == []  # the unnamed one may yet be named
+    assert watch.status().message == "no intrusion"
+    lines = watch.poll(1, graph, now=intrusion.UNKNOWN_GRACE)
+    assert lines == [("error", f"intrusion: /{intrusion.UNKNOWN_NODE} not in the publishers "
+                               "allowed on /vehicle/twist")]  # fmt: skip
+    graph += seen(("/robot", "rogue"))
+    lines = watch.poll(2, graph, now=intrusion.UNKNOWN_GRACE + 1)
+    assert lines == [("error", "intrusion: /robot/rogue not in the publishers allowed on "
+                               "/vehicle/twist")]  # fmt: skip
+    assert watch.status().message == "2 intrusions"
+    assert watch.status().level == status.ERROR
+    assert sorted(watch.poll(3, seen(("/", "player")), now=10.0)) == [
+        ("info", f"intrusion ended: /{intrusion.UNKNOWN_NODE} on /vehicle/twist"),
+        ("info", "intrusion ended: /robot/rogue on /vehicle/twist"),
+    ]
+    assert watch.status().message == "no intrusion"
+
+
+class _Influx(http.server.BaseHTTPRequestHandler):
+    """A stand-in for InfluxDB's /write: takes every batch, or refuses it (400)."""
+
+    batches: ClassVar[list[str]] = []
+    refuse = False
+
+    def do_POST(self) -> None:
+        body = self.rfile.read(int(self.headers["Content-Length"])).decode()
+        if type(self).refuse:
+            self.send_response(400)
+            self.end_headers()
+            self.wfile.write(b'{"error":"partial write: points beyond retention dropped=2"}')
+            return
+        type(self).batches.append(body)
+        self.send_response(204)
+        self.end_headers()
+
+    def log_message(self, *args: Any) -> None:
+        pass
+
+
+def _settings(port: int, **changed: Any) -> collector.Settings:
+    given = {
+        "url": f"http://127.0.0.1:{port}", "database": "host", "retention_policy": "autogen",
+        "batch_size": 3, "flush_interval": 0.05, "timeout": 2.0, "buffer": 100,
+        "username_env": "RMV_TEST_USER", "password_env": "RMV_TEST_PASSWORD",
+    }  # fmt: skip
+    return collector.Settings(**{**given, **changed})
+
+
+def test_the_collector_writes_points_and_states_in_batches(tmp_path):
+    spec = _spec(tmp_path)
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), _Influx)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    _Influx.batches, _Influx.refuse = [], False
+    out = Outputs()
+    clock = iter(range(10**9, 10**12, 10**8))
+    node = collector.Collector(spec, _settings(server.server_port), out, lambda: next(clock))
+    node.start()
+    for speed in (10.0, 30.0, 12.0, 11.0):
+        node.take("/vehicle/twist", _twist(speed), {})
+    final = node.finish()
+    server.shutdown()
+    lines = [line for batch in _Influx.batches for line in batch.splitlines()]
+    assert len(lines) == 6  # 4 messages, 2 states (Slow, then Quick)
+    assert sum("Quick" in line for line in lines) == 1
+    assert final.values["points written"] == "6" and final.level == status.OK
+    assert all(len(batch.splitlines()) <= 3 for batch in _Influx.batches)
+
+
+def test_the_collector_counts_what_influxdb_refuses(tmp_path):
+    spec = _spec(tmp_path)
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), _Influx)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    _Influx.batches, _Influx.refuse = [], True
+    out = Outputs()
+    clock = iter(range(10**9, 10**12, 10**8))
+    settings = _settings(server.server_port, batch_size=5)  # 4 messages, 1 state: one batch
+    node = collector.Collector(spec, settings, out, lambda: next(clock))
+    node.start()
+    for speed in (10.0, 11.0, 12.0, 13.0):
+        node.take("/vehicle/twist", _twist(speed), {})
+    final = node.finish()
+    server.shutdown()
+    # InfluxDB says how many of the batch it dropped: the rest were written.
+    assert final.values["points refused by InfluxDB"] == "2"
+    assert final.values["points written"] == "3"
+    assert final.level == status.WARN
+    assert [level for level, _ in out.logged] == ["warn"]
+
+
+def test_percentiles_and_segments():
+    assert status.percentiles("delay", []) == {}
+    assert status.percentiles("delay", [2_000_000, 1_000_000, 3_000_000]) == {
+        "delay p50 (ms)": "2.000", "delay p99 (ms)": "3.000",
+    }  # fmt: skip
+    record = {"kind": "verdict", "property": "P", "verdict": "unknown", "from": Fraction(1),
+              "to": 2, "bounds": "[]", "revised": True, "extra": 1}  # fmt: skip
+    assert json.loads(to_json(status.verdict_segment(record))) == {
+        "kind": "verdict", "property": "P", "verdict": "unknown", "from": 1, "to": 2,
+        "bounds": "[]", "revised": True,
+    }  # fmt: skip
+
+
+def test_every_example_s_spec_loads_in_the_host(tmp_path):
+    """The host reads what the targets embed: each example's resolved spec runs in a
+    Monitor with no input and says every property is unknown."""
+    for path in (EXAMPLES / "carla" / "abs.rmv", EXAMPLES / "gazebo" / "prius_platoon.rmv"):
+        spec = lower(check(str(path)))
+        out = Outputs()
+        node = monitor.Monitor(spec, out.actions(), out, lambda: 0)
+        node.finish()
+        messages = {s.name: s.message for s in out.reports[-1]}
+        assert all(messages[f"property {p.name}"] == "unknown" for p in spec.properties)
