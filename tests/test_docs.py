@@ -129,3 +129,14 @@ def test_documented_figures_are_the_benchmarks_json():
         used.update(m.group("name") for m in figures.BLOCK.finditer(text))
         assert figures.refreshed(text) == text, f"{path}: run python benchmarks/figures.py"
     assert used == set(figures.BLOCKS), set(figures.BLOCKS) - used
+
+
+def test_the_architecture_page_names_every_package_and_module():
+    """docs/architecture.md says what lives where: a new folder or top-level module
+    that it does not name fails here."""
+    page = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
+    package = ROOT / "rmvdsl"
+    folders = [p.name + "/" for p in package.iterdir() if (p / "__init__.py").exists()]
+    modules = [p.name for p in package.glob("*.py") if p.name != "__init__.py"]
+    missing = [name for name in (*folders, *modules) if f"`{name}" not in page]
+    assert missing == []

@@ -14,501 +14,63 @@ was batched or how late a query ran.
 
 from __future__ import annotations
 
-import graphlib
 import heapq
-import json
-import math
-import re
-from abc import ABC, abstractmethod
 from collections import Counter
-from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Iterable
 from fractions import Fraction
-from typing import Any, Protocol
+from typing import Any
 
-from rmvdsl.builtins import INFRASTRUCTURE
 from rmvdsl.runtime import fields, influx
 from rmvdsl.runtime import spec as ir
-from rmvdsl.runtime.formulas import to_lists
-from rmvdsl.runtime.rmtld3 import Monitor, build, continues
-from rmvdsl.runtime.uncertain import Uncertain
-from rmvdsl.runtime.values import exact_decimal, exact_text
+from rmvdsl.runtime.alerts import LEVELS, AlertState, kapacitor_level
+from rmvdsl.runtime.dataflow import (
+    _FOREVER,
+    START,
+    Condition,
+    Item,
+    Node,
+    RawEvent,
+    SpecError,
+    Transducer,
+    WindowedEvent,
+    _dataflow,
+    _instants,
+    _take,
+    reaching,
+)
+from rmvdsl.runtime.intrusions import Endpoint, can_refuse, verdict_of
+from rmvdsl.runtime.properties import PropertyMonitor
+from rmvdsl.runtime.records import (
+    NS,
+    ActionContext,
+    Host,
+    Record,
+    RecordingHost,
+    action_level,
+    action_record,
+    action_text,
+    seconds,
+    to_json,
+)
+from rmvdsl.runtime.values import exact_text
+from rmvdsl.runtime.verdicts import Segments
 from rmvdsl.runtime.wording import counted
 
-NS = influx.NS
-_FOREVER = 1 << 126
-LEVELS = ("OK", "INFO", "WARNING", "CRITICAL")
-_SEVERITY = {"info": 1, "warn": 2, "crit": 3}
-_LOG_LEVEL = {"OK": "info", "INFO": "info", "WARNING": "warn", "CRITICAL": "error"}
+# What the other runtime modules define, read through this one by the hosts.
+__all__ = [
+    "LEVELS", "NS", "PUMP_EVERY", "START", "ActionContext", "AlertState", "Condition",
+    "Endpoint", "Host", "Item", "Node", "PropertyMonitor", "RawEvent", "Record",
+    "RecordingHost", "Runtime", "SpecError", "Transducer", "WindowedEvent",
+    "action_level", "action_record", "action_text", "can_refuse", "kapacitor_level",
+    "seconds", "to_json", "verdict_of",
+]  # fmt: skip
 
-Item = tuple[int, int, str, Any, str]  # time, sequence, name, value, source
-START = ""  # the name of the item that makes a condition evaluate at the first instant
-Record = dict[str, Any]
+_LOG_LEVEL = {"OK": "info", "INFO": "info", "WARNING": "warn", "CRITICAL": "error"}
 
 
 # The dataflow runs once per this many input instants (and on `decide()`): its output
 # does not depend on the batching, and a batch costs the per-run overhead once.
 PUMP_EVERY = 64
-
-
-def seconds(ns: int) -> Fraction:
-    return Fraction(ns, NS)
-
-
-class Host(Protocol):
-    """What a host (the replay, the ROS node) does with an action."""
-
-    def act(self, action: ir.Action, context: ActionContext) -> None: ...
-
-
-@dataclass(frozen=True)
-class ActionContext:
-    owner_kind: str  # property | alert | intrusion | whitelist | node
-    owner: str
-    level: str  # a log level: debug, info, warn, error, fatal
-    message: str  # the action's message, or the owner's
-    record: Record  # what happened, as the runtime reports it
-
-
-class RecordingHost:
-    """Actions as records only: nothing leaves the process."""
-
-    def __init__(self) -> None:
-        self.records: list[Record] = []
-
-    def act(self, action: ir.Action, context: ActionContext) -> None:
-        self.records.append(action_record(action, context))
-
-
-def action_record(action: ir.Action, context: ActionContext) -> Record:
-    out: Record = {
-        "kind": "action",
-        "action": action.TAG,
-        "owner": context.owner,
-        "owner_kind": context.owner_kind,
-        "time": context.record.get("time", context.record.get("from")),
-        "message": context.message,
-    }
-    if isinstance(action, ir.Log):
-        out["level"] = context.level
-    elif isinstance(action, ir.Publish):
-        out["topic"] = action.topic
-    elif isinstance(action, ir.Post):
-        out["url"] = action.url
-    elif isinstance(action, ir.Exec):
-        out["command"] = [action.command, *action.args]
-    elif isinstance(action, ir.Tcp):
-        out["address"] = action.address
-    return out
-
-
-def action_text(action: ir.Action, default: str) -> str:
-    message = getattr(action, "message", None)
-    return message if message is not None else default
-
-
-def action_level(action: ir.Action, default: str) -> str:
-    level = getattr(action, "level", None)
-    return level if level is not None else default
-
-
-# ---- nodes ----
-
-
-def _take(inbox: list[Item], bound: int) -> list[Item]:
-    """Remove the items before `bound` from the heap `inbox`, oldest first (ties in
-    arrival order). A heap, because items wait in an inbox until the slowest input
-    of the node is final (a query running once a minute) while the others arrive."""
-    taken = []
-    while inbox and inbox[0][0] < bound:
-        taken.append(heapq.heappop(inbox))
-    return taken
-
-
-class Node(ABC):
-    """A step of the dataflow: reads items of `reads`, writes items of `writes`."""
-
-    name: str
-    reads: tuple[str, ...]
-    writes: tuple[str, ...]
-    reactive = True  # changes only when an input arrives (a query runs on a clock)
-    lead = 0  # an input at t changes this node's output from t - lead on (ns)
-
-    def __init__(self) -> None:
-        self.inbox: list[Item] = []
-        self.final = -_FOREVER  # output before this time is final
-
-    def take(self, bound: int) -> list[Item]:
-        return _take(self.inbox, bound) if self.inbox else []
-
-    @abstractmethod
-    def process(self, bound: int, emit: Callable[[int, str, Any, str], None]) -> None:
-        """Consume the inbox before `bound`, emit what that decides, set `final`."""
-
-
-def _instants(items: list[Item]) -> Iterable[tuple[int, list[Item]]]:
-    """Items grouped by time."""
-    start = 0
-    for i in range(1, len(items) + 1):
-        if i == len(items) or items[i][0] != items[start][0]:
-            yield items[start][0], items[start:i]
-            start = i
-
-
-def _rows(items: list[Item]) -> Iterable[influx.Row]:
-    """Items of one source at one time form one row (one message, one point)."""
-    rows: dict[tuple[int, str], influx.Row] = {}
-    for time, _, name, value, source in items:
-        row = rows.get((time, source))
-        if row is None:
-            row = rows[(time, source)] = influx.Row(time, {})
-        row.fields[name] = value
-    return sorted(rows.values(), key=lambda r: r.time)
-
-
-class RawEvent(Node):
-    def __init__(self, event: ir.Event) -> None:
-        super().__init__()
-        self.name, self.reads, self.writes = event.name, event.reads, (event.name,)
-        self.query = influx.RawQuery(event)
-
-    def process(self, bound: int, emit: Callable[[int, str, Any, str], None]) -> None:
-        for row in _rows(self.take(bound)):
-            value = self.query.row(row)
-            if value is not influx.MISSING:
-                emit(row.time, self.name, value, self.name)
-        self.final = bound
-
-
-class WindowedEvent(Node):
-    reactive = False
-
-    def __init__(self, event: ir.Event) -> None:
-        super().__init__()
-        self.name, self.reads, self.writes = event.name, event.reads, (event.name,)
-        self.state = influx.EventState(influx.WindowedQuery(event))
-        self.draining_until: int | None = None
-        # A point is stamped at its window's start: an input changes the windows
-        # that began up to one interval before it.
-        assert event.window is not None
-        self.lead = influx.nanoseconds(event.window.interval)
-
-    def process(self, bound: int, emit: Callable[[int, str, Any, str], None]) -> None:
-        for row in _rows(self.take(bound)):
-            self.state.add(row)
-        if self.draining_until is not None and bound >= _FOREVER:
-            points = influx.drain(self.state, self.draining_until)
-        else:
-            points = self.state.advance(bound)
-        for time, value in points:
-            emit(time, self.name, value, self.name)
-        self.final = bound if bound >= _FOREVER else self.state.final_before(bound)
-
-
-class Condition(Node):
-    """A boolean event with no window: its condition over the newest value of each
-    name it reads, a signal that changes only when that value changes."""
-
-    def __init__(self, event: ir.Event) -> None:
-        super().__init__()
-        self.event = event
-        self.name, self.reads, self.writes = event.name, event.reads, (event.name,)
-        self.current: dict[str, Any] = {}
-        self.value = False
-        # evaluated at every change of an input: compiled once
-        self.where = None if event.where is None else influx.compiled(event.where)
-        self.condition = influx.compiled(event.expr)
-
-    def holds(self) -> bool:
-        lookup = self.current.get
-        if self.where is not None and self.where(lookup) is not True:
-            return False
-        return self.condition(lookup) is True
-
-    def process(self, bound: int, emit: Callable[[int, str, Any, str], None]) -> None:
-        for time, items in _instants(self.take(bound)):
-            pulses, raised = [], set()
-            for _, _, name, value, _ in items:
-                if name is START:
-                    continue
-                if value is True:
-                    raised.add(name)
-                elif value is False and name in raised:
-                    pulses.append(name)  # raised and released at this instant: a pulse
-                self.current[name] = value
-            for name in pulses:
-                self.current[name] = True
-                self._set(time, emit)
-                self.current[name] = False
-            self._set(time, emit)
-        self.final = bound
-
-    def _set(self, time: int, emit: Callable[[int, str, Any, str], None]) -> None:
-        value = self.holds()
-        if value != self.value:
-            self.value = value
-            emit(time, self.name, value, self.name)
-
-
-class Transducer(Node):
-    """Level-triggered: at every instant an input changes, the transition of the
-    current state whose input holds is taken (the first declared); then the new
-    state's transitions are tried at the same instant, each transition at most once
-    per instant. Emitted events hold at that instant only."""
-
-    def __init__(self, transducer: ir.Transducer) -> None:
-        super().__init__()
-        self.transducer = transducer
-        self.name = transducer.name
-        self.reads = tuple(dict.fromkeys(t.input for t in transducer.transitions))
-        self.writes = (transducer.name, *transducer.emits)
-        self.state = transducer.initial
-        self.held: dict[str, bool] = {}
-        self.steps = 0
-
-    def process(self, bound: int, emit: Callable[[int, str, Any, str], None]) -> None:
-        for time, items in _instants(self.take(bound)):
-            pulsed = {name for _, _, name, value, _ in items if value is True}
-            for _, _, name, value, _ in items:
-                self.held[name] = value is True
-            self._step(time, pulsed, emit)
-        self.final = bound
-
-    def _step(
-        self, time: int, pulsed: set[str], emit: Callable[[int, str, Any, str], None]
-    ) -> None:
-        taken: set[int] = set()
-        before = self.state
-        while True:
-            for index, transition in enumerate(self.transducer.transitions):
-                if index in taken or transition.source != self.state:
-                    continue
-                if self.held.get(transition.input) or transition.input in pulsed:
-                    break
-            else:
-                break
-            taken.add(index)
-            self.state = transition.dest
-            self.steps += 1
-            if transition.emit is not None:
-                emit(time, transition.emit, True, self.name)
-                emit(time, transition.emit, False, self.name)
-        # In exactly one state at every instant: the one the instant's steps end in
-        # (states passed through within it hold at no time).
-        if self.state != before:
-            emit(time, self.name, self.state, self.name)
-
-
-# ---- consumers: properties and alerts ----
-
-
-class PropertyMonitor:
-    """One property: the state signal of its propositions, sampled at `rate` (or
-    at every change), fed to an RMTLD3 monitor while `trigger` holds."""
-
-    def __init__(self, prop: ir.Property, start: int, initial: frozenset[str]) -> None:
-        self.prop = prop
-        self.formula = to_lists(prop.formula)
-        self.names = frozenset(prop.propositions)
-        self.watch = self.names | ({prop.trigger} if prop.trigger != "always" else set())
-        self.true: set[str] = set(initial & self.watch)
-        self.period = None if prop.rate is None else influx.nanoseconds(1 / prop.rate)
-        self.next_tick = None if self.period is None else -(-start // self.period) * self.period
-        self.pending_pulses: set[str] = set()
-        self.monitor: Monitor | None = None
-        self.segments: list[tuple] = []
-        self.start = start
-        # How far a verdict reads its input ahead and back (seconds): a verdict at s
-        # reads the input on [s - past, s + future].
-        root = build(self.formula, {})
-        self.future, self.past = root.future, root.past
-        if self._triggered():
-            self._open(start)
-
-    def _triggered(self) -> bool:
-        return self.prop.trigger == "always" or self.prop.trigger in self.true
-
-    def _open(self, time: int) -> None:
-        self.monitor = Monitor(self.formula)
-        if self.period is None:
-            self.monitor.step(seconds(time), self.true & self.names)
-
-    def _close(self, time: int) -> None:
-        if self.monitor is not None:
-            self.monitor.end(seconds(time))
-            self.segments.extend(self.monitor.verdicts())
-            self.monitor = None
-
-    def instant(self, time: int, changes: list[tuple[str, Any]]) -> None:
-        self.ticks_before(time)
-        was = self._triggered()
-        pulses = set()
-        for name, value in changes:
-            if name not in self.watch:
-                continue
-            if value is True:
-                self.true.add(name)
-            else:
-                if name in self.true and any(n == name and v is True for n, v in changes):
-                    pulses.add(name)
-                self.true.discard(name)
-        now = self._triggered()
-        if was and not now:
-            self._close(time)
-        elif now and not was:
-            self._open(time)
-        if self.monitor is None:
-            return
-        if self.period is None:
-            self.monitor.step(seconds(time), self.true & self.names, pulses & self.names)
-        else:
-            self.pending_pulses |= pulses
-
-    def ticks_before(self, bound: int) -> None:
-        """Samples at the rate's ticks before `bound` (all that happened up to a
-        tick is known once the input is final past it)."""
-        if self.period is None or self.next_tick is None or self.next_tick >= bound:
-            return
-        state = self.true & self.names
-        if self.monitor is not None:
-            self.monitor.step(seconds(self.next_tick), state, self.pending_pulses & self.names)
-        self.pending_pulses = set()
-        # The later ticks repeat that state without pulses, which only tells the
-        # monitor that time has passed: the last of them says it for all (a gap of
-        # years between two stamps costs one step, not a step per tick).
-        last = self.next_tick + (bound - 1 - self.next_tick) // self.period * self.period
-        if last > self.next_tick and self.monitor is not None:
-            self.monitor.step(seconds(last), state, frozenset())
-        self.next_tick = last + self.period
-
-    def advance(self, bound: int) -> None:
-        """Nothing changed before `bound`: the monitor knows its input up to there
-        (a rate's ticks say it for a sampled property)."""
-        if self.period is None and self.monitor is not None and bound > self.start:
-            self.monitor.advance(seconds(bound))
-
-    def verdicts(self) -> list[tuple]:
-        if self.monitor is not None:
-            self.segments.extend(self.monitor.verdicts())
-        out, self.segments = self.segments, []
-        return out
-
-    def end(self, time: int) -> None:
-        self.ticks_before(time + 1)
-        self._close(time)
-
-
-def kapacitor_level(levels: Sequence[ir.AlertLevel], current: int, lookup: Any) -> int:
-    """Kapacitor's AlertNode.determineLevel: a level at or above the current one
-    whose condition holds; else the current one while its reset does not hold;
-    else the highest level below that holds; else OK."""
-    by_rank = {_SEVERITY[level.severity]: level for level in levels}
-
-    def holds(rank: int) -> bool:
-        level = by_rank.get(rank)
-        return level is not None and influx.evaluate(level.condition, lookup) is True
-
-    for rank in range(3, max(current, 1) - 1, -1):
-        if holds(rank):
-            return rank
-    reset = by_rank[current].reset if current in by_rank else None
-    if reset is not None and influx.evaluate(reset, lookup) is not True:
-        return current
-    for rank in range(current, 0, -1):
-        if holds(rank):
-            return rank
-    return 0
-
-
-class AlertState:
-    def __init__(self, alert: ir.Alert) -> None:
-        self.alert = alert
-        self.reads = frozenset(alert.reads)
-        self.current: dict[str, Any] = {}
-        self.level = 0
-
-    def instant(self, time: int, changes: list[tuple[str, Any]]) -> Record | None:
-        touched = False
-        for name, value in changes:
-            if name in self.reads:
-                self.current[name] = value
-                touched = True
-        if not touched:
-            return None
-        previous = self.level
-        self.level = kapacitor_level(self.alert.levels, previous, self.current.get)
-        if self.level == previous and (self.alert.state_changes_only or self.level == 0):
-            return None
-        if self.level == 0 and self.alert.no_recoveries:
-            return None
-        return {
-            "kind": "alert",
-            "alert": self.alert.name,
-            "id": self.alert.id,
-            "time": seconds(time),
-            "level": LEVELS[self.level],
-            "previous": LEVELS[previous],
-            "message": self.alert.message,
-            "values": {n: self.current[n] for n in self.alert.reads if n in self.current},
-        }
-
-
-# ---- intrusion detection ----
-
-
-@dataclass(frozen=True)
-class Endpoint:
-    node: str
-    topic: str
-    role: str  # publisher | subscriber
-
-
-def _matches(patterns: Iterable[ir.Pattern], name: str) -> bool:
-    return any(re.match(p.regex, name) for p in patterns)
-
-
-def can_refuse(spec: ir.Spec) -> bool:
-    """Whether any endpoint could be an intrusion (else the graph need not be read)."""
-    return bool(spec.whitelists or spec.nodes or spec.intrusion.default == "deny")
-
-
-def verdict_of(
-    spec: ir.Spec, endpoint: Endpoint, ros_version: int | None = None
-) -> tuple[str, Any] | None:
-    """Why an endpoint is not allowed (and the rule that refused it), or None, on a
-    system of `ros_version` (default: the spec's)."""
-    if _matches(spec.intrusion.ignore_nodes, endpoint.node):
-        return None
-    publisher = endpoint.role == "publisher"
-    lists = [w for w in spec.whitelists if re.match(w.topic.regex, endpoint.topic)]
-    intrusion = spec.intrusion
-    if intrusion.infrastructure == "ros" and not lists:
-        given = INFRASTRUCTURE.get(ros_version or spec.ros.version, {})
-        infrastructure = given.get(endpoint.role, ())
-    else:
-        infrastructure = ()
-    if endpoint.topic in infrastructure:
-        return None  # ROS's own, which every node uses (docs/runtime.md, "Intrusions")
-    # The reason says what and why; the record and the action's text say who.
-    for rule in lists:
-        allowed = rule.publishers if publisher else rule.subscribers
-        if allowed is not None and not _matches(allowed, endpoint.node):
-            return f"not in the {endpoint.role}s allowed on {rule.topic.text}", rule
-    if not lists and intrusion.default == "deny":
-        does = "publishes on" if publisher else "subscribes to"
-        return f"{does} {endpoint.topic}, which has no whitelist, and the default is deny", None
-    for node_rule in spec.nodes:
-        if re.match(node_rule.node.regex, endpoint.node):
-            allowed = node_rule.publishes if publisher else node_rule.subscribes
-            verb = "publish" if publisher else "subscribe"
-            if allowed is not None and not _matches(allowed, endpoint.topic):
-                rule_name = node_rule.node.text
-                by = f" (node {rule_name})" if rule_name != endpoint.node else ""
-                return f"may not {verb} on {endpoint.topic}{by}", node_rule
-    return None
-
-
-# ---- the runtime ----
 
 
 class Runtime:
@@ -569,11 +131,9 @@ class Runtime:
         self.consumed = frozenset(self.state_of.get(n, n) for n in wanted)
         self.consumer_inbox: list[Item] = []
         self.consumer_upstream = self._producers(self.consumed)
-        self.pending_segments: dict[str, list[Any]] = {}
+        self.segments = Segments(spec.properties, self._write, self._violated)
         # Late input (docs/runtime.md, "Late input"): per property, the verdict
         # time it made unknown; the end of the verdicts given out so far.
-        self.uncertain = {p.name: Uncertain() for p in spec.properties}
-        self.given_to: dict[str, tuple[Fraction, bool]] = {}
         self.last_on: dict[str, int] = {}  # the newest message fed, per topic
         # Intervals that end when their topic publishes again, and how long after.
         self.until_next: dict[str, list[tuple[list[Any], Fraction]]] = {}
@@ -665,7 +225,8 @@ class Runtime:
         assert self.started is not None  # a message is late only after others
         noticed = seconds(max(self.now, self.complete_before))
         superseded = self.last_on.get(topic, -_FOREVER) > time
-        reach = self._reach(topic)
+        names = [variable.name for variable, _ in self.by_topic.get(topic, ())]
+        reach = reaching(self.nodes, names, [m.prop for m in self.properties], self.state_of)
         for monitor in self.properties:
             name = monitor.prop.name
             if name not in reach:
@@ -676,40 +237,9 @@ class Runtime:
             low = max(seconds(time) - lead - monitor.future, seconds(self.started))
             after = lead + monitor.past
             high = noticed + after if superseded else None
-            interval = self.uncertain[name].add(low, high)
+            interval = self.segments.unknown(name, low, high)
             if not superseded:
                 self.until_next.setdefault(topic, []).append((interval, after))
-            self._revise(name, low, high)
-
-    def _reach(self, topic: str) -> dict[str, int]:
-        """The properties that read `topic`, each with how far before an input's
-        time it can change their propositions (windows stamp points at their start)."""
-        lead = {variable.name: 0 for variable, _ in self.by_topic.get(topic, ())}
-        for node in self.nodes:  # in dependency order
-            reached = [lead[name] for name in node.reads if name in lead]
-            if reached:
-                for name in node.writes:
-                    lead[name] = max(reached) + node.lead
-        found: dict[str, int] = {}
-        for monitor in self.properties:
-            prop = monitor.prop
-            # A state is reached through its transducer.
-            names = {self.state_of.get(n, n) for n in (*prop.propositions, prop.trigger)}
-            leads = [lead[n] for n in names if n in lead]
-            if leads:
-                found[prop.name] = max(leads)
-        return found
-
-    def _revise(self, name: str, low: Fraction, high: Fraction | None) -> None:
-        """The verdicts given out on [low, high] are unknown: one record says so,
-        marked `revised` (it overlaps records before it)."""
-        given = self.given_to.get(name)
-        if given is None or low > given[0] or (low == given[0] and not given[1]):
-            return
-        if name in self.pending_segments:
-            self._flush_segment(name)
-        stop, stop_closed = given if high is None or high >= given[0] else (high, True)
-        self.pending_segments[name] = [low, stop, True, stop_closed, "unknown", True]
 
     def damaged(self, time: int, topic: str, reason: str) -> None:
         """A message that could not be decoded."""
@@ -818,8 +348,7 @@ class Runtime:
         for monitor in self.properties:
             monitor.end(time)
             self._verdicts(monitor)
-        for name in list(self.pending_segments):
-            self._flush_segment(name)
+        self.segments.flush_all()
 
     def records(self) -> list[Record]:
         """The records produced since the last call, in the order they were decided."""
@@ -922,35 +451,15 @@ class Runtime:
             self._act(action, context)
 
     def _verdicts(self, monitor: PropertyMonitor) -> None:
-        name = monitor.prop.name
-        uncertain = self.uncertain[name]
-        for given in monitor.verdicts():
-            self.given_to[name] = (given[1], given[3])
-            for start, stop, start_closed, stop_closed, verdict in uncertain.mask(given):
-                self._verdict(monitor.prop, start, stop, start_closed, stop_closed, verdict)
+        self.segments.add(monitor.prop, monitor.verdicts())
 
-    def _verdict(
-        self,
-        prop: ir.Property,
-        start: Any,
-        stop: Any,
-        start_closed: bool,
-        stop_closed: bool,
-        verdict: str,
-    ) -> None:
-        """One segment in order: joined to the one before when it continues it."""
-        name = prop.name
-        value = verdict.split(" ")[0]
-        segment = [start, stop, start_closed, stop_closed, value]
-        pending = self.pending_segments.get(name)
-        if pending is not None and continues(pending, segment):
-            pending[1], pending[3] = stop, stop_closed
-            return
-        if pending is not None:
-            self._flush_segment(name)
-        self.pending_segments[name] = segment
-        if value == "false":
-            self._violated(prop, segment)
+    @property
+    def pending_segments(self) -> dict[str, list[Any]]:
+        """Each property's open verdict segment (a live node's current verdict)."""
+        return self.segments.pending
+
+    def _write(self, record: Record) -> None:
+        self.out.append(record)
 
     def _violated(self, prop: ir.Property, segment: list[Any]) -> None:
         self.counters[f"violations: {prop.name}"] += 1
@@ -961,17 +470,6 @@ class Runtime:
                 action,
                 ActionContext("property", prop.name, action_level(action, "error"), text, record),
             )
-
-    def _flush_segment(self, name: str) -> None:
-        start, stop, start_closed, stop_closed, value, *revised = self.pending_segments.pop(name)
-        bounds = ("[" if start_closed else "(") + ("]" if stop_closed else ")")
-        record = {
-            "kind": "verdict", "property": name, "verdict": value, "from": start,
-            "to": stop, "bounds": bounds,
-        }  # fmt: skip
-        if revised:
-            record["revised"] = True
-        self.out.append(record)
 
     def decide(self, complete_before: int | None = None) -> None:
         """Compute everything the input so far decides (a live host calls this on a
@@ -995,69 +493,3 @@ class Runtime:
         for monitor in self.properties:
             monitor.advance(min(bound, final))
             self._verdicts(monitor)
-
-
-def _dataflow(spec: ir.Spec) -> list[Node]:
-    """Events and transducers as nodes, each after every node it reads."""
-    nodes: dict[str, Node] = {}
-    for event in spec.events:
-        if event.window is not None:
-            nodes[event.name] = WindowedEvent(event)
-        elif event.kind == "boolean":
-            nodes[event.name] = Condition(event)
-        else:
-            nodes[event.name] = RawEvent(event)
-    for transducer in spec.transducers:
-        nodes[transducer.name] = Transducer(transducer)
-    # A boolean event holds or not, from the start: never absent, as a value is
-    # before its first sample (docs/semantics.md, "Absent values").
-    signals = {e.name for e in spec.events if e.kind == "boolean" and e.window is None}
-    signals |= {name for t in spec.transducers for name in t.emits}
-    for node in nodes.values():
-        if isinstance(node, Condition):
-            node.current.update(dict.fromkeys(signals.intersection(node.reads), False))
-    producer = {w: key for key, node in nodes.items() for w in node.writes}
-    sorter: graphlib.TopologicalSorter[str] = graphlib.TopologicalSorter()
-    for key, node in nodes.items():
-        sorter.add(key, *(producer[r] for r in node.reads if r in producer and producer[r] != key))
-    try:
-        order = list(sorter.static_order())
-    except graphlib.CycleError as error:
-        cycle = " -> ".join(error.args[1])
-        raise SpecError(f"events and transducers read each other in a cycle: {cycle}") from None
-    return [nodes[key] for key in order]
-
-
-class SpecError(ValueError):
-    """A resolved spec the runtime cannot run (a cycle through a transducer)."""
-
-
-def to_json(record: Record) -> str:
-    """One record as one line of JSON; times and other fractions as exact decimals
-    (a quotient such as "1/3" as a string where no decimal is exact), floats that
-    JSON cannot hold as strings ("nan", "inf", "-inf")."""
-    return _json_value(record)
-
-
-def _json_value(value: Any) -> str:
-    kind = type(value)
-    if kind is str:
-        return _json_string(value)
-    if kind is Fraction:
-        text = exact_decimal(value)
-        return text if text is not None else f'"{value}"'
-    if kind is bool or value is None:
-        return "true" if value is True else "false" if value is False else "null"
-    if kind is int:
-        return str(value)
-    if kind is float:
-        return repr(value) if math.isfinite(value) else f'"{value!r}"'
-    if isinstance(value, dict):
-        items = (f"{_json_string(str(k))}: {_json_value(v)}" for k, v in value.items())
-        return "{" + ", ".join(items) + "}"
-    if isinstance(value, list | tuple):
-        return "[" + ", ".join(_json_value(v) for v in value) + "]"
-    return _json_string(str(value))
-
-
-_json_string = json.JSONEncoder(ensure_ascii=False).encode

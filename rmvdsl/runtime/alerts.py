@@ -1,0 +1,69 @@
+"""Alerts as Kapacitor's AlertNode raises them: a level per instant, from the
+conditions of each severity and their resets."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+from rmvdsl.runtime import influx
+from rmvdsl.runtime import spec as ir
+from rmvdsl.runtime.records import Record, seconds
+
+LEVELS = ("OK", "INFO", "WARNING", "CRITICAL")
+_SEVERITY = {"info": 1, "warn": 2, "crit": 3}
+
+
+def kapacitor_level(levels: Sequence[ir.AlertLevel], current: int, lookup: Any) -> int:
+    """Kapacitor's AlertNode.determineLevel: a level at or above the current one
+    whose condition holds; else the current one while its reset does not hold;
+    else the highest level below that holds; else OK."""
+    by_rank = {_SEVERITY[level.severity]: level for level in levels}
+
+    def holds(rank: int) -> bool:
+        level = by_rank.get(rank)
+        return level is not None and influx.evaluate(level.condition, lookup) is True
+
+    for rank in range(3, max(current, 1) - 1, -1):
+        if holds(rank):
+            return rank
+    reset = by_rank[current].reset if current in by_rank else None
+    if reset is not None and influx.evaluate(reset, lookup) is not True:
+        return current
+    for rank in range(current, 0, -1):
+        if holds(rank):
+            return rank
+    return 0
+
+
+class AlertState:
+    def __init__(self, alert: ir.Alert) -> None:
+        self.alert = alert
+        self.reads = frozenset(alert.reads)
+        self.current: dict[str, Any] = {}
+        self.level = 0
+
+    def instant(self, time: int, changes: list[tuple[str, Any]]) -> Record | None:
+        touched = False
+        for name, value in changes:
+            if name in self.reads:
+                self.current[name] = value
+                touched = True
+        if not touched:
+            return None
+        previous = self.level
+        self.level = kapacitor_level(self.alert.levels, previous, self.current.get)
+        if self.level == previous and (self.alert.state_changes_only or self.level == 0):
+            return None
+        if self.level == 0 and self.alert.no_recoveries:
+            return None
+        return {
+            "kind": "alert",
+            "alert": self.alert.name,
+            "id": self.alert.id,
+            "time": seconds(time),
+            "level": LEVELS[self.level],
+            "previous": LEVELS[previous],
+            "message": self.alert.message,
+            "values": {n: self.current[n] for n in self.alert.reads if n in self.current},
+        }

@@ -1,0 +1,265 @@
+"""The spec's events and transducers as a dataflow (docs/runtime.md): each a node
+that reads its inputs' items up to the time all of them are final, in dependency
+order, so the output never depends on how the input was batched."""
+
+from __future__ import annotations
+
+import graphlib
+import heapq
+from abc import ABC, abstractmethod
+from collections.abc import Callable, Iterable
+from typing import Any
+
+from rmvdsl.runtime import influx
+from rmvdsl.runtime import spec as ir
+
+_FOREVER = 1 << 126
+Item = tuple[int, int, str, Any, str]  # time, sequence, name, value, source
+START = ""  # the name of the item that makes a condition evaluate at the first instant
+
+
+def _take(inbox: list[Item], bound: int) -> list[Item]:
+    """Remove the items before `bound` from the heap `inbox`, oldest first (ties in
+    arrival order). A heap, because items wait in an inbox until the slowest input
+    of the node is final (a query running once a minute) while the others arrive."""
+    taken = []
+    while inbox and inbox[0][0] < bound:
+        taken.append(heapq.heappop(inbox))
+    return taken
+
+
+class Node(ABC):
+    """A step of the dataflow: reads items of `reads`, writes items of `writes`."""
+
+    name: str
+    reads: tuple[str, ...]
+    writes: tuple[str, ...]
+    reactive = True  # changes only when an input arrives (a query runs on a clock)
+    lead = 0  # an input at t changes this node's output from t - lead on (ns)
+
+    def __init__(self) -> None:
+        self.inbox: list[Item] = []
+        self.final = -_FOREVER  # output before this time is final
+
+    def take(self, bound: int) -> list[Item]:
+        return _take(self.inbox, bound) if self.inbox else []
+
+    @abstractmethod
+    def process(self, bound: int, emit: Callable[[int, str, Any, str], None]) -> None:
+        """Consume the inbox before `bound`, emit what that decides, set `final`."""
+
+
+def _instants(items: list[Item]) -> Iterable[tuple[int, list[Item]]]:
+    """Items grouped by time."""
+    start = 0
+    for i in range(1, len(items) + 1):
+        if i == len(items) or items[i][0] != items[start][0]:
+            yield items[start][0], items[start:i]
+            start = i
+
+
+def _rows(items: list[Item]) -> Iterable[influx.Row]:
+    """Items of one source at one time form one row (one message, one point)."""
+    rows: dict[tuple[int, str], influx.Row] = {}
+    for time, _, name, value, source in items:
+        row = rows.get((time, source))
+        if row is None:
+            row = rows[(time, source)] = influx.Row(time, {})
+        row.fields[name] = value
+    return sorted(rows.values(), key=lambda r: r.time)
+
+
+class RawEvent(Node):
+    def __init__(self, event: ir.Event) -> None:
+        super().__init__()
+        self.name, self.reads, self.writes = event.name, event.reads, (event.name,)
+        self.query = influx.RawQuery(event)
+
+    def process(self, bound: int, emit: Callable[[int, str, Any, str], None]) -> None:
+        for row in _rows(self.take(bound)):
+            value = self.query.row(row)
+            if value is not influx.MISSING:
+                emit(row.time, self.name, value, self.name)
+        self.final = bound
+
+
+class WindowedEvent(Node):
+    reactive = False
+
+    def __init__(self, event: ir.Event) -> None:
+        super().__init__()
+        self.name, self.reads, self.writes = event.name, event.reads, (event.name,)
+        self.state = influx.EventState(influx.WindowedQuery(event))
+        self.draining_until: int | None = None
+        # A point is stamped at its window's start: an input changes the windows
+        # that began up to one interval before it.
+        assert event.window is not None
+        self.lead = influx.nanoseconds(event.window.interval)
+
+    def process(self, bound: int, emit: Callable[[int, str, Any, str], None]) -> None:
+        for row in _rows(self.take(bound)):
+            self.state.add(row)
+        if self.draining_until is not None and bound >= _FOREVER:
+            points = influx.drain(self.state, self.draining_until)
+        else:
+            points = self.state.advance(bound)
+        for time, value in points:
+            emit(time, self.name, value, self.name)
+        self.final = bound if bound >= _FOREVER else self.state.final_before(bound)
+
+
+class Condition(Node):
+    """A boolean event with no window: its condition over the newest value of each
+    name it reads, a signal that changes only when that value changes."""
+
+    def __init__(self, event: ir.Event) -> None:
+        super().__init__()
+        self.event = event
+        self.name, self.reads, self.writes = event.name, event.reads, (event.name,)
+        self.current: dict[str, Any] = {}
+        self.value = False
+        # evaluated at every change of an input: compiled once
+        self.where = None if event.where is None else influx.compiled(event.where)
+        self.condition = influx.compiled(event.expr)
+
+    def holds(self) -> bool:
+        lookup = self.current.get
+        if self.where is not None and self.where(lookup) is not True:
+            return False
+        return self.condition(lookup) is True
+
+    def process(self, bound: int, emit: Callable[[int, str, Any, str], None]) -> None:
+        for time, items in _instants(self.take(bound)):
+            pulses, raised = [], set()
+            for _, _, name, value, _ in items:
+                if name is START:
+                    continue
+                if value is True:
+                    raised.add(name)
+                elif value is False and name in raised:
+                    pulses.append(name)  # raised and released at this instant: a pulse
+                self.current[name] = value
+            for name in pulses:
+                self.current[name] = True
+                self._set(time, emit)
+                self.current[name] = False
+            self._set(time, emit)
+        self.final = bound
+
+    def _set(self, time: int, emit: Callable[[int, str, Any, str], None]) -> None:
+        value = self.holds()
+        if value != self.value:
+            self.value = value
+            emit(time, self.name, value, self.name)
+
+
+class Transducer(Node):
+    """Level-triggered: at every instant an input changes, the transition of the
+    current state whose input holds is taken (the first declared); then the new
+    state's transitions are tried at the same instant, each transition at most once
+    per instant. Emitted events hold at that instant only."""
+
+    def __init__(self, transducer: ir.Transducer) -> None:
+        super().__init__()
+        self.transducer = transducer
+        self.name = transducer.name
+        self.reads = tuple(dict.fromkeys(t.input for t in transducer.transitions))
+        self.writes = (transducer.name, *transducer.emits)
+        self.state = transducer.initial
+        self.held: dict[str, bool] = {}
+        self.steps = 0
+
+    def process(self, bound: int, emit: Callable[[int, str, Any, str], None]) -> None:
+        for time, items in _instants(self.take(bound)):
+            pulsed = {name for _, _, name, value, _ in items if value is True}
+            for _, _, name, value, _ in items:
+                self.held[name] = value is True
+            self._step(time, pulsed, emit)
+        self.final = bound
+
+    def _step(
+        self, time: int, pulsed: set[str], emit: Callable[[int, str, Any, str], None]
+    ) -> None:
+        taken: set[int] = set()
+        before = self.state
+        while True:
+            for index, transition in enumerate(self.transducer.transitions):
+                if index in taken or transition.source != self.state:
+                    continue
+                if self.held.get(transition.input) or transition.input in pulsed:
+                    break
+            else:
+                break
+            taken.add(index)
+            self.state = transition.dest
+            self.steps += 1
+            if transition.emit is not None:
+                emit(time, transition.emit, True, self.name)
+                emit(time, transition.emit, False, self.name)
+        # In exactly one state at every instant: the one the instant's steps end in
+        # (states passed through within it hold at no time).
+        if self.state != before:
+            emit(time, self.name, self.state, self.name)
+
+
+# ---- consumers: properties and alerts ----
+
+
+def _dataflow(spec: ir.Spec) -> list[Node]:
+    """Events and transducers as nodes, each after every node it reads."""
+    nodes: dict[str, Node] = {}
+    for event in spec.events:
+        if event.window is not None:
+            nodes[event.name] = WindowedEvent(event)
+        elif event.kind == "boolean":
+            nodes[event.name] = Condition(event)
+        else:
+            nodes[event.name] = RawEvent(event)
+    for transducer in spec.transducers:
+        nodes[transducer.name] = Transducer(transducer)
+    # A boolean event holds or not, from the start: never absent, as a value is
+    # before its first sample (docs/semantics.md, "Absent values").
+    signals = {e.name for e in spec.events if e.kind == "boolean" and e.window is None}
+    signals |= {name for t in spec.transducers for name in t.emits}
+    for node in nodes.values():
+        if isinstance(node, Condition):
+            node.current.update(dict.fromkeys(signals.intersection(node.reads), False))
+    producer = {w: key for key, node in nodes.items() for w in node.writes}
+    sorter: graphlib.TopologicalSorter[str] = graphlib.TopologicalSorter()
+    for key, node in nodes.items():
+        sorter.add(key, *(producer[r] for r in node.reads if r in producer and producer[r] != key))
+    try:
+        order = list(sorter.static_order())
+    except graphlib.CycleError as error:
+        cycle = " -> ".join(error.args[1])
+        raise SpecError(f"events and transducers read each other in a cycle: {cycle}") from None
+    return [nodes[key] for key in order]
+
+
+def reaching(
+    nodes: list[Node],
+    variables: Iterable[str],
+    properties: Iterable[ir.Property],
+    state_of: dict[str, str],
+) -> dict[str, int]:
+    """The properties that read any of `variables`, each with how far before an
+    input's time it can change their propositions (ns: windows stamp points at
+    their start). `nodes` in dependency order; `state_of`: state -> transducer."""
+    lead = dict.fromkeys(variables, 0)
+    for node in nodes:
+        reached = [lead[name] for name in node.reads if name in lead]
+        if reached:
+            for name in node.writes:
+                lead[name] = max(reached) + node.lead
+    found: dict[str, int] = {}
+    for prop in properties:
+        # A state is reached through its transducer.
+        names = {state_of.get(n, n) for n in (*prop.propositions, prop.trigger)}
+        leads = [lead[n] for n in names if n in lead]
+        if leads:
+            found[prop.name] = max(leads)
+    return found
+
+
+class SpecError(ValueError):
+    """A resolved spec the runtime cannot run (a cycle through a transducer)."""

@@ -1,0 +1,109 @@
+"""What the runtime gives out: records (one JSON object each, times as exact
+decimals), the context of an action and the hosts that take actions."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Any, Protocol
+
+from rmvdsl.runtime import influx
+from rmvdsl.runtime import spec as ir
+from rmvdsl.runtime.values import exact_decimal
+
+NS = influx.NS
+Record = dict[str, Any]
+
+
+def seconds(ns: int) -> Fraction:
+    return Fraction(ns, NS)
+
+
+class Host(Protocol):
+    """What a host (the replay, the ROS node) does with an action."""
+
+    def act(self, action: ir.Action, context: ActionContext) -> None: ...
+
+
+@dataclass(frozen=True)
+class ActionContext:
+    owner_kind: str  # property | alert | intrusion | whitelist | node
+    owner: str
+    level: str  # a log level: debug, info, warn, error, fatal
+    message: str  # the action's message, or the owner's
+    record: Record  # what happened, as the runtime reports it
+
+
+class RecordingHost:
+    """Actions as records only: nothing leaves the process."""
+
+    def __init__(self) -> None:
+        self.records: list[Record] = []
+
+    def act(self, action: ir.Action, context: ActionContext) -> None:
+        self.records.append(action_record(action, context))
+
+
+def action_record(action: ir.Action, context: ActionContext) -> Record:
+    out: Record = {
+        "kind": "action",
+        "action": action.TAG,
+        "owner": context.owner,
+        "owner_kind": context.owner_kind,
+        "time": context.record.get("time", context.record.get("from")),
+        "message": context.message,
+    }
+    if isinstance(action, ir.Log):
+        out["level"] = context.level
+    elif isinstance(action, ir.Publish):
+        out["topic"] = action.topic
+    elif isinstance(action, ir.Post):
+        out["url"] = action.url
+    elif isinstance(action, ir.Exec):
+        out["command"] = [action.command, *action.args]
+    elif isinstance(action, ir.Tcp):
+        out["address"] = action.address
+    return out
+
+
+def action_text(action: ir.Action, default: str) -> str:
+    message = getattr(action, "message", None)
+    return message if message is not None else default
+
+
+def action_level(action: ir.Action, default: str) -> str:
+    level = getattr(action, "level", None)
+    return level if level is not None else default
+
+
+def to_json(record: Record) -> str:
+    """One record as one line of JSON; times and other fractions as exact decimals
+    (a quotient such as "1/3" as a string where no decimal is exact), floats that
+    JSON cannot hold as strings ("nan", "inf", "-inf")."""
+    return _json_value(record)
+
+
+def _json_value(value: Any) -> str:
+    kind = type(value)
+    if kind is str:
+        return _json_string(value)
+    if kind is Fraction:
+        text = exact_decimal(value)
+        return text if text is not None else f'"{value}"'
+    if kind is bool or value is None:
+        return "true" if value is True else "false" if value is False else "null"
+    if kind is int:
+        return str(value)
+    if kind is float:
+        return repr(value) if math.isfinite(value) else f'"{value!r}"'
+    if isinstance(value, dict):
+        items = (f"{_json_string(str(k))}: {_json_value(v)}" for k, v in value.items())
+        return "{" + ", ".join(items) + "}"
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_json_value(v) for v in value) + "]"
+    return _json_string(str(value))
+
+
+_json_string = json.JSONEncoder(ensure_ascii=False).encode
