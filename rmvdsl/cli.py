@@ -7,24 +7,18 @@ Exit codes: 0 no errors, 1 errors found (or `fmt --check` would change a file),
 from __future__ import annotations
 
 import argparse
-import contextlib
+import importlib
 import os
 import sys
-from collections.abc import Iterator, Sequence
-from fractions import Fraction
-from typing import TYPE_CHECKING, Any
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 from rmvdsl import __version__, targets
-from rmvdsl.commands import write_text
 from rmvdsl.deep import deep
-from rmvdsl.errors import EXIT_ERRORS, EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, UsageError
-from rmvdsl.runtime.wording import counted
+from rmvdsl.errors import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, UsageError
 
 if TYPE_CHECKING:
-    from rmvdsl.diagnostics import Diagnostic
-    from rmvdsl.logic.evaluate import Streamed
-    from rmvdsl.logic.sat import Answer
-    from rmvdsl.logic.traces import TraceFile, TraceStream
+    pass
 
 
 class _Parser(argparse.ArgumentParser):
@@ -353,121 +347,31 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_INTERNAL
 
 
+# Each command's module and function (imported when the command runs, so that
+# `rmv --help` and a stored re-check load nothing more).
+COMMANDS = {
+    "build": ("build", "run"),
+    "targets": ("build", "list_targets"),
+    "check": ("checking", "run"),
+    "deploy": ("deploy", "run"),
+    "fmt": ("fmt", "run"),
+    "import": ("imports", "run"),
+    "eval": ("formula", "run_eval"),
+    "sat": ("formula", "run_sat"),
+    "graph": ("graph", "run"),
+    "replay": ("replay", "run"),
+}
+
+
 def _run(args: argparse.Namespace) -> int:
-    commands = {
-        "build": _build,
-        "targets": _targets,
-        "check": _check,
-        "deploy": _deploy,
-        "lsp": _lsp,
-        "explain": lambda a: _explain(a.code),
-        "fmt": _fmt,
-        "import": _import,
-        "eval": _eval,
-        "graph": _graph,
-        "sat": _sat,
-        "replay": _replay,
-    }
-    return commands[args.command](args)
-
-
-def _use_color(args: argparse.Namespace) -> bool:
-    if getattr(args, "no_color", False) or os.environ.get("NO_COLOR"):
-        return False
-    return sys.stdout.isatty()
-
-
-def _message_options(args: argparse.Namespace) -> None:
-    if args.ros is not None:
-        from rmvdsl.check.msgtypes import DISTROS  # not on the path of a stored re-check
-
-        if args.ros not in DISTROS:
-            raise UsageError(f"unknown ROS distribution `{args.ros}`; known: {', '.join(DISTROS)}")
-    for folder in args.messages:
-        if not os.path.isdir(folder):
-            raise UsageError(f"--messages {folder}: no such folder")
-
-
-def _replay(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
-    from rmvdsl import replay
-    from rmvdsl.check import check
-    from rmvdsl.ir import lower
-    from rmvdsl.render import render_text
-
-    _message_options(args)
-    if args.report:
-        from rmvdsl.report import unavailable
-
-        reason = unavailable(args.report)
-        if reason is not None:
-            raise UsageError(reason)
-    result = check(args.spec, ros=args.ros, messages=tuple(args.messages))
-    if result.errors:
-        sys.stderr.write(render_text(result.errors, result.model.sources, False))
-        print(f"rmv replay: {args.spec}: {counted(len(result.errors), 'error')}", file=sys.stderr)
-        return EXIT_ERRORS
-    progress = replay.progress_bar() if sys.stderr.isatty() else None
-    try:
-        summary = replay.run(
-            lower(result), [Path(p) for p in args.recordings], sys.stdout,
-            output=args.format, start=args.start, stop=args.stop, report=args.report,
-            run_actions=args.run_actions, progress=progress,
-        )  # fmt: skip
-    except (replay.ReplayError, ValueError, ZeroDivisionError) as exc:
-        raise UsageError(str(exc)) from None
-    if summary.failed:
-        return EXIT_ERRORS
-    # Input lost to a mismatch with the spec: the verdicts cannot be trusted.
-    return EXIT_USAGE if summary.warnings else EXIT_OK
-
-
-def _build(args: argparse.Namespace) -> int:
-    from rmvdsl.check import check
-    from rmvdsl.ir import lower
-    from rmvdsl.render import render_text
-
-    _message_options(args)
-    result = check(args.spec, ros=args.ros, messages=tuple(args.messages))
-    if result.errors:
-        sys.stderr.write(render_text(result.errors, result.model.sources, False))
-        print(
-            f"rmv build: {args.spec}: {counted(len(result.errors), 'error')}: nothing built",
-            file=sys.stderr,
-        )
-        return EXIT_ERRORS
-    from pathlib import Path
-
-    spec = lower(result)
-    target = targets.target(args.target)
-    options = {o.name: getattr(args, o.name) for o in target.options}
-    for other in targets.targets():  # an option of another target is a mistake
-        for option in other.options:
-            if other is not target and getattr(args, option.name) is not None:
-                raise UsageError(f"{option.flag} is an option of --target {other.name}")
-    out = Path(args.output) if args.output else None
-    try:
-        built = target.build(spec, out, options)
-    except targets.TargetError as exc:
-        raise UsageError(str(exc)) from None
-    except OSError as exc:
-        raise UsageError(f"{args.output}: {exc.strerror or exc}") from None
-    for line in built.notes:
-        print(f"rmv build: {line}", file=sys.stderr)
-    if built.text is not None:
-        sys.stdout.write(built.text)
-    elif built.summary:
-        print(f"rmv build: {built.summary}")
-    return EXIT_OK
-
-
-def _targets(args: argparse.Namespace) -> int:
-    for target in targets.targets():
-        options = "".join(f" [{o.flag} {o.metavar}]" for o in target.options)
-        out = "-o FILE" if target.output == "file" else "-o FOLDER"
-        print(f"{target.name:<10} {target.summary} ({out}{options}; {target.docs})")
-    return EXIT_OK
+    if args.command == "lsp":
+        return _lsp(args)
+    if args.command == "explain":
+        return _explain(args.code)
+    module, function = COMMANDS[args.command]
+    command = getattr(importlib.import_module(f"rmvdsl.commands.{module}"), function)
+    code: int = command(args)
+    return code
 
 
 def _lsp(args: argparse.Namespace) -> int:
@@ -475,47 +379,6 @@ def _lsp(args: argparse.Namespace) -> int:
 
     main()
     return EXIT_OK
-
-
-def _deploy(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
-    from rmvdsl import deploy
-
-    out = Path(args.out)
-    if not (out / deploy.MANIFEST).is_file():
-        raise UsageError(
-            f"{out}: no {deploy.MANIFEST}: not a build of `rmv build --target kapacitor`"
-        )
-    try:
-        report = deploy.deploy(out, args.influx, args.kapacitor)
-    except deploy.DeployError as exc:
-        print(f"rmv deploy: {exc}", file=sys.stderr)
-        return EXIT_ERRORS
-    for line in report.applied:
-        print(f"rmv deploy: {line}")
-    print(
-        f"rmv deploy: {counted(len(report.applied), 'change')}, "
-        f"{counted(len(report.unchanged), 'part')} already as built"
-    )
-    return EXIT_OK
-
-
-def _check(args: argparse.Namespace) -> int:
-    from rmvdsl.commands import stored
-
-    _message_options(args)
-    # A re-check of unchanged inputs prints what the last one printed (docs/cli.md).
-    asked = [f"{k}={v!r}" for k, v in sorted(vars(args).items()) if k != "func"]
-    entry = None if args.witnesses else stored.key([*asked, f"color={_use_color(args)}"])
-    output = stored.lookup(entry) if entry else None
-    if output is None:
-        from rmvdsl.commands import check  # the checker: only when there is checking to do
-
-        output = check.run(args, _use_color(args), entry)
-    sys.stdout.write(output.stdout)
-    sys.stderr.write(output.stderr)
-    return output.code
 
 
 def _explain(code: str) -> int:
@@ -528,170 +391,6 @@ def _explain(code: str) -> int:
         return EXIT_USAGE
     sys.stdout.write(text)
     return EXIT_OK
-
-
-def _fmt(args: argparse.Namespace) -> int:
-    from rmvdsl.check.loader import read_stdin, read_text
-    from rmvdsl.grammar.formatter import format_source
-    from rmvdsl.render import render_text
-    from rmvdsl.source import SourceFile, SourceMap
-
-    status = EXIT_OK
-    for path in args.files:
-        text = read_stdin() if path == "-" else read_text(path)
-        source = SourceFile("<stdin>" if path == "-" else path, text)
-        formatted, errors = format_source(source)
-        if formatted is None:
-            sources = SourceMap()
-            sources.add(source)
-            sys.stderr.write(render_text(errors, sources, _use_color(args) and sys.stderr.isatty()))
-            print(
-                f"rmv: error: {source.path}: not formatted: fix the syntax errors first",
-                file=sys.stderr,
-            )
-            status = EXIT_ERRORS
-            continue
-        if path == "-":
-            sys.stdout.write(formatted)
-        elif formatted != text:
-            if args.check:
-                print(f"would reformat {path}")
-                status = EXIT_ERRORS
-            else:
-                write_text(path, formatted)
-                print(f"reformatted {path}")
-    return status
-
-
-def _eval(args: argparse.Namespace) -> int:
-    from rmvdsl.logic import evaluate as ev
-    from rmvdsl.logic.traces import SCALE
-    from rmvdsl.numbers import NumberError, exact_or_quotient
-
-    try:
-        at = exact_or_quotient(args.at)
-    except NumberError as exc:
-        raise UsageError(f"--at: {exc}") from None
-    node, diagnostics = ev.parse(args.formula, args.syntax, args.term)
-    if args.term:
-        return _eval_term(args, node, diagnostics, at)
-    with _trace_stream(args.trace) as trace:
-        compiled = None
-        if node is not None:
-            compiled, diagnostics = ev.compile_or_diagnose(
-                node, trace.unit_seconds / SCALE, trace.unit, diagnostics, args.formula
-            )
-        if compiled is None:
-            return _formula_errors(args, diagnostics)
-        run = ev.Streamed(compiled, trace)
-        verdict = _eval_output(args, run, at)  # a bad line raises TraceError: exit 2
-    for note in [*trace.notes, *_absent_names(compiled, trace.seen)]:
-        print(f"rmv eval: {note}", file=sys.stderr)
-    if verdict is None:
-        return EXIT_OK
-    assert trace.first is not None and node is not None
-    if at < trace.first:  # before the first sample: what the definitions say there
-        whole = _whole_trace(args.trace)
-        plain, _ = ev.compile_or_diagnose(node, whole.unit_seconds, whole.unit, [], args.formula)
-        verdict = ev.reference_verdict(plain, whole, at)
-    if args.format == "json":
-        sys.stdout.write(ev.as_json({"t": at, "verdict": verdict}))
-    else:
-        print(verdict)
-    return EXIT_OK
-
-
-def _eval_output(args: argparse.Namespace, run: Streamed, at: Fraction) -> str | None:
-    """`--all`: every segment written as it is decided (None); else the verdict at
-    `at`, the stream read to its end."""
-    from rmvdsl.logic import evaluate as ev
-    from rmvdsl.runtime.values import exact_text
-
-    if args.all and args.format == "json":
-        ev.write_all_json(sys.stdout, run)
-        return None
-    if args.all:
-        for segment in run.segments():
-            print(ev.segment_text(segment))
-        if run.summary.beyond and run.trace.end is not None:
-            end = exact_text(run.trace.end)
-            print(f"after the end ({end}), as far as the trace decides:")
-        for segment in run.summary.beyond:
-            print(ev.segment_text(segment))
-        return None
-    verdict = "unknown"
-    for segment in run.segments():  # read to the end: every line is checked
-        if ev.contains(segment, at):
-            verdict = segment[4]
-    for segment in run.summary.beyond:
-        if ev.contains(segment, at):
-            verdict = segment[4]
-    return verdict
-
-
-@contextlib.contextmanager
-def _trace_stream(path: str) -> Iterator[TraceStream]:
-    from rmvdsl.check.loader import unreadable
-    from rmvdsl.logic.traces import TraceError, TraceStream
-
-    try:
-        handle = open(path, "rb")  # noqa: SIM115 (closed below, after the stream)
-    except OSError as exc:
-        raise unreadable(path, exc) from None
-    with handle:
-        try:
-            yield TraceStream(path, handle)
-        except TraceError as exc:
-            raise UsageError(str(exc)) from None
-
-
-def _whole_trace(path: str) -> TraceFile:
-    from rmvdsl.check.loader import read_text
-    from rmvdsl.logic.traces import TraceError, read_trace
-
-    try:
-        return read_trace(path, read_text(path))
-    except TraceError as exc:
-        raise UsageError(str(exc)) from None
-
-
-def _eval_term(
-    args: argparse.Namespace, node: Any, diagnostics: list[Diagnostic], at: Fraction
-) -> int:
-    from rmvdsl.logic import evaluate as ev
-    from rmvdsl.runtime.values import exact_text
-
-    trace = _whole_trace(args.trace)
-    compiled = None
-    if node is not None:
-        compiled, diagnostics = ev.compile_or_diagnose(
-            node, trace.unit_seconds, trace.unit, diagnostics, args.formula
-        )
-    if compiled is None:
-        return _formula_errors(args, diagnostics)
-    for note in [*trace.notes, *_absent_names(compiled, set().union(*trace.states))]:
-        print(f"rmv eval: {note}", file=sys.stderr)
-    low, high = ev.term_at(compiled, trace, at)
-    if args.format == "json":
-        sys.stdout.write(ev.as_json({"t": at, "low": low, "high": high}))
-    elif low == high:
-        print(exact_text(low))
-    else:
-        print(f"unknown (between {exact_text(low)} and {exact_text(high)})")
-    return EXIT_OK
-
-
-def _absent_names(compiled: object, seen: set[str]) -> list[str]:
-    """Propositions of the formula that no sample of the trace holds: a typo reads as
-    `false` everywhere, so say so."""
-    from rmvdsl.diagnostics import did_you_mean
-    from rmvdsl.runtime.rmtld3 import facts
-
-    notes = []
-    for name in sorted(set(facts(compiled).propositions) - seen):
-        hint = did_you_mean(name, seen)
-        notes.append(f"`{name}` holds in no sample of the trace" + (f" ({hint})" if hint else ""))
-    return notes
 
 
 def _jobs(text: str) -> int:
@@ -714,111 +413,6 @@ def _seconds(text: str) -> float:
     if not 0 < value <= 3600:
         raise argparse.ArgumentTypeError(f"{text}: give seconds, more than 0 and at most 3600")
     return value
-
-
-def _sat(args: argparse.Namespace) -> int:
-    from rmvdsl.logic import evaluate as ev
-    from rmvdsl.logic.sat import NO, YES, Limits, satisfiable, valid
-
-    limits = Limits(timeout=args.timeout)
-    node, diagnostics = ev.parse(args.formula, args.syntax, False)
-    compiled = None
-    if node is not None:
-        compiled, diagnostics = ev.compile_or_diagnose(node, found=diagnostics, text=args.formula)
-    if compiled is None:
-        return _formula_errors(args, diagnostics)
-    sat = satisfiable([compiled], limits=limits)
-    validity = valid(compiled, limits=limits)
-    if args.format == "json":
-        payload = {
-            "sat": sat.value,
-            "valid": validity.value,
-            "exact": sat.exact and validity.exact,
-            "witness": sat.witness.as_json() if sat.value == YES and sat.witness else None,
-            "counterexample": (
-                validity.witness.as_json() if validity.value == NO and validity.witness else None
-            ),
-        }
-        sys.stdout.write(ev.as_json(payload))
-        return EXIT_OK
-    print(f"satisfiable: {_answer_text(sat)}")
-    if sat.value == YES and sat.witness:
-        print("  witness (the formula is true):")
-        print("\n".join("    " + line for line in sat.witness.timeline()))
-    print(f"valid: {_answer_text(validity)}")
-    if validity.value == NO and validity.witness:
-        print("  counterexample (the formula is false):")
-        print("\n".join("    " + line for line in validity.witness.timeline()))
-    return EXIT_OK
-
-
-def _formula_errors(args: argparse.Namespace, diagnostics: list[Diagnostic]) -> int:
-    """What is wrong with a --formula, on standard error."""
-    from rmvdsl.render import render_text
-    from rmvdsl.source import SourceFile, SourceMap
-
-    sources = SourceMap()
-    sources.add(SourceFile("<formula>", args.formula))
-    sys.stderr.write(render_text(diagnostics, sources, _use_color(args) and sys.stderr.isatty()))
-    return EXIT_ERRORS
-
-
-def _answer_text(answer: Answer) -> str:
-    if answer.value == "unknown":
-        return f"unknown (bounded: {answer.note})"
-    return f"{answer.value} (exact)"
-
-
-def _graph(args: argparse.Namespace) -> int:
-    from rmvdsl.check import check
-    from rmvdsl.check.analysis import TransducerFacts
-    from rmvdsl.diagnostics import did_you_mean
-    from rmvdsl.graph import RENDERERS
-    from rmvdsl.render import render_text
-
-    result = check(args.spec)
-    transducers = result.model.transducers
-    if args.transducer is not None and args.transducer not in transducers:
-        hint = did_you_mean(args.transducer, transducers) or "transducers: " + ", ".join(
-            transducers
-        )
-        raise UsageError(f"{args.spec} has no transducer `{args.transducer}` ({hint})")
-    if not transducers:
-        raise UsageError(f"{args.spec} declares no transducer")
-    # The analyses' findings (RMV5xx) are what the drawing shows; an error before
-    # them (syntax, names, types) means the drawing would mislead: say what is wrong.
-    broken = [d for d in result.errors if not d.code.startswith("RMV5")]
-    if broken:
-        sys.stderr.write(render_text(broken, result.model.sources, False))
-        print(
-            f"rmv graph: {args.spec}: {counted(len(broken), 'error')}: not drawn", file=sys.stderr
-        )
-        return EXIT_ERRORS
-    if result.errors:
-        sys.stderr.write(render_text(result.errors, result.model.sources, False))
-    chosen = [transducers[args.transducer]] if args.transducer else list(transducers.values())
-    facts = result.analysis.transducers if result.analysis else {}
-    render = RENDERERS[args.format]
-    text = "\n".join(render(decl, facts.get(decl.name.name, TransducerFacts())) for decl in chosen)
-    if args.output:
-        write_text(args.output, text)
-    else:
-        sys.stdout.write(text)
-    return EXIT_OK
-
-
-def _import(args: argparse.Namespace) -> int:
-    from rmvdsl.importers.thesis_yaml import convert_files
-
-    result = convert_files(args.files, system_name=args.name)
-    for note in result.notes:
-        print(f"rmv import: {note}", file=sys.stderr)
-    if args.output:
-        write_text(args.output, result.text)
-        print(f"wrote {args.output}", file=sys.stderr)
-    else:
-        sys.stdout.write(result.text)
-    return EXIT_OK
 
 
 if __name__ == "__main__":

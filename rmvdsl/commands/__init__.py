@@ -4,6 +4,10 @@ only when it has to check."""
 
 from __future__ import annotations
 
+import argparse
+import os
+import sys
+
 from rmvdsl.errors import UsageError
 
 
@@ -14,3 +18,20 @@ def write_text(path: str, text: str) -> None:
             handle.write(text)
     except OSError as exc:
         raise UsageError(f"{path}: cannot write: {exc.strerror}") from None
+
+
+def use_color(args: argparse.Namespace) -> bool:
+    if getattr(args, "no_color", False) or os.environ.get("NO_COLOR"):
+        return False
+    return sys.stdout.isatty()
+
+
+def message_options(args: argparse.Namespace) -> None:
+    if args.ros is not None:
+        from rmvdsl.check.msgtypes import DISTROS  # not on the path of a stored re-check
+
+        if args.ros not in DISTROS:
+            raise UsageError(f"unknown ROS distribution `{args.ros}`; known: {', '.join(DISTROS)}")
+    for folder in args.messages:
+        if not os.path.isdir(folder):
+            raise UsageError(f"--messages {folder}: no such folder")

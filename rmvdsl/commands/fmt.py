@@ -1,0 +1,46 @@
+"""`rmv fmt`: the canonical layout, in place, to standard output, or `--check`."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import TYPE_CHECKING
+
+from rmvdsl.commands import use_color, write_text
+from rmvdsl.errors import EXIT_ERRORS, EXIT_OK
+
+if TYPE_CHECKING:
+    pass
+
+
+def run(args: argparse.Namespace) -> int:
+    from rmvdsl.check.loader import read_stdin, read_text
+    from rmvdsl.grammar.formatter import format_source
+    from rmvdsl.render import render_text
+    from rmvdsl.source import SourceFile, SourceMap
+
+    status = EXIT_OK
+    for path in args.files:
+        text = read_stdin() if path == "-" else read_text(path)
+        source = SourceFile("<stdin>" if path == "-" else path, text)
+        formatted, errors = format_source(source)
+        if formatted is None:
+            sources = SourceMap()
+            sources.add(source)
+            sys.stderr.write(render_text(errors, sources, use_color(args) and sys.stderr.isatty()))
+            print(
+                f"rmv: error: {source.path}: not formatted: fix the syntax errors first",
+                file=sys.stderr,
+            )
+            status = EXIT_ERRORS
+            continue
+        if path == "-":
+            sys.stdout.write(formatted)
+        elif formatted != text:
+            if args.check:
+                print(f"would reformat {path}")
+                status = EXIT_ERRORS
+            else:
+                write_text(path, formatted)
+                print(f"reformatted {path}")
+    return status

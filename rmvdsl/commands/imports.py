@@ -1,0 +1,27 @@
+"""`rmv import`: the thesis's YAML files as one `.rmv` spec."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import TYPE_CHECKING
+
+from rmvdsl.commands import write_text
+from rmvdsl.errors import EXIT_OK
+
+if TYPE_CHECKING:
+    pass
+
+
+def run(args: argparse.Namespace) -> int:
+    from rmvdsl.importers.thesis_yaml import convert_files
+
+    result = convert_files(args.files, system_name=args.name)
+    for note in result.notes:
+        print(f"rmv import: {note}", file=sys.stderr)
+    if args.output:
+        write_text(args.output, result.text)
+        print(f"wrote {args.output}", file=sys.stderr)
+    else:
+        sys.stdout.write(result.text)
+    return EXIT_OK
