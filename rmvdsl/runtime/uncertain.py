@@ -12,7 +12,7 @@ from __future__ import annotations
 from fractions import Fraction
 from typing import Any
 
-Segment = tuple[Any, Any, bool, bool, str]  # start, stop, start closed, stop closed, verdict
+from rmvdsl.runtime.segments import Segment
 
 
 class Uncertain:

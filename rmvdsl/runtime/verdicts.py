@@ -11,8 +11,8 @@ from typing import Any
 
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.records import Record
-from rmvdsl.runtime.rmtld3 import continues
-from rmvdsl.runtime.uncertain import Segment, Uncertain
+from rmvdsl.runtime.segments import Segment, continues
+from rmvdsl.runtime.uncertain import Uncertain
 
 
 class Segments:

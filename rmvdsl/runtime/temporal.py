@@ -1,0 +1,313 @@
+"""The nodes of a compiled RMTLD3 formula: constants, propositions, `not`,
+`and`/`or`, and the bounded temporal operators `until`/`since`, each recomputing
+its signal only from where new input can change it."""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import Any
+
+from rmvdsl.runtime.signal import _INFINITY, FALSE, TRUE, UNKNOWN, Signal, _mid
+
+
+class Node:
+    future: Any = 0  # how far the subformula looks ahead of the time it is evaluated at
+    past: Any = 0
+
+    def __init__(self) -> None:
+        self.signal = Signal(0, UNKNOWN)
+
+    def reset(self, start: Any) -> None:
+        self.signal = Signal(start, UNKNOWN)
+
+    def update(self, start: Any) -> None:
+        """Recompute the signal on [start, infinity) from the children's."""
+
+    def children(self) -> list[Node]:
+        return []
+
+
+class Const(Node):
+    def __init__(self, value: int) -> None:
+        super().__init__()
+        self.value = value
+
+    def reset(self, start: Any) -> None:
+        self.signal = Signal(start, self.value)
+
+
+class Prop(Node):
+    """Written by the monitor from the input."""
+
+
+class Not(Node):
+    def __init__(self, child: Node) -> None:
+        super().__init__()
+        self.child = child
+        self.future, self.past = child.future, child.past
+
+    def children(self) -> list[Node]:
+        return [self.child]
+
+    def update(self, start: Any) -> None:
+        source, signal = self.child.signal, self.signal
+        signal.cut(start)
+        i = source.index(start)
+        signal.append(start, 2 - source.at(start), 2 - source.opens[i])
+        for k in range(i + 1, len(source.starts)):
+            signal.append(source.starts[k], 2 - source.points[k], 2 - source.opens[k])
+
+
+class Binary(Node):
+    def __init__(self, op: str, left: Node, right: Node) -> None:
+        super().__init__()
+        self.combine = min if op == "and" else max
+        self.left, self.right = left, right
+        self.future = max(left.future, right.future)
+        self.past = max(left.past, right.past)
+
+    def children(self) -> list[Node]:
+        return [self.left, self.right]
+
+    def update(self, start: Any) -> None:
+        """One merge walk over both children's breakpoints from `start` on."""
+        a, b, signal, combine = self.left.signal, self.right.signal, self.signal, self.combine
+        signal.cut(start)
+        a_starts, a_points, a_opens = a.starts, a.points, a.opens
+        b_starts, b_points, b_opens = b.starts, b.points, b.opens
+        i, j = a.index(start), b.index(start)
+        a_point = a_points[i] if a_starts[i] == start else a_opens[i]
+        b_point = b_points[j] if b_starts[j] == start else b_opens[j]
+        signal.append(start, combine(a_point, b_point), combine(a_opens[i], b_opens[j]))
+        i, j = i + 1, j + 1
+        a_count, b_count = len(a_starts), len(b_starts)
+        while i < a_count or j < b_count:
+            a_next = a_starts[i] if i < a_count else _INFINITY
+            b_next = b_starts[j] if j < b_count else _INFINITY
+            t = a_next if a_next < b_next else b_next
+            if a_next == t:
+                a_point, a_open = a_points[i], a_opens[i]
+                i += 1
+            else:
+                a_point = a_open = a_opens[i - 1]
+            if b_next == t:
+                b_point, b_open = b_points[j], b_opens[j]
+                j += 1
+            else:
+                b_point = b_open = b_opens[j - 1]
+            signal.append(t, combine(a_point, b_point), combine(a_open, b_open))
+
+
+class Evaluated(Node, ABC):
+    """A node whose value is computed pointwise, at every point where it can change
+    and at one point of each open interval between (exact for these signals)."""
+
+    @abstractmethod
+    def breakpoints(self, start: Any) -> set[Any]:
+        """Every time after `start` where the value may change."""
+
+    @abstractmethod
+    def value_at(self, t: Any) -> int:
+        """The value at time t, read from the children's signals."""
+
+    def update(self, start: Any) -> None:
+        points = sorted(p for p in self.breakpoints(start) if p > start)
+        signal = self.signal
+        signal.cut(start)
+        ends = [*points, (points[-1] if points else start) + self.future + self.past + 1]
+        previous = start
+        for point in ends:
+            after = self.value_at(_mid(previous, point))
+            signal.append(previous, self.value_at(previous), after)
+            previous = point
+
+
+class Temporal(Evaluated):
+    """Until (future) and since (past), bounded by `< T`, `<= T` or `= T`."""
+
+    origin: Any = 0  # time starts here: since never looks before it
+
+    def __init__(self, kind: str, op: str, bound: Any, left: Node, right: Node) -> None:
+        super().__init__()
+        self.kind, self.op, self.bound = kind, op, bound
+        self.left, self.right = left, right
+        future = max(left.future, right.future)
+        past = max(left.past, right.past)
+        if kind == "until":
+            self.future, self.past = future + bound, past
+        else:
+            self.future, self.past = future, past + bound
+        # `eventually` and `once` (true on the left): the value is the sup of psi
+        # over the window, read from the segment lists in one slice.
+        self.plain = isinstance(left, Const) and left.value == TRUE
+
+    def children(self) -> list[Node]:
+        return [self.left, self.right]
+
+    def breakpoints(self, start: Any) -> set[Any]:
+        shift = -self.bound if self.kind == "until" else self.bound
+        found = set()
+        for child in (self.left.signal, self.right.signal):
+            for point in child.between(start - self.bound - 1, _INFINITY):
+                found.add(point)
+                found.add(point + shift)
+        if self.kind == "since":
+            found.add(self.origin + self.bound)
+        return found
+
+    def update(self, start: Any) -> None:
+        if self.plain and self.op != "=" and (self.op == "<=" or self.bound > 0):
+            self._dilate(start)
+        else:
+            super().update(start)
+
+    def _dilate(self, start: Any) -> None:
+        """`eventually` and `once` in one pass: each piece of psi (a point or an open
+        interval) makes the result at least its value over the interval of t whose
+        window meets it; the result is the highest level covering t. The pieces'
+        intervals have ordered ends, so each level's union is one merge."""
+        psi, bound, closed = self.right.signal, self.bound, self.op == "<="
+        past = self.kind == "since"
+        starts, points, opens = psi.starts, psi.points, psi.opens
+        count = len(starts)
+        levels: tuple[list[list[Any]], list[list[Any]]] = ([], [])  # value >= 1, == 2
+        for k in range(psi.index(start - bound if past else start), count):
+            at = starts[k]
+            following = starts[k + 1] if k + 1 < count else _INFINITY
+            if points[k]:
+                if past:
+                    _cover(levels, points[k], at, True, at + bound, closed)
+                else:
+                    _cover(levels, points[k], at - bound, closed, at, True)
+            if opens[k]:
+                if past:
+                    _cover(levels, opens[k], at, False, following + bound, False)
+                else:
+                    _cover(levels, opens[k], at - bound, False, following, False)
+        signal = self.signal
+        signal.cut(start)
+        ends = {start}
+        for level in levels:
+            for low, _, high, _ in level:
+                if low > start:
+                    ends.add(low)
+                if start < high < _INFINITY:
+                    ends.add(high)
+        ones, twos = levels
+        one = two = 0  # the first interval of each level not yet behind t
+        for t in sorted(ends):
+            one, one_point, one_after = _covers(ones, one, t)
+            two, two_point, two_after = _covers(twos, two, t)
+            signal.append(t, one_point + two_point, one_after + two_after)
+
+    def value_at(self, t: Any) -> int:
+        if self.op == "<" and self.bound <= 0:
+            return FALSE  # an empty window: no t' at all
+        if self.plain:
+            return self._sup(t)
+        return self._until(t) if self.kind == "until" else self._since(t)
+
+    def _sup(self, t: Any) -> int:
+        """sup of psi over the window: `eventually` (until) or `once` (since)."""
+        psi, op, bound = self.right.signal, self.op, self.bound
+        if self.kind == "until":
+            if op == "=":
+                return psi.at(t + bound)
+            return psi.supremum(t, t + bound, True, op == "<=")
+        begin = t - bound
+        if op == "=":
+            return FALSE if begin < self.origin else psi.at(begin)
+        if begin < self.origin:
+            return psi.supremum(self.origin, t, True, True)
+        return psi.supremum(begin, t, op == "<=", True)
+
+    def _until(self, t: Any) -> int:
+        """sup over t' in the window of min(psi(t'), inf of phi over [t, t'))."""
+        phi, psi, op = self.left.signal, self.right.signal, self.op
+        end = t + self.bound
+        if op == "=":
+            return min(psi.at(end), phi.infimum(t, end, True, False))
+        best = FALSE
+        prefix = TRUE  # inf of phi over [t, cursor)
+        cursor = t
+        for point in [*sorted(psi.between(t, end) + phi.between(t, end)), end]:
+            best = max(best, min(psi.at(cursor), prefix))  # t' = cursor
+            prefix = min(prefix, phi.at(cursor))
+            if cursor < point:  # t' in (cursor, point): phi also holds on (cursor, t')
+                inside = phi.right_of(cursor)
+                prefix = min(prefix, inside)
+                best = max(best, min(psi.right_of(cursor), prefix))
+            if best == TRUE:
+                return TRUE
+            cursor = point
+        if op == "<=" or end == t:
+            best = max(best, min(psi.at(end), prefix)) if op == "<=" else best
+        return best
+
+    def _since(self, t: Any) -> int:
+        """sup over t' in the window, from the origin on, of
+        min(psi(t'), inf of phi over (t', t])."""
+        phi, psi, op = self.left.signal, self.right.signal, self.op
+        begin = t - self.bound
+        if op == "=":
+            if begin < self.origin:
+                return FALSE
+            return min(psi.at(begin), phi.infimum(begin, t, False, True))
+        low, low_closed = (begin, op == "<=") if begin > self.origin else (self.origin, True)
+        if low > t or (low == t and not low_closed):
+            return FALSE
+        best = FALSE
+        suffix = TRUE  # inf of phi over (cursor, t]
+        cursor = t
+        for point in [
+            *sorted(psi.between(low, t) + phi.between(low, t), reverse=True),
+            low,
+        ]:
+            if cursor > low or low_closed:
+                best = max(best, min(psi.at(cursor), suffix))  # t' = cursor
+            suffix = min(suffix, phi.at(cursor))
+            if point < cursor:  # t' in (point, cursor)
+                suffix = min(suffix, phi.right_of(point))
+                best = max(best, min(psi.right_of(point), suffix))
+            if best == TRUE:
+                return TRUE
+            cursor = point
+        if low_closed and low < t:
+            best = max(best, min(psi.at(low), suffix))
+        return best
+
+
+def _cover(
+    levels: tuple[list[list[Any]], list[list[Any]]],
+    value: int,
+    low: Any,
+    low_closed: bool,
+    high: Any,
+    high_closed: bool,
+) -> None:
+    """Add an interval where the result is at least `value` (1 or 2) to the union of
+    each level it reaches. Intervals come with ordered lows and highs."""
+    for intervals in levels[:value]:
+        if intervals:
+            last = intervals[-1]
+            if low < last[2] or (low == last[2] and (low_closed or last[3])):
+                if high > last[2]:
+                    last[2], last[3] = high, high_closed
+                elif high == last[2]:
+                    last[3] = last[3] or high_closed
+                continue
+        intervals.append([low, low_closed, high, high_closed])
+
+
+def _covers(intervals: list[list[Any]], k: int, t: Any) -> tuple[int, int, int]:
+    """Whether the union covers t (1 or 0) and the instants just after t, moving the
+    cursor k past the intervals that end before; times come in increasing order."""
+    count = len(intervals)
+    while k < count and (intervals[k][2] < t or (intervals[k][2] == t and not intervals[k][3])):
+        k += 1
+    low = intervals[k] if k < count else None
+    point = int(low is not None and (low[0] < t or (low[0] == t and low[1])))
+    while k < count and intervals[k][2] <= t:
+        k += 1
+    after = int(k < count and intervals[k][0] <= t)
+    return k, point, after
