@@ -15,434 +15,51 @@ from __future__ import annotations
 
 import bisect
 import math
-import operator
-import random
-import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from fractions import Fraction
 from typing import Any
 
 from rmvdsl.builtins import function as builtin
 from rmvdsl.runtime import spec as ir
-from rmvdsl.runtime import values
-
-NS = 1_000_000_000
-MISSING = None  # a null: no value
-
-
-def nanoseconds(seconds: Fraction) -> int:
-    """A duration in whole nanoseconds, as InfluxDB holds every duration."""
-    return math.floor(seconds * NS)
-
-
-@dataclass
-class Row:
-    """Values of one source (a topic's message, or one event's point) at one time:
-    InfluxDB's point, whose fields are the variables read from it."""
-
-    time: int
-    fields: dict[str, Any]
-
-
-def _window_start(t: int, interval: int, offset: int) -> int:
-    return t - (t - offset) % interval
-
-
-# ---- evaluation of expressions ----
-
-
-def evaluate(expr: ir.Expr, lookup: Callable[[str], Any]) -> Any:
-    """The value of an expression with no function calls, or MISSING when a name it
-    reads has no value. MISSING is SQL's null, read as "unknown" (docs/semantics.md,
-    "Absent values"): arithmetic and comparisons with it are MISSING, `not MISSING`
-    is MISSING, and `and`/`or` are Kleene's (`false and MISSING` is false, `true or
-    MISSING` is true). A condition holds only where it is `True`."""
-    return compiled(expr)(lookup)
-
-
-Evaluator = Callable[[Callable[[str], Any]], Any]
-CACHE_LIMIT = 4096  # expressions (and regular expressions) kept compiled
-_COMPILED: dict[int, tuple[ir.Expr, Evaluator]] = {}
-
-
-def compiled(expr: ir.Expr) -> Evaluator:
-    """`evaluate` for one expression, as a closure built once: the runtime evaluates
-    a condition at every message."""
-    found = _COMPILED.get(id(expr))
-    if found is None or found[0] is not expr:
-        if len(_COMPILED) >= CACHE_LIMIT:
-            _COMPILED.clear()  # a long-lived process (the editor) checks spec after spec
-        found = _COMPILED[id(expr)] = (expr, _compile(expr))
-    return found[1]
-
-
-def _compile(expr: ir.Expr) -> Evaluator:
-    match expr:
-        case ir.Number():
-            return _constant(_number(expr))
-        case ir.String() | ir.Boolean():
-            return _constant(expr.value)
-        case ir.Time():
-            return _constant(expr.seconds)
-        case ir.Ref():
-            name = expr.name
-            return lambda lookup: lookup(name)
-        case ir.Unary():
-            operand, op = _compile(expr.operand), expr.op
-            return lambda lookup: unary(op, operand(lookup))
-        case ir.Binary():
-            return _compile_binary(expr, _compile(expr.left), _compile(expr.right))
-    raise ValueError(f"cannot evaluate {type(expr).__name__} here")
-
-
-def _constant(value: Any) -> Evaluator:
-    return lambda lookup: value
-
-
-def _compile_binary(expr: ir.Binary, left: Evaluator, right: Evaluator) -> Evaluator:
-    op = expr.op
-    if op in ("and", "or"):
-        return _connective(op == "or", left, right)
-    if op in _ORDERING:
-        compare = _ORDERING[op]
-
-        def ordering(lookup: Callable[[str], Any]) -> Any:
-            a, b = left(lookup), right(lookup)
-            kinds = type(a), type(b)
-            if kinds == (float, float) or kinds == (int, int):
-                return compare(a, b)  # the common case: no conversion to decide
-            if a is MISSING or b is MISSING:
-                return MISSING
-            return values.compare(op, a, b)
-
-        return ordering
-    return lambda lookup: _binary(expr, left(lookup), lambda: right(lookup))
-
-
-_ORDERING: dict[str, Callable[[Any, Any], bool]] = {
-    "<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge,
-}  # fmt: skip
-
-
-def unary(op: str, operand: Any) -> Any:
-    if operand is MISSING:
-        return MISSING
-    if op == "not":
-        return operand is False
-    return values.negate(operand)
-
-
-def _connective(deciding: bool, left: Evaluator, right: Evaluator) -> Evaluator:
-    """`_kleene` compiled for the runtime's hot path (a condition at every message):
-    no closure made per evaluation."""
-
-    def connective(lookup: Callable[[str], Any]) -> Any:
-        a = left(lookup)
-        return deciding if a is deciding else _settled(deciding, a, right(lookup))
-
-    return connective
-
-
-def kleene_and(left: Any, right_of: Callable[[], Any]) -> Any:
-    """`and` over true, false and MISSING (unknown): false wins, then unknown."""
-    return _kleene(False, left, right_of)
-
-
-def kleene_or(left: Any, right_of: Callable[[], Any]) -> Any:
-    """`or` over true, false and MISSING (unknown): true wins, then unknown."""
-    return _kleene(True, left, right_of)
-
-
-def _kleene(deciding: bool, left: Any, right_of: Callable[[], Any]) -> Any:
-    """A connective whose `deciding` operand decides it whatever the other is (the
-    right one is not evaluated then)."""
-    return deciding if left is deciding else _settled(deciding, left, right_of())
-
-
-def _settled(deciding: bool, left: Any, right: Any) -> Any:
-    """The connective once the left side has not decided it: the right one may; two
-    of the other value give that value; anything else is unknown."""
-    if right is deciding:
-        return deciding
-    other = not deciding
-    return other if left is other and right is other else MISSING
-
-
-def _number(node: ir.Number) -> int | float:
-    return values.literal(node.text)
-
-
-def _binary(expr: ir.Binary, left: Any, right_of: Callable[[], Any]) -> Any:
-    op = expr.op
-    if op == "and":
-        return kleene_and(left, right_of)
-    if op == "or":
-        return kleene_or(left, right_of)
-    right = right_of()
-    if left is MISSING or right is MISSING:
-        return MISSING
-    if op in ("=~", "!~"):
-        found = _regex(right).search(left) is not None
-        return found if op == "=~" else not found
-    return values.binary(op, left, right)
-
-
-_REGEXES: dict[str, Any] = {}
-
-
-def _regex(text: str) -> Any:
-    found = _REGEXES.get(text)
-    if found is None:
-        if len(_REGEXES) >= CACHE_LIMIT:
-            _REGEXES.clear()
-        found = _REGEXES[text] = re.compile(text)
-    return found
-
-
-# ---- functions over a window's values ----
-
-
-def _sorted(points: list[tuple[int, Any]]) -> list[tuple[int, Any]]:
-    return sorted(points, key=lambda p: (p[1], p[0]))
-
-
-def _mean(vals: list[Any]) -> float:
-    # InfluxDB's mean: a running mean in doubles, the order of the points.
-    mean = 0.0
-    for count, value in enumerate(vals, 1):
-        mean += (float(value) - mean) / count
-    return mean
-
-
-def _median(points: list[tuple[int, Any]]) -> Any:
-    ordered = [v for _, v in _sorted(points)]
-    n = len(ordered)
-    if n == 1:
-        return float(ordered[0])
-    if n % 2 == 0:
-        low, high = ordered[n // 2 - 1], ordered[n // 2]
-        return float(low) + float(high - low) / 2
-    return float(ordered[n // 2])
-
-
-def _mode(points: list[tuple[int, Any]]) -> Any:
-    """InfluxDB's loop, exactly: over the values sorted, a value takes the lead only
-    when its count exceeds the leader's, or equals it while its first point is not
-    newer; a value seen once never displaces the first."""
-    if len(points) == 1:
-        return points[0][1]
-    ordered = _sorted(points)
-    most_freq, current_freq = 0, 0
-    current, most = ordered[0][1], ordered[0][1]
-    current_time = most_time = ordered[0][0]
-    for time, value in ordered:
-        if value != current:
-            current_freq, current, current_time = 1, value, time
-            continue
-        current_freq += 1
-        if most_freq > current_freq or (most_freq == current_freq and current_time > most_time):
-            continue
-        most_freq, most, most_time = current_freq, value, current_time
-    return most
-
-
-def _stddev(vals: list[Any]) -> Any:
-    if len(vals) < 2:
-        return MISSING  # InfluxDB gives NaN, which it cannot write: no point
-    numbers = [float(v) for v in vals if not (isinstance(v, float) and math.isnan(v))]
-    mean = _mean(numbers)
-    variance = sum((v - mean) ** 2 for v in numbers)
-    return math.sqrt(variance / (len(numbers) - 1))
-
-
-def _percentile(points: list[tuple[int, Any]], percent: float) -> Any:
-    index = math.floor(len(points) * percent / 100.0 + 0.5) - 1
-    if index < 0 or index >= len(points):
-        return MISSING
-    return _sorted(points)[index][1]
-
-
-def _sum(vals: list[Any]) -> Any:
-    total: Any = 0 if all(values.is_int(v) for v in vals) else 0.0
-    for value in vals:
-        total = values.arithmetic("+", total, value)
-    return total
-
-
-def _spread(vals: list[Any]) -> Any:
-    return values.arithmetic("-", max(vals), min(vals))
-
-
-def _extreme(points: list[tuple[int, Any]], greatest: bool) -> Any:
-    # The first point (oldest) wins among equal values, as InfluxDB's selectors do.
-    best = points[0]
-    for point in points[1:]:
-        if (point[1] > best[1]) if greatest else (point[1] < best[1]):
-            best = point
-    return best[1]
-
-
-def reduce(name: str, points: list[tuple[int, Any]], second: Any) -> Any:
-    """One aggregation or selector over a window's (time, value) points, oldest first,
-    or MISSING. `count` of nothing is 0; the rest give no value for no points."""
-    if name == "count":
-        return len(points)
-    if not points:
-        return MISSING
-    vals = [v for _, v in points]
-    match name:
-        case "mean":
-            return _mean(vals)
-        case "median":
-            return _median(points)
-        case "mode":
-            return _mode(points)
-        case "spread":
-            return _spread(vals)
-        case "stddev":
-            return _stddev(vals)
-        case "sum":
-            return _sum(vals)
-        case "first":
-            return points[0][1]
-        case "last":
-            return points[-1][1]
-        case "max":
-            return _extreme(points, True)
-        case "min":
-            return _extreme(points, False)
-        case "percentile":
-            return _percentile(points, float(second))
-    raise ValueError(f"{name} is not a reduction of one value")
-
-
-def multi(name: str, points: list[tuple[int, Any]], n: int, seed: int) -> list[tuple[int, Any]]:
-    """The functions that select several points: `top`/`bottom` (the N greatest or
-    smallest, at their own times, ties to the oldest), `distinct` (each value once,
-    in the order of its first time, ties by value: query/functions.gen.go sorts the
-    points so) and `sample` (N at random, by a generator seeded with the window)."""
-    if name == "distinct":
-        seen: dict[Any, int] = {}
-        for time, value in points:
-            seen.setdefault(value, time)
-        return [(-1, v) for v, _ in sorted(seen.items(), key=lambda item: (item[1], item[0]))]
-    if name in ("top", "bottom"):
-        ranked = sorted(points, key=lambda p: ((-p[1] if name == "top" else p[1]), p[0]))
-        return sorted(ranked[:n])
-    if name == "sample":
-        if len(points) <= n:
-            return list(points)
-        return sorted(random.Random(seed).sample(points, n))
-    raise ValueError(f"{name} does not select points")
-
-
-MULTI = frozenset({"top", "bottom", "distinct", "sample"})
-_MATH: dict[str, Callable[..., float]] = {
-    "sqrt": math.sqrt, "exp": math.exp, "ln": math.log, "log2": math.log2,
-    "log10": math.log10, "sin": math.sin, "cos": math.cos, "tan": math.tan,
-    "asin": math.asin, "acos": math.acos, "atan": math.atan,
-}  # fmt: skip
-
-
-def elementwise(name: str, value: Any, second: Any) -> Any:
-    """The transformations of one value; MISSING where the result is not a number
-    InfluxDB can store (the logarithm of a negative number is NaN)."""
-    if value is MISSING:
-        return MISSING
-    try:
-        result: Any
-        if name == "abs":
-            result = abs(value)
-        elif name in ("ceil", "floor", "round"):
-            result = _rounding(name, value)
-        elif name == "pow":
-            result = math.pow(float(value), float(second))
-        elif name == "log":
-            result = math.log(float(value), float(second))
-        elif name == "atan2":
-            result = math.atan2(float(value), float(second))
-        else:
-            result = _MATH[name](float(value))
-    except (ValueError, ZeroDivisionError, OverflowError):
-        return MISSING
-    if isinstance(result, float) and math.isnan(result):
-        return MISSING
-    return result
-
-
-def _rounding(name: str, value: Any) -> Any:
-    if values.is_int(value):
-        return value
-    if math.isnan(value) or math.isinf(value):
-        return value
-    if name == "ceil":
-        return float(math.ceil(value))
-    if name == "floor":
-        return float(math.floor(value))
-    return float(math.floor(abs(value) + 0.5)) * (1.0 if value >= 0 else -1.0)  # Go's Round
-
-
-class Stream:
-    """A transformation over a series of points (derivative, difference,
-    moving_average, cumulative_sum, elapsed), fed in time order: InfluxDB's
-    reducers, one point at a time."""
-
-    def __init__(self, name: str, second: Any) -> None:
-        self.name = name
-        self.second = second
-        self.previous: tuple[int, Any] | None = None
-        self.buffer: list[Any] = []
-        self.total: Any = None
-
-    def push(self, time: int, value: Any) -> Any:
-        """The output at `time`, or MISSING."""
-        name = self.name
-        previous, self.previous = self.previous, (time, value)
-        if name == "cumulative_sum":
-            self.total = value if self.total is None else values.arithmetic("+", self.total, value)
-            return self.total
-        if name == "moving_average":
-            self.buffer.append(value)
-            if len(self.buffer) > self.second:
-                del self.buffer[0]
-            return _moving_average(self.buffer) if len(self.buffer) == self.second else MISSING
-        if previous is None:
-            return MISSING
-        if time == previous[0]:
-            self.previous = previous  # a second point at the same time is skipped
-            return MISSING
-        if name == "elapsed":
-            return (time - previous[0]) // self.second
-        diff = values.arithmetic("-", value, previous[1])
-        if name.startswith("non_negative") and diff < 0:
-            return MISSING
-        if name.endswith("difference"):
-            return diff
-        return float(diff) / ((time - previous[0]) / self.second)
-
-
-def _moving_average(buffer: list[Any]) -> float:
-    if all(values.is_int(v) for v in buffer):
-        return float(sum(buffer)) / len(buffer)
-    total = 0.0
-    for value in buffer:
-        total += float(value)
-    return total / len(buffer)
-
-
-STREAMS = frozenset(
-    {
-        "derivative",
-        "non_negative_derivative",
-        "difference",
-        "non_negative_difference",
-        "moving_average",
-        "cumulative_sum",
-        "elapsed",
-    }
+from rmvdsl.runtime.expressions import (
+    Evaluator,
+    binary,
+    compiled,
+    evaluate,
+    kleene_and,
+    kleene_or,
+    number_value,
+    unary,
 )
+from rmvdsl.runtime.fill import _fill, integral
+from rmvdsl.runtime.functions import MULTI, STREAMS, Stream, elementwise, multi, reduce
+from rmvdsl.runtime.series import MISSING, NS, Row, Series, nanoseconds, truncate, window_start
 
+__all__ = [
+    "MISSING",
+    "MULTI",
+    "NS",
+    "STREAMS",
+    "Evaluator",
+    "EventState",
+    "RawQuery",
+    "Row",
+    "Run",
+    "Series",
+    "Stream",
+    "WindowedQuery",
+    "compiled",
+    "drain",
+    "elementwise",
+    "evaluate",
+    "integral",
+    "kleene_and",
+    "kleene_or",
+    "multi",
+    "nanoseconds",
+    "reduce",
+    "unary",
+]  # fmt: skip
 
 # ---- one event's query ----
 
@@ -458,7 +75,7 @@ def _second(call: ir.Call) -> Any:
     if isinstance(arg, ir.Time):
         return nanoseconds(arg.seconds)
     if isinstance(arg, ir.Number):
-        return _number(arg)
+        return number_value(arg)
     raise ValueError(f"the second argument of {call.function} is not a constant")
 
 
@@ -520,13 +137,10 @@ class RawQuery:
                 return _atan2(inner, self._value(expr.args[1], row))
             return elementwise(expr.function, inner, self.seconds[id(expr)])
         if isinstance(expr, ir.Binary):
-            return _binary(expr, self._value(expr.left, row), lambda: self._value(expr.right, row))
+            return binary(expr, self._value(expr.left, row), lambda: self._value(expr.right, row))
         if isinstance(expr, ir.Unary):
             return unary(expr.op, self._value(expr.operand, row))
         return evaluate(expr, row.fields.get)
-
-
-Series = dict[int, Any]  # window start (or a point's own time) -> value
 
 
 @dataclass
@@ -558,13 +172,13 @@ class WindowedQuery:
         the range of the run scheduled at `now`."""
         interval, offset = self.interval, self.offset
         every = min(self.every, interval)
-        start = _truncate(now + interval - self.span - offset - 1, interval) + offset
-        end = _truncate(now + interval - every - offset, interval) + offset
+        start = truncate(now + interval - self.span - offset - 1, interval) + offset
+        end = truncate(now + interval - every - offset, interval) + offset
         return Run(start, end)
 
     def first_run(self, t: int) -> int:
         """The first scheduled run whose range can hold time t."""
-        now = _truncate(t - self.offset, self.every) + self.offset
+        now = truncate(t - self.offset, self.every) + self.offset
         while self.run_at(now).end > t:
             now -= self.every
         return now + self.every
@@ -645,7 +259,7 @@ class WindowedQuery:
         else:
             grouped: dict[int, list[tuple[int, Any]]] = {}
             for point in points:
-                key = _window_start(point[0], self.interval, self.offset)
+                key = window_start(point[0], self.interval, self.offset)
                 grouped.setdefault(key, []).append(point)
             found = {w: reduce(call.function, ps, second) for w, ps in grouped.items()}
         # rows reach `lookback` before the range: only a LOOKBACK caller asks for it
@@ -687,7 +301,7 @@ def _join(combine: Callable[[Any, Any], Any], left: Any, right: Any) -> Any:
 
 
 def _operator(expr: ir.Binary) -> Callable[[Any, Any], Any]:
-    return lambda left, right: _binary(expr, left, _const(right))
+    return lambda left, right: binary(expr, left, _const(right))
 
 
 def _atan2(y: Any, x: Any) -> Any:
@@ -696,95 +310,6 @@ def _atan2(y: Any, x: Any) -> Any:
 
 def _const(value: Any) -> Callable[[], Any]:
     return lambda: value
-
-
-def _fill(fill: ir.Fill, call: ir.Call, found: Series, windows: range) -> Series:
-    """InfluxQL's fill iterator over the run's windows (query/iterator.gen.go). A
-    continuous query writes INTO a measurement, and InfluxDB then turns `fill(null)`
-    into `fill(none)` (query/iterator.go): no point for an empty window, even for
-    `count`. `previous` carries the last real value (none before the first);
-    `linear` interpolates between real neighbours only."""
-    mode = fill.mode
-    if mode in ("null", "none"):
-        return found
-    if mode == "number":
-        assert fill.value is not None
-        number = _fill_number(_number(fill.value), call.type.kind)
-        if number is MISSING:
-            return found
-        return {w: found.get(w, number) for w in windows}
-    out: Series = {}
-    real = sorted(found)
-    previous: tuple[int, Any] | None = None
-    for w in windows:
-        if w in found:
-            out[w] = found[w]
-            previous = (w, found[w])
-        elif previous is not None and mode == "previous":
-            out[w] = previous[1]
-        elif previous is not None and mode == "linear":
-            index = bisect.bisect_right(real, w)
-            if index < len(real):
-                following = real[index]
-                out[w] = _linear(w, previous, (following, found[following]), windows.step)
-    return out
-
-
-def _fill_number(number: int | float, kind: str) -> Any:
-    """The fill value cast to the series' type, as the fill iterator casts it
-    (an integer series truncates 2.7 to 2); no fill for bools and strings."""
-    if kind == "int":
-        return int(number)
-    if kind in ("float", "time", "duration"):
-        return float(number)
-    return MISSING
-
-
-def _linear(w: int, previous: tuple[int, Any], following: tuple[int, Any], step: int) -> Any:
-    x0, x1, x = previous[0] // step, following[0] // step, w // step
-    slope = (float(following[1]) - float(previous[1])) / float(x1 - x0)
-    value = slope * float(x - x0) + float(previous[1])
-    if values.is_int(previous[1]) and values.is_int(following[1]):
-        return int(value)
-    return value
-
-
-def integral(points: list[tuple[int, Any]], interval: int, offset: int, unit: int) -> Series:
-    """InfluxDB's integral reducer (query/functions.go): trapezoids between
-    consecutive points, the area up to a window's end interpolated onto the next
-    point; the window's sum written at its start."""
-    out: Series = {}
-    prev: tuple[int, float] | None = None
-    start = end = 0
-    total = 0.0
-    for time, raw in points:
-        value = float(raw)
-        if prev is None:
-            prev = (time, value)
-            start = _window_start(time, interval, offset)
-            end = start + interval
-            continue
-        if time == prev[0]:
-            prev = (time, value)
-            continue
-        if time >= end:
-            if prev[0] != end:
-                at_end = prev[1] + (value - prev[1]) / (time - prev[0]) * (end - prev[0])
-                total += 0.5 * (at_end + prev[1]) * ((end - prev[0]) / unit)
-                prev = (end, at_end)
-            out[start] = total
-            start = _window_start(time, interval, offset)
-            end = start + interval
-            total = 0.0
-        total += 0.5 * (value + prev[1]) * ((time - prev[0]) / unit)
-        prev = (time, value)
-    if prev is not None and prev[0] != start:
-        out[start] = total
-    return out
-
-
-def _truncate(t: int, d: int) -> int:
-    return t - t % d
 
 
 @dataclass

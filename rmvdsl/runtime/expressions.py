@@ -1,0 +1,162 @@
+"""Expressions as InfluxQL evaluates them (docs/runtime.md, "Values" and
+"Operators"): compiled once to closures, with absent values read as SQL does
+(docs/semantics.md, "Absent values": Kleene's `and` and `or`)."""
+
+from __future__ import annotations
+
+import operator
+import re
+from collections.abc import Callable
+from typing import Any
+
+from rmvdsl.runtime import spec as ir
+from rmvdsl.runtime import values
+from rmvdsl.runtime.series import MISSING
+
+
+def evaluate(expr: ir.Expr, lookup: Callable[[str], Any]) -> Any:
+    """The value of an expression with no function calls, or MISSING when a name it
+    reads has no value. MISSING is SQL's null, read as "unknown" (docs/semantics.md,
+    "Absent values"): arithmetic and comparisons with it are MISSING, `not MISSING`
+    is MISSING, and `and`/`or` are Kleene's (`false and MISSING` is false, `true or
+    MISSING` is true). A condition holds only where it is `True`."""
+    return compiled(expr)(lookup)
+
+
+Evaluator = Callable[[Callable[[str], Any]], Any]
+CACHE_LIMIT = 4096  # expressions (and regular expressions) kept compiled
+_COMPILED: dict[int, tuple[ir.Expr, Evaluator]] = {}
+
+
+def compiled(expr: ir.Expr) -> Evaluator:
+    """`evaluate` for one expression, as a closure built once: the runtime evaluates
+    a condition at every message."""
+    found = _COMPILED.get(id(expr))
+    if found is None or found[0] is not expr:
+        if len(_COMPILED) >= CACHE_LIMIT:
+            _COMPILED.clear()  # a long-lived process (the editor) checks spec after spec
+        found = _COMPILED[id(expr)] = (expr, _compile(expr))
+    return found[1]
+
+
+def _compile(expr: ir.Expr) -> Evaluator:
+    match expr:
+        case ir.Number():
+            return _constant(number_value(expr))
+        case ir.String() | ir.Boolean():
+            return _constant(expr.value)
+        case ir.Time():
+            return _constant(expr.seconds)
+        case ir.Ref():
+            name = expr.name
+            return lambda lookup: lookup(name)
+        case ir.Unary():
+            operand, op = _compile(expr.operand), expr.op
+            return lambda lookup: unary(op, operand(lookup))
+        case ir.Binary():
+            return _compile_binary(expr, _compile(expr.left), _compile(expr.right))
+    raise ValueError(f"cannot evaluate {type(expr).__name__} here")
+
+
+def _constant(value: Any) -> Evaluator:
+    return lambda lookup: value
+
+
+def _compile_binary(expr: ir.Binary, left: Evaluator, right: Evaluator) -> Evaluator:
+    op = expr.op
+    if op in ("and", "or"):
+        return _connective(op == "or", left, right)
+    if op in _ORDERING:
+        compare = _ORDERING[op]
+
+        def ordering(lookup: Callable[[str], Any]) -> Any:
+            a, b = left(lookup), right(lookup)
+            kinds = type(a), type(b)
+            if kinds == (float, float) or kinds == (int, int):
+                return compare(a, b)  # the common case: no conversion to decide
+            if a is MISSING or b is MISSING:
+                return MISSING
+            return values.compare(op, a, b)
+
+        return ordering
+    return lambda lookup: binary(expr, left(lookup), lambda: right(lookup))
+
+
+_ORDERING: dict[str, Callable[[Any, Any], bool]] = {
+    "<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge,
+}  # fmt: skip
+
+
+def unary(op: str, operand: Any) -> Any:
+    if operand is MISSING:
+        return MISSING
+    if op == "not":
+        return operand is False
+    return values.negate(operand)
+
+
+def _connective(deciding: bool, left: Evaluator, right: Evaluator) -> Evaluator:
+    """`_kleene` compiled for the runtime's hot path (a condition at every message):
+    no closure made per evaluation."""
+
+    def connective(lookup: Callable[[str], Any]) -> Any:
+        a = left(lookup)
+        return deciding if a is deciding else _settled(deciding, a, right(lookup))
+
+    return connective
+
+
+def kleene_and(left: Any, right_of: Callable[[], Any]) -> Any:
+    """`and` over true, false and MISSING (unknown): false wins, then unknown."""
+    return _kleene(False, left, right_of)
+
+
+def kleene_or(left: Any, right_of: Callable[[], Any]) -> Any:
+    """`or` over true, false and MISSING (unknown): true wins, then unknown."""
+    return _kleene(True, left, right_of)
+
+
+def _kleene(deciding: bool, left: Any, right_of: Callable[[], Any]) -> Any:
+    """A connective whose `deciding` operand decides it whatever the other is (the
+    right one is not evaluated then)."""
+    return deciding if left is deciding else _settled(deciding, left, right_of())
+
+
+def _settled(deciding: bool, left: Any, right: Any) -> Any:
+    """The connective once the left side has not decided it: the right one may; two
+    of the other value give that value; anything else is unknown."""
+    if right is deciding:
+        return deciding
+    other = not deciding
+    return other if left is other and right is other else MISSING
+
+
+def number_value(node: ir.Number) -> int | float:
+    return values.literal(node.text)
+
+
+def binary(expr: ir.Binary, left: Any, right_of: Callable[[], Any]) -> Any:
+    op = expr.op
+    if op == "and":
+        return kleene_and(left, right_of)
+    if op == "or":
+        return kleene_or(left, right_of)
+    right = right_of()
+    if left is MISSING or right is MISSING:
+        return MISSING
+    if op in ("=~", "!~"):
+        found = _regex(right).search(left) is not None
+        return found if op == "=~" else not found
+    return values.binary(op, left, right)
+
+
+_REGEXES: dict[str, Any] = {}
+
+
+def _regex(text: str) -> Any:
+    found = _REGEXES.get(text)
+    if found is None:
+        if len(_REGEXES) >= CACHE_LIMIT:
+            _REGEXES.clear()
+        found = _REGEXES[text] = re.compile(text)
+    return found
