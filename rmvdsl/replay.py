@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from rmvdsl import builtins
+from rmvdsl.report.text import decimal_text, text_line
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.engine import (
     Endpoint,
@@ -243,53 +244,6 @@ class Summary:
         return bool(self.violations or self.intrusions)
 
 
-def _decimal(value: Any) -> str:
-    from fractions import Fraction
-
-    from rmvdsl.runtime.values import exact_text
-
-    return exact_text(value) if isinstance(value, Fraction) else str(value)
-
-
-def text_line(record: Record) -> str | None:
-    """One record as a line for a person, or None for records only JSON carries."""
-    kind = record["kind"]
-    if kind == "verdict":
-        open_, close = record["bounds"]
-        span = f"{open_}{_decimal(record['from'])}, {_decimal(record['to'])}{close}"
-        revised = " (revised: late input)" if record.get("revised") else ""
-        return f"verdict   {record['property']}: {record['verdict']} on {span}{revised}"
-    if kind == "alert":
-        if record["level"] == record["previous"]:
-            return None  # a repeat at the same level: JSON has every point, text the changes
-        values = ", ".join(f"{k}={_decimal(v)}" for k, v in record["values"].items())
-        return (
-            f"alert     {_decimal(record['time'])} {record['alert']}: {record['previous']} -> "
-            f"{record['level']}: {record['message']} ({values})"
-        )
-    if kind == "intrusion":
-        what = "intrusion" if record["phase"] == "start" else "ended"
-        return (
-            f"{what:<9} {_decimal(record['time'])} {record['node']} as {record['role']} of "
-            f"{record['topic']}: {record['reason']}"
-        )
-    if kind == "state":
-        return f"state     {_decimal(record['time'])} {record['transducer']} -> {record['state']}"
-    if kind == "action":
-        target = record.get("topic") or record.get("url") or record.get("address") or ""
-        level = record.get("level", "")
-        return (
-            f"action    {_decimal(record['time'])} {record['action']} {level}{target}: "
-            + (record["message"])
-        )
-    if kind == "diagnostic":
-        where = f"{record['origin']}: " if record.get("origin") else ""
-        return f"warning   {_decimal(record['time'])} {where}{record['message']}"
-    if kind == "counter":
-        return f"counter   {record['name']}: {record['value']}"
-    return None
-
-
 class _Repeats:
     """Text output for a person: an action repeated with nothing else between
     (an alert's post at every point at its level) is one line and a count."""
@@ -316,7 +270,7 @@ class _Repeats:
 
     def flush(self, out: Any) -> None:
         if self.count:
-            out.write(f"          (and {self.count} more, until {_decimal(self.last)})\n")
+            out.write(f"          (and {self.count} more, until {decimal_text(self.last)})\n")
         self.key, self.count = None, 0
 
 

@@ -15,7 +15,7 @@ import pytest
 
 from rmvdsl.check import check
 from rmvdsl.ir import lower
-from rmvdsl.replay import text_line
+from rmvdsl.report.text import text_line
 from rmvdsl.runtime.engine import Runtime
 from rmvdsl.runtime.uncertain import Uncertain
 

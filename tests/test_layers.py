@@ -133,3 +133,22 @@ def _names_imported(path: Path) -> set[str]:
         if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
             found |= {f"{node.module}.{alias.name}" for alias in node.names}
     return found
+
+
+def test_no_two_modules_import_each_other():
+    """No circle of imports between modules, those inside functions included: each
+    module's place in the layers is then one place (it was three two-file circles:
+    check/fieldpaths and check/types, logic/abstract and logic/sat, replay and its
+    report)."""
+    import networkx as nx
+
+    modules = {}
+    for path in PACKAGE.rglob("*.py"):
+        name = ".".join(path.relative_to(ROOT).with_suffix("").parts)
+        modules[name.removesuffix(".__init__")] = path
+    graph = nx.DiGraph()
+    for name, path in modules.items():
+        for imported in _names_imported(path):
+            if imported in modules and imported != name:
+                graph.add_edge(name, imported)
+    assert list(nx.simple_cycles(graph)) == []

@@ -4,18 +4,16 @@ definitions, segment by segment, to the value it reads."""
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from rmvdsl.check.model import Model
 from rmvdsl.check.msgtypes import FieldType, MessageDef, canonical
 from rmvdsl.check.rosnames import message_type_problem
+from rmvdsl.check.typeinfo import TypeInfo
 from rmvdsl.check.vtypes import BOOL, FLOAT, INT, UNKNOWN, VType, from_ros
 from rmvdsl.diagnostics import Diagnostic, did_you_mean, error
 from rmvdsl.grammar import ast
 from rmvdsl.source import Span
-
-if TYPE_CHECKING:
-    from rmvdsl.check.types import TypeInfo
 
 
 class FieldPaths:

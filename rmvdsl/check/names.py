@@ -9,9 +9,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import cast
 
+import rmvdsl.check.settings as schemas
 from rmvdsl import builtins
 from rmvdsl.bounded import Bounded
-from rmvdsl.check import settings as schemas
 from rmvdsl.check.actions import ActionChecks
 from rmvdsl.check.clauses import EventChecks
 from rmvdsl.check.infrastructure import infrastructure_warnings

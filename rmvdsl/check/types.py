@@ -9,7 +9,7 @@ from __future__ import annotations
 import os
 import re
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import Any, cast
 
@@ -22,10 +22,10 @@ from rmvdsl.check.msgtypes import (
     DEFAULT_DISTRO,
     DISTROS,
     FieldType,
-    MessageDef,
     TypeRegistry,
     environment_folders,
 )
+from rmvdsl.check.typeinfo import Horizon, TypeInfo
 from rmvdsl.check.vtypes import (
     BOOL,
     DURATION,
@@ -49,49 +49,6 @@ __all__ = [
     "BOOL", "DURATION", "FLOAT", "INT", "NUMERIC", "STRING", "UNKNOWN",
     "Horizon", "TypeChecker", "TypeConfig", "TypeInfo", "VType", "check_types", "from_ros",
 ]  # fmt: skip
-
-
-@dataclass
-class Horizon:
-    """How far a property looks into the future and the past, in seconds."""
-
-    future: Fraction
-    past: Fraction
-
-    @property
-    def total(self) -> Fraction:
-        return self.future + self.past
-
-
-@dataclass
-class TypeInfo:
-    registry: TypeRegistry
-    topics: dict[str, MessageDef | None] = field(default_factory=dict)
-    variables: dict[str, VType] = field(default_factory=dict)
-    events: dict[str, VType] = field(default_factory=dict)
-    horizons: dict[str, Horizon] = field(default_factory=dict)
-    # Each variable's field types, one per segment of its path.
-    paths: dict[str, tuple[FieldType, ...]] = field(default_factory=dict)
-    # Each property's compiled formula (times in seconds), when it compiles: the one
-    # compilation the analyses and the lowering read.
-    formulas: dict[str, Any] = field(default_factory=dict)
-    # The type of every expression node of events and alerts, by id of the node.
-    expressions: dict[int, VType] = field(default_factory=dict)
-    # Declarations whose types an incremental check reused: their nodes' types in
-    # the order of ast.walk, given ids when first asked for (an editor never asks).
-    unplaced: list[tuple[ast.Node, tuple[VType | None, ...]]] = field(default_factory=list)
-
-    def type_of(self, node: ast.Node) -> VType:
-        if self.unplaced:
-            self._place()
-        return self.expressions.get(id(node), UNKNOWN)
-
-    def _place(self) -> None:
-        for decl, types in self.unplaced:
-            for node, value in zip(ast.walk(decl), types, strict=True):
-                if value is not None:
-                    self.expressions[id(node)] = value
-        self.unplaced.clear()
 
 
 @dataclass(frozen=True)

@@ -26,7 +26,7 @@ from rmvdsl.logic.system import System
 from rmvdsl.runtime.rmtld3 import facts
 
 if TYPE_CHECKING:
-    from rmvdsl.logic.sat import Limits
+    from rmvdsl.logic.limits import Limits
 
 
 class Refuter:

@@ -29,6 +29,7 @@ import z3
 from rmvdsl.cache import Cache, default_cache, digest
 from rmvdsl.logic.abstract import refute
 from rmvdsl.logic.bounded import BoundedTrace, EncodingTimeout
+from rmvdsl.logic.limits import Limits
 from rmvdsl.logic.reference import TRUE, Reference, Trace
 from rmvdsl.logic.system import System
 from rmvdsl.logic.terms import assert_all, conjunction, disjunction, implication, negation
@@ -44,28 +45,6 @@ YES, NO, UNKNOWN = "yes", "no", "unknown"
 PERIODIC_NAMES = 2
 PERIODIC_PERIODS = 4
 PERIODIC_BUDGET = 40_000
-
-
-@dataclass(frozen=True)
-class Limits:
-    timeout: float = 5.0  # seconds, for each solver call
-    segments: tuple[int, ...] = (1, 2, 4, 8)
-    effort: int | None = None  # z3's rlimit per call: deterministic, unlike time
-    jobs: int | None = None  # worker processes (rmvdsl.logic.parallel); None: one a core
-
-    def key(self) -> str:
-        """What the answers depend on (not `jobs`: the same answers, sooner)."""
-        return f"{self.timeout}:{self.segments}:{self.effort}"
-
-    def quick(self) -> Limits:
-        """A tenth of the limits (at most half a second), for a first attempt."""
-        effort = None if self.effort is None else max(1, self.effort // 10)
-        return Limits(min(self.timeout, 0.5), self.segments, effort, self.jobs)
-
-    def configure(self, solver: Any) -> None:
-        solver.set("timeout", max(1, int(self.timeout * 1000)))
-        if self.effort is not None:
-            solver.set("rlimit", self.effort)
 
 
 @dataclass(frozen=True)

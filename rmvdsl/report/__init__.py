@@ -11,6 +11,7 @@ import importlib.util
 from collections.abc import Sequence
 
 from rmvdsl.report import layout, svg
+from rmvdsl.report.text import text_line
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.engine import Record
 
@@ -48,8 +49,6 @@ def write(path: str, spec: ir.Spec, records: Sequence[Record]) -> None:
 
 def page(spec: ir.Spec, drawing: str, records: Sequence[Record]) -> str:
     """A self-contained HTML page: the drawing, then every record as text."""
-    from rmvdsl.replay import text_line
-
     rows = "\n".join(
         f"<tr><td>{svg.text(line)}</td></tr>"
         for line in (text_line(r) for r in records if r["kind"] != "variable")
