@@ -29,6 +29,7 @@ from rmvdsl.host.status import OK, WARN, Status, percentiles
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.engine import Runtime
 from rmvdsl.runtime.lineproto import PointWriter, state_point
+from rmvdsl.runtime.wording import counted
 
 NODE_NAME = "rmv_collector"
 RETRY_FIRST, RETRY_LAST = 0.5, 30.0  # seconds between tries of a failed batch
@@ -102,7 +103,8 @@ class Collector:
         lost = self.gaps.lost(topic, info)
         if lost:
             self.count(f"lost messages: {topic}", lost,
-                       f"{topic}: {lost} messages lost before the collector read them")  # fmt: skip
+                       f"{topic}: {counted(lost, 'message')} lost before the collector "
+                       f"read {'it' if lost == 1 else 'them'}")  # fmt: skip
         self.counters["messages"] += 1
         arrival = info.get("received_timestamp") or time.time_ns()
         # Receipt times strictly increase: two messages of a topic at one time would
@@ -143,7 +145,7 @@ class Collector:
             self.reported.add("buffer")
             self.logs.log(
                 "error",
-                f"InfluxDB cannot keep up: {self.bound} points wait; the oldest are "
+                f"InfluxDB cannot keep up: {counted(self.bound, 'point')} wait; the oldest are "
                 "dropped and counted (`points dropped: buffer full`)",
             )
 
@@ -192,7 +194,8 @@ class Collector:
                 self.state = f"retrying: {getattr(error, 'reason', error)}"
                 if self.stopping:
                     self.count("points dropped: InfluxDB down at exit", len(batch),
-                               f"{len(batch)} points not written at exit: {error}")  # fmt: skip
+                               f"{counted(len(batch), 'point')} not written at exit: "
+                               f"{error}")  # fmt: skip
                     return
                 time.sleep(pause)
                 pause = min(pause * 2, RETRY_LAST)
