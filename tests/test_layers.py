@@ -118,10 +118,9 @@ def test_a_target_is_imported_from_its_own_folder_only():
 
 
 # Imports of a target from outside its folder, each a debt of issue 32: `rmv deploy`
-# is the kapacitor target's, and the collector is built as a ROS 2 package.
+# is the kapacitor target's.
 KNOWN_CROSSINGS = {
     "kapacitor": ["rmvdsl/deploy.py"],
-    "ros2": ["rmvdsl/targets/kapacitor/generate.py"],
 }
 
 

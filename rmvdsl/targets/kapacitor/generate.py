@@ -25,7 +25,7 @@ import jinja2
 
 from rmvdsl.runtime import lineproto
 from rmvdsl.runtime import spec as ir
-from rmvdsl.targets import ros2
+from rmvdsl.targets import ament
 from rmvdsl.targets.kapacitor import dashboards
 from rmvdsl.targets.kapacitor.quoting import (
     BuildError,
@@ -371,7 +371,7 @@ def manifest(build: Build) -> dict[str, Any]:
 def _environment() -> jinja2.Environment:
     """This target's templates (and, for the collector, the ros2 target's), with
     the quoting filters of both."""
-    env = ros2.environment(__package__)
+    env = ament.environment(__package__ or "")
     env.filters["ident"] = influxql_identifier
     env.filters["iql_string"] = influxql_string
     env.filters["duration"] = influxql_duration
@@ -407,11 +407,11 @@ def dashboard_files(build: Build, env: jinja2.Environment) -> dict[str, str]:
     }
 
 
-COLLECTOR = (ros2.NodeEntry("collector", "collector_node", "rmv_collector"),)
+COLLECTOR = (ament.NodeEntry("collector", "collector_node", "rmv_collector"),)
 
 
 # The collector publishes no String (no verdicts): the ros2 target's base less std_msgs.
-COLLECTOR_DEPENDENCIES = tuple(d for d in ros2.BASE_DEPENDENCIES if d != "std_msgs")
+COLLECTOR_DEPENDENCIES = tuple(d for d in ament.BASE_DEPENDENCIES if d != "std_msgs")
 
 
 def collector_files(build: Build, env: jinja2.Environment | None = None) -> dict[str, str]:
@@ -419,9 +419,9 @@ def collector_files(build: Build, env: jinja2.Environment | None = None) -> dict
     the ros2 target's host (rmv_host/) and embedding the runtime's reading of
     variables and its line protocol."""
     spec = build.spec
-    name = f"{ros2.package_name(spec)}_collector"
-    package = ros2.Package(
-        name, spec, ros2.dependencies(COLLECTOR_DEPENDENCIES, spec),
+    name = f"{ament.package_name(spec)}_collector"
+    package = ament.Package(
+        name, spec, ament.dependencies(COLLECTOR_DEPENDENCIES, spec),
         "InfluxDB collector", "kapacitor", COLLECTOR, "launch/collector.launch.py",
     )  # fmt: skip
     templates = {
@@ -430,7 +430,7 @@ def collector_files(build: Build, env: jinja2.Environment | None = None) -> dict
         "config/params.yaml": "collector_params.yaml.j2",
     }
     env = env or _environment()
-    found = ros2.ament_package(package, env, templates, database=build.database)
+    found = ament.ament_package(package, env, templates, database=build.database)
     return {f"collector/{path}": text for path, text in found.items()}
 
 
@@ -459,7 +459,7 @@ def files(spec: ir.Spec, out: Path) -> tuple[dict[str, str], list[Left]]:
 def write(spec: ir.Spec, out: Path) -> tuple[list[Path], list[Left]]:
     """Write the build into `out`; the paths written and the report."""
     texts, report = files(spec, out)
-    return ros2.write(texts, out), report
+    return ament.write(texts, out), report
 
 
 __all__ = [
