@@ -137,11 +137,14 @@ exit codes: 0 deployed (or nothing to change), 1 a server refused something or c
 reached (the message says what was applied before), 2 usage or I/O problem""",
     )  # fmt: skip
     deploy_parser.add_argument("out", metavar="OUT", help="the folder of the build")
-    deploy_parser.add_argument("--target", required=True, choices=("kapacitor",))
-    deploy_parser.add_argument("--influx", metavar="URL", help="InfluxDB (default: the spec's)")
-    deploy_parser.add_argument(
-        "--kapacitor", metavar="URL", help="Kapacitor (default: http://127.0.0.1:9092)"
-    )
+    deployable = [t for t in declared if t.deploy is not None]
+    deploy_parser.add_argument("--target", required=True, choices=[t.name for t in deployable])
+    for target in deployable:  # each target's own options, as it declares them
+        for option in target.deploy_options:
+            deploy_parser.add_argument(
+                option.flag, dest=option.name, metavar=option.metavar,
+                help=f"{target.name}: {option.help}",
+            )  # fmt: skip
 
     commands.add_parser(
         "targets",

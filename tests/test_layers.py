@@ -117,11 +117,8 @@ def test_a_target_is_imported_from_its_own_folder_only():
     assert found == KNOWN_CROSSINGS
 
 
-# Imports of a target from outside its folder, each a debt of issue 32: `rmv deploy`
-# is the kapacitor target's.
-KNOWN_CROSSINGS = {
-    "kapacitor": ["rmvdsl/deploy.py"],
-}
+# Imports of a target from outside its folder: none.
+KNOWN_CROSSINGS: dict[str, list[str]] = {}
 
 
 def _names_imported(path: Path) -> set[str]:

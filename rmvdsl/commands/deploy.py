@@ -1,37 +1,28 @@
-"""`rmv deploy`: apply a kapacitor build to InfluxDB and Kapacitor."""
+"""`rmv deploy`: apply a build to the services its target runs on (the kapacitor
+target's: InfluxDB and Kapacitor), as the target declares it."""
 
 from __future__ import annotations
 
 import argparse
 import sys
-from typing import TYPE_CHECKING
+from pathlib import Path
 
+from rmvdsl import targets
 from rmvdsl.errors import EXIT_ERRORS, EXIT_OK, UsageError
-from rmvdsl.runtime.wording import counted
-
-if TYPE_CHECKING:
-    pass
 
 
 def run(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
-    from rmvdsl import deploy
-
-    out = Path(args.out)
-    if not (out / deploy.MANIFEST).is_file():
-        raise UsageError(
-            f"{out}: no {deploy.MANIFEST}: not a build of `rmv build --target kapacitor`"
-        )
+    target = targets.target(args.target)
+    assert target.deploy is not None  # the parser offers only targets that deploy
+    options = {o.name: getattr(args, o.name) for o in target.deploy_options}
     try:
-        report = deploy.deploy(out, args.influx, args.kapacitor)
-    except deploy.DeployError as exc:
-        print(f"rmv deploy: {exc}", file=sys.stderr)
+        deployed = target.deploy(Path(args.out), options)
+    except targets.TargetError as exc:
+        raise UsageError(str(exc)) from None
+    if deployed.failed is not None:
+        print(f"rmv deploy: {deployed.failed}", file=sys.stderr)
         return EXIT_ERRORS
-    for line in report.applied:
+    for line in deployed.changes:
         print(f"rmv deploy: {line}")
-    print(
-        f"rmv deploy: {counted(len(report.applied), 'change')}, "
-        f"{counted(len(report.unchanged), 'part')} already as built"
-    )
+    print(f"rmv deploy: {deployed.summary}")
     return EXIT_OK

@@ -57,6 +57,19 @@ Build = Callable[["ir.Spec", "Path | None", Mapping[str, "str | None"]], Built]
 
 
 @dataclass(frozen=True)
+class Deployed:
+    """What `rmv deploy` did with a build: each change, and a summary; or why it
+    stopped (exit 1)."""
+
+    changes: tuple[str, ...]
+    summary: str
+    failed: str | None = None
+
+
+Deploy = Callable[[Path, Mapping[str, "str | None"]], Deployed]
+
+
+@dataclass(frozen=True)
 class Finding:
     """What a target says of a spec before it builds anything (`rmv check --target`):
     an `error` it cannot build, or a `note` on a part it leaves to another target."""
@@ -81,6 +94,9 @@ class Target:
     options: tuple[Option, ...] = ()
     # What it cannot build, or leaves out, said with where the spec declares it.
     findings: Callable[[ir.Spec], list[Finding]] = no_findings
+    # `rmv deploy --target NAME OUT`: apply a build to running services (None: no such step).
+    deploy: Deploy | None = None
+    deploy_options: tuple[Option, ...] = ()
 
 
 def target(name: str) -> Target:

@@ -12,7 +12,15 @@ from typing import Any
 
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.wording import counted
-from rmvdsl.targets import Built, Finding, Target, TargetError, folder_output
+from rmvdsl.targets import (
+    Built,
+    Deployed,
+    Finding,
+    Option,
+    Target,
+    TargetError,
+    folder_output,
+)
 
 
 def _build(spec: ir.Spec, out: Path | None, options: Mapping[str, str | None]) -> Built:
@@ -36,6 +44,23 @@ def _findings(spec: ir.Spec) -> list[Finding]:
     return [Finding("note", line.origin, str(line)) for line in build.report]
 
 
+def _deploy(out: Path, options: Mapping[str, str | None]) -> Deployed:
+    deploy = importlib.import_module("rmvdsl.targets.kapacitor.deploy")
+    if not (out / deploy.MANIFEST).is_file():
+        raise TargetError(
+            f"{out}: no {deploy.MANIFEST}: not a build of `rmv build --target kapacitor`"
+        )
+    try:
+        report = deploy.deploy(out, options.get("influx"), options.get("kapacitor"))
+    except deploy.DeployError as exc:
+        return Deployed((), "", failed=str(exc))
+    summary = (
+        f"{counted(len(report.applied), 'change')}, "
+        f"{counted(len(report.unchanged), 'part')} already as built"
+    )
+    return Deployed(tuple(report.applied), summary)
+
+
 TARGET = Target(
     name="kapacitor",
     summary="InfluxDB queries, TICKscripts and their handlers, a collector node",
@@ -43,6 +68,11 @@ TARGET = Target(
     output="folder",
     build=_build,
     findings=_findings,
+    deploy=_deploy,
+    deploy_options=(
+        Option("influx", "URL", "InfluxDB (default: the spec's)"),
+        Option("kapacitor", "URL", "Kapacitor (default: http://127.0.0.1:9092)"),
+    ),
 )
 
 

@@ -301,7 +301,7 @@ def _drop_obsolete_queries(
 
 
 def _quote(name: str) -> str:
-    from rmvdsl.targets.kapacitor import influxql_identifier
+    from rmvdsl.targets.kapacitor.quoting import influxql_identifier
 
     return influxql_identifier(name)
 
