@@ -112,12 +112,7 @@ exit codes: 0 built, 1 the spec has errors (shown on standard error), 2 usage or
         "-o", "--output", metavar="OUT",
         help=f"write here ({files}: a file, default stdout; {folders}: a folder, required)",
     )  # fmt: skip
-    for target in declared:  # each target's own options, as it declares them
-        for option in target.options:
-            build_parser.add_argument(
-                option.flag, dest=option.name, metavar=option.metavar,
-                help=f"{target.name}: {option.help}",
-            )  # fmt: skip
+    _add_target_options(build_parser, [(t, t.options) for t in declared])
     build_parser.add_argument("--no-color", action="store_true")
     _add_message_options(build_parser)
 
@@ -139,12 +134,7 @@ reached (the message says what was applied before), 2 usage or I/O problem""",
     deploy_parser.add_argument("out", metavar="OUT", help="the folder of the build")
     deployable = [t for t in declared if t.deploy is not None]
     deploy_parser.add_argument("--target", required=True, choices=[t.name for t in deployable])
-    for target in deployable:  # each target's own options, as it declares them
-        for option in target.deploy_options:
-            deploy_parser.add_argument(
-                option.flag, dest=option.name, metavar=option.metavar,
-                help=f"{target.name}: {option.help}",
-            )  # fmt: skip
+    _add_target_options(deploy_parser, [(t, t.deploy_options) for t in deployable])
 
     commands.add_parser(
         "targets",
@@ -306,6 +296,19 @@ exit codes: 0 answered (whatever the answer), 1 the formula has errors, 2 usage 
     )
     import_parser.add_argument("--name", default=None, help="the system name of the spec")
     return parser
+
+
+def _add_target_options(
+    parser: argparse.ArgumentParser,
+    declared: list[tuple[targets.Target, tuple[targets.Option, ...]]],
+) -> None:
+    """Each target's own options, as it declares them, named for the target in --help."""
+    for target, options in declared:
+        for option in options:
+            parser.add_argument(
+                option.flag, dest=option.name, metavar=option.metavar,
+                help=f"{target.name}: {option.help}",
+            )  # fmt: skip
 
 
 def _add_message_options(parser: argparse.ArgumentParser) -> None:

@@ -58,12 +58,7 @@ def test_a_package_with_idl_only(sourced, tmp_path):
         "property Safe: not TooFast\n",
         encoding="utf-8",
     )
-    result = rmv_process(["check", "--no-color", str(spec)], cwd=tmp_path, env=sourced)
-    assert result.code == 0, result.out + result.err
-    wrong = spec.read_text(encoding="utf-8").replace("drive.gear", "drive.gears")
-    spec.write_text(wrong, encoding="utf-8")
-    result = rmv_process(["check", "--no-color", str(spec)], cwd=tmp_path, env=sourced)
-    assert result.code == 1 and "gears" in result.out, result.out
+    _clean_then_wrong(spec, sourced, ("drive.gear", "drive.gears"), "gears")
 
 
 # ---- ROS 1, as Debian installs it (.ci/run installs ros-*-msgs) ----
@@ -107,9 +102,14 @@ def test_a_ros1_package_on_the_package_path_uses_debian_s_messages(sourced_ros1,
         "property Safe: not TooFast\n",
         encoding="utf-8",
     )
-    result = rmv_process(["check", "--no-color", str(spec)], cwd=tmp_path, env=env)
+    _clean_then_wrong(spec, env, ("linear.x", "linear.w"), "`w`")
+
+
+def _clean_then_wrong(spec: Path, env: dict[str, str], edit: tuple[str, str], said: str) -> None:
+    """`spec` checks clean in `env`; with one field misspelt (`edit`), the check
+    fails and says `said`."""
+    result = rmv_process(["check", "--no-color", str(spec)], cwd=spec.parent, env=env)
     assert result.code == 0, result.out + result.err
-    wrong = spec.read_text(encoding="utf-8").replace("linear.x", "linear.w")
-    spec.write_text(wrong, encoding="utf-8")
-    result = rmv_process(["check", "--no-color", str(spec)], cwd=tmp_path, env=env)
-    assert result.code == 1 and "`w`" in result.out, result.out
+    spec.write_text(spec.read_text(encoding="utf-8").replace(*edit), encoding="utf-8")
+    result = rmv_process(["check", "--no-color", str(spec)], cwd=spec.parent, env=env)
+    assert result.code == 1 and said in result.out, result.out
