@@ -57,13 +57,13 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from rmvdsl.cache import Cache, use_cache
 from rmvdsl.check import check
 from rmvdsl.check.loader import load
 from rmvdsl.check.names import check_names
 from rmvdsl.check.types import TypeConfig, check_types
 from rmvdsl.grammar.parser import bare_spec_parser
 from rmvdsl.ir import dump, lower
+from rmvdsl.util.cache import Cache, use_cache
 
 
 def generate(scale: int = 1) -> str:

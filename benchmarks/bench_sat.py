@@ -38,11 +38,11 @@ import itertools
 
 import z3
 
-from rmvdsl.cache import use_cache
 from rmvdsl.check import check
 from rmvdsl.grammar.parser import parse_formula
 from rmvdsl.logic.compile import compile_formula
 from rmvdsl.logic.sat import UNKNOWN, Cache, satisfiable, valid
+from rmvdsl.util.cache import use_cache
 
 FAMILIES = {
     "until family": r"\always_{<B}(a \lor b) \until_{<B} r",

@@ -14,8 +14,8 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 from rmvdsl import __version__, targets
-from rmvdsl.deep import deep
-from rmvdsl.errors import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, UsageError
+from rmvdsl.lang.errors import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, UsageError
+from rmvdsl.util.deep import deep
 
 if TYPE_CHECKING:
     pass
@@ -388,7 +388,7 @@ def _lsp(args: argparse.Namespace) -> int:
 
 
 def _explain(code: str) -> int:
-    from rmvdsl.codes import CODES, explain
+    from rmvdsl.lang.codes import CODES, explain
 
     text = explain(code)
     if text is None:

@@ -2,7 +2,7 @@
 of rmvdsl.runtime.spec, which every target, the runtime and the editor read.
 
 Nothing here decides what a spec means beyond filling in what the checker already
-established: names resolved, field paths typed, defaults (from rmvdsl.builtins)
+established: names resolved, field paths typed, defaults (from rmvdsl.lang.builtins)
 filled, times in seconds, formulas compiled, events ordered by dependency.
 """
 
@@ -12,7 +12,6 @@ from collections.abc import Iterable
 from fractions import Fraction
 from typing import Any
 
-from rmvdsl import builtins
 from rmvdsl.check import CheckResult
 from rmvdsl.check.lowering import NotLowered, lower_expr, value_type
 from rmvdsl.check.model import Model
@@ -20,6 +19,7 @@ from rmvdsl.check.msgtypes import FieldType, TypeRegistry, canonical
 from rmvdsl.check.types import TypeInfo
 from rmvdsl.grammar import ast, printer
 from rmvdsl.grammar.formula import TIME_UNITS
+from rmvdsl.lang import builtins
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.rmtld3 import facts
 from rmvdsl.runtime.spec import dump, load, pattern

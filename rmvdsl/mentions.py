@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 from rmvdsl.check.msgtypes import MessageDef, canonical
 from rmvdsl.grammar import ast
-from rmvdsl.source import Span
+from rmvdsl.lang.source import Span
 
 if TYPE_CHECKING:
     from rmvdsl.check import CheckResult

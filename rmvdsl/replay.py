@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from rmvdsl import builtins
+from rmvdsl.lang import builtins
 from rmvdsl.report.text import decimal_text, text_line
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.engine import (

@@ -18,8 +18,8 @@ from typing import Any
 from rmvdsl.check import CheckResult, check
 from rmvdsl.check.loader import read_text
 from rmvdsl.check.model import BOOLEAN_KINDS, EVENT_KINDS, PROPOSITION_KINDS, Kind, Model, Symbol
+from rmvdsl.lang.source import SourceFile, Span
 from rmvdsl.mentions import Mention
-from rmvdsl.source import SourceFile, Span
 
 __all__ = [
     "TOKEN_TYPES",
@@ -172,7 +172,7 @@ def completions(result: CheckResult | None, text: str, offset: int) -> list[Comp
 
 
 def _block_settings(before: str, line: str) -> list[Completion] | None:
-    from rmvdsl import builtins
+    from rmvdsl.lang import builtins
 
     block = _enclosing_block(before)
     settings = builtins.BLOCKS.get(block) if block else None
@@ -221,9 +221,9 @@ def _fields(result: CheckResult, topic: str, path: str) -> list[Completion]:
 
 
 def _grammar_completions(result: CheckResult | None, text: str, start: int) -> list[Completion]:
-    from rmvdsl import builtins
     from rmvdsl.grammar.parser import accepted_words
     from rmvdsl.grammar.scanner import TOP_LEVEL_KEYWORDS, scan
+    from rmvdsl.lang import builtins
 
     chunk = max((c for c, _ in scan(text[:start]).chunks if c <= start), default=0)
     accepted = accepted_words(text, chunk, start)

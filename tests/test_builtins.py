@@ -1,8 +1,8 @@
-"""The registry of built-ins (rmvdsl.builtins) is the one list: the checker accepts
+"""The registry of built-ins (rmvdsl.lang.builtins) is the one list: the checker accepts
 exactly its names, lowering fills its defaults, docs/language.md's tables are
 generated from it, and no code asks for a name it lacks.
 
-Regenerate the tables of docs/language.md with `python -m rmvdsl.builtins
+Regenerate the tables of docs/language.md with `python -m rmvdsl.lang.builtins
 docs/language.md`.
 """
 
@@ -14,9 +14,9 @@ from pathlib import Path
 import pytest
 from conftest import ROOT
 
-from rmvdsl import builtins
 from rmvdsl.check import check
 from rmvdsl.ir import lower
+from rmvdsl.lang import builtins
 
 _ACCESSORS = {"function", "action", "block", "setting"}
 

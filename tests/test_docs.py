@@ -7,7 +7,7 @@ import shutil
 
 from conftest import ROOT
 
-from rmvdsl.codes import CODES, diagnostics_markdown
+from rmvdsl.lang.codes import CODES, diagnostics_markdown
 
 
 def test_diagnostics_page_is_generated_from_the_registry():
@@ -69,7 +69,7 @@ def test_language_reference_covers_every_declaration():
 
 def test_language_reference_examples_parse():
     from rmvdsl.grammar.parser import parse_source
-    from rmvdsl.source import SourceFile
+    from rmvdsl.lang.source import SourceFile
 
     text = (ROOT / "docs" / "language.md").read_text(encoding="utf-8")
     blocks = re.findall(r"```rmv\n(.*?)```", text, re.DOTALL)

@@ -245,7 +245,7 @@ def _random_trace(random) -> str:
 
 
 def _decimal(t: Fraction) -> str:
-    from rmvdsl.numbers import decimal
+    from rmvdsl.lang.numbers import decimal
 
     return decimal(t)
 

@@ -7,7 +7,7 @@ from conftest import EXAMPLES
 
 from rmvdsl.grammar.formatter import format_spec
 from rmvdsl.grammar.parser import parse_source
-from rmvdsl.source import SourceFile
+from rmvdsl.lang.source import SourceFile
 
 PARSEABLE = sorted(
     p

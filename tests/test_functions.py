@@ -12,9 +12,9 @@ from fractions import Fraction
 import pytest
 from conftest import ROOT
 
-from rmvdsl.builtins import FUNCTIONS
 from rmvdsl.check import check
 from rmvdsl.ir import lower
+from rmvdsl.lang.builtins import FUNCTIONS
 from rmvdsl.runtime.engine import Runtime
 
 PAGE = (ROOT / "docs" / "runtime.md").read_text(encoding="utf-8")

@@ -38,7 +38,7 @@ def test_error_example_matches_golden(spec, rmv):
 
 
 def test_every_code_has_a_golden_case():
-    from rmvdsl.codes import CODES
+    from rmvdsl.lang.codes import CODES
 
     seen = set()
     for golden in (EXAMPLES / "errors").rglob("*.expected"):

@@ -18,12 +18,12 @@ from pathlib import Path
 import pytest
 from conftest import EXAMPLES, ROOT
 
-from rmvdsl import builtins
 from rmvdsl.check import check
-from rmvdsl.deep import deep
 from rmvdsl.ir import LowerError, lower
+from rmvdsl.lang import builtins
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.spec import FormatError, dump, load
+from rmvdsl.util.deep import deep
 
 GOLDEN = Path(__file__).parent / "golden" / "ir"
 GOOD = ["carla/abs.rmv", "gazebo/prius_platoon.rmv", "gazebo/network.rmv"]

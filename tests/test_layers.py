@@ -39,7 +39,7 @@ def test_the_runtime_is_the_standard_library_alone():
         for module in _imports(path):
             top = module.split(".")[0]
             # The registry is data, standard library only too (tested below).
-            own = module.startswith("rmvdsl.runtime") or module == "rmvdsl.builtins"
+            own = module.startswith("rmvdsl.runtime") or module == "rmvdsl.lang.builtins"
             assert own or (top in sys.stdlib_module_names and top != "rmvdsl"), (
                 f"{path.relative_to(ROOT)} imports {module}"
             )
@@ -60,8 +60,8 @@ def test_the_contracts_catch_a_break(tmp_path: Path):
 
 
 def test_the_registry_is_the_standard_library_alone():
-    """rmvdsl.builtins is data that generated nodes embed beside the runtime."""
-    for module in _imports(PACKAGE / "builtins.py"):
+    """rmvdsl.lang.builtins is data that generated nodes embed beside the runtime."""
+    for module in _imports(PACKAGE / "lang" / "builtins.py"):
         assert module.split(".")[0] in sys.stdlib_module_names, f"builtins imports {module}"
 
 

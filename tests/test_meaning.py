@@ -177,11 +177,11 @@ def test_witness_files_say_their_time_unit(tmp_path, rmv):
 
 
 def test_a_deep_call_gives_the_recursion_limit_back():
-    """rmvdsl.deep raised the interpreter's recursion limit for good: a later deep
+    """rmvdsl.util.deep raised the interpreter's recursion limit for good: a later deep
     `json.dumps` on the main thread's small stack then crashed the process."""
     import sys
 
-    from rmvdsl.deep import deep
+    from rmvdsl.util.deep import deep
 
     before = sys.getrecursionlimit()
     assert deep(sys.getrecursionlimit) >= 1_000_000
@@ -233,7 +233,7 @@ def test_the_caches_are_bounded(tmp_path, monkeypatch):
     import os
     import time
 
-    from rmvdsl import cache
+    from rmvdsl.util import cache
 
     monkeypatch.setattr(cache, "MEMORY_ENTRIES", 10)
     answers = cache.Cache(str(tmp_path / "answers"))

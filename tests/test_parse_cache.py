@@ -16,10 +16,10 @@ from typing import Any
 import pytest
 from conftest import EXAMPLES
 
-from rmvdsl.bounded import Bounded
 from rmvdsl.grammar import ast, shift
 from rmvdsl.grammar import parser as parsing
-from rmvdsl.source import SourceFile, Span
+from rmvdsl.lang.source import SourceFile, Span
+from rmvdsl.util.bounded import Bounded
 
 SPECS = sorted(p for p in EXAMPLES.rglob("*.rmv") if p.name != "latin1.rmv")  # not UTF-8
 PIECES = ["", "x", "\n", "  ", "{", "}", '"', "\U0001f697", "event E when a > 1\n", "//", "->"]

@@ -19,7 +19,7 @@ from rmvdsl.grammar.scanner import (
     _starts_declaration,
     scan,
 )
-from rmvdsl.source import SourceFile
+from rmvdsl.lang.source import SourceFile
 
 
 def parse(text: str) -> tuple[ast.Spec, list]:

@@ -4,15 +4,16 @@ input whatsoever makes the checker raise."""
 from __future__ import annotations
 
 import string
+from pathlib import Path
 
 from conftest import EXAMPLES
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from rmvdsl.check import check
 from rmvdsl.grammar.formatter import format_spec
 from rmvdsl.grammar.parser import keywords, parse_source
-from rmvdsl.source import SourceFile
+from rmvdsl.lang.source import SourceFile
 
 NAMES = st.from_regex(r"[A-Z][a-z]{0,5}[0-9]?", fullmatch=True)
 LOWER = st.from_regex(r"[a-z][a-z_]{0,6}", fullmatch=True).filter(lambda s: s not in keywords())
@@ -269,8 +270,16 @@ def mutated_examples(draw) -> str:
     return text
 
 
+# Found by the test below (an event whose `when` lost its space: `whenean(...)` read
+# as an unknown function that reached the transducer analysis).
+UNKNOWN_FUNCTION_IN_ANALYSIS = (
+    Path(__file__).parent / "fixtures" / "regressions" / "unknown_function_in_analysis.rmv"
+).read_text(encoding="utf-8")
+
+
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(mutated_examples())
+@example(UNKNOWN_FUNCTION_IN_ANALYSIS)
 def test_checker_never_raises_on_mutated_examples(text):
     result = check(str(EXAMPLES / "carla" / "mutant.rmv"), text)
     for diagnostic in result.diagnostics:

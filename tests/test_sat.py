@@ -14,7 +14,6 @@ from conftest import FIXTURES, ROOT
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from rmvdsl.cache import Cache
 from rmvdsl.grammar.parser import parse_formula
 from rmvdsl.logic.abstract import refute
 from rmvdsl.logic.bounded import BoundedTrace
@@ -33,6 +32,7 @@ from rmvdsl.logic.sat import (
 from rmvdsl.logic.system import Machine, System
 from rmvdsl.logic.traces import read_trace
 from rmvdsl.runtime.rmtld3 import Monitor, facts, merge
+from rmvdsl.util.cache import Cache
 
 PROPS = ["a", "b"]  # the machine of the system tests has states a, b and c
 OPS = st.sampled_from(["<", "<=", "="])
@@ -329,12 +329,12 @@ def test_rechecking_an_unchanged_spec_asks_z3_nothing(spec, tmp_path, monkeypatc
     """What the editor relies on: the transducer and property analyses' answers come
     from the cache the second time, even in a new process (a new cache object on
     the same folder)."""
-    import rmvdsl.cache
+    import rmvdsl.util.cache
     from rmvdsl.check import check
 
-    monkeypatch.setattr(rmvdsl.cache, "_DEFAULT", Cache(str(tmp_path)))
+    monkeypatch.setattr(rmvdsl.util.cache, "_DEFAULT", Cache(str(tmp_path)))
     first = check(str(ROOT / spec))
-    monkeypatch.setattr(rmvdsl.cache, "_DEFAULT", Cache(str(tmp_path)))
+    monkeypatch.setattr(rmvdsl.util.cache, "_DEFAULT", Cache(str(tmp_path)))
     monkeypatch.setattr(z3.Solver, "check", lambda *_: pytest.fail("the solver ran"))
     second = check(str(ROOT / spec))
     assert second.diagnostics == first.diagnostics
@@ -444,7 +444,7 @@ def test_a_witness_time_without_a_decimal_form_survives_the_trace_file(tmp_path)
 
 
 def test_use_cache_replaces_the_default_that_checks_use():
-    from rmvdsl import cache as cache_module
+    from rmvdsl.util import cache as cache_module
 
     fresh = cache_module.Cache()
     cache_module.use_cache(fresh)

@@ -145,7 +145,7 @@ def many_groups(count: int) -> str:
 
 
 def checked(tmp_path: Path, text: str, jobs: int) -> tuple[list[tuple[str, str, int]], Any]:
-    from rmvdsl.cache import Cache, use_cache
+    from rmvdsl.util.cache import Cache, use_cache
 
     cache = Cache()
     use_cache(cache)
@@ -202,7 +202,7 @@ def test_a_group_s_redundancy_is_read_from_the_cache_when_rechecking(tmp_path, m
         raise AssertionError("evaluated the known traces again")
 
     monkeypatch.setattr(redundancy, "_KnownTraces", forbidden)
-    from rmvdsl.cache import use_cache
+    from rmvdsl.util.cache import use_cache
 
     use_cache(cache)
     try:

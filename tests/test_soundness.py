@@ -393,7 +393,7 @@ def test_a_file_that_is_not_a_spec_is_never_read(tmp_path: Path):
     root.write_text(f'import "{secret}"\nsystem s\n', encoding="utf-8")
     result = check(str(root), use_environment=False)
     assert [d.code for d in result.diagnostics] == ["RMV003"]
-    from rmvdsl.render import render_text
+    from rmvdsl.lang.render import render_text
 
     assert "SECRET" not in render_text(result.diagnostics, result.model.sources, False)
 
@@ -424,7 +424,7 @@ def test_import_of_hostile_values_gives_exactly_the_declared_things(tmp_path_fac
     from rmvdsl.grammar.formatter import format_spec
     from rmvdsl.grammar.parser import parse_source
     from rmvdsl.importers.thesis_yaml import convert_files
-    from rmvdsl.source import SourceFile
+    from rmvdsl.lang.source import SourceFile
 
     def h() -> str:
         return data.draw(HOSTILE)
@@ -540,7 +540,7 @@ def test_control_characters_and_wide_characters_in_diagnostics(rmv, tmp_path: Pa
     # the caret under `Y` stands below it: the two wide characters take four cells
     source = next(line for line in lines if '"日本" = Y' in line)
     caret = lines[lines.index(source) + 1]
-    from rmvdsl.render import width
+    from rmvdsl.lang.render import width
 
     assert width(source[: source.index("Y")]) == caret.index("^")
 
@@ -562,7 +562,7 @@ def test_fmt_keeps_comments_inside_lists_after_their_item(rmv, tmp_path: Path):
     )
     from rmvdsl.grammar.formatter import format_spec
     from rmvdsl.grammar.parser import parse_source
-    from rmvdsl.source import SourceFile
+    from rmvdsl.lang.source import SourceFile
 
     source = SourceFile(str(spec), spec.read_text("utf-8"))
     out = format_spec(parse_source(source).spec, source)

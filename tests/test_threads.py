@@ -11,7 +11,7 @@ from conftest import EXAMPLES
 from rmvdsl.check import check
 from rmvdsl.grammar import ast
 from rmvdsl.grammar.parser import parse_source
-from rmvdsl.source import SourceFile
+from rmvdsl.lang.source import SourceFile
 
 
 def _paths_in(spec: ast.Spec) -> set[str]:

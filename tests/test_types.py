@@ -13,7 +13,7 @@ from rmvdsl.check import check
 from rmvdsl.check.msgtypes import parse_msg
 from rmvdsl.grammar import ast
 from rmvdsl.grammar.parser import parse_source
-from rmvdsl.source import SourceFile
+from rmvdsl.lang.source import SourceFile
 
 ABS = EXAMPLES / "carla" / "abs.rmv"
 CARLA_MSGS = str(EXAMPLES / "carla" / "msg")

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 from conftest import ROOT
 
-from rmvdsl.builtins import FUNCTIONS
+from rmvdsl.lang.builtins import FUNCTIONS
 
 EXTENSION = ROOT / "editor" / "vscode"
 GRAMMAR = EXTENSION / "syntaxes" / "rmv.tmLanguage.json"

@@ -27,9 +27,9 @@ from rmvdsl.check.model import Model
 from rmvdsl.check.msgtypes import DISTROS
 from rmvdsl.check.names import check_names
 from rmvdsl.check.types import TypeConfig, TypeInfo, check_types
-from rmvdsl.deep import deep
-from rmvdsl.diagnostics import Diagnostic, Severity, did_you_mean, error, sort_key, warning
-from rmvdsl.source import SourceFile, Span
+from rmvdsl.lang.diagnostics import Diagnostic, Severity, did_you_mean, error, sort_key, warning
+from rmvdsl.lang.source import SourceFile, Span
+from rmvdsl.util.deep import deep
 
 if TYPE_CHECKING:
     from rmvdsl.check.analysis import AnalysisResult
@@ -93,7 +93,7 @@ def check(
     `incremental` (an editor's) reuses what earlier checks found in declarations
     whose text has not changed (rmvdsl.check.memo): the same answer, sooner.
     Raises UsageError only when the root file itself cannot be read. Runs on a deep
-    stack (rmvdsl.deep): a generated spec's formulas can nest 100,000 levels."""
+    stack (rmvdsl.util.deep): a generated spec's formulas can nest 100,000 levels."""
     options = (ros, messages, use_environment, solver_timeout, read, solver, solver_jobs)
     with fewer_full_collections():
         return deep(_check, path, text, *options, incremental)

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from rmvdsl import builtins
 from rmvdsl.check.rosnames import name_problem, suggest_name
-from rmvdsl.diagnostics import Diagnostic, did_you_mean, error
 from rmvdsl.grammar import ast
+from rmvdsl.lang import builtins
+from rmvdsl.lang.diagnostics import Diagnostic, did_you_mean, error
 
 ACTIONS = builtins.ACTIONS
 LOG_LEVELS = builtins.LOG_LEVELS

@@ -20,9 +20,9 @@ import z3
 from rmvdsl.check.conditions import Conditions
 from rmvdsl.check.model import Model
 from rmvdsl.check.types import TypeInfo
-from rmvdsl.diagnostics import Diagnostic, Label, error, warning
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
+from rmvdsl.lang.diagnostics import Diagnostic, Label, error, warning
 
 
 @dataclass

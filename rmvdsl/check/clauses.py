@@ -6,12 +6,12 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 from fractions import Fraction
 
-from rmvdsl import builtins
 from rmvdsl.check.model import EVENT_KINDS, Kind, Model, Symbol
-from rmvdsl.diagnostics import Diagnostic, did_you_mean, error, warning
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
-from rmvdsl.source import Span
+from rmvdsl.lang import builtins
+from rmvdsl.lang.diagnostics import Diagnostic, did_you_mean, error, warning
+from rmvdsl.lang.source import Span
 
 INFLUX_FUNCTIONS = builtins.FUNCTIONS
 FILL_NAMES = builtins.FILLS

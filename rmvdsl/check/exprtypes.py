@@ -7,7 +7,6 @@ import re
 from collections.abc import Callable
 from dataclasses import replace
 
-from rmvdsl import builtins
 from rmvdsl.check.fieldpaths import FieldPaths
 from rmvdsl.check.vtypes import (
     BOOL,
@@ -16,8 +15,9 @@ from rmvdsl.check.vtypes import (
     UNKNOWN,
     VType,
 )
-from rmvdsl.diagnostics import Diagnostic, Label, error
 from rmvdsl.grammar import ast
+from rmvdsl.lang import builtins
+from rmvdsl.lang.diagnostics import Diagnostic, Label, error
 from rmvdsl.runtime.values import literal
 
 

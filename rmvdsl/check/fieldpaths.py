@@ -11,9 +11,9 @@ from rmvdsl.check.msgtypes import FieldType, MessageDef, canonical
 from rmvdsl.check.rosnames import message_type_problem
 from rmvdsl.check.typeinfo import TypeInfo
 from rmvdsl.check.vtypes import BOOL, FLOAT, INT, UNKNOWN, VType, from_ros
-from rmvdsl.diagnostics import Diagnostic, did_you_mean, error
 from rmvdsl.grammar import ast
-from rmvdsl.source import Span
+from rmvdsl.lang.diagnostics import Diagnostic, did_you_mean, error
+from rmvdsl.lang.source import Span
 
 
 class FieldPaths:

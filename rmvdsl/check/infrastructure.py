@@ -11,14 +11,14 @@ from __future__ import annotations
 
 import re
 
-from rmvdsl.builtins import INFRASTRUCTURE
 from rmvdsl.check.model import Model
 from rmvdsl.check.msgtypes import ROS1_DISTROS
 from rmvdsl.check.whitelists import ROLES, quoted, topic_of
-from rmvdsl.diagnostics import Diagnostic, Fix, Label, warning
 from rmvdsl.grammar import ast
+from rmvdsl.lang.builtins import INFRASTRUCTURE
+from rmvdsl.lang.diagnostics import Diagnostic, Fix, Label, warning
+from rmvdsl.lang.source import Span
 from rmvdsl.runtime.spec import pattern
-from rmvdsl.source import Span
 
 
 def infrastructure_warnings(model: Model) -> list[Diagnostic]:

@@ -7,7 +7,7 @@ decided on less data than was sent (measured: 3 of 600 messages at 10x playback)
 from __future__ import annotations
 
 from rmvdsl.check.model import Model
-from rmvdsl.diagnostics import Diagnostic, warning
+from rmvdsl.lang.diagnostics import Diagnostic, warning
 from rmvdsl.runtime.wording import counted
 
 

@@ -6,11 +6,11 @@ import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from rmvdsl.diagnostics import Diagnostic, closest, error
-from rmvdsl.errors import UsageError
 from rmvdsl.grammar import ast
 from rmvdsl.grammar.parser import parse_source
-from rmvdsl.source import SourceFile, SourceMap
+from rmvdsl.lang.diagnostics import Diagnostic, closest, error
+from rmvdsl.lang.errors import UsageError
+from rmvdsl.lang.source import SourceFile, SourceMap
 
 __all__ = ["UsageError"]
 

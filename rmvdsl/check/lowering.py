@@ -9,11 +9,11 @@ with it (the runtime, the replay and every target run that), and the solver stag
 
 from __future__ import annotations
 
-from rmvdsl import builtins
 from rmvdsl.check.model import Kind, Model
 from rmvdsl.check.types import TypeInfo
 from rmvdsl.check.vtypes import VType
 from rmvdsl.grammar import ast
+from rmvdsl.lang import builtins
 from rmvdsl.runtime import spec as ir
 
 _EXPRESSION_OPS = {"<>": "!="}
@@ -50,7 +50,10 @@ def lower_expr(model: Model, types: TypeInfo, node: ast.Node) -> ir.Expr:
             left, right = lower_expr(model, types, node.left), lower_expr(model, types, node.right)
             return ir.Binary(op, left, right, value)
         case ast.Call():
-            builtins.function(node.func.name)
+            try:
+                builtins.function(node.func.name)
+            except builtins.UnknownBuiltin:  # the names stage said so (a damaged source)
+                raise NotLowered(f"no function `{node.func.name}`") from None
             args = tuple(lower_expr(model, types, a) for a in node.args)
             return ir.Call(node.func.name, args, value)
     raise NotLowered(f"not an expression: {type(node).__name__}")

@@ -20,7 +20,7 @@ from rmvdsl.grammar import ast
 # The file, the declaration's text, the spec's time unit (which gives bare numbers
 # in formulas a unit).
 Key = tuple[str, str, str | None]
-# Each stage keeps its findings in a rmvdsl.bounded.Bounded of this size at least
+# Each stage keeps its findings in a rmvdsl.util.bounded.Bounded of this size at least
 # (each check grows it to twice its declarations).
 MEMO_SIZE = 50_000
 

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from typing import cast
 
 from rmvdsl.grammar import ast
-from rmvdsl.source import SourceMap, Span
+from rmvdsl.lang.source import SourceMap, Span
 
 
 class Kind(enum.Enum):

@@ -16,9 +16,9 @@ from dataclasses import dataclass, field
 from functools import cache
 from typing import Any
 
-from rmvdsl import builtins
-from rmvdsl.diagnostics import Diagnostic, closest, error
-from rmvdsl.source import SourceFile, SourceMap, Span
+from rmvdsl.lang import builtins
+from rmvdsl.lang.diagnostics import Diagnostic, closest, error
+from rmvdsl.lang.source import SourceFile, SourceMap, Span
 
 ROS1_DISTROS = ("noetic", "melodic", "kinetic")
 ROS2_DISTROS = ("dashing", "eloquent", "foxy", "galactic", "humble", "iron", "jazzy", "kilted")

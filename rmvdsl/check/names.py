@@ -10,8 +10,6 @@ from dataclasses import dataclass
 from typing import cast
 
 import rmvdsl.check.settings as schemas
-from rmvdsl import builtins
-from rmvdsl.bounded import Bounded
 from rmvdsl.check.actions import ActionChecks
 from rmvdsl.check.clauses import EventChecks
 from rmvdsl.check.infrastructure import infrastructure_warnings
@@ -29,13 +27,15 @@ from rmvdsl.check.model import (
 )
 from rmvdsl.check.rosnames import message_type_problem
 from rmvdsl.check.whitelists import check_whitelist_agreement, topic_of
-from rmvdsl.diagnostics import Diagnostic, Fix, Label, did_you_mean, error, warning
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
 from rmvdsl.grammar.parser import reserved_names
 from rmvdsl.grammar.shift import shifted
+from rmvdsl.lang import builtins
+from rmvdsl.lang.diagnostics import Diagnostic, Fix, Label, did_you_mean, error, warning
+from rmvdsl.lang.source import SourceMap, Span
 from rmvdsl.logic.validate import check_formula
-from rmvdsl.source import SourceMap, Span
+from rmvdsl.util.bounded import Bounded
 
 ARRAY_AGGREGATES = tuple(builtins.ARRAY_AGGREGATES)
 TIME_UNIT_NAMES = tuple(fm.TIME_UNITS)  # ns, us, ms, s, m, h, d, w

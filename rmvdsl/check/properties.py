@@ -17,15 +17,14 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
-from rmvdsl.cache import Cache, Layered, default_cache
 from rmvdsl.check.analysis import AnalysisResult
 from rmvdsl.check.conditions import Conditions
 from rmvdsl.check.model import Kind, Model
 from rmvdsl.check.types import TypeInfo
-from rmvdsl.diagnostics import Diagnostic, Label, Severity, error, warning
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
 from rmvdsl.grammar.printer import formula as show_formula
+from rmvdsl.lang.diagnostics import Diagnostic, Label, Severity, error, warning
 from rmvdsl.logic.compile import CompileError, compile_formula
 from rmvdsl.logic.parallel import Question, answer_all, implied_all
 from rmvdsl.logic.sat import (
@@ -41,6 +40,7 @@ from rmvdsl.logic.sat import (
 from rmvdsl.logic.sat import conflict as smallest_conflict
 from rmvdsl.logic.system import Machine, System
 from rmvdsl.runtime.rmtld3 import facts as formula_facts
+from rmvdsl.util.cache import Cache, Layered, default_cache
 
 # Redundancy costs one question per property over all the others (0.1-0.4 s each
 # with 20 to 40 properties): past this many properties it is skipped, as

@@ -9,12 +9,12 @@ from typing import Any
 
 from rmvdsl.check.exprtypes import ExpressionTypes
 from rmvdsl.check.typeinfo import Horizon
-from rmvdsl.diagnostics import Label, error
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
+from rmvdsl.lang.diagnostics import Label, error
+from rmvdsl.lang.source import Span
 from rmvdsl.logic.compile import CompileError, compile_formula
 from rmvdsl.runtime.rmtld3 import facts
-from rmvdsl.source import Span
 
 
 class PropertyTypes(ExpressionTypes):
@@ -160,6 +160,6 @@ def _unit_word(unit: int | None) -> str:
 
 
 def seconds_text(value: Fraction) -> str:
-    from rmvdsl.numbers import decimal
+    from rmvdsl.lang.numbers import decimal
 
     return f"{decimal(value)}s"

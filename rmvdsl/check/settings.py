@@ -1,14 +1,14 @@
 """The check of one block's `key = value` settings against the registry
-(rmvdsl.builtins.BLOCKS): the validator of each kind of value."""
+(rmvdsl.lang.builtins.BLOCKS): the validator of each kind of value."""
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 from fractions import Fraction
 
-from rmvdsl import builtins
-from rmvdsl.diagnostics import Diagnostic, Label, did_you_mean, error
 from rmvdsl.grammar import ast
+from rmvdsl.lang import builtins
+from rmvdsl.lang.diagnostics import Diagnostic, Label, did_you_mean, error
 
 Validator = Callable[[ast.Value], str | None]
 

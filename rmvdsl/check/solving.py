@@ -14,8 +14,8 @@ from typing import Any
 
 import z3
 
-from rmvdsl.cache import default_cache, digest
 from rmvdsl.check.operators import number
+from rmvdsl.util.cache import default_cache, digest
 
 SOLVER_TIMEOUT_MS = 2000
 PRESENT = "present "  # the prefix of a value's presence flag (rmvdsl.check.conditions)
@@ -29,7 +29,7 @@ def value_text(value: Any) -> str:
         number = as_python_float(value)
         return "NaN" if number != number else repr(number)
     if z3.is_rational_value(value):
-        from rmvdsl.numbers import decimal
+        from rmvdsl.lang.numbers import decimal
 
         return decimal(Fraction(value.numerator_as_long(), value.denominator_as_long()))
     if z3.is_string_value(value):

@@ -11,7 +11,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, cast
 
-from rmvdsl.bounded import Bounded
 from rmvdsl.check.memo import MEMO_SIZE, Key, declaration_key
 from rmvdsl.check.model import Kind, Model
 from rmvdsl.check.msgtypes import (
@@ -34,9 +33,10 @@ from rmvdsl.check.vtypes import (
     VType,
     from_ros,
 )
-from rmvdsl.diagnostics import Diagnostic, did_you_mean, error
 from rmvdsl.grammar import ast
-from rmvdsl.source import Span
+from rmvdsl.lang.diagnostics import Diagnostic, did_you_mean, error
+from rmvdsl.lang.source import Span
+from rmvdsl.util.bounded import Bounded
 
 __all__ = [
     "BOOL", "DURATION", "FLOAT", "INT", "NUMERIC", "STRING", "UNKNOWN",

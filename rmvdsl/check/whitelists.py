@@ -14,10 +14,10 @@ import re
 from collections.abc import Iterator
 
 from rmvdsl.check.model import Model
-from rmvdsl.diagnostics import Diagnostic, Fix, Label, warning
 from rmvdsl.grammar import ast
+from rmvdsl.lang.diagnostics import Diagnostic, Fix, Label, warning
+from rmvdsl.lang.source import Span
 from rmvdsl.runtime.spec import pattern
-from rmvdsl.source import Span
 
 # (a whitelist's list, a node's list, what the node does, said both ways)
 ROLES = (

@@ -8,7 +8,7 @@ import argparse
 import os
 import sys
 
-from rmvdsl.errors import UsageError
+from rmvdsl.lang.errors import UsageError
 
 
 def write_text(path: str, text: str) -> None:

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 from rmvdsl import targets
 from rmvdsl.commands import message_options
-from rmvdsl.errors import EXIT_ERRORS, EXIT_OK, UsageError
+from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, UsageError
 from rmvdsl.runtime.wording import counted
 
 if TYPE_CHECKING:
@@ -19,7 +19,7 @@ if TYPE_CHECKING:
 def run(args: argparse.Namespace) -> int:
     from rmvdsl.check import check
     from rmvdsl.ir import lower
-    from rmvdsl.render import render_text
+    from rmvdsl.lang.render import render_text
 
     message_options(args)
     result = check(args.spec, ros=args.ros, messages=tuple(args.messages))

@@ -13,10 +13,10 @@ from rmvdsl.check import CheckResult
 from rmvdsl.check.msgtypes import folders_read
 from rmvdsl.check.properties import PropertyReport
 from rmvdsl.commands import stored, write_text
-from rmvdsl.diagnostics import Diagnostic, Severity, error
-from rmvdsl.errors import EXIT_ERRORS, EXIT_OK, EXIT_USAGE, UsageError
-from rmvdsl.render import render_json, render_sarif, render_text, summary
-from rmvdsl.source import SourceMap, Span
+from rmvdsl.lang.diagnostics import Diagnostic, Severity, error
+from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, EXIT_USAGE, UsageError
+from rmvdsl.lang.render import render_json, render_sarif, render_text, summary
+from rmvdsl.lang.source import SourceMap, Span
 from rmvdsl.workspace import Workspace
 
 

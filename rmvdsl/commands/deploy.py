@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 from rmvdsl import targets
-from rmvdsl.errors import EXIT_ERRORS, EXIT_OK, UsageError
+from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, UsageError
 
 
 def run(args: argparse.Namespace) -> int:

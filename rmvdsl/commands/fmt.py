@@ -7,7 +7,7 @@ import sys
 from typing import TYPE_CHECKING
 
 from rmvdsl.commands import use_color, write_text
-from rmvdsl.errors import EXIT_ERRORS, EXIT_OK
+from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK
 
 if TYPE_CHECKING:
     pass
@@ -16,8 +16,8 @@ if TYPE_CHECKING:
 def run(args: argparse.Namespace) -> int:
     from rmvdsl.check.loader import read_stdin, read_text
     from rmvdsl.grammar.formatter import format_source
-    from rmvdsl.render import render_text
-    from rmvdsl.source import SourceFile, SourceMap
+    from rmvdsl.lang.render import render_text
+    from rmvdsl.lang.source import SourceFile, SourceMap
 
     status = EXIT_OK
     for path in args.files:

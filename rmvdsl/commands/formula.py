@@ -10,19 +10,19 @@ from fractions import Fraction
 from typing import TYPE_CHECKING, Any
 
 from rmvdsl.commands import use_color
-from rmvdsl.errors import EXIT_ERRORS, EXIT_OK, UsageError
+from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, UsageError
 
 if TYPE_CHECKING:
-    from rmvdsl.diagnostics import Diagnostic
+    from rmvdsl.lang.diagnostics import Diagnostic
     from rmvdsl.logic.evaluate import Streamed
     from rmvdsl.logic.sat import Answer
     from rmvdsl.logic.traces import TraceFile, TraceStream
 
 
 def run_eval(args: argparse.Namespace) -> int:
+    from rmvdsl.lang.numbers import NumberError, exact_or_quotient
     from rmvdsl.logic import evaluate as ev
     from rmvdsl.logic.traces import SCALE
-    from rmvdsl.numbers import NumberError, exact_or_quotient
 
     try:
         at = exact_or_quotient(args.at)
@@ -140,7 +140,7 @@ def _eval_term(
 def _absent_names(compiled: object, seen: set[str]) -> list[str]:
     """Propositions of the formula that no sample of the trace holds: a typo reads as
     `false` everywhere, so say so."""
-    from rmvdsl.diagnostics import did_you_mean
+    from rmvdsl.lang.diagnostics import did_you_mean
     from rmvdsl.runtime.rmtld3 import facts
 
     notes = []
@@ -188,8 +188,8 @@ def run_sat(args: argparse.Namespace) -> int:
 
 def _formula_errors(args: argparse.Namespace, diagnostics: list[Diagnostic]) -> int:
     """What is wrong with a --formula, on standard error."""
-    from rmvdsl.render import render_text
-    from rmvdsl.source import SourceFile, SourceMap
+    from rmvdsl.lang.render import render_text
+    from rmvdsl.lang.source import SourceFile, SourceMap
 
     sources = SourceMap()
     sources.add(SourceFile("<formula>", args.formula))

@@ -7,7 +7,7 @@ import sys
 from typing import TYPE_CHECKING
 
 from rmvdsl.commands import write_text
-from rmvdsl.errors import EXIT_ERRORS, EXIT_OK, UsageError
+from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, UsageError
 from rmvdsl.runtime.wording import counted
 
 if TYPE_CHECKING:
@@ -17,9 +17,9 @@ if TYPE_CHECKING:
 def run(args: argparse.Namespace) -> int:
     from rmvdsl.check import check
     from rmvdsl.check.analysis import TransducerFacts
-    from rmvdsl.diagnostics import did_you_mean
     from rmvdsl.graph import RENDERERS
-    from rmvdsl.render import render_text
+    from rmvdsl.lang.diagnostics import did_you_mean
+    from rmvdsl.lang.render import render_text
 
     result = check(args.spec)
     transducers = result.model.transducers

@@ -7,7 +7,7 @@ import sys
 from typing import TYPE_CHECKING
 
 from rmvdsl.commands import write_text
-from rmvdsl.errors import EXIT_OK
+from rmvdsl.lang.errors import EXIT_OK
 
 if TYPE_CHECKING:
     pass

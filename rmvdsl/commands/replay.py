@@ -7,7 +7,7 @@ import sys
 from typing import TYPE_CHECKING
 
 from rmvdsl.commands import message_options
-from rmvdsl.errors import EXIT_ERRORS, EXIT_OK, EXIT_USAGE, UsageError
+from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, EXIT_USAGE, UsageError
 from rmvdsl.runtime.wording import counted
 
 if TYPE_CHECKING:
@@ -20,7 +20,7 @@ def run(args: argparse.Namespace) -> int:
     from rmvdsl import replay
     from rmvdsl.check import check
     from rmvdsl.ir import lower
-    from rmvdsl.render import render_text
+    from rmvdsl.lang.render import render_text
 
     message_options(args)
     if args.report:

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from importlib import metadata, resources
 
 from rmvdsl import __version__
-from rmvdsl.cache import STORED_CHECKS, cache_folder, prune
+from rmvdsl.util.cache import STORED_CHECKS, cache_folder, prune
 
 FORMAT = 1
 # Environment variables that change which message definitions a check finds.

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 from rmvdsl.grammar.formula import Formula, TimeValue
 from rmvdsl.grammar.shift import moved_field, tree_fields
-from rmvdsl.source import NO_SPAN, Span
+from rmvdsl.lang.source import NO_SPAN, Span
 
 
 class Node:

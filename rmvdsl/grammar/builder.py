@@ -14,11 +14,11 @@ from typing import Any
 
 from lark import Token, Transformer
 
-from rmvdsl.diagnostics import Diagnostic, Label, error
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
-from rmvdsl.numbers import NumberError, decimal, exact
-from rmvdsl.source import Span
+from rmvdsl.lang.diagnostics import Diagnostic, Label, error
+from rmvdsl.lang.numbers import NumberError, decimal, exact
+from rmvdsl.lang.source import Span
 
 _QUANTITY = re.compile(r"^((?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?)([A-Za-z]*)$")
 RATE_UNITS = {"Hz": Fraction(1), "kHz": Fraction(1000)}

@@ -12,10 +12,10 @@ import bisect
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-from rmvdsl.diagnostics import Diagnostic
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import printer as p
-from rmvdsl.source import SourceFile
+from rmvdsl.lang.diagnostics import Diagnostic
+from rmvdsl.lang.source import SourceFile
 
 INDENT = "    "
 

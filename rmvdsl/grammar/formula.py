@@ -11,7 +11,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from fractions import Fraction
 
-from rmvdsl.source import NO_SPAN, Span
+from rmvdsl.lang.source import NO_SPAN, Span
 
 # Time units and their length in seconds, exact.
 TIME_UNITS: dict[str, Fraction] = {

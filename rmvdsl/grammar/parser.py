@@ -24,14 +24,14 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedTok
 from lark.lexer import LexerState, LineCounter, PatternStr
 from lark.utils import TextSlice
 
-from rmvdsl.bounded import Bounded
-from rmvdsl.diagnostics import Diagnostic, Label, did_you_mean, error
 from rmvdsl.grammar import ast
 from rmvdsl.grammar.builder import AstBuilder
 from rmvdsl.grammar.formula import Formula
 from rmvdsl.grammar.scanner import TOP_LEVEL_KEYWORDS, RawComment, ScanResult, scan
 from rmvdsl.grammar.shift import shifted, with_field
-from rmvdsl.source import SourceFile, Span
+from rmvdsl.lang.diagnostics import Diagnostic, Label, did_you_mean, error
+from rmvdsl.lang.source import SourceFile, Span
+from rmvdsl.util.bounded import Bounded
 
 _SPEC_GRAMMAR_FILES = ("rmv.lark", "expr.lark", "formula.lark", "lexical.lark")
 _CLOSERS = {"RPAR": ")", "RSQB": "]", "RBRACE": "}"}

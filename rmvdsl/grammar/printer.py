@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
-from rmvdsl.numbers import decimal
+from rmvdsl.lang.numbers import decimal
 
 
 def quote(value: str) -> str:

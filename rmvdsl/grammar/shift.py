@@ -22,7 +22,7 @@ from collections.abc import Callable
 from fractions import Fraction
 from typing import Any, cast
 
-from rmvdsl.source import Span
+from rmvdsl.lang.source import Span
 
 # Where a lazily moved node keeps what it is a copy of: (the node, the distance).
 MOVED_FROM = "_moved_from"

@@ -24,9 +24,9 @@ from rmvdsl.grammar.parser import parse_source
 from rmvdsl.grammar.printer import quote
 from rmvdsl.importers.influxql import influx_expression
 from rmvdsl.importers.tickscript import convert_tickscript
-from rmvdsl.render import visible
+from rmvdsl.lang.render import visible
+from rmvdsl.lang.source import SourceFile
 from rmvdsl.runtime.wording import counted
-from rmvdsl.source import SourceFile
 
 # Message types of the CARLA topics of thesis table 4.1 (the YAML files of
 # rostopicmon name no type: it read them at run time).

@@ -10,13 +10,13 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any, TextIO
 
-from rmvdsl.diagnostics import Diagnostic, Severity, error
 from rmvdsl.grammar.formula import Formula, Term
 from rmvdsl.grammar.parser import parse_formula
+from rmvdsl.lang.diagnostics import Diagnostic, Severity, error
+from rmvdsl.lang.numbers import to_json
 from rmvdsl.logic.compile import CompileError, compile_formula
 from rmvdsl.logic.traces import SCALE, TraceFile, TraceStream, scaled
 from rmvdsl.logic.validate import check_formula
-from rmvdsl.numbers import to_json
 from rmvdsl.runtime.rmtld3 import BATCH, Monitor, Segment, merge, merged
 from rmvdsl.runtime.values import exact_text
 from rmvdsl.runtime.wording import counted

@@ -34,7 +34,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
-from rmvdsl.cache import Cache
 from rmvdsl.logic.redundancy import group_key, implied
 from rmvdsl.logic.sat import (
     Answer,
@@ -47,6 +46,7 @@ from rmvdsl.logic.sat import (
     question_key,
 )
 from rmvdsl.logic.system import System
+from rmvdsl.util.cache import Cache
 
 # Below this many unanswered questions, waking workers costs more than it saves.
 LEAST_PARALLEL = 8
@@ -270,6 +270,6 @@ def serve(source: IO[bytes], sink: IO[bytes]) -> None:
 
 
 if __name__ == "__main__":
-    from rmvdsl.deep import deep
+    from rmvdsl.util.deep import deep
 
     deep(serve, sys.stdin.buffer, sys.stdout.buffer)

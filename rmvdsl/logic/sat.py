@@ -26,7 +26,6 @@ from typing import Any
 
 import z3
 
-from rmvdsl.cache import Cache, default_cache, digest
 from rmvdsl.logic.abstract import refute
 from rmvdsl.logic.bounded import BoundedTrace, EncodingTimeout
 from rmvdsl.logic.limits import Limits
@@ -36,6 +35,7 @@ from rmvdsl.logic.terms import assert_all, conjunction, disjunction, implication
 from rmvdsl.runtime.rmtld3 import Monitor, facts
 from rmvdsl.runtime.values import exact_text as number
 from rmvdsl.runtime.wording import counted
+from rmvdsl.util.cache import Cache, default_cache, digest
 
 # Bump when an encoding changes: cached answers carry it in their key.
 ENCODING_VERSION = "2"  # 2: durations pinned by always/eventually in the refutation

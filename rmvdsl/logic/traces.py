@@ -36,7 +36,7 @@ from fractions import Fraction
 from typing import BinaryIO
 
 from rmvdsl.grammar.formula import TIME_UNITS
-from rmvdsl.numbers import NumberError, exact_or_quotient
+from rmvdsl.lang.numbers import NumberError, exact_or_quotient
 from rmvdsl.runtime.wording import counted
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_^{}]*$")

@@ -4,9 +4,9 @@ gets the same answer from every front end)."""
 
 from __future__ import annotations
 
-from rmvdsl.diagnostics import Diagnostic, error
 from rmvdsl.grammar import formula as fm
-from rmvdsl.source import Span
+from rmvdsl.lang.diagnostics import Diagnostic, error
+from rmvdsl.lang.source import Span
 
 
 def check_formula(

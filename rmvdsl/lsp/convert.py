@@ -11,10 +11,10 @@ from pathlib import Path
 from lsprotocol import types
 from pygls.workspace import TextDocument
 
-from rmvdsl.cache import cache_folder, digest
-from rmvdsl.codes import diagnostics_markdown
-from rmvdsl.diagnostics import Diagnostic, Severity, fixes_of
-from rmvdsl.source import SourceFile, SourceMap, Span
+from rmvdsl.lang.codes import diagnostics_markdown
+from rmvdsl.lang.diagnostics import Diagnostic, Severity, fixes_of
+from rmvdsl.lang.source import SourceFile, SourceMap, Span
+from rmvdsl.util.cache import cache_folder, digest
 from rmvdsl.workspace import TOKEN_TYPES, Token
 
 SEVERITY = {

@@ -23,9 +23,9 @@ from pygls.workspace import TextDocument
 
 from rmvdsl import __version__
 from rmvdsl.check.model import Kind, Model, Symbol
+from rmvdsl.lang.source import Span
 from rmvdsl.lsp import convert
 from rmvdsl.mentions import Mention, describe, mention_at, mentions, same
-from rmvdsl.source import Span
 from rmvdsl.workspace import (
     TOKEN_TYPES,
     CheckResult,

@@ -107,7 +107,7 @@ def read(variable: Variable, message: Any) -> Any:
 
 
 def aggregate(name: str, values: Sequence[Any]) -> Any:
-    """An array aggregate (rmvdsl.builtins.ARRAY_AGGREGATES, and `number`). A NaN
+    """An array aggregate (rmvdsl.lang.builtins.ARRAY_AGGREGATES, and `number`). A NaN
     element is no reading (a laser's missed return): `min`, `max`, `sum` and `mean`
     skip it, as numpy's `nanmin` and InfluxDB do, and none depends on the order of
     the elements."""

@@ -19,7 +19,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from rmvdsl.builtins import function as builtin
+from rmvdsl.lang.builtins import function as builtin
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.expressions import (
     Evaluator,

@@ -8,7 +8,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
-from rmvdsl.builtins import INFRASTRUCTURE
+from rmvdsl.lang.builtins import INFRASTRUCTURE
 from rmvdsl.runtime import spec as ir
 
 

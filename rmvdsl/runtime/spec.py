@@ -4,7 +4,7 @@ generated nodes embed it and load the spec's JSON with it.
 
 `rmvdsl.ir.lower` builds it from a checked spec; `dump` and `load` convert it to
 and from its versioned JSON form, exactly (JSON -> value -> JSON is identical).
-Every default is filled in (from rmvdsl.builtins); times are seconds, exact.
+Every default is filled in (from rmvdsl.lang.builtins); times are seconds, exact.
 """
 
 from __future__ import annotations
@@ -254,7 +254,7 @@ class Binary:
 @dataclass(frozen=True)
 class Call:
     TAG: ClassVar[str] = "call"
-    function: str  # a name of rmvdsl.builtins.FUNCTIONS
+    function: str  # a name of rmvdsl.lang.builtins.FUNCTIONS
     args: tuple[Expr, ...]
     type: ValueType
 

@@ -183,7 +183,7 @@ def exact_text(value: Fraction) -> str:
 
 def exact_decimal(value: Fraction) -> str | None:
     """The exact decimal text of a fraction whose expansion ends (`0.1`, `-2.5`,
-    `86400`), or None (`1/3`). rmvdsl.numbers and the resolved spec's JSON both
+    `86400`), or None (`1/3`). rmvdsl.lang.numbers and the resolved spec's JSON both
     print numbers through it."""
     if value.denominator == 1:
         return str(value.numerator)

@@ -123,7 +123,8 @@ def _vendored(source: str) -> str:
     """A runtime module with its imports made relative to the embedded package."""
     text = re.sub(r"^from rmvdsl\.runtime import ", "from . import ", source, flags=re.M)
     text = re.sub(r"^from rmvdsl\.runtime\.(\w+) import ", r"from .\1 import ", text, flags=re.M)
-    text = re.sub(r"^from rmvdsl\.builtins import ", "from .builtins import ", text, flags=re.M)
+    builtins = r"^from rmvdsl\.lang\.builtins import "
+    text = re.sub(builtins, "from .builtins import ", text, flags=re.M)
     if re.search(r"^\s*(from|import) rmvdsl\b", text, flags=re.M):
         raise BuildError("the runtime imports rmvdsl in a way the ros2 target cannot embed")
     return _RELATIVE_BLOCK.sub(_sorted_block, text)
@@ -184,7 +185,7 @@ def ament_package(
     modules = resources.files("rmvdsl.runtime").iterdir()
     for module in sorted((m for m in modules if m.name.endswith(".py")), key=lambda m: m.name):
         out[f"{runtime}/{module.name}"] = _vendored(module.read_text(encoding="utf-8"))
-    builtins = resources.files("rmvdsl").joinpath("builtins.py")
+    builtins = resources.files("rmvdsl.lang").joinpath("builtins.py")
     out[f"{runtime}/builtins.py"] = _vendored(builtins.read_text(encoding="utf-8"))
     host = resources.files("rmvdsl.host").iterdir()
     for module in sorted((m for m in host if m.name.endswith(".py")), key=lambda m: m.name):

@@ -14,10 +14,10 @@ from dataclasses import dataclass
 from typing import Any
 
 from rmvdsl import __version__
-from rmvdsl.codes import CODES
-from rmvdsl.diagnostics import Diagnostic, Fix, Severity, fixes_of
+from rmvdsl.lang.codes import CODES
+from rmvdsl.lang.diagnostics import Diagnostic, Fix, Severity, fixes_of
+from rmvdsl.lang.source import SourceMap, Span
 from rmvdsl.runtime.wording import counted
-from rmvdsl.source import SourceMap, Span
 
 
 @dataclass(frozen=True)

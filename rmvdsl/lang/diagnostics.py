@@ -1,6 +1,6 @@
 """Diagnostics: what the checker tells the user.
 
-Every diagnostic has a stable code from `rmvdsl.codes`, a primary span, optional
+Every diagnostic has a stable code from `rmvdsl.lang.codes`, a primary span, optional
 secondary labels ("first declared here") and an optional `help` with a concrete fix.
 """
 
@@ -12,8 +12,8 @@ import re
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
-from rmvdsl.codes import CODES
-from rmvdsl.source import Span
+from rmvdsl.lang.codes import CODES
+from rmvdsl.lang.source import Span
 
 
 class Severity(enum.Enum):

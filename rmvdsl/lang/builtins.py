@@ -433,7 +433,7 @@ def sync_reference(text: str) -> str:
     return _MARKER.sub(lambda m: m.group(1) + reference_table(m.group(2)) + "\n" + m.group(4), text)
 
 
-if __name__ == "__main__":  # python -m rmvdsl.builtins docs/language.md
+if __name__ == "__main__":  # python -m rmvdsl.lang.builtins docs/language.md
     import sys
 
     for name in sys.argv[1:]:

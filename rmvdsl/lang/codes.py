@@ -11,7 +11,7 @@ from __future__ import annotations
 import textwrap
 from dataclasses import dataclass
 
-from rmvdsl import builtins
+from rmvdsl.lang import builtins
 
 
 def _function_list() -> str:
@@ -681,8 +681,8 @@ def diagnostics_markdown() -> str:
     parts = [
         "# Diagnostics\n",
         "Every diagnostic of `rmv check` has a stable code. `rmv explain CODE` prints the",
-        "same text as this page. This page is generated from `rmvdsl/codes.py`",
-        "(`python -m rmvdsl.codes > docs/diagnostics.md`).\n",
+        "same text as this page. This page is generated from `rmvdsl/lang/codes.py`",
+        "(`python -m rmvdsl.lang.codes > docs/diagnostics.md`).\n",
         "Ranges: RMV0xx files and imports, RMV1xx syntax, RMV2xx names and structure,",
         "RMV3xx types, RMV5xx analyses.\n",
     ]
