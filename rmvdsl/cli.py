@@ -11,14 +11,10 @@ import importlib
 import os
 import sys
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
 
 from rmvdsl import __version__, targets
 from rmvdsl.lang.errors import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, UsageError
 from rmvdsl.util.deep import deep
-
-if TYPE_CHECKING:
-    pass
 
 
 class _Parser(argparse.ArgumentParser):

@@ -5,15 +5,11 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import TYPE_CHECKING
 
 from rmvdsl import targets
 from rmvdsl.commands import message_options
 from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, UsageError
 from rmvdsl.runtime.wording import counted
-
-if TYPE_CHECKING:
-    pass
 
 
 def run(args: argparse.Namespace) -> int:

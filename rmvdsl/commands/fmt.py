@@ -4,13 +4,9 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import TYPE_CHECKING
 
 from rmvdsl.commands import use_color, write_text
 from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK
-
-if TYPE_CHECKING:
-    pass
 
 
 def run(args: argparse.Namespace) -> int:
