@@ -377,7 +377,7 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _lsp(args: argparse.Namespace) -> int:
-    from rmvdsl.lsp.server import main
+    from rmvdsl.editor.lsp.server import main
 
     main()
     return EXIT_OK

@@ -36,12 +36,12 @@ from test_functions import INPUT as WORKED_INPUT
 
 from rmvdsl.check import check
 from rmvdsl.ir import lower
-from rmvdsl.replay import open_reader, plan, replay
 from rmvdsl.runtime import influx, lineproto
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.engine import Runtime
 from rmvdsl.targets import kapacitor
 from rmvdsl.targets.kapacitor.deploy import split_statements, unquote_identifier
+from rmvdsl.tools.replay import open_reader, plan, replay
 
 NS = 10**9
 CARLA = EXAMPLES / "carla"

@@ -15,9 +15,9 @@ import pytest
 
 from rmvdsl.check import check
 from rmvdsl.ir import lower
-from rmvdsl.report.text import text_line
 from rmvdsl.runtime.engine import Runtime
 from rmvdsl.runtime.uncertain import Uncertain
+from rmvdsl.tools.report.text import text_line
 
 F = Fraction
 HEAD = """system late

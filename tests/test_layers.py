@@ -74,14 +74,14 @@ def test_only_targets_and_the_command_line_read_the_lowering():
 
 
 def test_the_language_server_is_a_layer_over_the_workspace():
-    """lsp/ reads the checker through rmvdsl.workspace only (thin over the library),
+    """lsp/ reads the checker through rmvdsl.editor.workspace only (thin over the library),
     and nothing below imports lsp/."""
-    for path in _modules("lsp"):
+    for path in _modules("editor/lsp"):
         direct = {m for m in _imports(path) if m.startswith(("rmvdsl.check", "rmvdsl.logic"))}
         assert not direct - {"rmvdsl.check.model"}, f"{path.relative_to(ROOT)} imports {direct}"
     for path in sorted(PACKAGE.rglob("*.py")):
         if "lsp" not in path.parts and path.name != "cli.py":  # `rmv lsp` starts it
-            assert not any(m.startswith("rmvdsl.lsp") for m in _imports(path)), path
+            assert not any(m.startswith("rmvdsl.editor.lsp") for m in _imports(path)), path
 
 
 def test_the_host_is_the_runtime_s_and_the_standard_library_s():

@@ -13,7 +13,7 @@ from conftest import EXAMPLES, RMV, ROOT
 from lsprotocol import types
 from pytest_lsp import ClientServerConfig, LanguageClient
 
-from rmvdsl.workspace import Workspace, formatted
+from rmvdsl.editor.workspace import Workspace, formatted
 
 ENCODINGS = [types.PositionEncodingKind.Utf16, types.PositionEncodingKind.Utf8]
 WAIT = 120.0  # seconds for a check, solver stages included, on a loaded machine
@@ -579,7 +579,7 @@ def test_the_server_keeps_no_finished_handler(tmp_path: Path):
     """pygls 2.1 kept every notification's future (two per didChange) for the life
     of the server; rmvdsl's protocol lets each go once it is done. Run in process,
     through the protocol's own message handling, to see its table."""
-    from rmvdsl.lsp.server import build
+    from rmvdsl.editor.lsp.server import build
 
     async def edit(count: int) -> int:
         server = build()

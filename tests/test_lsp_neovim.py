@@ -11,7 +11,7 @@ from pathlib import Path
 
 from conftest import RMV
 
-from rmvdsl.workspace import Workspace, formatted
+from rmvdsl.editor.workspace import Workspace, formatted
 
 CLIENT = Path(__file__).resolve().parent / "editor" / "nvim_client.lua"
 

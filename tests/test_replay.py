@@ -131,8 +131,8 @@ def test_a_png_report_without_matplotlib_stops_before_the_replay(rmv, recordings
 
 
 def test_the_svg_painter_quotes_any_text_and_thins_long_series():
-    from rmvdsl.report import svg
-    from rmvdsl.report.layout import Bar, Line, Timeline
+    from rmvdsl.tools.report import svg
+    from rmvdsl.tools.report.layout import Bar, Line, Timeline
 
     hostile = "a<b>&\"c'\x00\x1b\ufffe"
     line = Line(hostile, tuple((i / 100, float(i % 7)) for i in range(100_000)))

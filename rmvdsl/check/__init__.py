@@ -81,7 +81,7 @@ def check(
 ) -> CheckResult:
     """Check the spec at `path` (its text may be given, as the editor does).
 
-    `read` reads the files (rmvdsl.workspace reads an editor's open documents
+    `read` reads the files (rmvdsl.editor.workspace reads an editor's open documents
     first). Without `solver`, only the fast stages run (loading, names, types),
     so an editor shows their diagnostics while the solver stages still run.
 

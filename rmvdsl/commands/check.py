@@ -13,11 +13,11 @@ from rmvdsl.check import CheckResult
 from rmvdsl.check.msgtypes import folders_read
 from rmvdsl.check.properties import PropertyReport
 from rmvdsl.commands import stored, write_text
+from rmvdsl.editor.workspace import Workspace
 from rmvdsl.lang.diagnostics import Diagnostic, Severity, error
 from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, EXIT_USAGE, UsageError
 from rmvdsl.lang.render import render_json, render_sarif, render_text, summary
 from rmvdsl.lang.source import SourceMap, Span
-from rmvdsl.workspace import Workspace
 
 
 def run(args: argparse.Namespace, color: bool, entry: str | None) -> stored.Stored:

@@ -13,9 +13,9 @@ from rmvdsl.runtime.wording import counted
 def run(args: argparse.Namespace) -> int:
     from rmvdsl.check import check
     from rmvdsl.check.analysis import TransducerFacts
-    from rmvdsl.graph import RENDERERS
     from rmvdsl.lang.diagnostics import did_you_mean
     from rmvdsl.lang.render import render_text
+    from rmvdsl.tools.graph import RENDERERS
 
     result = check(args.spec)
     transducers = result.model.transducers

@@ -1,4 +1,4 @@
-"""`rmv replay`: a spec over recordings (rmvdsl.replay does the work)."""
+"""`rmv replay`: a spec over recordings (rmvdsl.tools.replay does the work)."""
 
 from __future__ import annotations
 
@@ -13,14 +13,14 @@ from rmvdsl.runtime.wording import counted
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from rmvdsl import replay
     from rmvdsl.check import check
     from rmvdsl.ir import lower
     from rmvdsl.lang.render import render_text
+    from rmvdsl.tools import replay
 
     message_options(args)
     if args.report:
-        from rmvdsl.report import unavailable
+        from rmvdsl.tools.report import unavailable
 
         reason = unavailable(args.report)
         if reason is not None:

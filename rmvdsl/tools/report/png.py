@@ -5,7 +5,7 @@ from __future__ import annotations
 import io
 from typing import Any
 
-from rmvdsl.report.layout import Timeline
+from rmvdsl.tools.report.layout import Timeline
 
 DPI = 110
 

@@ -7,7 +7,7 @@ import html
 import math
 import re
 
-from rmvdsl.report.layout import Line, Timeline
+from rmvdsl.tools.report.layout import Line, Timeline
 
 WIDTH = 1100
 LEFT, RIGHT = 170, 24  # the label column; room for the last tick label

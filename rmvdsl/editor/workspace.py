@@ -18,8 +18,8 @@ from typing import Any
 from rmvdsl.check import CheckResult, check
 from rmvdsl.check.loader import read_text
 from rmvdsl.check.model import BOOLEAN_KINDS, EVENT_KINDS, PROPOSITION_KINDS, Kind, Model, Symbol
+from rmvdsl.editor.mentions import Mention
 from rmvdsl.lang.source import SourceFile, Span
-from rmvdsl.mentions import Mention
 
 __all__ = [
     "TOKEN_TYPES",

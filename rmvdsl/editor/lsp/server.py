@@ -1,4 +1,4 @@
-"""`rmv lsp`: a language server over stdio (pygls 2), thin over rmvdsl.workspace.
+"""`rmv lsp`: a language server over stdio (pygls 2), thin over rmvdsl.editor.workspace.
 
 Every feature is registered in `build()`. Diagnostics are exactly `rmv check`'s:
 the fast stages (loading, names, types) are published as soon as a change is read,
@@ -23,10 +23,9 @@ from pygls.workspace import TextDocument
 
 from rmvdsl import __version__
 from rmvdsl.check.model import Kind, Model, Symbol
-from rmvdsl.lang.source import Span
-from rmvdsl.lsp import convert
-from rmvdsl.mentions import Mention, describe, mention_at, mentions, same
-from rmvdsl.workspace import (
+from rmvdsl.editor.lsp import convert
+from rmvdsl.editor.mentions import Mention, describe, mention_at, mentions, same
+from rmvdsl.editor.workspace import (
     TOKEN_TYPES,
     CheckResult,
     Workspace,
@@ -39,6 +38,7 @@ from rmvdsl.workspace import (
     semantic_tokens,
     symbol_at,
 )
+from rmvdsl.lang.source import Span
 
 DEBOUNCE = 0.3  # seconds of quiet before the solver stages run
 COMPLETION_KINDS = {

@@ -11,11 +11,11 @@ from pathlib import Path
 from lsprotocol import types
 from pygls.workspace import TextDocument
 
+from rmvdsl.editor.workspace import TOKEN_TYPES, Token
 from rmvdsl.lang.codes import diagnostics_markdown
 from rmvdsl.lang.diagnostics import Diagnostic, Severity, fixes_of
 from rmvdsl.lang.source import SourceFile, SourceMap, Span
 from rmvdsl.util.cache import cache_folder, digest
-from rmvdsl.workspace import TOKEN_TYPES, Token
 
 SEVERITY = {
     Severity.ERROR: types.DiagnosticSeverity.Error,

@@ -15,7 +15,6 @@ from pathlib import Path
 from typing import Any
 
 from rmvdsl.lang import builtins
-from rmvdsl.report.text import decimal_text, text_line
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.engine import (
     Endpoint,
@@ -27,6 +26,7 @@ from rmvdsl.runtime.engine import (
     seconds,
 )
 from rmvdsl.runtime.wording import counted
+from rmvdsl.tools.report.text import decimal_text, text_line
 
 
 class ReplayError(Exception):
@@ -349,7 +349,7 @@ def run(
             + "\n"
         )
     if report:
-        from rmvdsl import report as reports
+        from rmvdsl.tools import report as reports
 
         reports.write(report, spec, kept)
     return summary

@@ -1,6 +1,6 @@
 """`rmv replay --report FILE`: one picture of a replay on a shared time axis.
 
-The layout (rmvdsl.report.layout) is computed once; `.svg` and `.html` are painted
+The layout (rmvdsl.tools.report.layout) is computed once; `.svg` and `.html` are painted
 with the standard library (the HTML page inlines the SVG and lists the records,
 and opens with no network), `.png` by matplotlib, the `report` extra.
 """
@@ -10,10 +10,10 @@ from __future__ import annotations
 import importlib.util
 from collections.abc import Sequence
 
-from rmvdsl.report import layout, svg
-from rmvdsl.report.text import text_line
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.engine import Record
+from rmvdsl.tools.report import layout, svg
+from rmvdsl.tools.report.text import text_line
 
 FORMATS = (".png", ".svg", ".html")
 # The package a format needs beyond rmvdsl's own dependencies, and the extra that brings it.
@@ -35,7 +35,7 @@ def unavailable(path: str) -> str | None:
 def write(path: str, spec: ir.Spec, records: Sequence[Record]) -> None:
     timeline = layout.layout(spec, records)
     if path.endswith(".png"):
-        from rmvdsl.report import png
+        from rmvdsl.tools.report import png
 
         with open(path, "wb") as handle:
             handle.write(png.render(timeline))

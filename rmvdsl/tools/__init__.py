@@ -1,0 +1,2 @@
+"""Tools over a checked spec: `rmv replay` over recordings and its report, and
+`rmv graph`'s transducer diagrams."""
