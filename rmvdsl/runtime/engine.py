@@ -135,6 +135,7 @@ class Runtime:
         # Late input (docs/runtime.md, "Late input"): per property, the verdict
         # time it made unknown; the end of the verdicts given out so far.
         self.last_on: dict[str, int] = {}  # the newest message fed, per topic
+        self.reaches: dict[str, dict[str, int]] = {}  # per topic: property -> lead (ns)
         # Intervals that end when their topic publishes again, and how long after.
         self.until_next: dict[str, list[tuple[list[Any], Fraction]]] = {}
         self.intrusions: dict[Endpoint, str] = {}
@@ -225,8 +226,7 @@ class Runtime:
         assert self.started is not None  # a message is late only after others
         noticed = seconds(max(self.now, self.complete_before))
         superseded = self.last_on.get(topic, -_FOREVER) > time
-        names = [variable.name for variable, _ in self.by_topic.get(topic, ())]
-        reach = reaching(self.nodes, names, [m.prop for m in self.properties], self.state_of)
+        reach = self._reach(topic)
         for monitor in self.properties:
             name = monitor.prop.name
             if name not in reach:
@@ -240,6 +240,16 @@ class Runtime:
             interval = self.segments.unknown(name, low, high)
             if not superseded:
                 self.until_next.setdefault(topic, []).append((interval, after))
+
+    def _reach(self, topic: str) -> dict[str, int]:
+        """The properties that read `topic`, with their leads, found once a topic (a
+        flood of late messages walks the dataflow once, not per message)."""
+        found = self.reaches.get(topic)
+        if found is None:
+            names = [variable.name for variable, _ in self.by_topic.get(topic, ())]
+            found = reaching(self.nodes, names, self.spec.properties, self.state_of)
+            self.reaches[topic] = found
+        return found
 
     def damaged(self, time: int, topic: str, reason: str) -> None:
         """A message that could not be decoded."""

@@ -9,7 +9,7 @@ from rmvdsl.runtime import influx
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.formulas import to_lists
 from rmvdsl.runtime.records import seconds
-from rmvdsl.runtime.rmtld3 import Monitor, build
+from rmvdsl.runtime.rmtld3 import Monitor
 
 
 class PropertyMonitor:
@@ -30,8 +30,7 @@ class PropertyMonitor:
         self.start = start
         # How far a verdict reads its input ahead and back (seconds): a verdict at s
         # reads the input on [s - past, s + future].
-        root = build(self.formula, {})
-        self.future, self.past = root.future, root.past
+        self.future, self.past = prop.horizon_future, prop.horizon_past
         if self._triggered():
             self._open(start)
 
