@@ -9,18 +9,15 @@ Every default is filled in (from rmvdsl.lang.builtins); times are seconds, exact
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import re
 import sys
-import types
-import typing
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any, ClassVar
 
 from rmvdsl.runtime import formulas
-from rmvdsl.runtime.values import exact_text
+from rmvdsl.runtime.jsonform import Codec
 
 FORMAT = "rmvdsl.ir"
 VERSION = 1
@@ -497,68 +494,17 @@ _TAGGED = {
     for cls in (FieldStep, IndexStep, EachStep, Number, String, Boolean, Time, Ref, Unary,
                 Binary, Call, Log, Publish, Post, Exec, Tcp)
 }  # fmt: skip
+# A property's formula travels as nested lists (rmvdsl.runtime.formulas).
+_CODEC = Codec(
+    _TAGGED, vars(sys.modules[__name__]),
+    {(Property, "formula"): (formulas.to_lists, lambda v: formulas.from_lists(v, Fraction))},
+)  # fmt: skip
 
 
 def dump(spec: Spec, indent: int | None = 2) -> str:
     """The spec's JSON text: exact numbers (a decimal where one is exact, else the
     quotient as a string such as "1/3"), fields in declaration order."""
-    numbers: list[str] = []
-
-    def number(value: Fraction) -> str:
-        text = exact_text(value)
-        if "/" in text:
-            return text  # a quotient is written as a string
-        numbers.append(text)
-        return f"\x00{len(numbers) - 1}\x00"
-
-    text = _pretty(_encode(spec, number), indent or 0, 0)
-    return re.sub(r'"\\u0000(\d+)\\u0000"', lambda m: numbers[int(m.group(1))], text)
-
-
-def _pretty(value: Any, indent: int, depth: int) -> str:
-    """JSON with each object or list on one line when it fits in 100 columns (a
-    formula, a type, a pattern), else one item per line. Below depth 12 all is on
-    one line: a formula nesting 100,000 levels would otherwise be indented by
-    gigabytes of spaces."""
-    wide = isinstance(value, dict | list) and indent and depth < _MAX_INDENTED
-    if not wide or _fits(value, 100 - indent * depth):
-        return _ONE_LINE(value)
-    pad, inner = " " * indent * depth, " " * indent * (depth + 1)
-    if isinstance(value, dict):
-        items = [
-            f"{inner}{_ONE_LINE(k)}: {_pretty(v, indent, depth + 1)}" for k, v in value.items()
-        ]
-        return "{\n" + ",\n".join(items) + f"\n{pad}}}" if items else "{}"
-    items = [inner + _pretty(v, indent, depth + 1) for v in value]
-    return "[\n" + ",\n".join(items) + f"\n{pad}]" if items else "[]"
-
-
-_MAX_INDENTED = 12
-# One encoder for every call: json.dumps with arguments builds a new one each time.
-_ONE_LINE = json.JSONEncoder(ensure_ascii=False, separators=(", ", ": ")).encode
-
-
-def _fits(value: Any, budget: int) -> bool:
-    """Whether the one-line JSON of `value` is at most `budget` characters; stops
-    counting once it is longer, so the cost is bounded whatever the size."""
-    stack = [value]
-    while stack:
-        item = stack.pop()
-        if isinstance(item, dict):
-            budget -= 2
-            for key, content in item.items():
-                budget -= len(key) + 6
-                stack.append(content)
-        elif isinstance(item, list):
-            budget -= 2
-            stack.extend(item)
-        elif isinstance(item, str):
-            budget -= len(item) + 4  # quotes and separator; escapes are rare in names
-        else:
-            budget -= 7  # true, false, null
-        if budget < 0:
-            return False
-    return True
+    return _CODEC.dump(spec, indent)
 
 
 def load(text: str) -> Spec:
@@ -572,113 +518,7 @@ def load(text: str) -> Spec:
     if payload.get("version") != str(VERSION):
         raise FormatError(f"version {payload.get('version')} of the format; this reads {VERSION}")
     try:
-        spec: Spec = _decode(Spec, payload)
+        spec: Spec = _CODEC.decode(Spec, payload)
     except (TypeError, ValueError, KeyError, ZeroDivisionError) as exc:
         raise FormatError(f"malformed resolved spec: {exc}") from None
     return spec
-
-
-def _encode(value: Any, number: Any) -> Any:
-    if isinstance(value, bool) or value is None or isinstance(value, str):
-        return value
-    if isinstance(value, int):
-        return number(Fraction(value))
-    if isinstance(value, Fraction):
-        return number(value)
-    if dataclasses.is_dataclass(value):
-        tag, names = _layout(type(value))
-        out: dict[str, Any] = {"node": tag} if tag is not None else {}
-        for name in names:
-            content = getattr(value, name)
-            if name == "formula" and isinstance(value, Property):
-                content = formulas.to_lists(content)
-            out[name] = _encode(content, number)
-        return out
-    if isinstance(value, tuple | list):
-        return [_encode(item, number) for item in value]
-    raise TypeError(f"cannot encode {type(value).__name__}")
-
-
-_LAYOUTS: dict[type, tuple[str | None, tuple[str, ...]]] = {}
-
-
-def _layout(cls: type) -> tuple[str | None, tuple[str, ...]]:
-    """A class's tag and field names, looked up once."""
-    if cls not in _LAYOUTS:
-        names = tuple(f.name for f in dataclasses.fields(cls))
-        _LAYOUTS[cls] = (getattr(cls, "TAG", None), names)
-    return _LAYOUTS[cls]
-
-
-_HINTS: dict[type, dict[str, Any]] = {}
-
-
-def _hints(cls: type) -> dict[str, Any]:
-    if cls not in _HINTS:
-        _HINTS[cls] = typing.get_type_hints(cls, vars(sys.modules[__name__]))
-    return _HINTS[cls]
-
-
-def _decode(annotation: Any, value: Any) -> Any:
-    origin = typing.get_origin(annotation)
-    if annotation is Any:
-        return value
-    if origin in (typing.Union, types.UnionType):
-        options = [a for a in typing.get_args(annotation) if a is not type(None)]
-        if value is None:
-            if len(options) == len(typing.get_args(annotation)):
-                raise ValueError("null where a value is needed")
-            return None
-        if len(options) == 1:
-            return _decode(options[0], value)
-        return _decode_tagged(options, value)
-    if origin is tuple:
-        arguments = typing.get_args(annotation)
-        if not isinstance(value, list):
-            raise ValueError(f"expected a list, not {str(value)[:40]}")
-        if len(arguments) == 2 and arguments[1] is Ellipsis:
-            return tuple(_decode(arguments[0], item) for item in value)
-        return tuple(_decode(a, item) for a, item in zip(arguments, value, strict=True))
-    if annotation is Fraction:
-        if not isinstance(value, str):
-            raise ValueError(f"expected a number, not {str(value)[:40]}")
-        return Fraction(value)
-    if annotation is int:
-        if not isinstance(value, str) or not re.fullmatch(r"-?\d+", value):
-            raise ValueError(f"expected an integer, not {str(value)[:40]}")
-        return int(value)
-    if annotation is bool or annotation is str:
-        if not isinstance(value, annotation):
-            raise ValueError(f"expected a {annotation.__name__}, not {str(value)[:40]}")
-        return value
-    if dataclasses.is_dataclass(annotation):
-        return _decode_object(annotation, value)
-    raise TypeError(f"cannot decode {annotation}")
-
-
-def _decode_tagged(options: list[Any], value: Any) -> Any:
-    if not isinstance(value, dict) or value.get("node") not in _TAGGED:
-        raise ValueError(f"expected a node, not {str(value)[:40]}")
-    cls = _TAGGED[value["node"]]
-    if cls not in options:
-        raise ValueError(f"a `{value['node']}` node cannot stand here")
-    return _decode_object(cls, value)
-
-
-def _decode_object(cls: Any, value: Any) -> Any:
-    if not isinstance(value, dict):
-        raise ValueError(f"expected an object for {cls.__name__}, not {str(value)[:40]}")
-    hints = _hints(cls)
-    names = [f.name for f in dataclasses.fields(cls)]
-    extra = set(value) - set(names) - {"node"}
-    if extra:
-        raise ValueError(f"unknown keys in {cls.__name__}: {', '.join(sorted(extra))}")
-    arguments = {}
-    for name in names:
-        if name not in value:
-            raise ValueError(f"{cls.__name__} has no `{name}`")
-        if cls is Property and name == "formula":
-            arguments[name] = formulas.from_lists(value[name], Fraction)
-        else:
-            arguments[name] = _decode(hints[name], value[name])
-    return cls(**arguments)
