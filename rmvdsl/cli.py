@@ -298,13 +298,17 @@ def _add_target_options(
     parser: argparse.ArgumentParser,
     declared: list[tuple[targets.Target, tuple[targets.Option, ...]]],
 ) -> None:
-    """Each target's own options, as it declares them, named for the target in --help."""
+    """Each target's own options, as it declares them, named for the target in
+    --help; an option two targets declare alike is one flag naming both."""
+    helps: dict[str, dict[str, list[str]]] = {}  # flag -> help -> targets
+    first: dict[str, targets.Option] = {}
     for target, options in declared:
         for option in options:
-            parser.add_argument(
-                option.flag, dest=option.name, metavar=option.metavar,
-                help=f"{target.name}: {option.help}",
-            )  # fmt: skip
+            first.setdefault(option.flag, option)
+            helps.setdefault(option.flag, {}).setdefault(option.help, []).append(target.name)
+    for flag, option in first.items():
+        text = "; ".join(f"{', '.join(names)}: {help}" for help, names in helps[flag].items())
+        parser.add_argument(flag, dest=option.name, metavar=option.metavar, help=text)
 
 
 def _add_message_options(parser: argparse.ArgumentParser) -> None:

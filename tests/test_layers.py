@@ -86,15 +86,29 @@ def test_the_language_server_is_a_layer_over_the_workspace():
 
 def test_the_host_is_the_runtime_s_and_the_standard_library_s():
     """rmvdsl/host/ is copied into generated packages beside the runtime: it reads
-    only the runtime, itself and the standard library; ros2.py alone adds ROS."""
-    ros = {"rclpy", "diagnostic_msgs", "std_msgs"}
+    only the runtime, itself and the standard library; ros2.py alone adds ROS 2,
+    ros1.py ROS 1, and ros1_decoding.py rosbags (the ROS 1 nodes' decoder)."""
+    extra = {
+        "ros2.py": {"rclpy", "diagnostic_msgs", "std_msgs"},
+        "ros1.py": {"rospy", "rosgraph", "diagnostic_msgs", "std_msgs"},
+        "ros1_decoding.py": {"rosbags"},
+    }
     for path in _modules("host"):
         for module in _imports(path):
             top = module.split(".")[0]
             own = module.startswith(("rmvdsl.runtime", "rmvdsl.host"))
             allowed = own or (top in sys.stdlib_module_names and top != "rmvdsl")
-            allowed = allowed or (path.name == "ros2.py" and top in ros)
+            allowed = allowed or top in extra.get(path.name, set())
             assert allowed, f"{path.relative_to(ROOT)} imports {module}"
+
+
+def test_a_package_carries_the_host_of_its_ros_only():
+    """ros1*.py speak ROS 1 and ros2*.py ROS 2: each ROS's package carries its own."""
+    from rmvdsl.targets.embed import host_module_for
+
+    assert host_module_for("ros1_graph.py", 1) and not host_module_for("ros1_graph.py", 2)
+    assert host_module_for("ros2.py", 2) and not host_module_for("ros2.py", 1)
+    assert host_module_for("monitor.py", 1) and host_module_for("monitor.py", 2)
 
 
 def test_a_target_is_imported_from_its_own_folder_only():

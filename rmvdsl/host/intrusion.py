@@ -1,14 +1,15 @@
 """The intrusion node's work, with no ROS in it: each poll of the ROS graph (every
-endpoint seen, as rclpy's graph API gives it) becomes endpoints for the runtime,
-which checks them against the spec's whitelists, node rules and `intrusion` block;
-intrusions become log lines and a status."""
+endpoint seen, as rclpy's graph API or the ROS 1 master and nodes give it)
+becomes endpoints for the runtime, which checks them against the spec's
+whitelists, node rules and `intrusion` block; intrusions become log lines and a
+status, and registered nodes that no longer answer (ROS 1) a second one."""
 
 from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from rmvdsl.host.status import ERROR, OK, Status
+from rmvdsl.host.status import ERROR, OK, WARN, Status
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.engine import Endpoint, Host, Runtime
 from rmvdsl.runtime.wording import counted
@@ -21,6 +22,11 @@ BARE_DDS = "_CREATED_BY_BARE_DDS_APP_"
 # only if it stays unnamed this long (an allowed node is named well before).
 UNKNOWN_NODE = "_NODE_NAME_UNKNOWN_"
 UNKNOWN_GRACE = 3.0
+# A ROS 1 connection no registration accounts for is judged once it lasts this
+# long: a node that stops unregisters before it closes its connections, and one
+# that starts connects just after registering, so for a moment either looks
+# unregistered to a poll that reads the master and the nodes one after the other.
+UNREGISTERED_GRACE = 1.0
 
 
 @dataclass(frozen=True)
@@ -32,6 +38,22 @@ class Seen:
     node_namespace: str
     node_name: str
     gid: bytes
+    registered: bool = True  # False: a connection the ROS 1 master never heard of
+
+    @property
+    def node(self) -> str:
+        """Who: the node's full name (an unregistered peer: its address or the name
+        it gave)."""
+        if not self.registered:
+            return self.node_name
+        return full_name(self.node_namespace, self.node_name)
+
+    @property
+    def grace(self) -> float:
+        """Seconds it must stay as it is before it is judged (0: judged at once)."""
+        if not self.registered:
+            return UNREGISTERED_GRACE
+        return UNKNOWN_GRACE if self.node_name == UNKNOWN_NODE else 0.0
 
 
 def full_name(namespace: str, name: str) -> str:
@@ -49,28 +71,38 @@ class IntrusionWatch:
         self.runtime = Runtime(spec, actions, record=(), ros_version=ros_version)
         self.own = frozenset(own)
         self.open: dict[Endpoint, str] = {}
-        self.unnamed_since: dict[tuple[str, str, bytes], float] = {}  # topic, role, gid
+        # When each endpoint still in its grace was first seen: topic, role, gid, registered.
+        self.provisional_since: dict[tuple[str, str, bytes, bool], float] = {}
+        self.stale: list[str] = []
 
     def endpoints(self, seen: Iterable[Seen], now: float) -> set[Endpoint]:
         """The endpoints to judge at monotonic time `now` (seconds)."""
-        found, unnamed = set(), {}
+        found, provisional = set(), {}
         for endpoint in seen:
-            node = full_name(endpoint.node_namespace, endpoint.node_name)
-            if endpoint.node_name == UNKNOWN_NODE:
-                key = (endpoint.topic, endpoint.role, endpoint.gid)
-                unnamed[key] = since = self.unnamed_since.get(key, now)
-                if now - since < UNKNOWN_GRACE:
-                    continue  # not named yet: judged only if it stays so
-            if node not in self.own:
-                found.add(Endpoint(node, endpoint.topic, endpoint.role))
-        self.unnamed_since = unnamed
+            if endpoint.grace:
+                key = (endpoint.topic, endpoint.role, endpoint.gid, endpoint.registered)
+                provisional[key] = since = self.provisional_since.get(key, now)
+                if now - since < endpoint.grace:
+                    continue  # judged only if it stays so
+            if endpoint.node not in self.own:
+                found.add(Endpoint(endpoint.node, endpoint.topic, endpoint.role,
+                                   endpoint.registered))  # fmt: skip
+        self.provisional_since = provisional
         return found
 
-    def poll(self, time: int, seen: Iterable[Seen], now: float) -> list[tuple[str, str]]:
-        """Judge the graph at `time` (the node's clock, nanoseconds); the log lines
-        (level, text) it gives."""
+    def poll(
+        self, time: int, seen: Iterable[Seen], now: float, stale: Iterable[str] = ()
+    ) -> list[tuple[str, str]]:
+        """Judge the graph at `time` (the node's clock, nanoseconds), with the
+        registered nodes that did not answer (`stale`); the log lines (level, text)
+        it gives."""
         self.runtime.graph(time, self.endpoints(seen, now))
         lines = []
+        stale = sorted(n for n in stale if n not in self.own)
+        for node in sorted(set(stale) - set(self.stale)):
+            lines.append(("warn", f"stale: {node} is registered with the ROS master but "
+                                  "does not answer (killed?)"))  # fmt: skip
+        self.stale = stale
         for record in self.runtime.records():
             if record["kind"] != "intrusion":
                 continue
@@ -83,6 +115,16 @@ class IntrusionWatch:
                 self.open.pop(endpoint, None)
                 lines.append(("info", f"intrusion ended: {endpoint.node} on {endpoint.topic}"))
         return lines
+
+    def statuses(self) -> list[Status]:
+        """The intrusions, and the registered nodes that do not answer."""
+        stale = Status(
+            NODE_NAME, "stale nodes", WARN if self.stale else OK,
+            f"{counted(len(self.stale), 'node')} registered but not answering: "
+            + ", ".join(self.stale) if self.stale else "every registered node answers",
+            {node: "registered, not answering" for node in self.stale},
+        )  # fmt: skip
+        return [self.status(), stale]
 
     def status(self) -> Status:
         values = {

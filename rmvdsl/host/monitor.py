@@ -12,6 +12,7 @@ import queue
 import threading
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any, Protocol
 
 from rmvdsl.host.gaps import Gaps
@@ -34,6 +35,14 @@ Item = tuple[int, str, Any, dict[str, Any]]
 BATCH = 1000
 # How many of the latest arrival-to-verdict latencies the diagnostics summarise.
 LATENCY_SAMPLES = 1_000
+
+
+@dataclass(frozen=True)
+class Undecodable:
+    """In place of a message the node could not decode (or that is not of the
+    spec's type): fed to the runtime as damaged input, in its turn."""
+
+    reason: str
 
 
 class Outputs(Protocol):
@@ -138,7 +147,10 @@ class Monitor:
         lost = self.gaps.lost(topic, info)
         if lost:
             self.runtime.lost(now, topic, lost)
-        self.runtime.message(now, topic, message)
+        if isinstance(message, Undecodable):
+            self.runtime.damaged(now, topic, message.reason)
+        else:
+            self.runtime.message(now, topic, message)
         self.fed = now
         with self.taking:
             self.unfed -= 1

@@ -5,13 +5,11 @@ generated package's node modules only call `monitor_main`, `intrusion_main` or
 
 from __future__ import annotations
 
-import dataclasses
 import importlib
 import signal
 import threading
 import time
 from collections.abc import Callable
-from importlib import resources
 from typing import Any
 
 import rclpy
@@ -31,10 +29,10 @@ from std_msgs.msg import String
 
 from rmvdsl.host import collector, intrusion, monitor
 from rmvdsl.host.actions import NodeActions
+from rmvdsl.host.packaged import load_spec, package, with_time_sources
 from rmvdsl.host.status import ERROR, OK, STALE, WARN, Status
 from rmvdsl.runtime import spec as ir
 
-TIME_SOURCES = ("receipt", "header")
 LEVELS = {
     OK: DiagnosticStatus.OK, WARN: DiagnosticStatus.WARN, ERROR: DiagnosticStatus.ERROR,
     STALE: DiagnosticStatus.STALE,
@@ -47,16 +45,6 @@ ACTION_QOS = QoSProfile(
     reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.TRANSIENT_LOCAL,
 )
-
-
-def package() -> str:
-    """The generated package this copy of the host lives in (`NAME.rmv_host`)."""
-    return (__package__ or "").rpartition(".")[0]
-
-
-def load_spec() -> ir.Spec:
-    """The resolved spec the package was built from."""
-    return ir.load(resources.files(package()).joinpath("spec.json").read_text(encoding="utf-8"))
 
 
 def message_class(name: str) -> Any:
@@ -95,16 +83,11 @@ def qos_profile(qos: ir.Qos) -> QoSProfile:
 
 def with_time_parameters(node: Node, spec: ir.Spec) -> ir.Spec:
     """The spec with each topic's time source as the `time.<name>` parameter says."""
-    topics = []
-    for topic in spec.topics:
-        source = node.declare_parameter(f"time.{topic.name}", topic.time_source).value
-        if source not in TIME_SOURCES:
-            raise SystemExit(
-                f"{node.get_name()}: parameter time.{topic.name} is {source!r}: "
-                f"it must be one of {', '.join(TIME_SOURCES)}"
-            )
-        topics.append(dataclasses.replace(topic, time_source=source))
-    return dataclasses.replace(spec, topics=tuple(topics))
+
+    def parameter(name: str, default: str) -> str:
+        return str(node.declare_parameter(name, default).value)
+
+    return with_time_sources(spec, parameter, node.get_name())
 
 
 def subscribe(

@@ -17,6 +17,9 @@ class Endpoint:
     node: str
     topic: str
     role: str  # publisher | subscriber
+    # False: a connection the ROS master never heard of (ROS 1: a peer that reached
+    # a node directly); `node` is then the peer's address or claimed name.
+    registered: bool = True
 
 
 def _matches(patterns: Iterable[ir.Pattern], name: str) -> bool:
@@ -32,7 +35,11 @@ def verdict_of(
     spec: ir.Spec, endpoint: Endpoint, ros_version: int | None = None
 ) -> tuple[str, Any] | None:
     """Why an endpoint is not allowed (and the rule that refused it), or None, on a
-    system of `ros_version` (default: the spec's)."""
+    system of `ros_version` (default: the spec's). An endpoint the master never
+    registered is refused whatever the lists say: it went round them."""
+    if not endpoint.registered:
+        does = "publishes on" if endpoint.role == "publisher" else "subscribes to"
+        return f"{does} {endpoint.topic} without registering with the ROS master", None
     if _matches(spec.intrusion.ignore_nodes, endpoint.node):
         return None
     publisher = endpoint.role == "publisher"

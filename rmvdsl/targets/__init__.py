@@ -22,6 +22,7 @@ if TYPE_CHECKING:
 REGISTRY = {
     "ir": "rmvdsl.targets.ir",
     "ros2": "rmvdsl.targets.ros2",
+    "ros1": "rmvdsl.targets.ros1",
     "kapacitor": "rmvdsl.targets.kapacitor",
 }
 

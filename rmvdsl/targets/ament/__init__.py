@@ -2,7 +2,7 @@
 package and the kapacitor target's collector both are: package.xml, setup.py, the
 launch file, the resolved spec as JSON (`spec.json`), and copies of
 `rmvdsl/runtime/` and `rmvdsl/host/` with their imports made package-relative, so
-a package needs nothing beyond ROS 2. Every file is rendered from templates;
+a package needs nothing beyond ROS 2 (rmvdsl.targets.embed). Every file is rendered from templates;
 names reach Python, XML and YAML only through `py_string`, `xml_text` and
 `yaml_string`. Not a target itself: the targets that write such a package import it.
 """
@@ -12,13 +12,13 @@ from __future__ import annotations
 import json
 import re
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 
 import jinja2
 
 from rmvdsl.runtime import spec as ir
 from rmvdsl.targets import TargetError
+from rmvdsl.targets.embed import embedded
 
 # Run dependencies every package has; the spec adds its message packages. The
 # launch file imports launch, launch_ros and ament_index_python.
@@ -119,48 +119,6 @@ def environment(*packages: str) -> jinja2.Environment:
     return env
 
 
-def _vendored(source: str) -> str:
-    """A runtime module with its imports made relative to the embedded package."""
-    text = re.sub(r"^from rmvdsl\.runtime import ", "from . import ", source, flags=re.M)
-    text = re.sub(r"^from rmvdsl\.runtime\.(\w+) import ", r"from .\1 import ", text, flags=re.M)
-    builtins = r"^from rmvdsl\.lang\.builtins import "
-    text = re.sub(builtins, "from .builtins import ", text, flags=re.M)
-    if re.search(r"^\s*(from|import) rmvdsl\b", text, flags=re.M):
-        raise BuildError("the runtime imports rmvdsl in a way the ros2 target cannot embed")
-    return _RELATIVE_BLOCK.sub(_sorted_block, text)
-
-
-def _vendored_host(source: str) -> str:
-    """A host module with its imports made relative: the host's own (`.`) and the
-    runtime's, beside it in the package (`..rmv_runtime`)."""
-    text = re.sub(r"^from rmvdsl\.host import ", "from . import ", source, flags=re.M)
-    text = re.sub(r"^from rmvdsl\.host\.(\w+) import ", r"from .\1 import ", text, flags=re.M)
-    text = re.sub(r"^from rmvdsl\.runtime import ", "from ..rmv_runtime import ", text, flags=re.M)
-    text = re.sub(
-        r"^from rmvdsl\.runtime\.(\w+) import ", r"from ..rmv_runtime.\1 import ", text, flags=re.M
-    )
-    if re.search(r"^\s*(from|import) rmvdsl\b", text, flags=re.M):
-        raise BuildError("the host imports rmvdsl in a way the ros2 target cannot embed")
-    return _RELATIVE_BLOCK.sub(_sorted_block, text)
-
-
-# One relative import, on one line or parenthesised over several; a run of them.
-_RELATIVE = r"^from \.\S* import (?:\([^)]*\)|.*)\n"
-_RELATIVE_BLOCK = re.compile(f"(?:{_RELATIVE})+", re.M)
-
-
-def _sorted_block(match: re.Match[str]) -> str:
-    """Relative imports in isort's order: the furthest first (`..x` before `.`),
-    then `from . import` before `from .x import`, as ruff orders them."""
-    statements = re.findall(_RELATIVE, match.group(0), flags=re.M)
-    return "".join(sorted(statements, key=_relative_order))
-
-
-def _relative_order(line: str) -> tuple[int, str]:
-    module = line.split(" import ")[0].removeprefix("from ")
-    return -(len(module) - len(module.lstrip("."))), module
-
-
 def ament_package(
     package: Package, env: jinja2.Environment, templates: dict[str, str], **context: object
 ) -> dict[str, str]:
@@ -181,15 +139,7 @@ def ament_package(
     }
     out = {path: env.get_template(t).render(**context) for path, t in rendered.items()}
     out[f"{name}/spec.json"] = ir.dump(package.spec) + "\n"
-    runtime = f"{name}/rmv_runtime"
-    modules = resources.files("rmvdsl.runtime").iterdir()
-    for module in sorted((m for m in modules if m.name.endswith(".py")), key=lambda m: m.name):
-        out[f"{runtime}/{module.name}"] = _vendored(module.read_text(encoding="utf-8"))
-    builtins = resources.files("rmvdsl.lang").joinpath("builtins.py")
-    out[f"{runtime}/builtins.py"] = _vendored(builtins.read_text(encoding="utf-8"))
-    host = resources.files("rmvdsl.host").iterdir()
-    for module in sorted((m for m in host if m.name.endswith(".py")), key=lambda m: m.name):
-        out[f"{name}/rmv_host/{module.name}"] = _vendored_host(module.read_text(encoding="utf-8"))
+    out.update(embedded(name, ros_version=2))
     return out
 
 

@@ -1,0 +1,82 @@
+"""ROS 1 messages as bytes, decoded with the definition their publisher sent.
+
+A ROS 1 connection header carries the message's type, its md5sum and its full
+definition (`message_definition`, nested types after `MSG:` lines): the node
+subscribes with `rospy.AnyMsg` and decodes with rosbags from that text, so a type
+such as `carla_msgs/CarlaEgoVehicleStatus` needs no generated Python message
+installed (the thesis's type-agnostic subscription). The objects are the ones
+`rmv replay` reads from a ROS 1 bag: the runtime reads both alike.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import Any
+
+Decode = Callable[[bytes], Any]
+
+
+class DecodeError(Exception):
+    """A message that cannot be decoded; the text says why."""
+
+
+def ros2_style(name: str) -> str:
+    """`pkg/Type` as the resolved spec and rosbags name it: `pkg/msg/Type`."""
+    package, _, type_name = name.partition("/")
+    if not type_name or "/" in type_name:
+        return name
+    return f"{package}/msg/{type_name}"
+
+
+class Decoder:
+    """One rosbags decoder per (type, md5sum) a publisher announced: two
+    publishers of one topic may send two versions of a type."""
+
+    def __init__(self) -> None:
+        self.decoders: dict[tuple[str, str], Decode] = {}
+
+    def message_type(self, header: Mapping[str, str]) -> str:
+        return ros2_style(header.get("type", ""))
+
+    def decode(self, header: Mapping[str, str], raw: bytes) -> Any:
+        key = (header.get("type", ""), header.get("md5sum", ""))
+        decode = self.decoders.get(key)
+        if decode is None:
+            try:
+                decode = _compile(key[0], header.get("message_definition", ""))
+            except DecodeError as error:  # once: every message of it fails alike
+                decode = _refusing(error)
+            self.decoders[key] = decode
+        try:
+            return decode(raw)
+        except DecodeError:
+            raise
+        except Exception as error:  # rosbags raises what struct and numpy raise
+            raise DecodeError(f"{key[0]} message of {len(raw)} bytes: {error}") from None
+
+
+def _refusing(error: DecodeError) -> Decode:
+    def decode(raw: bytes) -> Any:
+        raise error
+
+    return decode
+
+
+def _compile(type_name: str, definition: str) -> Decode:
+    """The decoder of `type_name` from its definition text."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    name = ros2_style(type_name)
+    if not definition.strip():
+        raise DecodeError(f"the publisher of {type_name} sent no message definition")
+    try:
+        store = get_typestore(Stores.EMPTY)
+        store.register(get_types_from_msg(definition, name))
+    except Exception as error:
+        raise DecodeError(f"the definition of {type_name} does not parse: {error}") from None
+    deserialize = store.deserialize_ros1
+
+    def decode(raw: bytes) -> Any:
+        return deserialize(raw, name)
+
+    return decode

@@ -1,0 +1,159 @@
+"""The ROS 1 graph as the intrusion node reads it, over XML-RPC (standard library
+only): the master's `getSystemState` (who registered what), `lookupNode` (each
+node's XML-RPC address), and every node's own `getBusInfo` (its live
+connections).
+
+The master alone misses two things. A node killed with SIGKILL stays registered
+for ever, as if it were alive: a node whose XML-RPC server does not answer is
+`stale`. And a peer can skip the master: advertise, unregister, then call
+`publisherUpdate` on a subscriber, which connects to it and reads its messages
+though no registration says so. The subscriber's bus info shows that connection,
+to an address no registered publisher of the topic has; a publisher's bus info
+likewise shows a subscriber connected under a name the master does not list for
+the topic.
+"""
+
+from __future__ import annotations
+
+import http.client
+import xmlrpc.client
+from collections.abc import Iterable
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from typing import Any
+from urllib.parse import urlsplit
+
+from rmvdsl.host.intrusion import Seen
+
+# Seconds an XML-RPC call may take before its node counts as not answering.
+TIMEOUT = 1.0
+
+
+class MasterError(Exception):
+    """The master cannot be reached or refused a call; the text says which."""
+
+
+@dataclass
+class Graph:
+    """One reading: endpoints the master registered, connections it did not,
+    and the registered nodes that do not answer."""
+
+    registered: list[Seen] = field(default_factory=list)
+    unregistered: list[Seen] = field(default_factory=list)
+    stale: list[str] = field(default_factory=list)
+
+
+class _Transport(xmlrpc.client.Transport):
+    """XML-RPC over HTTP with a timeout: a stopped node must not stop the poll."""
+
+    def __init__(self, timeout: float) -> None:
+        super().__init__()
+        self.timeout = timeout
+
+    def make_connection(self, host: Any) -> http.client.HTTPConnection:
+        connection = super().make_connection(host)
+        connection.timeout = self.timeout
+        return connection
+
+
+def proxy(uri: str, timeout: float = TIMEOUT) -> xmlrpc.client.ServerProxy:
+    return xmlrpc.client.ServerProxy(uri, transport=_Transport(timeout), allow_none=True)
+
+
+def address(uri: str) -> str:
+    """`host:port` of an XML-RPC URI (how an unregistered peer is named)."""
+    parts = urlsplit(uri)
+    return f"{parts.hostname}:{parts.port}" if parts.hostname else uri
+
+
+def split_name(node: str) -> tuple[str, str]:
+    """A node's full name as (namespace, name), the way Seen holds it."""
+    namespace, _, name = node.rpartition("/")
+    return namespace or "/", name
+
+
+def _call(function: Any, *args: Any) -> Any:
+    code, text, value = function(*args)
+    if code != 1:
+        raise MasterError(text)
+    return value
+
+
+def read(master_uri: str, caller: str, timeout: float = TIMEOUT) -> Graph:
+    """Read the graph once: the master, then every registered node."""
+    master = proxy(master_uri, timeout)
+    try:
+        publishers, subscribers, _services = _call(master.getSystemState, caller)
+    except (OSError, xmlrpc.client.Error, MasterError, ValueError) as error:
+        raise MasterError(f"the ROS master at {master_uri} did not answer: {error}") from None
+    registered: dict[tuple[str, str], set[str]] = {}  # (topic, role) -> nodes
+    for role, table in (("publisher", publishers), ("subscriber", subscribers)):
+        for topic, nodes in table:
+            registered.setdefault((topic, role), set()).update(nodes)
+    nodes = sorted({n for names in registered.values() for n in names})
+    uris = _lookup(master, caller, nodes)
+    buses = _bus_info(caller, uris, timeout)
+    stale = sorted(n for n in nodes if buses.get(n) is None)
+    graph = Graph(stale=stale)
+    for (topic, role), names in sorted(registered.items()):
+        for node in sorted(names):
+            if node not in stale:
+                graph.registered.append(Seen(topic, role, *split_name(node), node.encode()))
+    graph.unregistered = _unregistered(registered, uris, buses)
+    return graph
+
+
+def _lookup(master: Any, caller: str, nodes: Iterable[str]) -> dict[str, str]:
+    """Each node's XML-RPC URI (a node the master forgot meanwhile is left out)."""
+    found = {}
+    for node in nodes:
+        try:
+            found[node] = _call(master.lookupNode, caller, node)
+        except (OSError, xmlrpc.client.Error, MasterError, ValueError):
+            continue
+    return found
+
+
+def _bus_info(caller: str, uris: dict[str, str], timeout: float) -> dict[str, list[Any] | None]:
+    """Each node's connections, asked of all at once; None: it did not answer."""
+
+    def ask(uri: str) -> list[Any] | None:
+        try:
+            return list(_call(proxy(uri, timeout).getBusInfo, caller))
+        except (OSError, xmlrpc.client.Error, MasterError, ValueError):
+            return None
+
+    if not uris:
+        return {}
+    with ThreadPoolExecutor(max_workers=min(16, len(uris))) as pool:
+        answers = pool.map(ask, uris.values())
+        return dict(zip(uris, answers, strict=True))
+
+
+def _unregistered(
+    registered: dict[tuple[str, str], set[str]],
+    uris: dict[str, str],
+    buses: dict[str, list[Any] | None],
+) -> list[Seen]:
+    """Connections no registration accounts for. A subscriber's inbound
+    connection names the publisher's XML-RPC URI; a publisher's outbound one, the
+    name the subscriber gave."""
+    found: dict[tuple[str, str, str], Seen] = {}
+    for connections in buses.values():
+        for connection in connections or ():
+            if len(connection) < 5:
+                continue
+            peer, direction, topic = str(connection[1]), connection[2], str(connection[4])
+            if direction == "i":
+                owners = registered.get((topic, "publisher"), set())
+                if address(peer) in {address(uris[o]) for o in owners if o in uris}:
+                    continue
+                name, role = address(peer), "publisher"
+            elif direction == "o":
+                if peer in registered.get((topic, "subscriber"), set()):
+                    continue
+                name, role = peer, "subscriber"
+            else:
+                continue
+            found[(topic, role, name)] = Seen(topic, role, "", name, name.encode(), False)
+    return [found[key] for key in sorted(found)]

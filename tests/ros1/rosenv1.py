@@ -1,0 +1,92 @@
+"""ROS 1 as Debian ships it (bookworm, 1.15), for the tests and benchmarks: a
+virtual environment of Debian's Python with its site packages (rospy and the
+ROS tools) plus rosbags from PyPI, and every ROS 1 process inside a private
+network namespace holding only loopback, with a master of its own on 127.0.0.1.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+VENV = ROOT / ".ros1-venv"
+DEBIAN_PYTHON = "/usr/bin/python3"
+# What the generated nodes need beside Debian's ROS 1: the rosbags the project uses.
+WHEELS = ("rosbags==0.11.9",)
+# Debian's packages of ROS 1 the tests use (.ci/run installs them).
+PACKAGES = (
+    "python3-rosmaster", "python3-roslaunch", "rosout", "python3-rospy", "python3-rosbag",
+    "python3-rostopic", "python3-rosgraph", "python3-rosnode", "python3-std-msgs",
+    "python3-geometry-msgs", "python3-nav-msgs", "python3-sensor-msgs",
+    "python3-diagnostic-msgs", "python3-netifaces", "catkin",
+)  # fmt: skip
+ROSOUT = "/usr/lib/rosout/rosout"
+PORT = 11311  # each test has a network namespace, hence a 127.0.0.1, of its own
+
+
+class Ros1Error(RuntimeError):
+    """A step of setting up ROS 1 failed; the message says which and why."""
+
+
+def python() -> str:
+    """The Python of .ros1-venv (Debian's, with its site packages), made once."""
+    binary = VENV / "bin" / "python"
+    marker = VENV / "rmvdsl-wheels.txt"
+    wanted = "\n".join(WHEELS)
+    if binary.exists() and marker.exists() and marker.read_text() == wanted:
+        return str(binary)
+    if not Path(DEBIAN_PYTHON).exists():
+        raise Ros1Error(f"the ROS 1 tests need Debian's {DEBIAN_PYTHON} with rospy")
+    scrubbed = scrubbed_environment()
+    subprocess.run(
+        [DEBIAN_PYTHON, "-m", "venv", "--clear", "--system-site-packages", str(VENV)],
+        check=True, env=scrubbed,
+    )  # fmt: skip
+    install = subprocess.run(
+        [str(binary), "-m", "pip", "install", "--quiet", *WHEELS],
+        capture_output=True, text=True, timeout=600, env=scrubbed,
+    )  # fmt: skip
+    if install.returncode != 0:
+        raise Ros1Error(f"pip could not install {', '.join(WHEELS)}:\n{install.stderr[-3000:]}")
+    marker.write_text(wanted)
+    return str(binary)
+
+
+def scrubbed_environment() -> dict[str, str]:
+    """This process's variables without another Python's or ROS's."""
+    foreign = ("PYTHONPATH", "PYTHONHOME", "VIRTUAL_ENV", "ROS_", "LD_LIBRARY_PATH",
+               "CMAKE_PREFIX_PATH", "AMENT_PREFIX_PATH")  # fmt: skip
+    return {k: v for k, v in os.environ.items() if not k.startswith(foreign)}
+
+
+def environment(home: Path, port: int = PORT) -> dict[str, str]:
+    """A ROS 1 process's variables: the master on loopback, logs in `home`."""
+    home.mkdir(parents=True, exist_ok=True)
+    return {
+        **scrubbed_environment(),
+        "ROS_MASTER_URI": f"http://127.0.0.1:{port}",
+        "ROS_IP": "127.0.0.1",
+        "ROS_HOME": str(home),
+        "ROS_LOG_DIR": str(home / "log"),
+        "PYTHONUNBUFFERED": "1",
+        "PATH": f"{VENV / 'bin'}{os.pathsep}{os.environ.get('PATH', '')}",
+    }
+
+
+def isolated(command: list[str]) -> list[str]:
+    """`command` inside `unshare -rn` with loopback up: nothing can leave the host."""
+    for tool in ("unshare", "ip", "bash"):
+        if shutil.which(tool) is None:
+            raise Ros1Error(f"the ROS 1 tests need `{tool}` (util-linux, iproute2, bash)")
+    return ["unshare", "-rn", "bash", "-c", 'ip link set lo up && exec "$@"', "bash", *command]
+
+
+def run(command: list[str], home: Path, timeout: float = 300) -> subprocess.CompletedProcess[str]:
+    """Run `command` isolated, with ROS 1's variables, and wait for it."""
+    return subprocess.run(
+        isolated(command), env=environment(home), capture_output=True, text=True,
+        timeout=timeout,
+    )  # fmt: skip

@@ -1,0 +1,144 @@
+"""`rmv build --target ros1` on Debian's ROS 1 (rospy 1.15, rosmaster, rosbag),
+every process inside a private network namespace holding only loopback, with a
+master of its own on 127.0.0.1."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
+from conftest import ROOT
+
+from rmvdsl.check import check
+from rmvdsl.ir import lower
+from rmvdsl.targets import target
+
+sys.path.insert(0, str(Path(__file__).resolve().parent / "ros1"))
+import rosenv1
+
+HERE = Path(__file__).resolve().parent / "ros1"
+CARLA = ROOT / "examples" / "carla"
+BAG = CARLA / "recordings" / "braking.bag"
+
+
+def _carla_spec() -> str:
+    """examples/carla/abs.rmv with times from header stamps and deep reader queues.
+    The two topics come over two TCP connections, read by two threads: one may be
+    read a little after the other, so the lateness covers the whole recording
+    (28 s of stamps, played at ten times its speed)."""
+    text = (CARLA / "abs.rmv").read_text(encoding="utf-8")
+    text = text.replace('messages "msg"', f"messages {json.dumps(str(CARLA / 'msg'))}")
+    qos = "    depth = 1000\n    time = header\n"
+    text = text.replace("    depth = 10\n    reliability = reliable\n", qos)
+    objects = '"/carla/hero/objects"\n'
+    text = text.replace(objects, f"{objects[:-1]} qos {{\n{qos}}}\n")
+    assert text.count("time = header") == 2
+    return text.replace("    trigger = always\n", "    trigger = always\n    lateness = 30s\n")
+
+
+def _build(spec: Path, out: Path) -> Path:
+    result = check(str(spec))
+    assert not result.errors, [str(d) for d in result.errors]
+    target("ros1").build(lower(result), out, {})
+    return out
+
+
+@pytest.fixture(scope="module")
+def carla(tmp_path_factory) -> tuple[Path, Path]:
+    """The CARLA spec above and its package."""
+    folder = tmp_path_factory.mktemp("carla")
+    spec = folder / "abs.rmv"
+    spec.write_text(_carla_spec(), encoding="utf-8")
+    return spec, _build(spec, folder / "carla_abs")
+
+
+def _drive(script: str, *args: str, home: Path, timeout: float = 240) -> dict:
+    """A driver of tests/ros1/ inside a namespace of its own; the JSON it prints."""
+    logs = home / "logs"
+    logs.mkdir(parents=True, exist_ok=True)
+    result = rosenv1.run(
+        [rosenv1.python(), str(HERE / script), str(logs), *args], home, timeout=timeout
+    )
+    assert result.returncode == 0, result.stderr[-4000:] + result.stdout[-2000:]
+    return json.loads(result.stdout)
+
+
+def _per_property(verdicts: list[dict]) -> dict[str, list[dict]]:
+    """Each property's segments in the order they came (a live node decides each
+    property as soon as it can: properties interleave by when they were decided)."""
+    out: dict[str, list[dict]] = {}
+    for verdict in verdicts:
+        out.setdefault(verdict["property"], []).append(verdict)
+    return out
+
+
+def test_the_package_is_a_catkin_package(carla):
+    _, package = carla
+    manifest = ET.parse(package / "package.xml").getroot()
+    assert manifest.get("format") == "3"
+    assert manifest.findtext("name") == "carla_abs"
+    assert [e.text for e in manifest.findall("buildtool_depend")] == ["catkin"]
+    # AnyMsg and the connection header's definitions: no carla_msgs to depend on.
+    assert [e.text for e in manifest.findall("exec_depend")] == [
+        "rospy", "rosgraph", "std_msgs", "diagnostic_msgs",
+    ]  # fmt: skip
+    for script in ("monitor", "intrusion"):
+        assert os.access(package / "scripts" / script, os.X_OK)
+    launch = ET.parse(package / "launch" / "monitor.launch").getroot()
+    assert [n.get("name") for n in launch.iter("node")] == ["rmv_monitor", "rmv_intrusion"]
+    lint = subprocess.run(
+        [sys.executable, "-m", "ruff", "check", "--no-cache", "--select", "E,F,W,I,UP,B",
+         "--target-version", "py311", str(package / "src"), str(package / "setup.py")],
+        capture_output=True, text=True,
+    )  # fmt: skip
+    assert lint.returncode == 0, lint.stdout
+    # The ROS 1 package carries the ROS 1 host and not the ROS 2 one.
+    host = {p.name for p in (package / "src" / "carla_abs" / "rmv_host").iterdir()}
+    assert {"ros1.py", "ros1_graph.py", "ros1_decoding.py"} <= host
+    assert "ros2.py" not in host
+
+
+@pytest.mark.skipif(shutil.which("catkin_make") is None, reason="Debian's catkin: .ci/run")
+def test_catkin_make_builds_and_installs_it(carla, tmp_path):
+    """Debian's catkin builds the package in a workspace and installs the scripts,
+    the Python package, the launch file and the parameters."""
+    _, package = carla
+    shutil.copytree(package, tmp_path / "src" / "carla_abs")
+    env = {**rosenv1.scrubbed_environment(), "ROS_HOME": str(tmp_path / "home")}
+    python = "-DPYTHON_EXECUTABLE=/usr/bin/python3"
+    command = ["catkin_make", "-C", str(tmp_path), "install", python]
+    result = subprocess.run(command, cwd=tmp_path, env=env, capture_output=True, text=True,
+                            timeout=300)  # fmt: skip
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    installed = tmp_path / "install"
+    for script in ("monitor", "intrusion"):
+        assert os.access(installed / "lib" / "carla_abs" / script, os.X_OK)
+    assert (installed / "share" / "carla_abs" / "launch" / "monitor.launch").exists()
+    assert (installed / "share" / "carla_abs" / "config" / "params.yaml").exists()
+    specs = list(installed.rglob("carla_abs/spec.json"))
+    assert specs and (specs[0].parent / "rmv_host" / "ros1.py").exists()
+
+
+def test_rosbag_play_into_the_monitor_gives_the_replay_s_verdicts(carla, tmp_path, rmv):
+    """The README's CARLA bag, played by `rosbag play` at ten times its speed into
+    the generated monitor, run straight from its folder: every message decoded
+    from its connection header (no carla_msgs is installed), and the segments
+    published on /rmv/verdicts are the replay's, segment for segment."""
+    spec, package = carla
+    seen = _drive("drive_monitor.py", str(package), str(BAG), "-r", "10", home=tmp_path)
+    assert seen["play_exit"] == 0 and seen["monitor_exit"] == 0, seen["monitor_log"]
+    replay = rmv("replay", str(spec), str(BAG), "--format", "jsonl")
+    assert replay.code == 1, replay.err
+    from_replay = [json.loads(line) for line in replay.out.splitlines() if '"verdict"' in line]
+    assert _per_property(seen["verdicts"]) == _per_property(from_replay)
+    violated = {v["property"] for v in from_replay if v["verdict"] == "false"}
+    assert violated == {"ABSCheck"}
+    counters = seen["counters"]
+    assert counters["messages"] == "900", seen["monitor_log"]
+    assert not [k for k in counters if "late" in k or "damaged" in k or "lost" in k], counters
