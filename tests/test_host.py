@@ -10,6 +10,7 @@ import threading
 from fractions import Fraction
 from typing import Any, ClassVar
 
+import pytest
 from conftest import EXAMPLES
 
 from rmvdsl.check import check
@@ -137,13 +138,70 @@ def test_the_intrusion_watch_waits_for_names_and_says_each_thing_once(tmp_path):
     lines = watch.poll(2, graph, now=intrusion.UNKNOWN_GRACE + 1)
     assert lines == [("error", "intrusion: /robot/rogue not in the publishers allowed on "
                                "/vehicle/twist")]  # fmt: skip
-    assert watch.status().message == "2 intrusions"
+    assert watch.status().message == (
+        f"2 intrusions: /{intrusion.UNKNOWN_NODE} publisher /vehicle/twist, "
+        "/robot/rogue publisher /vehicle/twist"
+    )
     assert watch.status().level == status.ERROR
     assert sorted(watch.poll(3, seen(("/", "player")), now=10.0)) == [
         ("info", f"intrusion ended: /{intrusion.UNKNOWN_NODE} on /vehicle/twist"),
         ("info", "intrusion ended: /robot/rogue on /vehicle/twist"),
     ]
     assert watch.status().message == "no intrusion"
+
+
+def test_an_unregistered_connection_is_judged_once_it_lasts_and_always_refused(tmp_path):
+    """ROS 1: a connection no registration accounts for is refused whatever the
+    lists say, once it has lasted UNREGISTERED_GRACE (a node that stops
+    unregisters a moment before it closes its connections); a registered node
+    that does not answer is stale, said once, and its endpoints are not judged."""
+    spec = _spec(tmp_path)
+    out = Outputs()
+    watch = intrusion.IntrusionWatch(spec, out.actions(), own=(), ros_version=1)
+    sneak = intrusion.Seen("/vehicle/twist", "publisher", "", "127.0.0.1:4711", b"", False)
+    assert watch.poll(0, [sneak], now=0.0) == []
+    grace = intrusion.UNREGISTERED_GRACE
+    assert watch.poll(1, [], now=grace / 2) == []  # gone: the grace starts again
+    assert watch.poll(2, [sneak], now=grace) == []
+    assert watch.poll(3, [sneak], now=2 * grace) == [
+        ("error", "intrusion: 127.0.0.1:4711 publishes on /vehicle/twist without registering "
+                  "with the ROS master"),
+    ]  # fmt: skip
+    assert watch.status().message == "1 intrusion: 127.0.0.1:4711 publisher /vehicle/twist"
+    lines = watch.poll(4, [sneak], now=3 * grace, stale=["/killed"])
+    assert lines == [("warn", "stale: /killed is registered with the ROS master but does not "
+                              "answer (killed?)")]  # fmt: skip
+    assert watch.poll(5, [sneak], now=4 * grace, stale=["/killed"]) == []  # once
+    stale = watch.statuses()[1]
+    assert (stale.level, stale.message) == (
+        status.WARN,
+        "1 node registered but not answering: /killed",
+    )
+
+
+def test_ros1_messages_decode_from_the_definition_their_publisher_sent():
+    """A connection header's type, md5sum and definition are all the decoder needs;
+    a wrong or missing definition is a DecodeError saying why, never a crash."""
+    from rosbags.highlevel import AnyReader
+
+    from rmvdsl.host.ros1_decoding import DecodeError, Decoder
+
+    bag = EXAMPLES / "carla" / "recordings" / "braking.bag"
+    with AnyReader([bag]) as reader:
+        connection = next(c for c in reader.connections if c.topic.endswith("vehicle_status"))
+        raw = next(data for _, _, data in reader.messages(connections=[connection]))
+    header = {"type": "carla_msgs/CarlaEgoVehicleStatus", "md5sum": connection.digest,
+              "message_definition": connection.msgdef.data, "callerid": "/bridge"}  # fmt: skip
+    decoder = Decoder()
+    assert decoder.message_type(header) == "carla_msgs/msg/CarlaEgoVehicleStatus"
+    message = decoder.decode(header, raw)
+    assert message.header.stamp.sec == 1_700_000_000 and message.velocity == 20.0
+    with pytest.raises(DecodeError, match="bytes"):
+        decoder.decode(header, raw[:7])
+    with pytest.raises(DecodeError, match="no message definition"):
+        decoder.decode({**header, "md5sum": "other", "message_definition": ""}, raw)
+    with pytest.raises(DecodeError, match="does not parse"):
+        decoder.decode({**header, "md5sum": "x", "message_definition": "float32 ]["}, raw)
 
 
 class _Influx(http.server.BaseHTTPRequestHandler):

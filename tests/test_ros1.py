@@ -142,3 +142,64 @@ def test_rosbag_play_into_the_monitor_gives_the_replay_s_verdicts(carla, tmp_pat
     counters = seen["counters"]
     assert counters["messages"] == "900", seen["monitor_log"]
     assert not [k for k in counters if "late" in k or "damaged" in k or "lost" in k], counters
+
+
+GUARD = """system guard "a whitelisted topic on ROS 1"
+ros noetic
+topic cmd: geometry_msgs/Twist = "/cmd"
+var Speed = cmd.linear.x
+event Fast when Speed > 100
+property NeverFast: not Fast
+whitelist cmd {
+    publishers: "/driver", "/allowed_*"
+    subscribers: "/base", "/allowed_*"
+}
+intrusion {
+    poll = 200ms
+}
+"""
+
+
+def _reports(seen: dict, name: str, after: float, until: float | None = None) -> list[dict]:
+    """The node's statuses `rmv_intrusion: NAME` not OK, between two steps."""
+    return [
+        s for s in seen["statuses"]
+        if s["name"] == f"rmv_intrusion: {name}" and s["level"] != 0
+        and s["t"] >= after and (until is None or s["t"] < until)
+    ]  # fmt: skip
+
+
+def _first_naming(seen: dict, name: str, who: str, after: float) -> float | None:
+    """Seconds from `after` to the first status `NAME` whose message names `who`."""
+    for status in _reports(seen, name, after):
+        if who in status["message"]:
+            return status["t"] - after
+    return None
+
+
+def test_the_intrusion_node_reports_rogues_sneaks_and_stale_nodes_and_no_allowed_node(tmp_path):
+    """Debian's rosmaster, rospy nodes and the generated intrusion node, run straight
+    from its folder: 20 allowed nodes starting and stopping give no report; a rogue
+    publisher and a rogue subscriber are each reported within 2 s; so is a publisher
+    that unregistered and reached a subscriber directly (by its XML-RPC address: the
+    master never lists it); a node killed with SIGKILL is reported stale."""
+    spec = tmp_path / "guard.rmv"
+    spec.write_text(GUARD, encoding="utf-8")
+    package = _build(spec, tmp_path / "guard")
+    seen = _drive("drive_intrusion.py", str(package), "/cmd", "20", home=tmp_path / "run")
+    steps = seen["steps"]
+    assert seen["exit"] == 0, seen["log"]
+    assert not _reports(seen, "intrusions", 0.0, steps["/rogue_pub"]), seen["log"]
+    for name in ("/driver", "/base", "/allowed_", "/rmv_intrusion", "/rosout"):
+        assert name not in seen["log"], seen["log"]
+    latencies = {
+        who: _first_naming(seen, "intrusions", who, steps[step])
+        for who, step in (("/rogue_pub", "/rogue_pub"), ("/rogue_sub", "/rogue_sub"),
+                          (steps["sneak uri"].split("//")[1].rstrip("/"), "sneak"))
+    }  # fmt: skip
+    print(f"reported after (s): {latencies}")
+    assert all(t is not None and t <= 2.0 for t in latencies.values()), latencies
+    assert "without registering with the ROS master" in seen["log"]
+    stale = _first_naming(seen, "stale nodes", "/victim", steps["victim killed"])
+    assert stale is not None and stale <= 2.0, seen["statuses"][-3:]
+    assert "stale: /victim" in seen["log"]

@@ -543,7 +543,8 @@ def test_the_first_hour_live(workspace, tmp_path):
                   _publish("/vehicle/twist", _twist_cdr(0, 30.0)),
                   ["status", status, "false", 15.0],
                   ["intruder", "ros", "/vehicle/twist"],
-                  ["status", "rmv_intrusion: intrusions", "1 intrusion", 15.0]],
+                  ["status", "rmv_intrusion: intrusions",
+                   "1 intrusion: /rogue publisher /vehicle/twist", 15.0]],
         "late": ["/rmv/alerts", "/rmv/intrusion"],
     }, tmp_path, rosenv.DOMAIN + 7)  # fmt: skip
     [(_, _, waited), (_, _, reported)] = seen["waits"]

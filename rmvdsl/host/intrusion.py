@@ -131,5 +131,7 @@ class IntrusionWatch:
             f"{e.node} {e.role} {e.topic}": reason
             for e, reason in sorted(self.open.items(), key=lambda item: repr(item[0]))
         }
-        message = counted(len(values), "intrusion") if values else "no intrusion"
+        # Who, in the message itself: a dashboard shows the message first.
+        who = ", ".join(values)
+        message = f"{counted(len(values), 'intrusion')}: {who}" if values else "no intrusion"
         return Status(NODE_NAME, "intrusions", ERROR if values else OK, message, values)
