@@ -203,3 +203,84 @@ def test_the_intrusion_node_reports_rogues_sneaks_and_stale_nodes_and_no_allowed
     stale = _first_naming(seen, "stale nodes", "/victim", steps["victim killed"])
     assert stale is not None and stale <= 2.0, seen["statuses"][-3:]
     assert "stale: /victim" in seen["log"]
+
+
+SIMULATED = """system simulated "sim time, parameters, lost and wrong-type messages"
+ros noetic
+topic twist: geometry_msgs/TwistStamped = "/vehicle/twist"
+topic wrong: geometry_msgs/TwistStamped = "/wrong"
+var Speed = twist.twist.linear.x
+var Other = wrong.twist.linear.x
+event Fast when Speed > 25
+event OtherFast when Other > 5
+property NeverFast: not Fast
+property OtherSlow: not OtherFast
+"""
+SIM_START = 1_600_000_000 * 10**9
+
+
+def _simulated_bag(path: Path) -> Path:
+    """3 s of TwistStamped on /other at 10 Hz whose header seq skips 11 and 12 (two
+    messages lost before the recording), over 25 from 2 s on; and std_msgs/Float64
+    on /wrong, a topic the spec reads as TwistStamped."""
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC)
+    Twist = store.types["geometry_msgs/msg/TwistStamped"]
+    Header, Time = store.types["std_msgs/msg/Header"], store.types["builtin_interfaces/msg/Time"]
+    Vector3, Inner = (
+        store.types["geometry_msgs/msg/Vector3"],
+        store.types["geometry_msgs/msg/Twist"],
+    )
+    Float64 = store.types["std_msgs/msg/Float64"]
+    with Writer(path) as writer:
+        twist = writer.add_connection("/other", Twist.__msgtype__, typestore=store)
+        wrong = writer.add_connection("/wrong", Float64.__msgtype__, typestore=store)
+        for k in range(1, 33):
+            if k in (11, 12):
+                continue
+            t = SIM_START + k * 100_000_000
+            stamp = Time(sec=t // 10**9, nanosec=t % 10**9)
+            speed = 30.0 if k >= 20 else 10.0
+            message = Twist(
+                header=Header(seq=k, stamp=stamp, frame_id=""),
+                twist=Inner(
+                    linear=Vector3(x=speed, y=0.0, z=0.0), angular=Vector3(x=0.0, y=0.0, z=0.0)
+                ),
+            )
+            writer.write(twist, t, store.serialize_ros1(message, Twist.__msgtype__))
+            if k % 10 == 0:
+                writer.write(wrong, t, store.serialize_ros1(Float64(data=1.0), Float64.__msgtype__))
+    return path
+
+
+def test_sim_time_parameters_renames_lost_and_wrong_messages(tmp_path):
+    """`/use_sim_time` with `rosbag play --clock`: receipt times are the bag's clock,
+    not the system's; `__name:=watcher` renames the node; `_topics/twist:=/other`
+    reads another topic; a gap in the headers' `seq` counts 2 lost messages; a topic
+    carrying another type than the spec's counts each message damaged."""
+    spec = tmp_path / "simulated.rmv"
+    spec.write_text(SIMULATED, encoding="utf-8")
+    package = _build(spec, tmp_path / "simulated")
+    bag = _simulated_bag(tmp_path / "simulated.bag")
+    seen = _drive(
+        "drive_monitor.py", str(package), str(bag), "--sim", "--node", "/watcher",
+        "--arg", "_topics/twist:=/other", "--arg", "_diagnostics_period:=0.2",
+        home=tmp_path / "run",
+    )  # fmt: skip
+    assert seen["monitor_exit"] == 0, seen["monitor_log"]
+    assert seen["verdict_publishers"] == ["/watcher"]
+    counters = seen["counters"]
+    assert counters["messages"] == "30", counters  # decoded ones; the damaged apart
+    assert counters["lost messages: /vehicle/twist"] == "2", counters
+    assert counters["damaged messages: /wrong"] == "3", counters
+    verdicts = _per_property(seen["verdicts"])
+    start, end = SIM_START / 1e9, SIM_START / 1e9 + 4
+    for segment in seen["verdicts"]:
+        assert start <= float(segment["from"]) <= end, segment  # the bag's clock
+    assert [v["verdict"] for v in verdicts["NeverFast"]][:2] == ["true", "false"], verdicts
+    assert (
+        "carries std_msgs/msg/Float64, the spec reads geometry_msgs/msg/TwistStamped"
+        in (seen["monitor_log"])
+    )

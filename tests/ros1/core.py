@@ -35,6 +35,11 @@ def system_state() -> tuple[list, list, list]:
     return tuple(state)
 
 
+def set_param(name: str, value: object) -> None:
+    code, text, _ = xmlrpc.client.ServerProxy(master_uri()).setParam("/test", name, value)
+    assert code == 1, text
+
+
 def _master_answers() -> bool:
     try:
         system_state()

@@ -3,14 +3,19 @@ subscriber loses messages), a subscriber to its verdicts, then `rosbag play` of 
 recording into it. Prints one JSON object: the verdict segments in the order
 published, the monitor's last diagnostics values and its log.
 
-usage: drive_monitor.py LOGS PACKAGE_DIR BAG [ROSBAG_ARGS...]
+usage: drive_monitor.py LOGS PACKAGE_DIR BAG [--node NAME] [--sim] [--arg ARG]...
+                        [-- ROSBAG_ARGS...]
+
+--node: the monitor's node name (it is started with `__name:=NAME` when not the
+default); --sim: `/use_sim_time` is set and the player publishes /clock; --arg:
+one more command-line argument of the monitor (`_name:=value`).
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import subprocess
-import sys
 import threading
 import time
 from pathlib import Path
@@ -22,17 +27,34 @@ from std_msgs.msg import String
 
 
 def main() -> None:
-    logs, package, bag = Path(sys.argv[1]), Path(sys.argv[2]), Path(sys.argv[3])
-    play_args = sys.argv[4:]
+    parser = argparse.ArgumentParser()
+    parser.add_argument("logs", type=Path)
+    parser.add_argument("package", type=Path)
+    parser.add_argument("bag", type=Path)
+    parser.add_argument("--node", default="/rmv_monitor")
+    parser.add_argument("--sim", action="store_true")
+    parser.add_argument("--arg", action="append", default=[])
+    options, play_args = parser.parse_known_args()
+    play_args = [a for a in play_args if a != "--"]
+    logs, package, bag, node = options.logs, options.package, options.bag, options.node
+    arguments = list(options.arg)
+    if node != "/rmv_monitor":
+        arguments.append(f"__name:={node.lstrip('/')}")
+    if options.sim:
+        play_args.append("--clock")
     verdicts: list[dict] = []
     counters: dict[str, str] = {}
     lock = threading.Lock()
     with core.roscore(logs):
+        if options.sim:
+            core.set_param("/use_sim_time", True)
         monitor = core.start(
-            [core.python(), str(package / "scripts" / "monitor")], logs / "monitor.log"
+            [core.python(), str(package / "scripts" / "monitor"), *arguments], logs / "monitor.log"
         )
         try:
-            core.wait_for(lambda: core.publishes("/rmv_monitor", "/rmv/verdicts"), 30, "monitor")
+            core.wait_for(lambda: core.publishes(node, "/rmv/verdicts"), 30, "monitor")
+            state = core.system_state()[0]
+            publishers = sorted(n for t, ns in state for n in ns if t == "/rmv/verdicts")
             rospy.init_node("rmv_test_listener", disable_signals=True)
 
             def verdict(message: String) -> None:
@@ -41,7 +63,7 @@ def main() -> None:
 
             def diagnostics(message: DiagnosticArray) -> None:
                 for status in message.status:
-                    if status.name == "rmv_monitor: monitor":
+                    if status.name.endswith(": monitor"):
                         with lock:
                             counters.clear()
                             counters.update({v.key: v.value for v in status.values})
@@ -69,6 +91,7 @@ def main() -> None:
                     "counters": counters,
                     "monitor_exit": code,
                     "play_exit": play.returncode,
+                    "verdict_publishers": publishers,
                     "monitor_log": (logs / "monitor.log").read_text(errors="replace")[-4000:],
                 }
             )
