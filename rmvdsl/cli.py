@@ -308,7 +308,10 @@ def _add_target_options(
             helps.setdefault(option.flag, {}).setdefault(option.help, []).append(target.name)
     for flag, option in first.items():
         text = "; ".join(f"{', '.join(names)}: {help}" for help, names in helps[flag].items())
-        parser.add_argument(flag, dest=option.name, metavar=option.metavar, help=text)
+        parser.add_argument(
+            flag, dest=option.name, metavar=option.metavar, help=text,
+            choices=option.choices or None,
+        )  # fmt: skip
 
 
 def _add_message_options(parser: argparse.ArgumentParser) -> None:

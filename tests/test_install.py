@@ -13,7 +13,7 @@ import zipfile
 from pathlib import Path
 
 import pytest
-from conftest import EXAMPLES, INSTALLED, INSTALLED_WHEEL, ROOT
+from conftest import EXAMPLES, FIXTURES, INSTALLED, INSTALLED_WHEEL, ROOT
 
 import rmvdsl
 from rmvdsl.check import check
@@ -114,17 +114,32 @@ def _declared(package_xml: str) -> set[str]:
     return set(re.findall(r"<(?:exec_|build_)?depend>([^<]+)</", package_xml))
 
 
+SPECS = (
+    EXAMPLES / "carla" / "abs.rmv", EXAMPLES / "gazebo" / "prius_platoon.rmv",
+    FIXTURES / "regressions" / "collector_without_std_msgs.rmv",
+)  # fmt: skip
+
+
 def _packages() -> dict[str, dict[str, str]]:
-    """Each ament package the targets write for the examples: folder -> files."""
+    """Each ROS package the targets write for the examples: folder -> files."""
+    from rmvdsl.targets.ros1 import generate as ros1
+
     out: dict[str, dict[str, str]] = {}
-    for spec_path in (EXAMPLES / "carla" / "abs.rmv", EXAMPLES / "gazebo" / "prius_platoon.rmv"):
+    for spec_path in SPECS:
         spec = lower(check(str(spec_path)))
         out[f"ros2 {spec_path.name}"] = ros2.files(spec)
-        texts, _ = kapacitor.files(spec, Path("build"))
-        collector = {p.removeprefix("collector/"): t for p, t in texts.items()
-                     if p.startswith("collector/")}  # fmt: skip
-        out[f"kapacitor {spec_path.name}"] = collector
+        out[f"ros1 {spec_path.name}"] = ros1.files(spec)
+        for ros in ("ros2", "ros1"):
+            texts, _ = kapacitor.files(spec, Path("build"), ros)
+            collector = {p.removeprefix("collector/"): t for p, t in texts.items()
+                         if p.startswith("collector/")}  # fmt: skip
+            out[f"kapacitor-{ros} {spec_path.name}"] = collector
     return out
+
+
+# What a ROS 1 package's nodes import from PyPI, which no ROS package provides
+# (the generated README and docs/ros1.md say how to install it).
+PYPI = {"ros1": {"rosbags"}, "ros2": set()}
 
 
 @pytest.mark.parametrize("name", sorted(_packages()))
@@ -134,18 +149,24 @@ def test_a_generated_package_declares_what_it_imports(name: str):
     declared = _declared(files["package.xml"])
     imported: set[str] = set()
     for path, text in files.items():
-        if path.endswith(".py") and path != "setup.py":  # setup.py: ament_python's own build
+        # setup.py: the build's own (ament_python, catkin); scripts/: ROS 1's nodes
+        if (path.endswith(".py") or path.startswith("scripts/")) and path != "setup.py":
             imported |= _imported(text)
     imported.discard(own)
+    ros = "ros1" if "package.xml" in files and "catkin" in files["package.xml"] else "ros2"
+    imported -= PYPI[ros]
     assert imported - declared == set(), f"imported but not in package.xml: {imported - declared}"
-    # Message packages are imported by name when the node starts (rmv_host.ros2.message_class).
-    unused = declared - imported - set(ros2.message_packages(lower(check(str(_spec_of(name))))))
+    # ROS 2: message packages are imported by name when the node starts
+    # (rmv_host.ros2.message_class); ROS 1 decodes them from the connection header.
+    spec = lower(check(str(_spec_of(name))))
+    messages = set(ros2.message_packages(spec)) if ros == "ros2" else set()
+    unused = declared - imported - messages - {"catkin"}
     assert unused == set(), f"declared but never imported: {unused}"
 
 
 def _spec_of(name: str) -> Path:
     file = name.split()[1]
-    return next(EXAMPLES.rglob(file))
+    return next(p for p in SPECS if p.name == file)
 
 
 def test_the_check_finds_an_undeclared_import():

@@ -284,3 +284,43 @@ def test_sim_time_parameters_renames_lost_and_wrong_messages(tmp_path):
         "carries std_msgs/msg/Float64, the spec reads geometry_msgs/msg/TwistStamped"
         in (seen["monitor_log"])
     )
+
+
+def test_the_kapacitor_collector_on_ros1_stores_every_message(tmp_path):
+    """`rmv build --target kapacitor --collector ros1`: the thesis's rostopicmon as a
+    catkin package; the CARLA bag played into it by `rosbag play` arrives in a real
+    influxd (inside the same namespace) as one point per message, with the braking
+    transducer's states, and nothing dropped. (Times of receipt: the example's
+    retention policy keeps a day, and the bag's stamps are of 2023.)"""
+    from rmvdsl.targets.kapacitor.deploy import split_statements
+
+    spec = tmp_path / "abs.rmv"
+    text = (CARLA / "abs.rmv").read_text(encoding="utf-8")
+    spec.write_text(text.replace('messages "msg"', f"messages {json.dumps(str(CARLA / 'msg'))}"))
+    build = tmp_path / "build"
+    built = target("kapacitor").build(lower(check(str(spec))), build, {"collector": "ros1"})
+    assert build / "collector" / "scripts" / "collector" in built.files
+    statements = [
+        s for s in split_statements((build / "influxdb.iql").read_text(encoding="utf-8"))
+        if not s.startswith("CREATE CONTINUOUS QUERY")
+    ]  # fmt: skip
+    (tmp_path / "influxd").mkdir()
+    scenario = tmp_path / "scenario.json"
+    scenario.write_text(json.dumps({
+        "influx_root": str(tmp_path / "influxd"), "statements": statements,
+        "database": "rmvcps_db", "measurement": "carla_abs", "states": "carla_abs_states",
+        "collector": str(build / "collector" / "scripts" / "collector"),
+        "topic": "/carla/hero/vehicle_status", "bag": str(BAG), "expected": 600,
+    }), encoding="utf-8")  # fmt: skip
+    seen = _drive("drive_collector.py", str(scenario), home=tmp_path / "run")
+    assert seen["exit"] == 0 and seen["play_exit"] == 0, seen["log"]
+    from rosbags.highlevel import AnyReader
+
+    with AnyReader([BAG]) as reader:
+        recorded = {c.topic: c.msgcount for c in reader.connections}
+    spec_topics = ("/carla/hero/vehicle_status", "/carla/hero/objects")
+    assert seen["per_topic"] == {t: recorded[t] for t in spec_topics}, seen["log"]
+    assert seen["states"] >= 2, seen
+    status = seen["status"]
+    assert status["messages"] == str(sum(recorded[t] for t in spec_topics)), status
+    assert not [k for k in status if "dropped" in k or "lost" in k or "damaged" in k], status

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any, Protocol
 
-from rmvdsl.host.gaps import Gaps
+from rmvdsl.host.gaps import Gaps, Undecodable
 from rmvdsl.host.status import OK, WARN, Status, percentiles
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.engine import Runtime
@@ -67,6 +67,27 @@ class Settings:
         return f"{self.url.rstrip('/')}/write?{query}"
 
 
+def settings(database: ir.Database, parameter: Callable[[str, Any], Any]) -> Settings:
+    """The settings from the spec's `database` block, each overridden by the node's
+    parameter of the same name (`parameter(name, default)` reads one)."""
+    return Settings(
+        url=str(parameter("influx_url", database.url)),
+        database=str(parameter("database", database.name)),
+        retention_policy=str(parameter("retention_policy", database.default_retention)),
+        batch_size=int(parameter("batch_size", database.batch_size)),
+        flush_interval=float(parameter("flush_interval", float(database.flush_interval))),
+        timeout=float(parameter("timeout", float(database.timeout))),
+        buffer=int(parameter("buffer", 100_000)),
+        username_env=_env(database.username, "INFLUX_USERNAME"),
+        password_env=_env(database.password, "INFLUX_PASSWORD"),
+    )
+
+
+def _env(credential: ir.Credential | None, default: str) -> str:
+    """The environment variable holding a credential (the spec's, else `default`)."""
+    return credential.env if credential is not None and credential.env else default
+
+
 class Collector:
     def __init__(
         self, spec: ir.Spec, settings: Settings, logs: Logs, clock: Callable[[], int]
@@ -105,6 +126,9 @@ class Collector:
             self.count(f"lost messages: {topic}", lost,
                        f"{topic}: {counted(lost, 'message')} lost before the collector "
                        f"read {'it' if lost == 1 else 'them'}")  # fmt: skip
+        if isinstance(message, Undecodable):
+            self.count(f"damaged messages: {topic}", 1, f"{topic}: {message.reason}")
+            return
         self.counters["messages"] += 1
         arrival = info.get("received_timestamp") or time.time_ns()
         # Receipt times strictly increase: two messages of a topic at one time would

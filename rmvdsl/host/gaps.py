@@ -1,9 +1,19 @@
-"""Messages a reader lost, from gaps in each publisher's sequence numbers."""
+"""Messages a reader lost (from gaps in each publisher's sequence numbers) or
+could not read (`Undecodable`)."""
 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
+
+
+@dataclass(frozen=True)
+class Undecodable:
+    """In place of a message the node could not decode (or that is not of the
+    spec's type): fed to the runtime as damaged input, in its turn."""
+
+    reason: str
 
 
 class Gaps:

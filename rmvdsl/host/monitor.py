@@ -12,10 +12,9 @@ import queue
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any, Protocol
 
-from rmvdsl.host.gaps import Gaps
+from rmvdsl.host.gaps import Gaps, Undecodable
 from rmvdsl.host.status import (
     ALERT_LEVELS,
     OK,
@@ -35,14 +34,6 @@ Item = tuple[int, str, Any, dict[str, Any]]
 BATCH = 1000
 # How many of the latest arrival-to-verdict latencies the diagnostics summarise.
 LATENCY_SAMPLES = 1_000
-
-
-@dataclass(frozen=True)
-class Undecodable:
-    """In place of a message the node could not decode (or that is not of the
-    spec's type): fed to the runtime as damaged input, in its turn."""
-
-    reason: str
 
 
 class Outputs(Protocol):

@@ -1,7 +1,7 @@
-"""ROS 1 wiring of the host: rospy nodes whose callbacks call monitor.py and
-intrusion.py. The one module of rmv_host that imports rospy; the generated
-package's scripts only call `monitor_main` or `intrusion_main`
-(tests/test_ros1.py runs them on Debian's ROS 1).
+"""ROS 1 wiring of the host: rospy nodes whose callbacks call monitor.py,
+intrusion.py and collector.py. The one module of rmv_host that imports rospy; the
+generated package's scripts only call `monitor_main`, `intrusion_main` or
+`collector_main` (tests/test_ros1.py runs them on Debian's ROS 1).
 
 Every topic is read as `rospy.AnyMsg` and decoded by ros1_decoding.py from the
 definition in the connection header, so no Python message of the spec's types
@@ -24,9 +24,9 @@ import rospy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from std_msgs.msg import String
 
-from rmvdsl.host import intrusion, monitor, ros1_decoding, ros1_graph
+from rmvdsl.host import collector, intrusion, monitor, ros1_decoding, ros1_graph
 from rmvdsl.host.actions import NodeActions
-from rmvdsl.host.monitor import Undecodable
+from rmvdsl.host.gaps import Undecodable
 from rmvdsl.host.packaged import load_spec, package, with_time_sources
 from rmvdsl.host.status import ERROR, OK, STALE, WARN, Status
 from rmvdsl.runtime import spec as ir
@@ -198,6 +198,32 @@ class IntrusionNode:
         pass
 
 
+class CollectorNode:
+    """The spec's topics into InfluxDB: collector.Collector does the work; the
+    spec's `database` block gives the defaults of the parameters."""
+
+    def __init__(self, spec: ir.Spec) -> None:
+        assert spec.database is not None  # the kapacitor target builds no collector without
+        settings = collector.settings(spec.database, parameter)
+        self.period = float(parameter("diagnostics_period", 1.0))
+        spec = with_time_sources(spec, parameter, rospy.get_name())
+        self.collector = collector.Collector(spec, settings, self, now_ns)
+        self.diagnostics = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=10)
+        subscribe(spec, self.collector.take)
+        self.collector.start()
+
+    # collector.Logs
+    def log(self, level: str, text: str) -> None:
+        log_at(level, text)
+
+    def spin(self, stop: threading.Event) -> None:
+        while not stop.wait(self.period):
+            self.diagnostics.publish(diagnostics([self.collector.tick()]))
+
+    def finish(self) -> None:
+        self.diagnostics.publish(diagnostics([self.collector.finish()]))
+
+
 def run(make: Callable[[ir.Spec], RosNode], name: str) -> None:
     """Start a node (renamed by `__name:=`), run it until SIGINT, SIGTERM or a
     shutdown ROS asks for, then let it finish and leave."""
@@ -221,3 +247,7 @@ def monitor_main() -> None:
 
 def intrusion_main() -> None:
     run(IntrusionNode, intrusion.NODE_NAME)
+
+
+def collector_main() -> None:
+    run(CollectorNode, collector.NODE_NAME)

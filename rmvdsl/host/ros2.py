@@ -227,17 +227,7 @@ class CollectorNode(Node):
         database = spec.database
         assert database is not None  # the kapacitor target builds no collector without
         param = self.declare_parameter
-        settings = collector.Settings(
-            url=str(param("influx_url", database.url).value),
-            database=str(param("database", database.name).value),
-            retention_policy=str(param("retention_policy", database.default_retention).value),
-            batch_size=int(param("batch_size", database.batch_size).value),
-            flush_interval=float(param("flush_interval", float(database.flush_interval)).value),
-            timeout=float(param("timeout", float(database.timeout)).value),
-            buffer=int(param("buffer", 100_000).value),
-            username_env=_env(database.username, "INFLUX_USERNAME"),
-            password_env=_env(database.password, "INFLUX_PASSWORD"),
-        )
+        settings = collector.settings(database, lambda name, default: param(name, default).value)
         period = float(param("diagnostics_period", 1.0).value)
         spec = with_time_parameters(self, spec)
         self.collector = collector.Collector(
@@ -257,11 +247,6 @@ class CollectorNode(Node):
 
     def finish(self) -> None:
         self.diagnostics.publish(diagnostics(self, [self.collector.finish()]))
-
-
-def _env(credential: ir.Credential | None, default: str) -> str:
-    """The environment variable holding a credential (the spec's, else `default`)."""
-    return credential.env if credential is not None and credential.env else default
 
 
 def run(make: Callable[[ir.Spec], Node], finish: Callable[[Any], None] | None = None) -> None:

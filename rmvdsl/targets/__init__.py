@@ -38,6 +38,7 @@ class Option:
     name: str  # the keyword `build` receives
     metavar: str
     help: str
+    choices: tuple[str, ...] = ()  # the values it takes (none: any)
 
     @property
     def flag(self) -> str:

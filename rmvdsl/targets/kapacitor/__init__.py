@@ -26,7 +26,7 @@ from rmvdsl.targets import (
 def _build(spec: ir.Spec, out: Path | None, options: Mapping[str, str | None]) -> Built:
     generate = importlib.import_module("rmvdsl.targets.kapacitor.generate")
     folder = folder_output("kapacitor", out)
-    written, report = generate.write(spec, folder)
+    written, report = generate.write(spec, folder, ros=options.get("collector") or "ros2")
     summary = (
         f"wrote the kapacitor target to {folder} ({counted(len(written), 'file')}; "
         f"{counted(len(report), 'part')} of the spec left to the ros2 monitor, listed in "
@@ -67,6 +67,10 @@ TARGET = Target(
     docs="docs/kapacitor.md",
     output="folder",
     build=_build,
+    options=(
+        Option("collector", "ROS", "the collector's ROS: ros2 (default) or ros1",
+               choices=("ros2", "ros1")),
+    ),
     findings=_findings,
     deploy=_deploy,
     deploy_options=(

@@ -25,7 +25,7 @@ import jinja2
 
 from rmvdsl.runtime import lineproto
 from rmvdsl.runtime import spec as ir
-from rmvdsl.targets import ament
+from rmvdsl.targets import ament, catkin
 from rmvdsl.targets.kapacitor import dashboards
 from rmvdsl.targets.kapacitor.quoting import (
     BuildError,
@@ -410,8 +410,9 @@ def dashboard_files(build: Build, env: jinja2.Environment) -> dict[str, str]:
 COLLECTOR = (ament.NodeEntry("collector", "collector_node", "rmv_collector"),)
 
 
-# The collector publishes no String (no verdicts): the ros2 target's base less std_msgs.
-COLLECTOR_DEPENDENCIES = tuple(d for d in ament.BASE_DEPENDENCIES if d != "std_msgs")
+# The collector's package carries the whole ROS 2 host, whose rmv_host/ros2.py imports
+# std_msgs (the actions' String): the ros2 target's base, all of it.
+COLLECTOR_DEPENDENCIES = ament.BASE_DEPENDENCIES
 
 
 def collector_files(build: Build, env: jinja2.Environment | None = None) -> dict[str, str]:
@@ -434,8 +435,32 @@ def collector_files(build: Build, env: jinja2.Environment | None = None) -> dict
     return {f"collector/{path}": text for path, text in found.items()}
 
 
-def files(spec: ir.Spec, out: Path) -> tuple[dict[str, str], list[Left]]:
-    """Every file of the build by path relative to `out`, and the report."""
+COLLECTOR_SCRIPTS = (catkin.Script("collector", "rmv_collector", "collector_main"),)
+
+
+def collector1_files(build: Build) -> dict[str, str]:
+    """The collector on ROS 1: a catkin package, `collector/` in the build, with the
+    ros1 target's host (rmv_host/ros1.py): any message type, decoded from the
+    connection header's definition. (Its templates are the catkin ones, which
+    share names with the ament ones: an environment of their own.)"""
+    spec = build.spec
+    package = catkin.CatkinPackage(
+        f"{ament.package_name(spec)}_collector", spec, "InfluxDB collector", "kapacitor",
+        COLLECTOR_SCRIPTS,
+    )  # fmt: skip
+    templates = {
+        "README.md": "collector1_README.md.j2",
+        "launch/collector.launch": "collector1.launch.j2",
+        "config/params.yaml": "collector1_params.yaml.j2",
+    }
+    env = catkin.catkin_environment(__package__ or "")
+    found = catkin.catkin_package(package, env, templates, database=build.database)
+    return {f"collector/{path}": text for path, text in found.items()}
+
+
+def files(spec: ir.Spec, out: Path, ros: str = "ros2") -> tuple[dict[str, str], list[Left]]:
+    """Every file of the build by path relative to `out`, and the report; the
+    collector is for `ros` (ros2 or ros1)."""
     build = plan(spec, out.resolve() / "handlers")
     env = _environment()
     context = {"build": build, "spec": spec, "database": build.database,
@@ -448,7 +473,7 @@ def files(spec: ir.Spec, out: Path) -> tuple[dict[str, str], list[Left]]:
             **context
         )
     written.update(dashboard_files(build, env))
-    written.update(collector_files(build, env))
+    written.update(collector1_files(build) if ros == "ros1" else collector_files(build, env))
     written["deploy.json"] = json.dumps(manifest(build), indent=2) + "\n"
     written["README.md"] = env.get_template("README.md.j2").render(
         files=sorted(written), report=build.report, **context
@@ -456,10 +481,10 @@ def files(spec: ir.Spec, out: Path) -> tuple[dict[str, str], list[Left]]:
     return written, build.report
 
 
-def write(spec: ir.Spec, out: Path) -> tuple[list[Path], list[Left]]:
+def write(spec: ir.Spec, out: Path, ros: str = "ros2") -> tuple[list[Path], list[Left]]:
     """Write the build into `out`; the paths written and the report."""
-    texts, report = files(spec, out)
-    return ament.write(texts, out), report
+    texts, report = files(spec, out, ros)
+    return catkin.make_executable(ament.write(texts, out)), report
 
 
 __all__ = [
