@@ -68,8 +68,12 @@ TARGET = Target(
     output="folder",
     build=_build,
     options=(
-        Option("collector", "ROS", "the collector's ROS: ros2 (default) or ros1",
-               choices=("ros2", "ros1")),
+        Option(
+            "collector",
+            "ROS",
+            "the collector's ROS: ros2 (default) or ros1",
+            choices=("ros2", "ros1"),
+        ),
     ),
     findings=_findings,
     deploy=_deploy,
