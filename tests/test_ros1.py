@@ -104,14 +104,16 @@ def test_the_package_is_a_catkin_package(carla):
     assert "ros2.py" not in host
 
 
-@pytest.mark.skipif(shutil.which("catkin_make") is None, reason="Debian's catkin: .ci/run")
-def test_catkin_make_builds_and_installs_it(carla, tmp_path):
-    """Debian's catkin builds the package in a workspace and installs the scripts,
-    the Python package, the launch file and the parameters."""
+def test_catkin_make_builds_it_and_roslaunch_runs_it(carla, tmp_path):
+    """Debian's catkin builds the package in a workspace (the scripts' Python is the
+    one with rosbags: -DPYTHON_EXECUTABLE) and installs the scripts, the Python
+    package, the launch file and the parameters; `roslaunch` from the install
+    space starts both nodes with the parameters. Debian's own Python, which lacks
+    rosbags, stops the monitor at start with the command that installs it."""
     _, package = carla
     shutil.copytree(package, tmp_path / "src" / "carla_abs")
     env = {**rosenv1.scrubbed_environment(), "ROS_HOME": str(tmp_path / "home")}
-    python = "-DPYTHON_EXECUTABLE=/usr/bin/python3"
+    python = f"-DPYTHON_EXECUTABLE={rosenv1.python()}"
     command = ["catkin_make", "-C", str(tmp_path), "install", python]
     result = subprocess.run(command, cwd=tmp_path, env=env, capture_output=True, text=True,
                             timeout=300)  # fmt: skip
@@ -123,6 +125,11 @@ def test_catkin_make_builds_and_installs_it(carla, tmp_path):
     assert (installed / "share" / "carla_abs" / "config" / "params.yaml").exists()
     specs = list(installed.rglob("carla_abs/spec.json"))
     assert specs and (specs[0].parent / "rmv_host" / "ros1.py").exists()
+    seen = _drive("drive_launch.py", str(tmp_path), "carla_abs", home=tmp_path / "run")
+    assert {"/rmv_monitor", "/rmv_intrusion"} <= set(seen["nodes"]), seen["log"]
+    assert seen["topic parameter"] == "/carla/hero/vehicle_status"
+    assert seen["bare_exit"] == 1, seen["bare_output"]
+    assert "pip install rosbags" in seen["bare_output"], seen["bare_output"]
 
 
 def test_rosbag_play_into_the_monitor_gives_the_replay_s_verdicts(carla, tmp_path, rmv):

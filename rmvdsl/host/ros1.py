@@ -88,13 +88,19 @@ def subscribe(spec: ir.Spec, take: Callable[[str, Any, dict[str, Any]], None]) -
     info)` names the topic as the spec does; a message not of the spec's type, or
     not decodable, is an `Undecodable`. `info` holds the publisher and its header's
     `seq`, from which monitor.Gaps counts lost messages."""
+    problem = ros1_decoding.missing()
+    if problem is not None:
+        raise SystemExit(f"{rospy.get_name()}: {problem}")
     decoder = ros1_decoding.Decoder()
     for topic in spec.topics:
         ros_name = str(parameter(f"topics.{topic.name}", topic.ros_name))
 
         def received(raw: rospy.AnyMsg, topic: ir.Topic = topic, ros_name: str = ros_name) -> None:
             header = getattr(raw, "_connection_header", None) or {}
-            info: dict[str, Any] = {"publisher_gid": {"data": header.get("callerid")}}
+            info: dict[str, Any] = {
+                "publisher_gid": {"data": header.get("callerid")},
+                "received_timestamp": time.time_ns(),  # for the latency figures
+            }
             sent = decoder.message_type(header)
             message: Any
             if sent != topic.message_type:

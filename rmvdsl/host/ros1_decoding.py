@@ -20,6 +20,20 @@ class DecodeError(Exception):
     """A message that cannot be decoded; the text says why."""
 
 
+def missing() -> str | None:
+    """What to tell the user when rosbags cannot be imported (None: it can). A node
+    says it at start, not at its first message."""
+    import importlib.util
+
+    if importlib.util.find_spec("rosbags") is not None:
+        return None
+    return (
+        "the ROS 1 nodes decode messages with rosbags, which this Python lacks: "
+        "pip install rosbags (with Debian's ROS 1, in a venv made with "
+        "--system-site-packages; docs/ros1.md)"
+    )
+
+
 def ros2_style(name: str) -> str:
     """`pkg/Type` as the resolved spec and rosbags name it: `pkg/msg/Type`."""
     package, _, type_name = name.partition("/")
