@@ -159,7 +159,7 @@ event Fast when Speed > 100
 property NeverFast: not Fast
 whitelist cmd {
     publishers: "/driver", "/allowed_*"
-    subscribers: "/base", "/allowed_*"
+    subscribers: "/base", "/allowed_*", "/victim"
 }
 intrusion {
     poll = 200ms
@@ -209,7 +209,8 @@ def test_the_intrusion_node_reports_rogues_sneaks_and_stale_nodes_and_no_allowed
     assert "without registering with the ROS master" in seen["log"]
     stale = _first_naming(seen, "stale nodes", "/victim", steps["victim killed"])
     assert stale is not None and stale <= 2.0, seen["statuses"][-3:]
-    assert "stale: /victim" in seen["log"]
+    assert "stale: /victim" in seen["log"] and "intrusion: /victim" not in seen["log"]
+    assert seen["log"].count("stale:") == 1, seen["log"]  # nodes that stop are not stale
 
 
 SIMULATED = """system simulated "sim time, parameters, lost and wrong-type messages"
@@ -288,8 +289,8 @@ def test_sim_time_parameters_renames_lost_and_wrong_messages(tmp_path):
         assert start <= float(segment["from"]) <= end, segment  # the bag's clock
     assert [v["verdict"] for v in verdicts["NeverFast"]][:2] == ["true", "false"], verdicts
     assert (
-        "carries std_msgs/msg/Float64, the spec reads geometry_msgs/msg/TwistStamped"
-        in (seen["monitor_log"])
+        "sends std_msgs/msg/Float64 on /wrong, the spec reads geometry_msgs/msg/TwistStamped"
+        in seen["monitor_log"]
     )
 
 

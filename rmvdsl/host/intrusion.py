@@ -27,6 +27,10 @@ UNKNOWN_GRACE = 3.0
 # that starts connects just after registering, so for a moment either looks
 # unregistered to a poll that reads the master and the nodes one after the other.
 UNREGISTERED_GRACE = 1.0
+# A registered ROS 1 node that does not answer is stale once it has not answered
+# this long: a node that stops closes its XML-RPC server around the time it
+# unregisters, so one poll may catch it between the two.
+STALE_GRACE = 1.0
 
 
 @dataclass(frozen=True)
@@ -74,6 +78,7 @@ class IntrusionWatch:
         # When each endpoint still in its grace was first seen: topic, role, gid, registered.
         self.provisional_since: dict[tuple[str, str, bytes, bool], float] = {}
         self.stale: list[str] = []
+        self.silent_since: dict[str, float] = {}  # node -> when it first did not answer
 
     def endpoints(self, seen: Iterable[Seen], now: float) -> set[Endpoint]:
         """The endpoints to judge at monotonic time `now` (seconds)."""
@@ -91,18 +96,22 @@ class IntrusionWatch:
         return found
 
     def poll(
-        self, time: int, seen: Iterable[Seen], now: float, stale: Iterable[str] = ()
+        self, time: int, seen: Iterable[Seen], now: float, silent: Iterable[str] = ()
     ) -> list[tuple[str, str]]:
-        """Judge the graph at `time` (the node's clock, nanoseconds), with the
-        registered nodes that did not answer (`stale`); the log lines (level, text)
-        it gives."""
-        self.runtime.graph(time, self.endpoints(seen, now))
+        """Judge the graph at `time` (the node's clock, nanoseconds), given the
+        registered nodes that did not answer this time (`silent`: stale once they
+        have not answered for STALE_GRACE, and their endpoints then no longer
+        judged: a dead node carries no traffic); the log lines (level, text)."""
         lines = []
-        stale = sorted(n for n in stale if n not in self.own)
+        silent_since = {n: self.silent_since.get(n, now) for n in silent if n not in self.own}
+        self.silent_since = silent_since
+        stale = sorted(n for n, since in silent_since.items() if now - since >= STALE_GRACE)
         for node in sorted(set(stale) - set(self.stale)):
             lines.append(("warn", f"stale: {node} is registered with the ROS master but "
                                   "does not answer (killed?)"))  # fmt: skip
         self.stale = stale
+        alive = [s for s in seen if not s.registered or s.node not in stale]
+        self.runtime.graph(time, self.endpoints(alive, now))
         for record in self.runtime.records():
             if record["kind"] != "intrusion":
                 continue

@@ -104,8 +104,8 @@ def subscribe(spec: ir.Spec, take: Callable[[str, Any, dict[str, Any]], None]) -
             sent = decoder.message_type(header)
             message: Any
             if sent != topic.message_type:
-                message = Undecodable(f"{ros_name} carries {sent}, the spec reads "
-                                      f"{topic.message_type}")  # fmt: skip
+                message = Undecodable(f"its publisher sends {sent} on {ros_name}, the spec "
+                                      f"reads {topic.message_type}")  # fmt: skip
             else:
                 try:
                     message = decoder.decode(header, raw._buff)

@@ -13,6 +13,8 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from typing import Any
 
+from rmvdsl.runtime.wording import counted
+
 Decode = Callable[[bytes], Any]
 
 
@@ -66,7 +68,8 @@ class Decoder:
         except DecodeError:
             raise
         except Exception as error:  # rosbags raises what struct and numpy raise
-            raise DecodeError(f"{key[0]} message of {len(raw)} bytes: {error}") from None
+            size = counted(len(raw), "byte")
+            raise DecodeError(f"a {key[0]} message of {size}: {error}") from None
 
 
 def _refusing(error: DecodeError) -> Decode:

@@ -36,7 +36,7 @@ class MasterError(Exception):
 @dataclass
 class Graph:
     """One reading: endpoints the master registered, connections it did not,
-    and the registered nodes that do not answer."""
+    and the registered nodes that did not answer this time."""
 
     registered: list[Seen] = field(default_factory=list)
     unregistered: list[Seen] = field(default_factory=list)
@@ -93,12 +93,10 @@ def read(master_uri: str, caller: str, timeout: float = TIMEOUT) -> Graph:
     nodes = sorted({n for names in registered.values() for n in names})
     uris = _lookup(master, caller, nodes)
     buses = _bus_info(caller, uris, timeout)
-    stale = sorted(n for n in nodes if buses.get(n) is None)
-    graph = Graph(stale=stale)
+    graph = Graph(stale=sorted(n for n in nodes if buses.get(n) is None))
     for (topic, role), names in sorted(registered.items()):
         for node in sorted(names):
-            if node not in stale:
-                graph.registered.append(Seen(topic, role, *split_name(node), node.encode()))
+            graph.registered.append(Seen(topic, role, *split_name(node), node.encode()))
     graph.unregistered = _unregistered(registered, uris, buses)
     return graph
 
