@@ -28,7 +28,7 @@ from rmvdsl.host import collector, intrusion, monitor, ros1_decoding, ros1_graph
 from rmvdsl.host.actions import NodeActions
 from rmvdsl.host.gaps import Undecodable
 from rmvdsl.host.packaged import load_spec, package, with_time_sources
-from rmvdsl.host.status import ERROR, OK, STALE, WARN, Status
+from rmvdsl.host.status import ERROR, OK, STALE, WARN, Status, fill_diagnostics
 from rmvdsl.runtime import spec as ir
 
 LEVELS = {
@@ -57,13 +57,9 @@ def log_at(level: str, text: str) -> None:
 def diagnostics(statuses: list[Status]) -> DiagnosticArray:
     array = DiagnosticArray()
     array.header.stamp = rospy.Time.now()
-    for status in statuses:
-        values = [KeyValue(key=k, value=v) for k, v in status.values.items()]
-        array.status.append(
-            DiagnosticStatus(level=LEVELS[status.level], name=status.full_name,
-                             message=status.message, hardware_id=package(), values=values)
-        )  # fmt: skip
-    return array
+    classes = (DiagnosticStatus, KeyValue)
+    filled: DiagnosticArray = fill_diagnostics(array, statuses, classes, LEVELS, package())
+    return filled
 
 
 def node_actions(spec: ir.Spec) -> NodeActions:

@@ -30,7 +30,7 @@ from std_msgs.msg import String
 from rmvdsl.host import collector, intrusion, monitor
 from rmvdsl.host.actions import NodeActions
 from rmvdsl.host.packaged import load_spec, package, with_time_sources
-from rmvdsl.host.status import ERROR, OK, STALE, WARN, Status
+from rmvdsl.host.status import ERROR, OK, STALE, WARN, Status, fill_diagnostics
 from rmvdsl.runtime import spec as ir
 
 LEVELS = {
@@ -125,13 +125,9 @@ def log_at(node: Node, level: str, text: str) -> None:
 def diagnostics(node: Node, statuses: list[Status]) -> DiagnosticArray:
     array = DiagnosticArray()
     array.header.stamp = node.get_clock().now().to_msg()
-    for status in statuses:
-        values = [KeyValue(key=k, value=v) for k, v in status.values.items()]
-        array.status.append(
-            DiagnosticStatus(level=LEVELS[status.level], name=status.full_name,
-                             message=status.message, hardware_id=package(), values=values)
-        )  # fmt: skip
-    return array
+    classes = (DiagnosticStatus, KeyValue)
+    filled: DiagnosticArray = fill_diagnostics(array, statuses, classes, LEVELS, package())
+    return filled
 
 
 def node_actions(node: Node, spec: ir.Spec) -> NodeActions:

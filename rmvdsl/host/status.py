@@ -42,3 +42,23 @@ def verdict_segment(record: Mapping[str, Any]) -> dict[str, Any]:
     """A verdict record as /rmv/verdicts carries it (the replay's JSON object)."""
     keys = ("property", "verdict", "from", "to", "bounds", "revised")
     return {"kind": "verdict", **{k: record[k] for k in keys if k in record}}
+
+
+def fill_diagnostics(
+    array: Any,
+    statuses: Iterable[Status],
+    classes: tuple[Any, Any],
+    levels: Mapping[str, Any],
+    hardware_id: str,
+) -> Any:
+    """Append `statuses` to a diagnostic_msgs/DiagnosticArray `array` of either ROS
+    (`classes`: its DiagnosticStatus and KeyValue; `levels`: its level of each of
+    ours); the array."""
+    status_class, key_value = classes
+    for status in statuses:
+        values = [key_value(key=k, value=v) for k, v in status.values.items()]
+        array.status.append(
+            status_class(level=levels[status.level], name=status.full_name,
+                         message=status.message, hardware_id=hardware_id, values=values)
+        )  # fmt: skip
+    return array

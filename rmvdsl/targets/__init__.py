@@ -116,3 +116,21 @@ def folder_output(name: str, out: Path | None) -> Path:
     if out is None:
         raise TargetError(f"--target {name} needs -o OUT, the folder to write")
     return out
+
+
+def ros_package_build(name: str, generator: str) -> Build:
+    """The build of a target that writes one ROS package: `generator` (imported on
+    first use) has `build(spec, out, package)` and `package_name(spec, package)`;
+    the option `package` names it."""
+
+    def build(spec: ir.Spec, out: Path | None, options: Mapping[str, str | None]) -> Built:
+        from rmvdsl.runtime.wording import counted
+
+        generate = importlib.import_module(generator)
+        folder = folder_output(name, out)
+        package = options.get("package")
+        written = generate.build(spec, folder, package)
+        what = f"the {name} package `{generate.package_name(spec, package)}`"
+        return Built(tuple(written), f"wrote {what} to {folder} ({counted(len(written), 'file')})")
+
+    return build

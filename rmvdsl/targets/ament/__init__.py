@@ -1,10 +1,11 @@
 """An ament_python package that hosts the runtime, as the ros2 target's monitor
 package and the kapacitor target's collector both are: package.xml, setup.py, the
 launch file, the resolved spec as JSON (`spec.json`), and copies of
-`rmvdsl/runtime/` and `rmvdsl/host/` with their imports made package-relative, so
-a package needs nothing beyond ROS 2 (rmvdsl.targets.embed). Every file is rendered from templates;
-names reach Python, XML and YAML only through `py_string`, `xml_text` and
-`yaml_string`. Not a target itself: the targets that write such a package import it.
+`rmvdsl/runtime/` and `rmvdsl/host/` with their imports made package-relative
+(rmvdsl.targets.embed), so a package needs nothing beyond ROS 2. Every file is
+rendered from templates; names reach Python, XML and YAML only through
+`py_string`, `xml_text` and `yaml_string`. Not a target itself: the targets that
+write such a package import it.
 """
 
 from __future__ import annotations
