@@ -176,9 +176,12 @@ def _reports(seen: dict, name: str, after: float, until: float | None = None) ->
     ]  # fmt: skip
 
 
-def _first_naming(seen: dict, name: str, who: str, after: float) -> float | None:
-    """Seconds from `after` to the first status `NAME` whose message names `who`."""
-    for status in _reports(seen, name, after):
+def _first_naming(
+    seen: dict, name: str, who: str, after: float, since: float | None = None
+) -> float | None:
+    """Seconds from `after` to the first status `NAME` whose message names `who`,
+    looking from `since` on (default: `after`)."""
+    for status in _reports(seen, name, after if since is None else since):
         if who in status["message"]:
             return status["t"] - after
     return None
@@ -196,14 +199,17 @@ def test_the_intrusion_node_reports_rogues_sneaks_and_stale_nodes_and_no_allowed
     seen = _drive("drive_intrusion.py", str(package), "/cmd", "20", home=tmp_path / "run")
     steps = seen["steps"]
     assert seen["exit"] == 0, seen["log"]
-    assert not _reports(seen, "intrusions", 0.0, steps["/rogue_pub"]), seen["log"]
+    assert not _reports(seen, "intrusions", 0.0, steps["/rogue_pub start"]), seen["log"]
     for name in ("/driver", "/base", "/allowed_", "/rmv_intrusion", "/rosout"):
         assert name not in seen["log"], seen["log"]
+    # From when the driver saw each registered (or connected): the node may see it
+    # first, so its report is looked for from the start of the process.
     latencies = {
-        who: _first_naming(seen, "intrusions", who, steps[step])
-        for who, step in (("/rogue_pub", "/rogue_pub"), ("/rogue_sub", "/rogue_sub"),
-                          (steps["sneak uri"].split("//")[1].rstrip("/"), "sneak"))
-    }  # fmt: skip
+        who: _first_naming(seen, "intrusions", who, steps[step], steps[f"{step} start"])
+        for who, step in (("/rogue_pub", "/rogue_pub"), ("/rogue_sub", "/rogue_sub"))
+    }
+    sneak = steps["sneak uri"].split("//")[1].rstrip("/")
+    latencies[sneak] = _first_naming(seen, "intrusions", sneak, steps["sneak"])
     print(f"reported after (s): {latencies}")
     assert all(t is not None and t <= 2.0 for t in latencies.values()), latencies
     assert "without registering with the ROS master" in seen["log"]
@@ -221,7 +227,9 @@ var Speed = twist.twist.linear.x
 var Other = wrong.twist.linear.x
 event Fast when Speed > 25
 event OtherFast when Other > 5
-property NeverFast: not Fast
+property NeverFast: not Fast {
+    action publish("/rmv/alerts")
+}
 property OtherSlow: not OtherFast
 """
 SIM_START = 1_600_000_000 * 10**9
@@ -267,7 +275,8 @@ def test_sim_time_parameters_renames_lost_and_wrong_messages(tmp_path):
     """`/use_sim_time` with `rosbag play --clock`: receipt times are the bag's clock,
     not the system's; `__name:=watcher` renames the node; `_topics/twist:=/other`
     reads another topic; a gap in the headers' `seq` counts 2 lost messages; a topic
-    carrying another type than the spec's counts each message damaged."""
+    carrying another type than the spec's counts each message damaged; the
+    violation's `publish` action is latched: a subscriber that comes later gets it."""
     spec = tmp_path / "simulated.rmv"
     spec.write_text(SIMULATED, encoding="utf-8")
     package = _build(spec, tmp_path / "simulated")
@@ -275,10 +284,11 @@ def test_sim_time_parameters_renames_lost_and_wrong_messages(tmp_path):
     seen = _drive(
         "drive_monitor.py", str(package), str(bag), "--sim", "--node", "/watcher",
         "--arg", "_topics/twist:=/other", "--arg", "_diagnostics_period:=0.2",
-        home=tmp_path / "run",
+        "--late", "/rmv/alerts", home=tmp_path / "run",
     )  # fmt: skip
     assert seen["monitor_exit"] == 0, seen["monitor_log"]
     assert seen["verdict_publishers"] == ["/watcher"]
+    assert seen["late"] == {"/rmv/alerts": ["NeverFast violated"]}, seen["monitor_log"]
     counters = seen["counters"]
     assert counters["messages"] == "30", counters  # decoded ones; the damaged apart
     assert counters["lost messages: /vehicle/twist"] == "2", counters

@@ -87,6 +87,7 @@ def main() -> None:
             time.sleep(2.0)
             steps["churn end"] = time.monotonic()
             for name, role in (("/rogue_pub", "publisher"), ("/rogue_sub", "subscriber")):
+                steps[f"{name} start"] = time.monotonic()
                 process = peer(name, role)
                 core.wait_for(lambda n=name, r=role: registered(n, r), 10, name)
                 steps[name] = time.monotonic()

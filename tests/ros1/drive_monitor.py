@@ -34,6 +34,7 @@ def main() -> None:
     parser.add_argument("--node", default="/rmv_monitor")
     parser.add_argument("--sim", action="store_true")
     parser.add_argument("--arg", action="append", default=[])
+    parser.add_argument("--late", action="append", default=[], help="a topic to read after")
     options, play_args = parser.parse_known_args()
     play_args = [a for a in play_args if a != "--"]
     logs, package, bag, node = options.logs, options.package, options.bag, options.node
@@ -43,6 +44,7 @@ def main() -> None:
     if options.sim:
         play_args.append("--clock")
     verdicts: list[dict] = []
+    late: dict[str, list[str]] = {}
     counters: dict[str, str] = {}
     lock = threading.Lock()
     with core.roscore(logs):
@@ -79,6 +81,10 @@ def main() -> None:
             )
             (logs / "play.log").write_text(play.stdout + play.stderr)
             time.sleep(1.5)  # the last messages reach the monitor, diagnostics come
+            for topic in options.late:  # what a subscriber that comes now still gets
+                got = late[topic] = []
+                rospy.Subscriber(topic, String, lambda m, got=got: got.append(m.data))
+                core.wait_for(lambda got=got: bool(got), 10, f"the latched {topic}")
         finally:
             code = core.stop(monitor)
         time.sleep(1.0)  # the last segments, published as the monitor stopped
@@ -92,6 +98,7 @@ def main() -> None:
                     "monitor_exit": code,
                     "play_exit": play.returncode,
                     "verdict_publishers": publishers,
+                    "late": late,
                     "monitor_log": (logs / "monitor.log").read_text(errors="replace")[-4000:],
                 }
             )
