@@ -84,13 +84,15 @@ exit codes: 0 no errors, 1 errors (or warnings with --strict), 2 usage or I/O pr
 
     build_parser = commands.add_parser(
         "build",
-        help="generate a target from a spec (ir: the resolved spec as JSON; ros2: a package; "
+        help="generate a target from a spec (ir: the resolved spec as JSON; ros2, ros1: a "
+        "package; "
         "kapacitor: InfluxDB queries and TICKscripts)",
         description="Check a spec and, when it has no errors, generate a target from its "
         "resolved model. `ir` writes the resolved spec as versioned JSON (docs/ir.md); "
         "`ros2` an ament_python package with the monitor and intrusion nodes (docs/ros2.md); "
+        "`ros1` a catkin package with the same nodes on rospy (docs/ros1.md); "
         "`kapacitor` InfluxDB's schema and continuous queries and one TICKscript per alert, "
-        "with a report of what only the ros2 monitor computes (docs/kapacitor.md).",
+        "with a report of what only the ros2 or ros1 monitor computes (docs/kapacitor.md).",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="""examples:
   rmv build --target ir examples/carla/abs.rmv

@@ -650,3 +650,45 @@ def test_a_host_orders_stamped_messages_by_the_time_the_runtime_gives_them(tmp_p
     assert runtime.time_of(9, "/t", message) == 3 * 10**9 + 5
     assert runtime.time_of(9, "/u", {"data": 1.0}) == 9
     assert runtime.time_of(9, "/t", {"point": {"x": 1.0}}) == 9  # no stamp: `message` reports it
+
+
+def test_two_bags_with_two_versions_of_a_type_decode_each_with_its_own(rmv, tmp_path):
+    """ROS 1 bags carry each connection's definition: two recordings of one topic
+    made with two versions of a custom type (a field added) are each decoded with
+    their own, as the live ROS 1 node decodes each publisher's (rosbags' reader alone
+    applies one definition to both, and fails or misreads)."""
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    versions = {"v1": "float64 value\n", "v2": "string unit\nfloat64 value\n"}
+    for offset, (name, text) in enumerate(versions.items()):
+        store = get_typestore(Stores.ROS1_NOETIC)
+        store.register(get_types_from_msg(text, "lab/msg/Reading"))
+        reading = store.types["lab/msg/Reading"]
+        with Writer(tmp_path / f"{name}.bag") as writer:
+            connection = writer.add_connection("/reading", "lab/msg/Reading", typestore=store)
+            for k in range(3):
+                fields = {"value": 10.0 * offset + k}
+                if name == "v2":
+                    fields["unit"] = "m"
+                data = store.serialize_ros1(reading(**fields), "lab/msg/Reading")
+                writer.write(connection, (1_700_000_000 + 10 * offset + k) * 10**9, data)
+    (tmp_path / "msg" / "lab" / "msg").mkdir(parents=True)
+    (tmp_path / "msg" / "lab" / "msg" / "Reading.msg").write_text(versions["v2"])
+    spec = tmp_path / "reading.rmv"
+    spec.write_text(
+        'system reading "a reading"\nros noetic\nmessages "msg"\n'
+        'topic reading: lab/Reading = "/reading"\nvar Value = reading.value\n'
+        "event Big when Value > 5\nproperty Small: not Big\n",
+        encoding="utf-8",
+    )
+    result = rmv("replay", str(spec), str(tmp_path / "v1.bag"), str(tmp_path / "v2.bag"),
+                 "--format", "jsonl")  # fmt: skip
+    records = [json.loads(line) for line in result.out.splitlines()]
+    assert not [r for r in records if r["kind"] == "diagnostic"], records
+    verdicts = [(r["verdict"], r["from"], r["to"]) for r in records if r["kind"] == "verdict"]
+    assert verdicts == [
+        ("true", 1_700_000_000, 1_700_000_010),
+        ("false", 1_700_000_010, 1_700_000_012),
+    ]
+    assert result.code == 1

@@ -661,7 +661,7 @@ a `database` block:
 target does not compute, at its declaration, and which target does. The kapacitor
 target writes continuous queries for windowed events and TICKscripts for alerts;
 boolean events, transducers, RMTLD3 properties and whitelists are computed by the
-ros2 target's monitor and intrusion nodes, and `rmv build --target kapacitor` lists
+monitor and intrusion nodes of the ros2 and ros1 targets, and `rmv build --target kapacitor` lists
 the same parts in its README.md.""",
     ),
 ]

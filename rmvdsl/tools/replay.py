@@ -141,6 +141,35 @@ def open_reader(paths: Sequence[Path], spec: ir.Spec) -> Any:
     return reader
 
 
+def key(connection: Any) -> tuple[int, int]:
+    """A connection among several recordings': each numbers its own from 0."""
+    return connection.id, id(connection.owner)
+
+
+def decoder(reader: Any) -> Callable[[Any, bytes], Any]:
+    """How a connection's messages are decoded. ROS 1: by the live ROS 1 node's
+    decoder (rmvdsl.host.ros1_decoding), from the connection's own definition and
+    md5sum, so a bag and a live system are read alike, and two bags holding two
+    versions of a type each with its own; ROS 2: by the reader's type store."""
+    if reader.is2:
+        return lambda connection, raw: reader.deserialize(raw, connection.msgtype)
+    from rmvdsl.host.ros1_decoding import Decoder
+
+    ros1 = Decoder()
+    headers: dict[tuple[int, int], dict[str, str]] = {}
+
+    def decode(connection: Any, raw: bytes) -> Any:
+        header = headers.get(key(connection))
+        if header is None:
+            header = headers[key(connection)] = {
+                "type": connection.msgtype, "md5sum": connection.digest,
+                "message_definition": connection.msgdef.data,
+            }  # fmt: skip
+        return ros1.decode(header, raw)
+
+    return decode
+
+
 def _time(text: str | None, start: int) -> int | None:
     """`--from`/`--to`: seconds on the recording's clock, or `+N` after its start."""
     if text is None:
@@ -176,28 +205,29 @@ def replay(
         runtime.counters.update(found.skipped_messages)
         low, high = _time(start, reader.start_time), _time(stop, reader.start_time)
         endpoints: set[Endpoint] = set()
-        seen_connections: set[int] = set()
-        read = {c.id for c in found.connections}
+        seen_connections: set[tuple[int, int]] = set()
+        read = {key(c) for c in found.connections}
         # ROS 1 bags name each connection's publisher: every connection then
         # counts for intrusion detection, from its first message on.
         publishers = [c for c in reader.connections if getattr(c.ext, "callerid", None)]
         watched = publishers if can_refuse(spec) else []
-        connections = found.connections + [c for c in watched if c.id not in read]
+        connections = found.connections + [c for c in watched if key(c) not in read]
         total = sum(c.msgcount for c in found.connections)
+        decode = decoder(reader)
         done = 0
         for connection, timestamp, raw in reader.messages(
             connections=connections, start=low, stop=high
         ):
-            if connection.id not in seen_connections:
-                seen_connections.add(connection.id)
+            if key(connection) not in seen_connections:
+                seen_connections.add(key(connection))
                 caller = getattr(connection.ext, "callerid", None)
                 if caller:
                     endpoints.add(Endpoint(caller, connection.topic, "publisher"))
                     runtime.graph(timestamp, endpoints)
-            if connection.id not in read:
+            if key(connection) not in read:
                 continue
             try:
-                message = reader.deserialize(raw, connection.msgtype)
+                message = decode(connection, raw)
             except Exception as error:
                 runtime.damaged(timestamp, connection.topic, str(error))
                 continue

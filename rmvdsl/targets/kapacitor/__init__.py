@@ -29,7 +29,7 @@ def _build(spec: ir.Spec, out: Path | None, options: Mapping[str, str | None]) -
     written, report = generate.write(spec, folder, ros=options.get("collector") or "ros2")
     summary = (
         f"wrote the kapacitor target to {folder} ({counted(len(written), 'file')}; "
-        f"{counted(len(report), 'part')} of the spec left to the ros2 monitor, listed in "
+        f"{counted(len(report), 'part')} of the spec left to the ros2 or ros1 monitor, listed in "
         "README.md)"
     )
     return Built(tuple(written), summary, tuple(report))

@@ -277,13 +277,13 @@ def plan(spec: ir.Spec, handlers: Path) -> Build:
         if event.kind == "boolean":
             build.report.append(Left(
                 f"event {event.name}: a boolean event (a condition over the newest values) "
-                "is not stored; transducers and properties read it in the ros2 monitor",
+                "is not stored; transducers and properties read it in the ros2 or ros1 monitor",
                 event.origin,
             ))  # fmt: skip
         elif event.window is None:
             build.report.append(Left(
                 f"event {event.name}: no `group by time(...)`: a continuous query needs a "
-                "window; the ros2 monitor computes it", event.origin,
+                "window; the ros2 or ros1 monitor computes it", event.origin,
             ))  # fmt: skip
         else:
             _add_query(build, f"event {event.name}", _event_query, event, event.origin)
@@ -304,24 +304,26 @@ def plan(spec: ir.Spec, handlers: Path) -> Build:
         try:
             build.alerts.append(_alert(build, alert))
         except Unsupported as why:
-            build.report.append(Left(f"alert {alert.name}: not a TICKscript ({why}): "
-                                     "the ros2 monitor raises it", alert.origin))  # fmt: skip
+            text = (
+                f"alert {alert.name}: not a TICKscript ({why}): the ros2 or ros1 monitor raises it"
+            )
+            build.report.append(Left(text, alert.origin))
     for transducer in spec.transducers:
         build.report.append(Left(
             f"transducer {transducer.name}: Kapacitor has no state transducers: the "
             "collector runs it in the runtime and stores its states (for the dashboards); "
-            "properties over them need the ros2 monitor", transducer.origin,
+            "properties over them need the ros2 or ros1 monitor", transducer.origin,
         ))  # fmt: skip
     for prop in spec.properties:
         build.report.append(Left(
             f"property {prop.name}: an RMTLD3 property over transducer states and "
-            "boolean events needs the ros2 target's monitor (no stateDuration/"
+            "boolean events needs the ros2 or ros1 monitor (no stateDuration/"
             "stateCount pipeline computes it exactly)", prop.origin,
         ))  # fmt: skip
     if spec.whitelists or spec.nodes:
         first = spec.whitelists[0].origin if spec.whitelists else spec.nodes[0].origin
         build.report.append(Left("whitelists: intrusion detection reads the ROS graph: the ros2 "
-                                 "target's intrusion node", first))  # fmt: skip
+                                 "or ros1 intrusion node", first))  # fmt: skip
     return build
 
 
@@ -333,7 +335,7 @@ def _add_query(
     try:
         build.queries.append(make(build, part))
     except Unsupported as why:
-        build.report.append(Left(f"{what}: no continuous query ({why}): the ros2 monitor "
+        build.report.append(Left(f"{what}: no continuous query ({why}): the ros2 or ros1 monitor "
                                  "computes it", origin))  # fmt: skip
 
 
