@@ -9,21 +9,14 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
+from importlib import metadata
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 VENV = ROOT / ".ros1-venv"
 DEBIAN_PYTHON = "/usr/bin/python3"
-# What the generated nodes need beside Debian's ROS 1: the rosbags the project uses.
-WHEELS = ("rosbags==0.11.9",)
-# Debian's packages of ROS 1 the tests use (.ci/run installs them).
-PACKAGES = (
-    "python3-rosmaster", "python3-roslaunch", "rosout", "python3-rospy", "python3-rosbag",
-    "python3-rostopic", "python3-rosgraph", "python3-rosnode", "python3-std-msgs",
-    "python3-geometry-msgs", "python3-nav-msgs", "python3-sensor-msgs",
-    "python3-diagnostic-msgs", "python3-netifaces", "catkin",
-)  # fmt: skip
-ROSOUT = "/usr/lib/rosout/rosout"
+# What the generated nodes need beside Debian's ROS 1: the rosbags rmvdsl runs on here.
+WHEELS = (f"rosbags=={metadata.version('rosbags')}",)
 PORT = 11311  # each test has a network namespace, hence a 127.0.0.1, of its own
 
 
