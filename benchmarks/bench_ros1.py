@@ -33,6 +33,7 @@ from typing import Any
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests" / "ros1"))
+import bench_ros2  # noqa: E402
 import rosenv1  # noqa: E402
 
 from rmvdsl.check import check  # noqa: E402
@@ -41,37 +42,9 @@ from rmvdsl.targets import target  # noqa: E402
 
 LOAD = Path(__file__).resolve().parent / "ros1_load.py"
 CARLA = ROOT / "examples" / "carla"
-TOPIC = 'topic status: geometry_msgs/TwistStamped = "/bench/status" qos {\n    depth = 100000\n}\n'
-FORMULA_3_1 = f"""system bench_abs "formula 3.1 on one topic"
-ros noetic
-time unit s
-{TOPIC}var Speed = status.twist.linear.x
-var Brake = status.twist.angular.z
-event HardBrake when Brake > 0.8 and Speed > 0.1
-event AbsEngaged when Brake > 0.4 and Brake <= 0.8 and Speed > 1
-event VehicleStopped when Speed < 0.1
-event Accelerating when Brake < 0.1 and Speed > 0.1
-transducer Braking {{
-    states Cruising, HardBraking, AntiLockBrake, Stopped
-    initial Cruising
-    Cruising -> HardBraking on HardBrake
-    HardBraking -> AntiLockBrake on AbsEngaged
-    AntiLockBrake -> HardBraking on HardBrake
-    HardBraking -> Stopped on VehicleStopped
-    AntiLockBrake -> Stopped on VehicleStopped
-    Stopped -> Cruising on Accelerating
-}}
-property ABSCheck: (HardBraking -> (AntiLockBrake or HardBraking) until[<10s] Stopped) and duration[10s](HardBraking) < 4s {{
-    rate = 10Hz
-}}
-"""  # noqa: E501
-FLIPPING = f"""system bench_latency "a verdict segment per message"
-ros noetic
-time unit s
-{TOPIC}var Speed = status.twist.linear.x
-event High when Speed > 5
-property Low: not High
-"""
+# bench_ros2.py's specs, for ROS 1 (noetic's types; rospy reads keep_all unbounded).
+FORMULA_3_1 = bench_ros2.FORMULA_3_1.replace("time unit s\n", "ros noetic\ntime unit s\n", 1)
+FLIPPING = bench_ros2.FLIPPING.replace("time unit s\n", "ros noetic\ntime unit s\n", 1)
 THESIS_RATE = 18_391 / 100  # messages per second (table 4.1)
 
 

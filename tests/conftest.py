@@ -90,3 +90,13 @@ def rmv_process(
         [*RMV, *args], cwd=cwd, input=stdin, capture_output=True, text=True, timeout=120, env=env
     )
     return Run(completed.returncode, completed.stdout, completed.stderr)
+
+
+def per_property(verdicts: list[dict]) -> dict[str, list[dict]]:
+    """Each property's verdict segments in the order they came: a live node decides
+    each property as soon as it can, so two properties' segments interleave by when
+    they were decided, which a replay (deciding at the end of its input) does not."""
+    out: dict[str, list[dict]] = {}
+    for verdict in verdicts:
+        out.setdefault(verdict["property"], []).append(verdict)
+    return out

@@ -13,7 +13,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
-from conftest import ROOT
+from conftest import ROOT, per_property
 
 from rmvdsl.check import check
 from rmvdsl.ir import lower
@@ -67,15 +67,6 @@ def _drive(script: str, *args: str, home: Path, timeout: float = 240) -> dict:
     )
     assert result.returncode == 0, result.stderr[-4000:] + result.stdout[-2000:]
     return json.loads(result.stdout)
-
-
-def _per_property(verdicts: list[dict]) -> dict[str, list[dict]]:
-    """Each property's segments in the order they came (a live node decides each
-    property as soon as it can: properties interleave by when they were decided)."""
-    out: dict[str, list[dict]] = {}
-    for verdict in verdicts:
-        out.setdefault(verdict["property"], []).append(verdict)
-    return out
 
 
 def test_the_package_is_a_catkin_package(carla):
@@ -143,7 +134,7 @@ def test_rosbag_play_into_the_monitor_gives_the_replay_s_verdicts(carla, tmp_pat
     replay = rmv("replay", str(spec), str(BAG), "--format", "jsonl")
     assert replay.code == 1, replay.err
     from_replay = [json.loads(line) for line in replay.out.splitlines() if '"verdict"' in line]
-    assert _per_property(seen["verdicts"]) == _per_property(from_replay)
+    assert per_property(seen["verdicts"]) == per_property(from_replay)
     violated = {v["property"] for v in from_replay if v["verdict"] == "false"}
     assert violated == {"ABSCheck"}
     counters = seen["counters"]
@@ -293,7 +284,7 @@ def test_sim_time_parameters_renames_lost_and_wrong_messages(tmp_path):
     assert counters["messages"] == "30", counters  # decoded ones; the damaged apart
     assert counters["lost messages: /vehicle/twist"] == "2", counters
     assert counters["damaged messages: /wrong"] == "3", counters
-    verdicts = _per_property(seen["verdicts"])
+    verdicts = per_property(seen["verdicts"])
     start, end = SIM_START / 1e9, SIM_START / 1e9 + 4
     for segment in seen["verdicts"]:
         assert start <= float(segment["from"]) <= end, segment  # the bag's clock

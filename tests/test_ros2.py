@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import ROOT
+from conftest import ROOT, per_property
 
 from rmvdsl.check import check
 from rmvdsl.ir import lower
@@ -255,16 +255,6 @@ def _verdicts(replay_out: str) -> list[dict]:
     return [json.loads(line) for line in replay_out.splitlines() if '"kind": "verdict"' in line]
 
 
-def _per_property(verdicts: list[dict]) -> dict[str, list[dict]]:
-    """Each property's segments in the order they came: a live node decides each
-    property as soon as it can, so two properties' segments interleave by when
-    they were decided, which a replay (deciding at the end of its input) does not."""
-    out: dict[str, list[dict]] = {}
-    for verdict in verdicts:
-        out.setdefault(verdict["property"], []).append(verdict)
-    return out
-
-
 def _instants(verdicts: list[dict]) -> list[float]:
     """Every bound of a segment, and a time between each two."""
     bounds = sorted({float(v[k]) for v in verdicts for k in ("from", "to")})
@@ -307,7 +297,7 @@ def test_the_node_publishes_the_replays_verdicts(specs, workspace, tmp_path, rmv
     assert replay.code == 1, replay.err
     from_replay = _verdicts(replay.out)
     assert len(from_replay) >= 4
-    assert _per_property(from_node) == _per_property(from_replay)
+    assert per_property(from_node) == per_property(from_replay)
     violated = [v for v in from_node if v["verdict"] == "false"]
     assert {v["property"] for v in violated} == {"NotFastLong", "NeverStops"}
     diagnostics = seen["diagnostics"]
@@ -335,7 +325,7 @@ def test_carla_types_the_abs_example_on_ros2(specs, workspace, tmp_path, rmv):
     replay = rmv("replay", str(specs["carla_abs"]), str(recording), "--format", "jsonl")
     assert replay.code == 1, replay.err
     from_replay = _verdicts(replay.out)
-    assert _per_property([json.loads(v) for v in seen["verdicts"]]) == _per_property(from_replay)
+    assert per_property([json.loads(v) for v in seen["verdicts"]]) == per_property(from_replay)
     violated = {v["property"] for v in from_replay if v["verdict"] == "false"}
     assert violated == {"ABSCheck"}
     counters = seen["diagnostics"]["rmv_monitor: monitor"]
@@ -371,7 +361,7 @@ def test_sim_time_and_parameters_override_the_spec(specs, workspace, tmp_path, r
     played = [m for _, messages in phases for m in messages]
     _record(recording, played, [clock for clock, messages in phases for _ in messages])
     replay = rmv("replay", str(receipt), str(recording), "--format", "jsonl")
-    assert _per_property(from_node) == _per_property(_verdicts(replay.out))
+    assert per_property(from_node) == per_property(_verdicts(replay.out))
     never_stops = [(v["verdict"], v["from"], v["to"]) for v in from_node
                    if v["property"] == "NeverStops"]  # fmt: skip
     assert never_stops == [("true", 100, 110), ("false", 110, 120)]

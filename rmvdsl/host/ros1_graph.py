@@ -136,6 +136,10 @@ def _unregistered(
     """Connections no registration accounts for. A subscriber's inbound
     connection names the publisher's XML-RPC URI; a publisher's outbound one, the
     name the subscriber gave."""
+    publishers = {  # topic -> the addresses of its registered publishers
+        topic: {address(uris[n]) for n in nodes if n in uris}
+        for (topic, role), nodes in registered.items() if role == "publisher"
+    }  # fmt: skip
     found: dict[tuple[str, str, str], Seen] = {}
     for connections in buses.values():
         for connection in connections or ():
@@ -143,8 +147,7 @@ def _unregistered(
                 continue
             peer, direction, topic = str(connection[1]), connection[2], str(connection[4])
             if direction == "i":
-                owners = registered.get((topic, "publisher"), set())
-                if address(peer) in {address(uris[o]) for o in owners if o in uris}:
+                if address(peer) in publishers.get(topic, set()):
                     continue
                 name, role = address(peer), "publisher"
             elif direction == "o":

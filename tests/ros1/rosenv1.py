@@ -7,12 +7,16 @@ network namespace holding only loopback, with a master of its own on 127.0.0.1.
 from __future__ import annotations
 
 import os
-import shutil
 import subprocess
+import sys
 from importlib import metadata
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
+# The namespace and the venv are made as for ROS 2 (tests/ros2/rosenv.py).
+sys.path.insert(0, str(ROOT / "tests" / "ros2"))
+from rosenv import isolated, made_venv  # noqa: E402
+
 VENV = ROOT / ".ros1-venv"
 DEBIAN_PYTHON = "/usr/bin/python3"
 # What the generated nodes need beside Debian's ROS 1: the rosbags rmvdsl runs on here.
@@ -26,26 +30,9 @@ class Ros1Error(RuntimeError):
 
 def python() -> str:
     """The Python of .ros1-venv (Debian's, with its site packages), made once."""
-    binary = VENV / "bin" / "python"
-    marker = VENV / "rmvdsl-wheels.txt"
-    wanted = "\n".join(WHEELS)
-    if binary.exists() and marker.exists() and marker.read_text() == wanted:
-        return str(binary)
     if not Path(DEBIAN_PYTHON).exists():
         raise Ros1Error(f"the ROS 1 tests need Debian's {DEBIAN_PYTHON} with rospy")
-    scrubbed = scrubbed_environment()
-    subprocess.run(
-        [DEBIAN_PYTHON, "-m", "venv", "--clear", "--system-site-packages", str(VENV)],
-        check=True, env=scrubbed,
-    )  # fmt: skip
-    install = subprocess.run(
-        [str(binary), "-m", "pip", "install", "--quiet", *WHEELS],
-        capture_output=True, text=True, timeout=600, env=scrubbed,
-    )  # fmt: skip
-    if install.returncode != 0:
-        raise Ros1Error(f"pip could not install {', '.join(WHEELS)}:\n{install.stderr[-3000:]}")
-    marker.write_text(wanted)
-    return str(binary)
+    return made_venv(VENV, WHEELS, scrubbed_environment(), DEBIAN_PYTHON, system_site=True)
 
 
 def scrubbed_environment() -> dict[str, str]:
@@ -67,14 +54,6 @@ def environment(home: Path, port: int = PORT) -> dict[str, str]:
         "PYTHONUNBUFFERED": "1",
         "PATH": f"{VENV / 'bin'}{os.pathsep}{os.environ.get('PATH', '')}",
     }
-
-
-def isolated(command: list[str]) -> list[str]:
-    """`command` inside `unshare -rn` with loopback up: nothing can leave the host."""
-    for tool in ("unshare", "ip", "bash"):
-        if shutil.which(tool) is None:
-            raise Ros1Error(f"the ROS 1 tests need `{tool}` (util-linux, iproute2, bash)")
-    return ["unshare", "-rn", "bash", "-c", 'ip link set lo up && exec "$@"', "bash", *command]
 
 
 def run(command: list[str], home: Path, timeout: float = 300) -> subprocess.CompletedProcess[str]:

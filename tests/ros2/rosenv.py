@@ -16,6 +16,7 @@ import re
 import shutil
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -41,20 +42,32 @@ class RosError(RuntimeError):
 
 def python() -> str:
     """The Python of .ros-venv, made (once) with the wheels above."""
-    binary = VENV / "bin" / "python"
-    marker = VENV / "rmvdsl-wheels.txt"
-    wanted = "\n".join(WHEELS)
+    scrubbed = {k: v for k, v in os.environ.items() if k not in FOREIGN}
+    return made_venv(VENV, WHEELS, scrubbed, after=_point_exports_here)
+
+
+def made_venv(
+    venv: Path, wheels: tuple[str, ...], env: dict[str, str], base: str = sys.executable,
+    system_site: bool = False, after: Callable[[Path], None] | None = None,
+) -> str:  # fmt: skip
+    """The Python of `venv` with `wheels` installed, made once: a marker written last
+    names them, so a changed list or an interrupted making makes it again. `base`
+    is the Python it is made from; `after(venv)` finishes it before the marker."""
+    binary = venv / "bin" / "python"
+    marker = venv / "rmvdsl-wheels.txt"
+    wanted = "\n".join(wheels)
     if binary.exists() and marker.exists() and marker.read_text() == wanted:
         return str(binary)
-    scrubbed = {k: v for k, v in os.environ.items() if k not in FOREIGN}
-    subprocess.run([sys.executable, "-m", "venv", "--clear", str(VENV)], check=True, env=scrubbed)
+    site = ["--system-site-packages"] if system_site else []
+    subprocess.run([base, "-m", "venv", "--clear", *site, str(venv)], check=True, env=env)
     install = subprocess.run(
-        [str(binary), "-m", "pip", "install", "--quiet", *WHEELS],
-        capture_output=True, text=True, timeout=1200, env=scrubbed,
+        [str(binary), "-m", "pip", "install", "--quiet", *wheels],
+        capture_output=True, text=True, timeout=1200, env=env,
     )  # fmt: skip
     if install.returncode != 0:
-        raise RosError(f"pip could not install the ROS 2 wheels:\n{install.stderr[-3000:]}")
-    _point_exports_here(VENV)
+        raise RosError(f"pip could not install {', '.join(wheels)}:\n{install.stderr[-3000:]}")
+    if after is not None:
+        after(venv)
     marker.write_text(wanted)
     return str(binary)
 
