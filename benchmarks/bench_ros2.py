@@ -46,9 +46,9 @@ sys.path.insert(0, str(ROOT / "tests" / "ros2"))
 import rosenv  # noqa: E402
 
 from rmvdsl.check import check  # noqa: E402
+from rmvdsl.dialects.influxql import split as split_statements  # noqa: E402
 from rmvdsl.ir import lower  # noqa: E402
 from rmvdsl.targets import kapacitor, ros2  # noqa: E402
-from rmvdsl.targets.kapacitor.deploy import split_statements  # noqa: E402
 
 LOAD = Path(__file__).resolve().parent / "ros2_load.py"
 CARLA = ROOT / "examples" / "carla"

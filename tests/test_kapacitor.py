@@ -35,12 +35,13 @@ from test_functions import EXAMPLES as WORKED
 from test_functions import INPUT as WORKED_INPUT
 
 from rmvdsl.check import check
+from rmvdsl.dialects import influxql
+from rmvdsl.dialects import tickscript as tick
 from rmvdsl.ir import lower
 from rmvdsl.runtime import influx, lineproto
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.engine import Runtime
 from rmvdsl.targets import kapacitor
-from rmvdsl.targets.kapacitor.deploy import split_statements, unquote_identifier
 from rmvdsl.tools.replay import open_reader, plan, replay
 
 NS = 10**9
@@ -82,8 +83,8 @@ _CQ = re.compile(
 )
 
 
-statements = split_statements
-_unquote = unquote_identifier
+statements = influxql.split
+_unquote = influxql.unquote
 
 
 def continuous_queries(iql: str) -> dict[str, str]:
@@ -136,8 +137,10 @@ def stored(server: Influxd, spec: ir.Spec, name: str, before: int) -> list[tuple
     """The points of a field in the measurement, before a time."""
     database = spec.database
     assert database is not None
-    target = kapacitor._target(database, database.default_retention, spec.system.name)
-    field = kapacitor.influxql_identifier(name)
+    target = influxql.measurement(
+        influxql.Measurement(database.name, database.default_retention, spec.system.name)
+    )
+    field = influxql.identifier(name)
     rows = server.points(f"SELECT {field} FROM {target} WHERE time < {before}", database.name)
     return [(int(t), v) for t, v in rows]
 
@@ -162,7 +165,7 @@ def _fresh_schema(server: Influxd, spec: ir.Spec, tmp_path: Path) -> str:
     """The build's influxdb.iql, applied to a database dropped first."""
     iql = _build(spec, tmp_path)["influxdb.iql"]
     assert spec.database is not None
-    server.query(f"DROP DATABASE {kapacitor.influxql_identifier(spec.database.name)}")
+    server.query(f"DROP DATABASE {influxql.identifier(spec.database.name)}")
     for statement in statements(iql):
         server.query(statement)
     return iql
@@ -354,7 +357,7 @@ def test_influxql_and_line_protocol_keep_hostile_text_as_data(server, text):
     string literal: each reads back exactly."""
     db_name = f"h_{HOSTILE.index(text)} {text}".replace("\\", "/")  # no `\` in a database name
     valid = "/" not in db_name and all(c.isprintable() for c in db_name)
-    db = kapacitor.influxql_identifier(db_name if valid else f"h_{HOSTILE.index(text)}")
+    db = influxql.identifier(db_name if valid else f"h_{HOSTILE.index(text)}")
     server.query(f"CREATE DATABASE {db}")
     name = _unquote(db)
     if "\\" in text or "\n" in text:
@@ -365,8 +368,8 @@ def test_influxql_and_line_protocol_keep_hostile_text_as_data(server, text):
         key = text
     line = f"m,topic=/t {lineproto.key_text(key)}={lineproto.field_value(text)} 1"
     server.write(name, [line])
-    field = kapacitor.influxql_identifier(key)
-    literal = kapacitor.influxql_string(text)
+    field = influxql.identifier(key)
+    literal = influxql.string(text)
     rows = server.points(f'SELECT {field} FROM "m" WHERE {field} = {literal}', name)
     assert rows == [[1, text]]
     databases = [row[0] for row in server.query("SHOW DATABASES")[0]["series"][0]["values"]]
@@ -376,13 +379,13 @@ def test_influxql_and_line_protocol_keep_hostile_text_as_data(server, text):
 @pytest.mark.parametrize("text", HOSTILE)
 def test_tickscript_strings_read_back_as_written(text):
     try:
-        literal = kapacitor.tick_string(text)
-    except kapacitor.BuildError:
+        literal = tick.string(text)
+    except tick.TickError:
         assert text.endswith("\\") and ("'''" in text or text.endswith("'"))
         return
     script = f"stream\n    |from()\n        .measurement({literal})\n"
     assert tickscript.strings(tickscript.check(script)) == [text]
-    templated = kapacitor.tick_string(kapacitor.go_template_text(text))
+    templated = tick.string(tick.go_template_text(text))
     script = f"stream\n    |from()\n    |alert()\n        .message({templated})\n"
     (value,) = tickscript.strings(tickscript.check(script))
     assert "{{" not in value.replace('{{ "{{" }}', "").replace('{{ "" }}', "")
@@ -420,15 +423,15 @@ def test_every_tickscript_of_the_examples_parses(tmp_path):
 
 
 def test_durations_are_one_integer_and_one_unit():
-    assert kapacitor.influxql_duration(Fraction(90)) == "90s"
-    assert kapacitor.influxql_duration(Fraction(3, 2) * 60) == "90s"
-    assert kapacitor.influxql_duration(Fraction(1, 10)) == "100ms"
-    assert kapacitor.influxql_duration(Fraction(86400 * 30)) == "30d"
-    assert kapacitor.influxql_duration(None) == "INF"
-    assert kapacitor.tick_duration(Fraction(90)) == "90s"
-    assert kapacitor.tick_duration(Fraction(1, 10**6)) == "1u"
-    with pytest.raises(kapacitor.BuildError):
-        kapacitor.tick_duration(Fraction(1, 10**9))
+    assert influxql.duration(Fraction(90)) == "90s"
+    assert influxql.duration(Fraction(3, 2) * 60) == "90s"
+    assert influxql.duration(Fraction(1, 10)) == "100ms"
+    assert influxql.duration(Fraction(86400 * 30)) == "30d"
+    assert influxql.duration(None) == "INF"
+    assert tick.duration(Fraction(90)) == "90s"
+    assert tick.duration(Fraction(1, 10**6)) == "1u"
+    with pytest.raises(tick.TickError):
+        tick.duration(Fraction(1, 10**9))
 
 
 # ---- rmv deploy ----

@@ -162,3 +162,15 @@ def test_no_two_modules_import_each_other():
             if imported in modules and imported != name:
                 graph.add_edge(name, imported)
     assert list(nx.simple_cycles(graph)) == []
+
+
+def test_the_dialects_are_the_standard_library_s():
+    """rmvdsl/dialects/ (InfluxQL, TICKscript) is read by targets, importers and
+    deploy alike: it knows nothing of the spec, only the standard library and itself."""
+    for path in _modules("dialects"):
+        for module in _imports(path):
+            top = module.split(".")[0]
+            own = module.startswith("rmvdsl.dialects")
+            assert own or (top in sys.stdlib_module_names and top != "rmvdsl"), (
+                f"{path.relative_to(ROOT)} imports {module}"
+            )

@@ -301,7 +301,7 @@ def test_the_kapacitor_collector_on_ros1_stores_every_message(tmp_path):
     influxd (inside the same namespace) as one point per message, with the braking
     transducer's states, and nothing dropped. (Times of receipt: the example's
     retention policy keeps a day, and the bag's stamps are of 2023.)"""
-    from rmvdsl.targets.kapacitor.deploy import split_statements
+    from rmvdsl.dialects.influxql import split as split_statements
 
     spec = tmp_path / "abs.rmv"
     text = (CARLA / "abs.rmv").read_text(encoding="utf-8")

@@ -444,7 +444,7 @@ def test_the_collector_writes_every_message_and_survives_influxd_stopping(
     dropped and counted; influxd started again gets the rest."""
     resolved = lower(check(str(specs["collected"])))
     texts, _ = kapacitor.files(resolved, tmp_path / "build")
-    from rmvdsl.targets.kapacitor.deploy import split_statements
+    from rmvdsl.dialects.influxql import split as split_statements
 
     statements = [  # the schema, not the continuous queries: the collector's part only
         s for s in split_statements(texts["influxdb.iql"])

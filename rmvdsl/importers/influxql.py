@@ -1,28 +1,44 @@
-"""InfluxQL expression text to .rmv expression text."""
+"""InfluxQL expression text to .rmv expression text, token by token (the
+author's spacing and parentheses kept), read by the InfluxQL dialect's lexer."""
 
 from __future__ import annotations
 
 import re
 
+from rmvdsl.dialects import influxql
 from rmvdsl.grammar.printer import quote
 
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+_WORDS = ("AND", "OR", "NOT", "TRUE", "FALSE")
+
+
+def rmv_name(name: str) -> str:
+    """A field or tag as an .rmv name: bare where it is an identifier, else quoted."""
+    return name if _IDENT.match(name) else quote(name)
+
+
+def _token(token: influxql.Token) -> str:
+    if token.kind == "ident" and token.text.startswith('"'):
+        return rmv_name(token.value)
+    if token.kind == "string":
+        return quote(token.value)
+    if token.text.upper() in _WORDS:
+        return token.text.lower()
+    return token.text
 
 
 def influx_expression(text: str) -> str:
     """An InfluxQL expression in .rmv syntax: quoted identifiers unquoted, keywords
-    lower-cased, single-quoted strings double-quoted."""
-    out = []
-    for token in re.finditer(r'"([^"]*)"|\'([^\']*)\'|([A-Za-z_][A-Za-z0-9_]*)|(\S)|(\s+)', text):
-        double, single, word, other, space = token.groups()
-        if double is not None:
-            out.append(double if _IDENT.match(double) else quote(double))
-        elif single is not None:
-            out.append(quote(single))
-        elif word is not None:
-            out.append(
-                word.lower() if word.upper() in ("AND", "OR", "NOT", "TRUE", "FALSE") else word
-            )
-        else:
-            out.append(other if other is not None else space)
+    lower-cased, single-quoted strings double-quoted. A text InfluxQL's lexer
+    cannot read is returned as it is (the caller's parse then reports it)."""
+    try:
+        found = list(influxql.tokens(text))
+    except influxql.InfluxQLError:
+        return text.strip()
+    out: list[str] = []
+    end = 0
+    for token in found:
+        out.append(text[end : token.start] if out else "")
+        out.append(_token(token))
+        end = token.start + len(token.text)
     return "".join(out).strip()

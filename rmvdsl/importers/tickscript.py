@@ -1,91 +1,118 @@
 """The alert TICKscripts of rostopicmon (thesis 3.4.5) to a .rmv `alert`.
 
-Only the shape the thesis uses is read: `stream |from() .measurement('M')
-|alert()` with `.info/.warn/.crit(lambda: ...)`, their `...Reset` lambdas and the
-handlers `.post`, `.tcp`, `.exec`, `.log`, `.message`, `.id`, `.stateChangesOnly`.
-Everything else is reported, never silently dropped.
+Read with the TICKscript dialect's parser. Only the shape the thesis uses is
+carried over: `stream |from() .measurement('M') |alert()` with
+`.info/.warn/.crit(lambda: ...)`, their `...Reset` lambdas and the handlers
+`.post`, `.tcp`, `.exec`, `.log`, `.message`, `.id`, `.stateChangesOnly`,
+`.noRecoveries`. Everything else is reported, never silently dropped.
 """
 
 from __future__ import annotations
 
-import re
-
+from rmvdsl.dialects import tickscript as tick
 from rmvdsl.grammar.printer import quote
-from rmvdsl.importers.influxql import influx_expression
+from rmvdsl.importers.influxql import rmv_name
 
-_METHOD = re.compile(r"\.\s*([A-Za-z]+)\s*\(")
 _LEVELS = ("info", "warn", "crit")
 
-
-def _arguments(script: str, start: int) -> tuple[str, int]:
-    """The text between the parenthesis at `start` and its match, and the end."""
-    depth = 0
-    quote_char = ""
-    index = start
-    while index < len(script):
-        char = script[index]
-        if quote_char:
-            if char == "\\":
-                index += 1
-            elif char == quote_char:
-                quote_char = ""
-        elif char in "'\"":
-            quote_char = char
-        elif char == "(":
-            depth += 1
-        elif char == ")":
-            depth -= 1
-            if depth == 0:
-                return script[start + 1 : index], index + 1
-        index += 1
-    return script[start + 1 :], len(script)
+# .rmv's binding strengths (rmvdsl/grammar/expr.lark), weakest first.
+_STRENGTH = {"OR": 1, "AND": 2, "==": 4, "!=": 4, "<": 4, "<=": 4, ">": 4, ">=": 4, "=~": 4,
+             "!~": 4, "+": 8, "-": 8, "*": 9, "/": 9, "%": 9}  # fmt: skip
+_COMPARISON = 4
+_RMV_OPS = {"OR": "or", "AND": "and", "==": "="}
 
 
-def _strip_comments(script: str) -> str:
-    """Remove `//` comments, but not `//` inside strings (URLs)."""
-    pieces = re.findall(r"""'(?:\\.|[^'\\])*'|"(?:\\.|[^"\\])*"|//[^\n]*|[^'"/]+|/""", script)
-    return "".join(piece for piece in pieces if not piece.startswith("//"))
+def rmv_expression(expr: tick.Expr, measurement: str) -> str:
+    """A lambda's body in .rmv syntax, parenthesised only where .rmv's binding
+    needs it; the reference "value" names the measurement (rostopicmon's field)."""
+    return _rmv(expr, measurement)[0]
 
 
-def _string_argument(text: str) -> str | None:
-    match = re.match(r"""^\s*(['"])(.*?)\1\s*$""", text, re.DOTALL)
-    return match.group(2) if match else None
+def _rmv(expr: tick.Expr, measurement: str) -> tuple[str, int]:
+    match expr:
+        case tick.Reference():
+            return rmv_name(measurement if expr.name == "value" else expr.name), 11
+        case tick.Text():
+            return quote(expr.value), 11
+        case tick.Literal():
+            return expr.text.lower() if expr.text in ("TRUE", "FALSE") else expr.text, 11
+        case tick.Unary(op="!"):
+            return f"not {_wrapped(expr.operand, 3, measurement)}", 3
+        case tick.Unary():
+            return f"-{_wrapped(expr.operand, 10, measurement)}", 10
+        case tick.Binary():
+            strength = _STRENGTH[expr.op]
+            # Comparisons do not chain in .rmv; the others bind to the left.
+            right_needs = strength + 1
+            left_needs = strength + 1 if strength == _COMPARISON else strength
+            left = _wrapped(expr.left, left_needs, measurement)
+            right = _wrapped(expr.right, right_needs, measurement)
+            return f"{left} {_RMV_OPS.get(expr.op, expr.op)} {right}", strength
+        case tick.Call():
+            args = ", ".join(rmv_expression(a, measurement) for a in expr.args)
+            return f"{expr.function}({args})", 11
+    return tick.expression(expr), 11
 
 
-def _lambda(text: str, measurement: str) -> str:
-    body = re.sub(r"^\s*lambda\s*:\s*", "", text)
-    body = body.replace('"value"', f'"{measurement}"')
-    return influx_expression(body).replace("==", "=")
+def _wrapped(expr: tick.Expr, needs: int, measurement: str) -> str:
+    text, strength = _rmv(expr, measurement)
+    return text if strength >= needs else f"({text})"
+
+
+def _steps(statements: list[tick.Statement]) -> list[tick.Step]:
+    return [step for s in statements if isinstance(s, tick.Pipeline) for step in s.steps]
+
+
+def _text(arg: tick.Expr) -> str | None:
+    """A string argument's value (the thesis also wrote URLs in double quotes)."""
+    if isinstance(arg, tick.Text):
+        return arg.value
+    return arg.name if isinstance(arg, tick.Reference) else None
+
+
+def _single_text(step: tick.Step) -> str | None:
+    return _text(step.args[0]) if len(step.args) == 1 else None
+
+
+def _lambda(step: tick.Step, measurement: str) -> str | None:
+    if len(step.args) == 1 and isinstance(step.args[0], tick.Lambda):
+        return rmv_expression(step.args[0].body, measurement)
+    return None
+
+
+def _written(step: tick.Step) -> str:
+    return f".{step.name}({', '.join(tick.expression(a) for a in step.args)})"
 
 
 def convert_tickscript(script: str, name: str) -> tuple[str | None, list[str]]:
+    try:
+        steps = _steps(tick.parse(script))
+    except tick.TickError as why:
+        return None, [f"alert `{name}`: not TICKscript ({why}): not carried over"]
     notes: list[str] = []
-    script = _strip_comments(script)
-    methods = []
-    for match in _METHOD.finditer(script):
-        arguments, _ = _arguments(script, match.end() - 1)
-        methods.append((match.group(1), arguments))
-    measurement = next((_string_argument(a) for m, a in methods if m == "measurement"), None)
+    measurement = next((_single_text(s) for s in steps if s.name == "measurement"), None)
     if not measurement:
         return None, [f"alert `{name}`: no `.measurement('...')` found: not carried over"]
     conditions: dict[str, str] = {}
     resets: dict[str, str] = {}
     members: list[str] = []
-    for method, arguments in methods:
-        if method in _LEVELS:
-            conditions[method] = _lambda(arguments, measurement)
-        elif method.endswith("Reset") and method[:-5] in _LEVELS:
-            resets[method[:-5]] = _lambda(arguments, measurement)
+    for step in steps:
+        method = step.name
+        if method in _LEVELS or (method.endswith("Reset") and method[:-5] in _LEVELS):
+            condition = _lambda(step, measurement)
+            if condition is None:
+                written = _written(step)
+                notes.append(f"alert `{name}`: `{written}` is not a lambda: not carried over")
+            elif method in _LEVELS:
+                conditions[method] = condition
+            else:
+                resets[method[:-5]] = condition
         elif method in ("post", "tcp", "exec", "log"):
-            members.append(_handler(method, arguments, notes))
-        elif method == "message":
-            text = _string_argument(arguments)
+            members.append(_handler(step, notes))
+        elif method in ("message", "id"):
+            text = _single_text(step)
             if text is not None:
-                members.append(f"    message {quote(text)}")
-        elif method == "id":
-            text = _string_argument(arguments)
-            if text is not None:
-                members.append(f"    id = {quote(text)}")
+                members.append(f"    {method}{' =' if method == 'id' else ''} {quote(text)}")
         elif method == "stateChangesOnly":
             members.append("    state_changes_only = true")
         elif method == "noRecoveries":
@@ -103,20 +130,15 @@ def convert_tickscript(script: str, name: str) -> tuple[str | None, list[str]]:
     return f"alert {name} {{\n{body}\n}}", notes
 
 
-def _handler(method: str, arguments: str, notes: list[str]) -> str:
-    parts = [p for p in (_string_argument(a) for a in _split(arguments)) if p is not None]
-    if method == "log":
-        notes.append(
-            f"`.log({arguments.strip()})` writes a file in Kapacitor; it becomes `action log`"
-        )
+def _handler(step: tick.Step, notes: list[str]) -> str:
+    written = _written(step)
+    if step.name == "log":
+        notes.append(f"`{written}` writes a file in Kapacitor; it becomes `action log`")
         return "    action log"
+    parts = [p for p in (_text(a) for a in step.args) if p is not None]
     if not parts:
-        notes.append(f"`.{method}({arguments.strip()})` has no string argument: not carried over")
+        notes.append(f"`{written}` has no string argument: not carried over")
         return ""
-    if method == "exec" and len(parts) > 1:
+    if step.name == "exec" and len(parts) > 1:
         return f"    action exec({quote(parts[0])}, {quote(' '.join(parts[1:]))})"
-    return f"    action {method}({quote(parts[0])})"
-
-
-def _split(arguments: str) -> list[str]:
-    return [piece for piece in re.split(r",(?=(?:[^'\"]*['\"][^'\"]*['\"])*[^'\"]*$)", arguments)]
+    return f"    action {step.name}({quote(parts[0])})"

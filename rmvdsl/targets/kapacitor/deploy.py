@@ -13,9 +13,9 @@ before it.
 from __future__ import annotations
 
 import base64
+import dataclasses
 import json
 import os
-import re
 import urllib.error
 import urllib.parse
 import urllib.request
@@ -24,6 +24,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from rmvdsl.dialects import influxql
+
 MANIFEST = "deploy.json"
 SCRATCH = "_rmv_deploy_scratch"  # where a continuous query shows its canonical form
 TIMEOUT = 30.0
@@ -31,72 +33,6 @@ TIMEOUT = 30.0
 
 class DeployError(Exception):
     """A server refused something, or could not be reached."""
-
-
-# ---- InfluxQL statements ----
-
-
-def split_statements(text: str) -> list[str]:
-    """The statements of an InfluxQL text: split at `;` outside quotes, with `--`
-    comments removed (quotes hold escapes with a backslash)."""
-    statements: list[str] = []
-    current: list[str] = []
-    quote = ""
-    index = 0
-    while index < len(text):
-        char = text[index]
-        if quote:
-            current.append(char)
-            if char == "\\" and index + 1 < len(text):
-                current.append(text[index + 1])
-                index += 1
-            elif char == quote:
-                quote = ""
-        elif char in "'\"":
-            quote = char
-            current.append(char)
-        elif text.startswith("--", index):
-            end = text.find("\n", index)
-            index = len(text) if end < 0 else end
-            continue
-        elif char == ";":
-            statements.append("".join(current).strip())
-            current = []
-        else:
-            current.append(char)
-        index += 1
-    statements.append("".join(current).strip())
-    return [s for s in statements if s]
-
-
-_IDENT = r'"(?:\\.|[^"\\])*"'
-_RETENTION = re.compile(
-    rf"CREATE RETENTION POLICY (?P<name>{_IDENT}) ON (?P<db>{_IDENT}) DURATION (?P<duration>\S+) "
-    r"REPLICATION (?P<replication>\d+)(?: SHARD DURATION (?P<shard>\S+))?(?P<default> DEFAULT)?$"
-)
-_QUERY = re.compile(rf"CREATE CONTINUOUS QUERY (?P<name>{_IDENT}) ON (?P<db>{_IDENT})\s")
-_DATABASE = re.compile(rf"CREATE DATABASE (?P<db>{_IDENT})$")
-
-
-def unquote_identifier(identifier: str) -> str:
-    """The name a double-quoted InfluxQL identifier stands for."""
-    escapes = {"n": "\n"}
-    return re.sub(r"\\(.)", lambda m: escapes.get(m.group(1), m.group(1)), identifier[1:-1])
-
-
-_UNITS = {"ns": 1, "u": 10**3, "µ": 10**3, "ms": 10**6, "s": 10**9, "m": 60 * 10**9,
-          "h": 3600 * 10**9, "d": 86400 * 10**9, "w": 604800 * 10**9}  # fmt: skip
-
-
-def duration_ns(text: str) -> int:
-    """An InfluxQL duration (`30d`, `INF`) or a Go one as SHOW prints it
-    (`720h0m0s`, `0s` for forever), in nanoseconds (0: forever)."""
-    if text.upper() == "INF":
-        return 0
-    total = 0
-    for number, unit in re.findall(r"(\d+(?:\.\d+)?)(ns|us|µs|u|µ|ms|s|m|h|d|w)", text):
-        total += int(float(number) * _UNITS[unit.replace("us", "u").replace("µs", "u")])
-    return total
 
 
 # ---- HTTP ----
@@ -188,52 +124,58 @@ def _run(report: Report, what: str, action: Callable[..., Any], *args: Any) -> A
         raise report.failed(what, str(error)) from None
 
 
+def _statements(iql: str) -> list[influxql.Statement]:
+    try:
+        return influxql.parse(iql)
+    except influxql.InfluxQLError as why:
+        raise DeployError(f"influxdb.iql: {why}") from None
+
+
 def deploy_influx(influx: Influx, iql: str, prefix: str, report: Report) -> None:
-    """Apply the statements of `influxdb.iql`, changing only what differs."""
-    statements = split_statements(iql)
+    """Apply the statements of `influxdb.iql`, changing only what differs (a file
+    that does not parse is refused before anything is applied)."""
+    statements = _statements(iql)
     shown = _run(report, "SHOW DATABASES", influx.rows, "SHOW DATABASES")
     databases = {r["name"] for r in shown}
     wanted_queries: dict[str, set[str]] = {}
     for statement in statements:
-        if match := _DATABASE.match(statement):
-            db = unquote_identifier(match.group("db"))
-            if db in databases:
-                report.unchanged.append(f"database {db}")
+        text = influxql.statement(statement)
+        if isinstance(statement, influxql.CreateDatabase):
+            if statement.database in databases:
+                report.unchanged.append(f"database {statement.database}")
             else:
-                _run(report, statement, influx.query, statement)
-                report.did(f"created database {db}")
-                databases.add(db)
-        elif match := _RETENTION.match(statement):
-            _retention(influx, statement, match, report)
-        elif match := _QUERY.match(statement):
-            db = unquote_identifier(match.group("db"))
-            name = unquote_identifier(match.group("name"))
-            wanted_queries.setdefault(db, set()).add(name)
-            _continuous_query(influx, statement, db, name, report)
+                _run(report, text, influx.query, text)
+                report.did(f"created database {statement.database}")
+                databases.add(statement.database)
+        elif isinstance(statement, influxql.CreateRetentionPolicy):
+            _retention(influx, statement, report)
+        elif isinstance(statement, influxql.CreateContinuousQuery):
+            wanted_queries.setdefault(statement.database, set()).add(statement.name)
+            _continuous_query(influx, statement, report)
         else:
-            _run(report, statement, influx.query, statement)
-            report.did(statement.splitlines()[0])
+            _run(report, text, influx.query, text)
+            report.did(text.splitlines()[0])
     for db, names in wanted_queries.items():
         _drop_obsolete_queries(influx, db, names, prefix, report)
 
 
-def _retention(influx: Influx, statement: str, match: re.Match[str], report: Report) -> None:
-    db, name = unquote_identifier(match.group("db")), unquote_identifier(match.group("name"))
-    quoted_db = match.group("db")
-    shown = _run(report, statement, influx.rows, f"SHOW RETENTION POLICIES ON {quoted_db}")
-    existing = {r["name"]: r for r in shown}
+def _retention(influx: Influx, policy: influxql.CreateRetentionPolicy, report: Report) -> None:
+    db, name, statement = policy.database, policy.name, influxql.statement(policy)
+    show = f"SHOW RETENTION POLICIES ON {influxql.identifier(db)}"
+    existing = {r["name"]: r for r in _run(report, statement, influx.rows, show)}
     current = existing.get(name)
     if current is None:
         _run(report, statement, influx.query, statement)
         report.did(f"created retention policy {name} on {db}")
         return
     same = (
-        duration_ns(str(current["duration"])) == duration_ns(match.group("duration"))
-        and int(current["replicaN"]) == int(match.group("replication"))
-        and bool(current["default"]) == bool(match.group("default"))
+        influxql.duration_ns(str(current["duration"])) == influxql.duration_ns(policy.duration)
+        and int(current["replicaN"]) == policy.replication
+        and bool(current["default"]) == policy.default
         and (
-            match.group("shard") is None
-            or duration_ns(str(current["shardGroupDuration"])) == duration_ns(match.group("shard"))
+            policy.shard_duration is None
+            or influxql.duration_ns(str(current["shardGroupDuration"]))
+            == influxql.duration_ns(policy.shard_duration)
         )
     )
     if same:
@@ -249,39 +191,44 @@ def _shown_queries(influx: Influx, db: str, report: Report) -> dict[str, str]:
     return {r["name"]: r["query"] for r in rows if r["series"] == db}
 
 
-_TAIL = re.compile(r"(?: RESAMPLE(?: EVERY \S+)?(?: FOR \S+)?)? BEGIN SELECT .*$", re.S)
+def _meaning(shown: str) -> tuple[str | None, str | None, influxql.Select] | None:
+    """What a query as SHOW prints it does, without its name and database: its
+    resample clause and its SELECT (None: a query this module cannot read, which
+    is then replaced)."""
+    try:
+        query = influxql.parse_query(shown)
+    except influxql.InfluxQLError:
+        return None
+    return query.resample_every, query.resample_for, query.select
 
 
-def _tail(shown: str) -> str:
-    """A query as SHOW prints it, without its name and database: the resample
-    clause and the body."""
-    match = _TAIL.search(shown)
-    return match.group(0) if match else shown
-
-
-def _canonical(influx: Influx, statement: str, report: Report) -> str:
-    """The query as InfluxDB prints it (SHOW reformats what CREATE was given),
-    found by creating it once in a scratch database."""
-    head = _QUERY.match(statement)
-    assert head is not None
-    scratch = statement.replace(
-        head.group(0), f'CREATE CONTINUOUS QUERY "{SCRATCH}" ON "{SCRATCH}" ', 1
-    )
-    _run(report, f"CREATE DATABASE {SCRATCH}", influx.query, f'CREATE DATABASE "{SCRATCH}"')
+def _canonical(
+    influx: Influx, query: influxql.CreateContinuousQuery, report: Report
+) -> tuple[str | None, str | None, influxql.Select] | None:
+    """What the query does as InfluxDB prints it (SHOW reformats what CREATE was
+    given: durations, parentheses), found by creating it once in a scratch database."""
+    statement = influxql.statement(query)
+    scratch = influxql.statement(dataclasses.replace(query, name=SCRATCH, database=SCRATCH))
+    create = influxql.statement(influxql.CreateDatabase(SCRATCH))
+    _run(report, create, influx.query, create)
     try:
         _run(report, statement, influx.query, scratch)
-        return _tail(_shown_queries(influx, SCRATCH, report)[SCRATCH])
+        return _meaning(_shown_queries(influx, SCRATCH, report)[SCRATCH])
     finally:
-        influx.query(f'DROP DATABASE "{SCRATCH}"')
+        influx.query(influxql.statement(influxql.DropDatabase(SCRATCH)))
 
 
-def _continuous_query(influx: Influx, statement: str, db: str, name: str, report: Report) -> None:
-    existing = _shown_queries(influx, db, report).get(name)
+def _continuous_query(
+    influx: Influx, query: influxql.CreateContinuousQuery, report: Report
+) -> None:
+    statement, name = influxql.statement(query), query.name
+    existing = _shown_queries(influx, query.database, report).get(name)
     if existing is not None:
-        if _tail(existing) == _canonical(influx, statement, report):
+        wanted = _canonical(influx, query, report)
+        if wanted is not None and _meaning(existing) == wanted:
             report.unchanged.append(f"continuous query {name}")
             return
-        drop = f"DROP CONTINUOUS QUERY {_quote(name)} ON {_quote(db)}"
+        drop = influxql.statement(influxql.DropContinuousQuery(name, query.database))
         _run(report, drop, influx.query, drop)
         _run(report, statement, influx.query, statement)
         report.did(f"replaced continuous query {name}")
@@ -295,15 +242,9 @@ def _drop_obsolete_queries(
 ) -> None:
     for name in sorted(_shown_queries(influx, db, report)):
         if name.startswith(prefix) and name not in wanted:
-            drop = f"DROP CONTINUOUS QUERY {_quote(name)} ON {_quote(db)}"
+            drop = influxql.statement(influxql.DropContinuousQuery(name, db))
             _run(report, drop, influx.query, drop)
             report.did(f"dropped continuous query {name}")
-
-
-def _quote(name: str) -> str:
-    from rmvdsl.targets.kapacitor.quoting import influxql_identifier
-
-    return influxql_identifier(name)
 
 
 # ---- Kapacitor ----

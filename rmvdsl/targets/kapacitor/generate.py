@@ -6,10 +6,9 @@ Kapacitor TICKscript per alert raises it. What InfluxDB and Kapacitor cannot com
 as the runtime does (boolean events, transducers, properties, events with no
 window) is named in the build report, never dropped in silence.
 
-Every file is rendered from the templates beside this module. Names and strings
-reach InfluxQL only through `influxql_identifier`/`influxql_string`, and TICKscript
-only through `tick_string`/`tick_reference`; durations through `*_duration`
-(quoting.py).
+Every file is rendered from the templates beside this module. The statements and
+the scripts are trees of the dialect modules (rmvdsl/dialects/), printed there
+with their one quoting rule; expressions reach them through translate.py.
 """
 
 from __future__ import annotations
@@ -18,27 +17,24 @@ import json
 import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from fractions import Fraction
+from functools import reduce
 from pathlib import Path
 from typing import Any
 
 import jinja2
 
+from rmvdsl.dialects import influxql
+from rmvdsl.dialects import tickscript as tick
 from rmvdsl.runtime import lineproto
 from rmvdsl.runtime import spec as ir
 from rmvdsl.targets import ament, catkin
 from rmvdsl.targets.kapacitor import dashboards
-from rmvdsl.targets.kapacitor.quoting import (
+from rmvdsl.targets.kapacitor.translate import (
     BuildError,
     Unsupported,
-    go_template_text,
-    influxql_duration,
     influxql_expression,
-    influxql_identifier,
-    influxql_string,
-    tick_duration,
     tick_expression,
-    tick_reference,
-    tick_string,
 )
 
 # The file every alert handler that writes a log appends to (Kapacitor's `.log`).
@@ -50,42 +46,11 @@ KAPACITOR_URL = "http://127.0.0.1:9092"  # Kapacitor's own default
 
 
 @dataclass(frozen=True)
-class Query:
-    """A continuous query: its name and the parts of its SELECT."""
-
-    name: str
-    select: str
-    into: str
-    source: str
-    where: str | None
-    group_by: str
-    fill: str | None
-    order: str | None
-    limit: int | None
-    resample_every: str | None
-    resample_for: str | None
-
-
-@dataclass(frozen=True)
-class Handler:
-    method: str
-    args: tuple[str, ...]  # TICKscript literals
-
-
-@dataclass(frozen=True)
 class TickAlert:
     name: str
     task: str  # the Kapacitor task's id
     file: str
-    measurement: str
-    present: tuple[str, ...]  # references every point of the alert carries
-    levels: tuple[tuple[str, str, str | None], ...]  # severity, lambda, reset lambda
-    id: str
-    message: str
-    details: str
-    state_changes_only: bool
-    no_recoveries: bool
-    handlers: tuple[Handler, ...]
+    script: tuple[str, str, str]  # dbrp, the alert's pipeline, the one storing its events
 
 
 @dataclass
@@ -95,7 +60,7 @@ class Build:
     measurement: str
     handler_path: Path
     alerts_measurement: str
-    queries: list[Query] = field(default_factory=list)
+    queries: list[influxql.CreateContinuousQuery] = field(default_factory=list)
     alerts: list[TickAlert] = field(default_factory=list)
     report: list[Left] = field(default_factory=list)
     publishes: bool = False
@@ -122,38 +87,38 @@ def _database(spec: ir.Spec) -> ir.Database:
     return spec.database
 
 
-def _target(database: ir.Database, retention: str, measurement: str) -> str:
-    return ".".join(influxql_identifier(n) for n in (database.name, retention, measurement))
+def _target(database: ir.Database, retention: str, measurement: str) -> influxql.Measurement:
+    return influxql.Measurement(database.name, retention, measurement)
 
 
-def _event_query(build: Build, event: ir.Event) -> Query:
+def _event_query(build: Build, event: ir.Event) -> influxql.CreateContinuousQuery:
     assert event.window is not None
-    database, retention = build.database, build.database.default_retention
-    window = influxql_duration(event.window.interval)
-    if event.window.offset:
-        window += f", {influxql_duration(event.window.offset)}"
+    target = _target(build.database, build.database.default_retention, build.measurement)
     fill = None
     if event.fill.mode == "number" and event.fill.value is not None:
-        fill = influxql_expression(event.fill.value)
+        fill = influxql.expression(influxql_expression(event.fill.value))
     elif event.fill.mode != "null":
         fill = event.fill.mode
-    return Query(
-        name=f"{build.spec.system.name}.{event.name}",
-        select=f"{influxql_expression(event.expr)} AS {influxql_identifier(event.name)}",
-        into=_target(database, retention, build.measurement),
-        source=_target(database, retention, build.measurement),
+    select = influxql.Select(
+        columns=((influxql_expression(event.expr), event.name),),
+        into=target,
+        source=target,
         where=None if event.where is None else influxql_expression(event.where),
-        group_by=f"time({window})",
+        interval=influxql.duration(event.window.interval),
+        offset=influxql.duration(event.window.offset) if event.window.offset else None,
+        every_tag=False,
         fill=fill,
-        order="DESC" if event.order == "desc" else None,
+        descending=event.order == "desc",
         limit=event.limit,
-        resample_every=(
-            None if event.resample_every is None else influxql_duration(event.resample_every)
-        ),
-        resample_for=(
-            None if event.resample_for is None else influxql_duration(event.resample_for)
-        ),
     )
+    return influxql.CreateContinuousQuery(
+        f"{build.spec.system.name}.{event.name}", build.database.name,
+        _duration_or_none(event.resample_every), _duration_or_none(event.resample_for), select,
+    )  # fmt: skip
+
+
+def _duration_or_none(seconds: Fraction | None) -> str | None:
+    return None if seconds is None else influxql.duration(seconds)
 
 
 def _numeric_fields(spec: ir.Spec) -> dict[str, ir.ValueType]:
@@ -162,7 +127,7 @@ def _numeric_fields(spec: ir.Spec) -> dict[str, ir.ValueType]:
     return {n: t for n, t in found.items() if t.kind in ("int", "float")}
 
 
-def _downsample_query(build: Build, downsample: ir.Downsample) -> Query:
+def _downsample_query(build: Build, downsample: ir.Downsample) -> influxql.CreateContinuousQuery:
     numeric = _numeric_fields(build.spec)
     names = downsample.measurements if downsample.measurements is not None else tuple(numeric)
     for name in names:
@@ -171,36 +136,55 @@ def _downsample_query(build: Build, downsample: ir.Downsample) -> Query:
                 f"downsample {downsample.name}: `{name}` is not a stored number "
                 f"(`{downsample.aggregate}` needs one): not downsampled", downsample.origin,
             ))  # fmt: skip
-    columns = [
-        f"{downsample.aggregate}({influxql_identifier(n)}) AS {influxql_identifier(n)}"
-        for n in names
-        if n in numeric
-    ]
+    columns = tuple(
+        (influxql.Call(downsample.aggregate, (influxql.Name(n),)), n) for n in names if n in numeric
+    )
     if not columns:
         raise Unsupported("nothing to downsample")
-    return Query(
-        name=f"{build.spec.system.name}.downsample.{downsample.name}",
-        select=", ".join(columns),
+    every = influxql.duration(downsample.every)
+    select = influxql.Select(
+        columns=columns,
         into=_target(build.database, downsample.into, build.measurement),
         source=_target(build.database, downsample.source, build.measurement),
         where=None,
+        interval=every,
+        offset=None,
         # `*` keeps the `topic` tag: each topic's points stay their own series.
-        group_by=f"time({influxql_duration(downsample.every)}), *",
+        every_tag=True,
         fill=None,
-        order=None,
+        descending=False,
         limit=None,
-        resample_every=influxql_duration(downsample.every),
-        resample_for=influxql_duration(downsample.lookback),
     )
+    return influxql.CreateContinuousQuery(
+        f"{build.spec.system.name}.downsample.{downsample.name}", build.database.name,
+        every, influxql.duration(downsample.lookback), select,
+    )  # fmt: skip
 
 
-def _handlers(build: Build, alert: ir.Alert) -> tuple[Handler, ...]:
+def statements(build: Build) -> list[influxql.Statement]:
+    """`influxdb.iql`: the database, its retention policies, the continuous queries."""
+    database = build.database
+    found: list[influxql.Statement] = [influxql.CreateDatabase(database.name)]
+    for policy in database.retentions:
+        shard = policy.shard_duration
+        found.append(influxql.CreateRetentionPolicy(
+            policy.name, database.name, influxql.duration(policy.duration), policy.replication,
+            None if shard is None else influxql.duration(shard), policy.default,
+        ))  # fmt: skip
+    return found + list(build.queries)
+
+
+def _text(value: str) -> tick.Text:
+    return tick.Text(value)
+
+
+def _handlers(build: Build, alert: ir.Alert) -> list[tick.Step]:
     owner, actions = alert.name, alert.actions
     handlers = []
     for action in actions:
         if isinstance(action, ir.Log):
             path = f"{LOG_FOLDER}/{build.spec.system.name}.{owner}.log"
-            handlers.append(Handler("log", (tick_string(path),)))
+            handlers.append(tick.Step(".", "log", (_text(path),)))
             if action.message is not None:
                 build.report.append(Left(
                     f"alert {owner}: Kapacitor's log handler writes the alert's message, "
@@ -213,15 +197,15 @@ def _handlers(build: Build, alert: ir.Alert) -> tuple[Handler, ...]:
             )  # fmt: skip
             if action.message is not None:
                 args += ("--message", action.message)
-            handlers.append(Handler("exec", tuple(tick_string(a) for a in args)))
+            handlers.append(tick.Step(".", "exec", tuple(_text(a) for a in args)))
         elif isinstance(action, ir.Post):
-            handlers.append(Handler("post", (tick_string(action.url),)))
+            handlers.append(tick.Step(".", "post", (_text(action.url),)))
         elif isinstance(action, ir.Tcp):
-            handlers.append(Handler("tcp", (tick_string(action.address),)))
+            handlers.append(tick.Step(".", "tcp", (_text(action.address),)))
         elif isinstance(action, ir.Exec):
             args = (action.command, *action.args)
-            handlers.append(Handler("exec", tuple(tick_string(a) for a in args)))
-    return tuple(handlers)
+            handlers.append(tick.Step(".", "exec", tuple(_text(a) for a in args)))
+    return handlers
 
 
 def _sources(spec: ir.Spec) -> dict[str, str]:
@@ -241,33 +225,67 @@ def _alert(build: Build, alert: ir.Alert) -> TickAlert:
         # The runtime combines the newest value of each; a Kapacitor stream sees one
         # point at a time, and points of two sources are two points.
         raise Unsupported("it reads values of more than one topic or event")
-    levels = tuple(
-        (
-            level.severity,
-            tick_expression(level.condition),
-            None if level.reset is None else tick_expression(level.reset),
-        )
-        for level in alert.levels
-    )
+    dbrp, raised, stored = _script(build, alert)
     return TickAlert(
         name=alert.name,
         task=task_id(build.spec, alert.name),
         file=f"tickscripts/{alert.name}.tick",
-        measurement=build.measurement,
-        present=tuple(tick_reference(n) for n in alert.reads),
-        levels=levels,
-        id=tick_string(go_template_text(alert.id)),
-        message=tick_string(go_template_text(alert.message)),
-        details=tick_string(go_template_text(alert.details)) if alert.details else "",
-        state_changes_only=alert.state_changes_only,
-        no_recoveries=alert.no_recoveries,
-        handlers=_handlers(build, alert),
+        script=(tick.statement(dbrp), tick.statement(raised), tick.statement(stored)),
     )
+
+
+def _script(build: Build, alert: ir.Alert) -> tuple[tick.Dbrp, tick.Pipeline, tick.Pipeline]:
+    """The task: each point carrying what the alert reads decides its level; every
+    alert event is also stored (for the dashboards)."""
+    database, retention = build.database.name, build.database.default_retention
+    checks: list[tick.Expr] = [tick.Call("isPresent", (tick.Reference(n),)) for n in alert.reads]
+    present = reduce(lambda left, right: tick.Binary("AND", left, right), checks)
+    steps = [
+        tick.Step("|", "from"),
+        tick.Step(".", "database", (_text(database),)),
+        tick.Step(".", "retentionPolicy", (_text(retention),)),
+        tick.Step(".", "measurement", (_text(build.measurement),)),
+        tick.Step(".", "where", (tick.Lambda(present),)),
+        tick.Step("|", "alert"),
+        tick.Step(".", "id", (_text(tick.go_template_text(alert.id)),)),
+        tick.Step(".", "message", (_text(tick.go_template_text(alert.message)),)),
+    ]
+    if alert.details:
+        steps.append(tick.Step(".", "details", (_text(tick.go_template_text(alert.details)),)))
+    for level in alert.levels:
+        condition = tick.Lambda(tick_expression(level.condition))
+        steps.append(tick.Step(".", level.severity, (condition,)))
+        if level.reset is not None:
+            reset = tick.Lambda(tick_expression(level.reset))
+            steps.append(tick.Step(".", f"{level.severity}Reset", (reset,)))
+    steps += [tick.Step(".", "levelField", (_text("level"),)),
+              tick.Step(".", "messageField", (_text("message"),))]  # fmt: skip
+    if alert.state_changes_only:
+        steps.append(tick.Step(".", "stateChangesOnly"))
+    if alert.no_recoveries:
+        steps.append(tick.Step(".", "noRecoveries"))
+    steps += _handlers(build, alert)
+    stored = (
+        tick.Step("|", "influxDBOut"),
+        tick.Step(".", "database", (_text(database),)),
+        tick.Step(".", "retentionPolicy", (_text(retention),)),
+        tick.Step(".", "measurement", (_text(build.alerts_measurement),)),
+        tick.Step(".", "tag", (_text("alert"), _text(alert.name))),
+    )
+    return (tick.Dbrp(database, retention), tick.Pipeline("stream", tuple(steps), "raised"),
+            tick.Pipeline("raised", stored))  # fmt: skip
 
 
 def plan(spec: ir.Spec, handlers: Path) -> Build:
     """What the target writes for a spec, and the report of what it leaves to the
     ros2 target's monitor. `handlers`: the folder the publish handler is run from."""
+    try:
+        return _plan(spec, handlers)
+    except (influxql.InfluxQLError, tick.TickError) as why:
+        raise BuildError(str(why)) from None
+
+
+def _plan(spec: ir.Spec, handlers: Path) -> Build:
     database = _database(spec)
     measurement = lineproto.measurement_name(spec)
     build = Build(
@@ -328,7 +346,11 @@ def plan(spec: ir.Spec, handlers: Path) -> Build:
 
 
 def _add_query(
-    build: Build, what: str, make: Callable[[Build, Any], Query], part: Any, origin: str
+    build: Build,
+    what: str,
+    make: Callable[[Build, Any], influxql.CreateContinuousQuery],
+    part: Any,
+    origin: str,
 ) -> None:
     """The continuous query of an event or a downsample, or a line in the report
     saying why there is none."""
@@ -374,12 +396,8 @@ def _environment() -> jinja2.Environment:
     """This target's templates (and, for the collector, the ros2 target's), with
     the quoting filters of both."""
     env = ament.environment(__package__ or "")
-    env.filters["ident"] = influxql_identifier
-    env.filters["iql_string"] = influxql_string
-    env.filters["duration"] = influxql_duration
-    env.filters["tick"] = tick_string
-    env.filters["tick_ref"] = tick_reference
-    env.filters["tick_present"] = lambda reference: f"isPresent({reference})"
+    env.filters["ident"] = influxql.identifier
+    env.filters["iql"] = influxql.statement
     return env
 
 
@@ -387,13 +405,17 @@ def dashboard_files(build: Build, env: jinja2.Environment) -> dict[str, str]:
     """A Grafana dashboard and a Chronograf dashboard export over the stored data."""
     database = build.database
     sources = dashboards.Sources(
-        points=_target(database, database.default_retention, build.measurement),
-        alerts=_target(database, database.default_retention, build.alerts_measurement),
-        states=_target(
-            database, database.default_retention, lineproto.states_measurement(build.spec)
+        points=influxql.measurement(
+            _target(database, database.default_retention, build.measurement)
         ),
-        ident=influxql_identifier,
-        string=influxql_string,
+        alerts=influxql.measurement(
+            _target(database, database.default_retention, build.alerts_measurement)
+        ),
+        states=influxql.measurement(
+            _target(database, database.default_retention, lineproto.states_measurement(build.spec))
+        ),
+        ident=influxql.identifier,
+        string=influxql.string,
     )
     found = dashboards.panels(build.spec, sources)
     name = build.spec.system.name
@@ -467,7 +489,8 @@ def files(spec: ir.Spec, out: Path, ros: str = "ros2") -> tuple[dict[str, str], 
     env = _environment()
     context = {"build": build, "spec": spec, "database": build.database,
                "kapacitor_url": KAPACITOR_URL}  # fmt: skip
-    written = {"influxdb.iql": env.get_template("influxdb.iql.j2").render(**context)}
+    iql = env.get_template("influxdb.iql.j2").render(statements=statements(build), **context)
+    written = {"influxdb.iql": iql}
     for alert in build.alerts:
         written[alert.file] = env.get_template("alert.tick.j2").render(alert=alert, **context)
     if build.publishes:
@@ -489,8 +512,4 @@ def write(spec: ir.Spec, out: Path, ros: str = "ros2") -> tuple[list[Path], list
     return catkin.make_executable(ament.write(texts, out)), report
 
 
-__all__ = [
-    "BuildError", "Unsupported", "files", "go_template_text", "influxql_duration",
-    "influxql_expression", "influxql_identifier", "influxql_string", "plan", "tick_duration",
-    "tick_expression", "tick_reference", "tick_string", "write",
-]  # fmt: skip
+__all__ = ["BuildError", "Unsupported", "files", "plan", "statements", "write"]

@@ -1,0 +1,312 @@
+"""Reading InfluxQL: its tokens, and a parser for the statements `rmv deploy`
+reads (our own `influxdb.iql`, edited or not, and the queries SHOW prints)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+from rmvdsl.dialects.influxql.syntax import (
+    NS_PER_UNIT,
+    Binary,
+    Call,
+    CreateContinuousQuery,
+    CreateDatabase,
+    CreateRetentionPolicy,
+    Expr,
+    InfluxQLError,
+    Literal,
+    Measurement,
+    Name,
+    Negate,
+    Other,
+    Select,
+    Statement,
+    Text,
+    unquote,
+)
+
+# ---- tokens ----
+
+
+@dataclass(frozen=True)
+class Token:
+    kind: str  # ident (bare or quoted), string, number, duration, op, punct, keyword
+    text: str  # as written
+    start: int
+
+    @property
+    def value(self) -> str:
+        """An identifier's or a string's meaning; a keyword upper-cased."""
+        return self.text.upper() if self.kind == "keyword" else unquote(self.text)
+
+
+KEYWORDS = frozenset(
+    ("ALL", "ALTER", "AND", "AS", "ASC", "BEGIN", "BY", "CONTINUOUS", "CREATE", "DATABASE",
+     "DEFAULT", "DESC", "DROP", "DURATION", "END", "EVERY", "FALSE", "FILL", "FOR", "FROM",
+     "GROUP", "INTO", "LIMIT", "NOT", "ON", "OR", "ORDER", "POLICY", "QUERY", "REPLICATION",
+     "RESAMPLE", "RETENTION", "SELECT", "SHARD", "TRUE", "WHERE")
+)  # fmt: skip
+_OPERATORS = ("!=", "<>", "<=", ">=", "=~", "!~", "=", "<", ">", "+", "-", "*", "/", "%",
+              "&", "|", "^")  # fmt: skip
+_PUNCT = "(),;.:"
+
+
+def _quoted_end(text: str, start: int) -> int:
+    """The index after the quote that closes the literal opened at `start`."""
+    index = start + 1
+    while index < len(text):
+        if text[index] == "\\":
+            index += 2
+            continue
+        if text[index] == text[start]:
+            return index + 1
+        index += 1
+    raise InfluxQLError(f"unclosed {text[start]} at offset {start}")
+
+
+def _number_end(text: str, start: int) -> tuple[int, str]:
+    index = start
+    while index < len(text) and (text[index].isdigit() or text[index] == "."):
+        index += 1
+    unit_end = index
+    while unit_end < len(text) and (text[unit_end].isalpha() or text[unit_end] == "µ"):
+        unit_end += 1
+    if unit_end > index and text[index:unit_end] in NS_PER_UNIT:
+        return unit_end, "duration"
+    return index, "number"
+
+
+def tokens(text: str) -> Iterator[Token]:
+    """The tokens of an InfluxQL text; whitespace and `--` comments skipped."""
+    index = 0
+    while index < len(text):
+        char = text[index]
+        if char.isspace():
+            index += 1
+        elif text.startswith("--", index):
+            end = text.find("\n", index)
+            index = len(text) if end < 0 else end
+        elif char in "\"'":
+            end = _quoted_end(text, index)
+            yield Token("ident" if char == '"' else "string", text[index:end], index)
+            index = end
+        elif char.isdigit():
+            end, kind = _number_end(text, index)
+            yield Token(kind, text[index:end], index)
+            index = end
+        elif char.isalpha() or char == "_":
+            end = index
+            while end < len(text) and (text[end].isalnum() or text[end] == "_"):
+                end += 1
+            word = text[index:end]
+            yield Token("keyword" if word.upper() in KEYWORDS else "ident", word, index)
+            index = end
+        elif op := next((o for o in _OPERATORS if text.startswith(o, index)), None):
+            yield Token("op", op, index)
+            index += len(op)
+        elif char in _PUNCT:
+            yield Token("punct", char, index)
+            index += 1
+        else:
+            raise InfluxQLError(f"unexpected {char!r} at offset {index}")
+
+
+# ---- the parser ----
+
+
+class _Reader:
+    """Tokens with one of look-ahead, and the errors that name what was expected."""
+
+    def __init__(self, text: str) -> None:
+        self.text = text
+        self.items = list(tokens(text))
+        self.index = 0
+
+    def peek(self, ahead: int = 0) -> Token | None:
+        at = self.index + ahead
+        return self.items[at] if at < len(self.items) else None
+
+    def next(self, what: str) -> Token:
+        token = self.peek()
+        if token is None:
+            raise InfluxQLError(f"expected {what}, found the end of the statement")
+        self.index += 1
+        return token
+
+    def at(self, *words: str) -> bool:
+        for ahead, word in enumerate(words):
+            token = self.peek(ahead)
+            if token is None or token.kind not in ("keyword", "ident", "punct", "op"):
+                return False
+            if token.text.upper() != word:
+                return False
+        return True
+
+    def take(self, *words: str) -> bool:
+        if self.at(*words):
+            self.index += len(words)
+            return True
+        return False
+
+    def expect(self, *words: str) -> None:
+        if not self.take(*words):
+            found = self.peek()
+            raise InfluxQLError(
+                f"expected {' '.join(words)}, found "
+                + (f"`{found.text}` at offset {found.start}" if found else "the end")
+            )
+
+    def name(self) -> str:
+        token = self.next("a name")
+        if token.kind != "ident":
+            raise InfluxQLError(f"expected a name, found `{token.text}` at offset {token.start}")
+        return token.value
+
+    def word(self, kinds: tuple[str, ...], what: str) -> str:
+        token = self.next(what)
+        if token.kind not in kinds:
+            raise InfluxQLError(f"expected {what}, found `{token.text}` at offset {token.start}")
+        return token.text
+
+
+_BINDING = (("OR",), ("AND",), ("=", "!=", "<>", "<", "<=", ">", ">=", "=~", "!~"),
+            ("+", "-", "|", "^"), ("*", "/", "%", "&"))  # fmt: skip
+
+
+def _expression(reader: _Reader, level: int = 0) -> Expr:
+    if level == len(_BINDING):
+        return _primary(reader)
+    left = _expression(reader, level + 1)
+    while (token := reader.peek()) is not None and token.text.upper() in _BINDING[level]:
+        reader.index += 1
+        right = _expression(reader, level + 1)
+        left = Binary(token.text.upper(), left, right)
+    return left
+
+
+def _primary(reader: _Reader) -> Expr:
+    token = reader.next("an expression")
+    if token.text == "(":
+        inner = _expression(reader)
+        reader.expect(")")
+        return inner
+    if token.text == "-":
+        return Negate(_primary(reader))
+    if token.kind == "string":
+        return Text(token.value)
+    if token.kind in ("number", "duration") or token.text.upper() in ("TRUE", "FALSE"):
+        return Literal(token.text)
+    if token.kind == "ident" and reader.take("("):
+        args: list[Expr] = []
+        while not reader.take(")"):
+            args.append(_expression(reader))
+            reader.take(",")
+        return Call(token.text, tuple(args))
+    if token.kind == "ident" or token.text == "*":
+        return Name(token.value)
+    raise InfluxQLError(f"unexpected `{token.text}` at offset {token.start}")
+
+
+def _measurement(reader: _Reader) -> Measurement:
+    parts = [reader.name()]
+    while reader.take("."):
+        parts.append(reader.name())
+    if len(parts) != 3:
+        raise InfluxQLError("expected a measurement written database.retention.name")
+    return Measurement(*parts)
+
+
+def _select(reader: _Reader) -> Select:
+    reader.expect("SELECT")
+    columns = []
+    while True:
+        expr = _expression(reader)
+        reader.expect("AS")
+        columns.append((expr, reader.name()))
+        if not reader.take(","):
+            break
+    reader.expect("INTO")
+    into = _measurement(reader)
+    reader.expect("FROM")
+    source = _measurement(reader)
+    where = _expression(reader) if reader.take("WHERE") else None
+    reader.expect("GROUP", "BY")
+    reader.expect("TIME", "(")
+    interval = reader.word(("duration",), "a duration")
+    offset = reader.word(("duration",), "a duration") if reader.take(",") else None
+    reader.expect(")")
+    every_tag = reader.take(",", "*")
+    fill = None
+    if reader.take("FILL", "("):
+        words = []
+        while not reader.take(")"):
+            words.append(reader.next("`)`").text)
+        fill = "".join(words)
+    descending = reader.take("ORDER", "BY", "TIME", "DESC")
+    reader.take("ORDER", "BY", "TIME", "ASC")
+    limit = int(reader.word(("number",), "a number")) if reader.take("LIMIT") else None
+    return Select(tuple(columns), into, source, where, interval, offset, every_tag, fill,
+                  descending, limit)  # fmt: skip
+
+
+def _statement(text: str) -> Statement:
+    reader = _Reader(text)
+    if reader.take("CREATE", "DATABASE"):
+        stmt: Statement = CreateDatabase(reader.name())
+    elif reader.take("CREATE", "RETENTION", "POLICY"):
+        name = reader.name()
+        reader.expect("ON")
+        database = reader.name()
+        reader.expect("DURATION")
+        length = reader.word(("duration", "ident"), "a duration")
+        reader.expect("REPLICATION")
+        replication = int(reader.word(("number",), "a number"))
+        shard = None
+        if reader.take("SHARD", "DURATION"):
+            shard = reader.word(("duration",), "a duration")
+        stmt = CreateRetentionPolicy(name, database, length, replication, shard,
+                                     reader.take("DEFAULT"))  # fmt: skip
+    elif reader.take("CREATE", "CONTINUOUS", "QUERY"):
+        name = reader.name()
+        reader.expect("ON")
+        database = reader.name()
+        every = for_ = None
+        if reader.take("RESAMPLE"):
+            every = reader.word(("duration",), "a duration") if reader.take("EVERY") else None
+            for_ = reader.word(("duration",), "a duration") if reader.take("FOR") else None
+        reader.expect("BEGIN")
+        select = _select(reader)
+        reader.expect("END")
+        stmt = CreateContinuousQuery(name, database, every, for_, select)
+    else:
+        return Other(text)
+    if (extra := reader.peek()) is not None:
+        raise InfluxQLError(f"unexpected `{extra.text}` at offset {extra.start}")
+    return stmt
+
+
+def split(text: str) -> list[str]:
+    """The statements of a text, split at the `;`s between tokens, comments left out."""
+    found: list[list[Token]] = [[]]
+    for token in tokens(text):
+        if token.text == ";" and token.kind == "punct":
+            found.append([])
+        else:
+            found[-1].append(token)
+    return [text[group[0].start : group[-1].start + len(group[-1].text)]
+            for group in found if group]  # fmt: skip
+
+
+def parse(text: str) -> list[Statement]:
+    """Every statement of a text: those the kapacitor target writes as trees, any
+    other as written (`Other`). InfluxQLError names what is malformed."""
+    return [_statement(piece) for piece in split(text)]
+
+
+def parse_query(shown: str) -> CreateContinuousQuery:
+    """A continuous query as SHOW CONTINUOUS QUERIES prints it."""
+    stmt = _statement(shown)
+    if not isinstance(stmt, CreateContinuousQuery):
+        raise InfluxQLError(f"not a continuous query: {shown[:80]}")
+    return stmt
