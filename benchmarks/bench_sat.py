@@ -40,8 +40,9 @@ import z3
 
 from rmvdsl.check import check
 from rmvdsl.grammar.parser import parse_formula
+from rmvdsl.logic.answers import UNKNOWN
 from rmvdsl.logic.compile import compile_formula
-from rmvdsl.logic.sat import UNKNOWN, Cache, satisfiable, valid
+from rmvdsl.logic.sat import Cache, satisfiable, valid
 from rmvdsl.util.cache import use_cache
 
 FAMILIES = {

@@ -16,19 +16,12 @@ from hypothesis import strategies as st
 
 from rmvdsl.grammar.parser import parse_formula
 from rmvdsl.logic.abstract import refute
+from rmvdsl.logic.answers import NO, UNKNOWN, YES
 from rmvdsl.logic.bounded import BoundedTrace
 from rmvdsl.logic.compile import compile_formula
 from rmvdsl.logic.evaluate import verdict_at
 from rmvdsl.logic.reference import FALSE, TRUE, Reference, Trace
-from rmvdsl.logic.sat import (
-    NO,
-    UNKNOWN,
-    YES,
-    Limits,
-    conflict,
-    satisfiable,
-    valid,
-)
+from rmvdsl.logic.sat import Limits, conflict, satisfiable, valid
 from rmvdsl.logic.system import Machine, System
 from rmvdsl.logic.traces import read_trace
 from rmvdsl.runtime.rmtld3 import Monitor, facts, merge
@@ -429,7 +422,7 @@ def test_solver_settings_in_rmv_toml(tmp_path):
 
 
 def test_a_witness_time_without_a_decimal_form_survives_the_trace_file(tmp_path):
-    from rmvdsl.logic.sat import Witness
+    from rmvdsl.logic.answers import Witness
     from rmvdsl.logic.traces import TraceError
 
     third = Fraction(1, 3)

@@ -25,18 +25,10 @@ from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
 from rmvdsl.grammar.printer import formula as show_formula
 from rmvdsl.lang.diagnostics import Diagnostic, Label, Severity, error, warning
+from rmvdsl.logic.answers import NO, UNKNOWN, YES, Answer, Witness
 from rmvdsl.logic.compile import CompileError, compile_formula
 from rmvdsl.logic.parallel import Question, answer_all, implied_all
-from rmvdsl.logic.sat import (
-    NO,
-    UNKNOWN,
-    YES,
-    Answer,
-    Limits,
-    Witness,
-    satisfiable,
-    valid,
-)
+from rmvdsl.logic.sat import Limits, satisfiable, valid
 from rmvdsl.logic.sat import conflict as smallest_conflict
 from rmvdsl.logic.system import Machine, System
 from rmvdsl.runtime.rmtld3 import facts as formula_facts

@@ -14,8 +14,8 @@ from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, UsageError
 
 if TYPE_CHECKING:
     from rmvdsl.lang.diagnostics import Diagnostic
+    from rmvdsl.logic.answers import Answer
     from rmvdsl.logic.evaluate import Streamed
-    from rmvdsl.logic.sat import Answer
     from rmvdsl.logic.traces import TraceFile, TraceStream
 
 
@@ -152,7 +152,8 @@ def _absent_names(compiled: object, seen: set[str]) -> list[str]:
 
 def run_sat(args: argparse.Namespace) -> int:
     from rmvdsl.logic import evaluate as ev
-    from rmvdsl.logic.sat import NO, YES, Limits, satisfiable, valid
+    from rmvdsl.logic.answers import NO, YES
+    from rmvdsl.logic.sat import Limits, satisfiable, valid
 
     limits = Limits(timeout=args.timeout)
     node, diagnostics = ev.parse(args.formula, args.syntax, False)

@@ -34,17 +34,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
+from rmvdsl.logic.answers import Answer, Witness
 from rmvdsl.logic.redundancy import group_key, implied
-from rmvdsl.logic.sat import (
-    Answer,
-    Limits,
-    Witness,
-    ask,
-    cached_answer,
-    cut_system,
-    keep,
-    question_key,
-)
+from rmvdsl.logic.sat import Limits, ask, cached_answer, cut_system, keep, question_key
 from rmvdsl.logic.system import System
 from rmvdsl.util.cache import Cache
 

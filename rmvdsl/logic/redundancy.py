@@ -13,8 +13,9 @@ from collections.abc import Sequence
 from fractions import Fraction
 from typing import Any
 
+from rmvdsl.logic.answers import NO, Witness
 from rmvdsl.logic.reference import FALSE, TRUE, Reference, Trace
-from rmvdsl.logic.sat import NO, Limits, Witness, question_key, satisfiable
+from rmvdsl.logic.sat import Limits, question_key, satisfiable
 from rmvdsl.logic.system import System
 from rmvdsl.runtime.rmtld3 import facts
 from rmvdsl.util.cache import Cache, digest
