@@ -9,7 +9,7 @@ from rmvdsl.lang.numbers import decimal
 
 
 def quote(value: str) -> str:
-    """A string literal whose decoding gives back `value` (see builder.unescape)."""
+    """A string literal whose decoding gives back `value` (see build_base.unescape)."""
     out = ['"']
     for index, char in enumerate(value):
         if char == '"':
