@@ -12,13 +12,12 @@ from typing import cast
 import rmvdsl.check.settings as schemas
 from rmvdsl.check.actions import ActionChecks
 from rmvdsl.check.clauses import EventChecks
+from rmvdsl.check.declaring import Declarations
 from rmvdsl.check.infrastructure import infrastructure_warnings
 from rmvdsl.check.memo import MEMO_SIZE, Key, declaration_key
 from rmvdsl.check.model import (
-    BOOLEAN_KINDS,
     EVENT_KINDS,
     MEASUREMENT_KINDS,
-    PROPOSITION_KINDS,
     Kind,
     Model,
     Reference,
@@ -26,19 +25,16 @@ from rmvdsl.check.model import (
     Symbol,
 )
 from rmvdsl.check.rosnames import message_type_problem
-from rmvdsl.check.whitelists import check_whitelist_agreement, topic_of
+from rmvdsl.check.structure import StructureChecks
+from rmvdsl.check.whitelists import check_whitelist_agreement
 from rmvdsl.grammar import ast
-from rmvdsl.grammar import formula as fm
-from rmvdsl.grammar.parser import reserved_names
 from rmvdsl.grammar.shift import shifted
 from rmvdsl.lang import builtins
-from rmvdsl.lang.diagnostics import Diagnostic, Fix, Label, did_you_mean, error, warning
+from rmvdsl.lang.diagnostics import Diagnostic, Label, did_you_mean, error, warning
 from rmvdsl.lang.source import SourceMap, Span
-from rmvdsl.logic.validate import check_formula
 from rmvdsl.util.bounded import Bounded
 
 ARRAY_AGGREGATES = tuple(builtins.ARRAY_AGGREGATES)
-TIME_UNIT_NAMES = tuple(fm.TIME_UNITS)  # ns, us, ms, s, m, h, d, w
 
 
 @dataclass(frozen=True)
@@ -58,7 +54,7 @@ class Resolved:
 RESOLVED: Bounded[Key, Resolved] = Bounded(MEMO_SIZE)
 
 
-class NameChecker(ActionChecks, EventChecks):
+class NameChecker(Declarations, StructureChecks, ActionChecks, EventChecks):
     def __init__(
         self,
         specs: list[ast.Spec],
@@ -94,162 +90,6 @@ class NameChecker(ActionChecks, EventChecks):
         self.diagnostics += infrastructure_warnings(self.model)
         self.report_unused()
         return self.model, self.diagnostics
-
-    # ---- declaring ----
-
-    def declare(self, decl: ast.Decl) -> None:
-        model = self.model
-        match decl:
-            case ast.SystemDecl():
-                if model.system is not None:
-                    self.once_only("`system`", decl.name, model.system.name, _ONE_PER_SPEC)
-                else:
-                    model.system = decl
-            case ast.TimeUnitDecl():
-                self.declare_time_unit(decl)
-            case ast.RosDecl():
-                if model.ros is not None:
-                    self.once_only("`ros`", decl.distro, model.ros.distro, _ONE_PER_SPEC)
-                else:
-                    model.ros = decl
-            case ast.MessagesDecl():
-                model.messages.append(decl)
-            case ast.DatabaseDecl():
-                if model.database is not None:
-                    self.once_only(
-                        "`database`",
-                        decl.name or decl,
-                        model.database.name or model.database,
-                        _ONE_PER_SPEC,
-                    )
-                else:
-                    model.database = decl
-            case ast.TopicDecl():
-                self.add(decl.name, Kind.TOPIC, decl) and model.topics.setdefault(
-                    decl.name.name, decl
-                )
-            case ast.VarDecl():
-                self.add(decl.name, Kind.VARIABLE, decl) and model.variables.setdefault(
-                    decl.name.name, decl
-                )
-            case ast.EventDecl():
-                kind = Kind.BOOL_EVENT if decl.boolean else Kind.VALUE_EVENT
-                self.add(decl.name, kind, decl) and model.events.setdefault(decl.name.name, decl)
-            case ast.AlertDecl():
-                self.add(decl.name, Kind.ALERT, decl) and model.alerts.setdefault(
-                    decl.name.name, decl
-                )
-            case ast.TransducerDecl():
-                self.declare_transducer(decl)
-            case ast.PropertyDecl():
-                self.add(decl.name, Kind.PROPERTY, decl) and model.properties.setdefault(
-                    decl.name.name, decl
-                )
-            case ast.WhitelistDecl():
-                model.whitelists.append(decl)
-            case ast.NodeDecl():
-                model.nodes.append(decl)
-            case ast.IntrusionDecl():
-                if model.intrusion is not None:
-                    self.once_only("the `intrusion` block", decl, model.intrusion, _ONE_PER_SPEC)
-                else:
-                    model.intrusion = decl
-
-    def declare_time_unit(self, decl: ast.TimeUnitDecl) -> None:
-        unit = decl.unit.name
-        if self.time_unit_decl is not None:
-            self.once_only("`time unit`", decl.unit, self.time_unit_decl.unit, _ONE_PER_SPEC)
-            return
-        self.time_unit_decl = decl
-        if unit not in TIME_UNIT_NAMES:
-            self.report(
-                error(
-                    "RMV208",
-                    f"unknown time unit `{unit}`",
-                    decl.unit.span,
-                    label="expected " + ", ".join(TIME_UNIT_NAMES),
-                    help=did_you_mean(unit, TIME_UNIT_NAMES),
-                )
-            )
-            return
-        self.model.time_unit = unit
-
-    def declare_transducer(self, decl: ast.TransducerDecl) -> None:
-        if self.add(decl.name, Kind.TRANSDUCER, decl):
-            self.model.transducers.setdefault(decl.name.name, decl)
-        for state in decl.states:
-            self.add(state, Kind.STATE, decl, owner=decl.name.name)
-        for transition in decl.transitions:
-            if transition.output is not None:
-                self.declare_emitted(decl, transition)
-
-    def declare_emitted(self, decl: ast.TransducerDecl, transition: ast.Transition) -> None:
-        output = transition.output
-        assert output is not None
-        existing = self.model.symbols.get(output.name)
-        if existing is None:
-            self.add(output, Kind.EMITTED_EVENT, transition, owner=decl.name.name)
-        elif existing.kind is not Kind.EMITTED_EVENT:
-            self.report(
-                error(
-                    "RMV201",
-                    f"`{output.name}` is emitted here but already declared as "
-                    f"{existing.kind.described()}",
-                    output.span,
-                    label="emitted by this transition",
-                    secondary=[
-                        Label(existing.span, f"declared as {existing.kind.described()} here")
-                    ],
-                    help="an emitted event is declared by `emit`: give it a name of its own",
-                )
-            )
-            return
-        self.model.emitted.setdefault(output.name, []).append(transition)
-
-    def add(self, ident: ast.Ident, kind: Kind, decl: ast.Node, owner: str | None = None) -> bool:
-        if ident.name in reserved_names():
-            self.report(
-                error(
-                    "RMV221",
-                    f"`{ident.name}` is a keyword: {kind.described()} named so could never be "
-                    "referred to",
-                    ident.span,
-                    label="a keyword of expressions and formulas",
-                    help=f"rename it, e.g. `{ident.name.capitalize()}` or `{ident.name}_`",
-                )
-            )
-        existing = self.model.symbols.get(ident.name)
-        if existing is not None:
-            self.report(
-                error(
-                    "RMV201",
-                    f"`{ident.name}` is declared more than once",
-                    ident.span,
-                    label=f"declared again here as {kind.described()}",
-                    secondary=[
-                        Label(existing.span, f"first declared here as {existing.kind.described()}")
-                    ],
-                    help="topics, variables, events, alerts, transducers, states and properties "
-                    "share one namespace: rename one of them",
-                )
-            )
-            return False
-        self.model.symbols[ident.name] = Symbol(ident.name, kind, ident.span, decl, owner)
-        return True
-
-    def once_only(
-        self, what: str, again: ast.Node, first: ast.Node, help: str = "keep only one"
-    ) -> None:
-        self.report(
-            error(
-                "RMV214",
-                f"{what} is given more than once",
-                again.span,
-                label="given again here",
-                secondary=[Label(first.span, "first given here")],
-                help=help,
-            )
-        )
 
     # ---- resolving ----
 
@@ -484,136 +324,6 @@ class NameChecker(ActionChecks, EventChecks):
         self.diagnostics += schemas.check_settings("alert", decl.settings, decl.name, decl)
         self.check_actions(decl.actions)
 
-    def check_transducer(self, decl: ast.TransducerDecl) -> None:
-        own = {s.name for s in decl.states}
-        if not decl.states:
-            self.missing(decl, "states", "states Idle, Active")
-        if decl.initial is None:
-            self.missing(
-                decl, "initial", f"initial {decl.states[0].name if decl.states else 'Idle'}"
-            )
-        else:
-            self.check_state(decl, decl.initial, own)
-        for final in decl.finals:
-            self.check_state(decl, final, own)
-        for transition in decl.transitions:
-            self.check_state(decl, transition.source, own)
-            self.check_state(decl, transition.dest, own)
-            self.resolve(transition.input, BOOLEAN_KINDS, "a boolean event")
-
-    def missing(self, decl: ast.TransducerDecl, what: str, example: str) -> None:
-        self.report(
-            error(
-                "RMV209",
-                f"transducer `{decl.name.name}` has no `{what}`",
-                decl.name.span,
-                label=f"`{what}` is required",
-                help=f"add `{example}` to the transducer",
-            )
-        )
-
-    def check_state(self, decl: ast.TransducerDecl, ident: ast.Ident, own: set[str]) -> None:
-        if ident.name in own:
-            symbol = self.model.symbols.get(ident.name)
-            if self.lookups is not None:
-                self.lookups.append((ident.name, symbol))
-            if symbol is not None and symbol.owner == decl.name.name:
-                self.model.uses.append(Reference(ident.name, ident.span, symbol))
-                self.used.add(id(symbol))
-            return
-        other = self.model.state_owner(ident.name)
-        if other is not None:
-            message = (
-                f"`{ident.name}` is a state of transducer `{other}`, not of `{decl.name.name}`"
-            )
-        else:
-            message = f"`{ident.name}` is not a state of transducer `{decl.name.name}`"
-        self.report(
-            error(
-                "RMV210",
-                message,
-                ident.span,
-                label="not in this transducer's `states`",
-                help=did_you_mean(ident.name, own) or f"add `{ident.name}` to `states`",
-                fixes=self.state_added(decl, ident.name) if other is None else (),
-            )
-        )
-
-    @staticmethod
-    def state_added(decl: ast.TransducerDecl, name: str) -> tuple[Fix, ...]:
-        """The edit adding a state after the last of `states` (when the name is no
-        near miss of one: then `did you mean` is the fix)."""
-        own = [s.name for s in decl.states]
-        if not decl.states or did_you_mean(name, own):
-            return ()
-        last = decl.states[-1].span
-        title = f"Add `{name}` to the states of `{decl.name.name}`"
-        return (Fix(title, Span(last.path, last.end, last.end), f", {name}"),)
-
-    def check_property(self, decl: ast.PropertyDecl) -> None:
-        formula = decl.formula
-        if formula is not None:
-            self.check_formula(formula)
-        self.diagnostics += schemas.check_settings("property", decl.settings, decl.name, decl)
-        for setting in decl.settings:
-            value = setting.value
-            is_trigger = setting.key.name == "trigger" and isinstance(value, ast.NameValue)
-            if is_trigger and value.ident.name != "always":  # type: ignore[union-attr]
-                self.resolve(value.ident, PROPOSITION_KINDS, "a state or a boolean event")  # type: ignore[union-attr]
-        self.check_actions(decl.actions)
-
-    def check_formula(self, formula: fm.Formula) -> None:
-        for node in fm.walk(formula):
-            if isinstance(node, fm.Prop):
-                ident = ast.Ident(node.name, node.span)
-                self.resolve(ident, PROPOSITION_KINDS, "a state or a boolean event")
-        source = self.model.sources.get(formula.span.path)
-        text = source.text if source is not None else None
-        self.diagnostics += check_formula(formula, self.model.time_unit, text)
-
-    def check_whitelist(self, decl: ast.WhitelistDecl) -> None:
-        if isinstance(decl.target, ast.Ident):
-            self.resolve(decl.target, frozenset({Kind.TOPIC}), "a topic")
-        else:
-            self.check_ros_name(decl.target, "topic", "RMV204", patterns=True)
-        for pattern in (*(decl.publishers or ()), *(decl.subscribers or ())):
-            self.check_ros_name(pattern, "node", "RMV205", patterns=True)
-        if decl.publishers is None and decl.subscribers is None:
-            self.report(
-                error(
-                    "RMV209",
-                    "whitelist names neither publishers nor subscribers",
-                    decl.target.span,
-                    label="empty whitelist",
-                    help='add e.g. `publishers: "/carla_ros_bridge"` (or `publishers: none`)',
-                )
-            )
-        self.check_actions(decl.actions)
-
-    def check_node(self, decl: ast.NodeDecl) -> None:
-        self.check_ros_name(decl.name, "node", "RMV205", patterns=True)
-        for pattern in (*(decl.publishes or ()), *(decl.subscribes or ())):
-            self.check_ros_name(pattern, "topic", "RMV204", patterns=True)
-        self.check_actions(decl.actions)
-
-    def check_whitelist_duplicates(self) -> None:
-        seen: dict[str, ast.WhitelistDecl] = {}
-        for decl in self.model.whitelists:
-            key = self.whitelist_topic(decl)
-            first = seen.setdefault(key, decl)
-            if first is not decl:
-                self.once_only(f"the whitelist of `{key}`", decl.target, first.target)
-        nodes: dict[str, ast.NodeDecl] = {}
-        for node in self.model.nodes:
-            first_node = nodes.setdefault(node.name.value, node)
-            if first_node is not node:
-                self.once_only(
-                    f"the whitelist of node `{node.name.value}`", node.name, first_node.name
-                )
-
-    def whitelist_topic(self, decl: ast.WhitelistDecl) -> str:
-        return topic_of(self.model, decl)
-
     # ---- unused declarations ----
 
     def report_unused(self) -> None:
@@ -644,9 +354,6 @@ class NameChecker(ActionChecks, EventChecks):
                 help="remove it, or use it",
             )
         )
-
-
-_ONE_PER_SPEC = "a spec has one (its imports included): remove or merge the second"
 
 
 def check_names(
