@@ -61,7 +61,7 @@ from rmvdsl.check import check
 from rmvdsl.check.loader import load
 from rmvdsl.check.names import check_names
 from rmvdsl.check.types import TypeConfig, check_types
-from rmvdsl.grammar.parser import bare_spec_parser
+from rmvdsl.grammar.grammars import bare_spec_parser
 from rmvdsl.ir import dump, lower
 from rmvdsl.util.cache import Cache, use_cache
 

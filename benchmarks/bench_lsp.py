@@ -39,7 +39,7 @@ from lsprotocol import types
 from pygls.lsp.client import LanguageClient
 
 from rmvdsl.check import check
-from rmvdsl.grammar.parser import bare_spec_parser
+from rmvdsl.grammar.grammars import bare_spec_parser
 
 
 def generate() -> str:

@@ -108,7 +108,7 @@ def test_readme_tour_checks_clean_and_its_mistake_reads_as_shown(rmv, tmp_path):
 
 
 def test_language_reference_mentions_every_keyword_of_the_grammar():
-    from rmvdsl.grammar.parser import keywords
+    from rmvdsl.grammar.grammars import keywords
 
     text = (ROOT / "docs" / "language.md").read_text(encoding="utf-8")
     missing = sorted(k for k in keywords() if not re.search(rf"\b{k}\b", text))

@@ -85,13 +85,13 @@ def test_a_file_larger_than_the_cache_keeps_its_own_chunks(monkeypatch):
     monkeypatch.setattr(parsing, "_CHUNK_CACHE", Bounded(10))
     text = "".join(f'topic T{i}: std_msgs/msg/Bool = "/t{i}"\n' for i in range(60))
     parses = []
-    original = parsing._ChunkParser.parse
+    original = parsing.ChunkParser.parse
 
     def counting(self):
         parses.append(self)
         return original(self)
 
-    monkeypatch.setattr(parsing._ChunkParser, "parse", counting)
+    monkeypatch.setattr(parsing.ChunkParser, "parse", counting)
     parsing._CHUNK_CACHE.clear()
     _parse("big.rmv", text)
     first = len(parses)

@@ -12,7 +12,8 @@ from hypothesis import strategies as st
 
 from rmvdsl.check import check
 from rmvdsl.grammar.formatter import format_spec
-from rmvdsl.grammar.parser import keywords, parse_source
+from rmvdsl.grammar.grammars import keywords
+from rmvdsl.grammar.parser import parse_source
 from rmvdsl.lang.source import SourceFile
 
 NAMES = st.from_regex(r"[A-Z][a-z]{0,5}[0-9]?", fullmatch=True)

@@ -6,7 +6,7 @@ from __future__ import annotations
 from rmvdsl.check.model import Kind, Model, Symbol
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
-from rmvdsl.grammar.parser import reserved_names
+from rmvdsl.grammar.grammars import reserved_names
 from rmvdsl.lang.diagnostics import Diagnostic, Label, did_you_mean, error
 
 TIME_UNIT_NAMES = tuple(fm.TIME_UNITS)  # ns, us, ms, s, m, h, d, w

@@ -221,7 +221,7 @@ def _fields(result: CheckResult, topic: str, path: str) -> list[Completion]:
 
 
 def _grammar_completions(result: CheckResult | None, text: str, start: int) -> list[Completion]:
-    from rmvdsl.grammar.parser import accepted_words
+    from rmvdsl.grammar.grammars import accepted_words
     from rmvdsl.grammar.scanner import TOP_LEVEL_KEYWORDS, scan
     from rmvdsl.lang import builtins
 
@@ -268,7 +268,7 @@ def rename(model: Model, symbol: Symbol, new: str) -> list[Span]:
     """The spans to rewrite to rename `symbol` to `new`; ValueError says why not."""
     if not _IDENTIFIER.fullmatch(new):
         raise ValueError(f"`{new}` is not a name: a letter or `_`, then letters, digits, `_`")
-    from rmvdsl.grammar.parser import keywords
+    from rmvdsl.grammar.grammars import keywords
 
     if new in keywords():
         raise ValueError(f"`{new}` is a keyword of the language")

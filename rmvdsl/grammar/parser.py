@@ -11,208 +11,29 @@ accepted since the previous one, so one mistake gives one message.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import itertools
 import re
-from collections.abc import Iterator
 from dataclasses import dataclass, field
-from importlib import resources
 from typing import Any, cast
 
-from lark import Lark, Token
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken
-from lark.lexer import LexerState, LineCounter, PatternStr
-from lark.utils import TextSlice
 
 from rmvdsl.grammar import ast
 from rmvdsl.grammar.builder import AstBuilder
 from rmvdsl.grammar.formula import Formula
-from rmvdsl.grammar.scanner import TOP_LEVEL_KEYWORDS, RawComment, ScanResult, scan
+from rmvdsl.grammar.grammars import (
+    describe_expected,
+    latex_parser,
+    spec_parser,
+)
+from rmvdsl.grammar.recovery import ChunkParser
+from rmvdsl.grammar.scanner import RawComment, ScanResult, scan
 from rmvdsl.grammar.shift import shifted, with_field
-from rmvdsl.lang.diagnostics import Diagnostic, Label, did_you_mean, error
+from rmvdsl.lang.diagnostics import Diagnostic, did_you_mean, error
 from rmvdsl.lang.source import SourceFile, Span
 from rmvdsl.util.bounded import Bounded
 
-_SPEC_GRAMMAR_FILES = ("rmv.lark", "expr.lark", "formula.lark", "lexical.lark")
-_CLOSERS = {"RPAR": ")", "RSQB": "]", "RBRACE": "}"}
 _IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
-_ACCEPTED_BEFORE_NEXT_REPORT = 3
-
-_FRIENDLY = {
-    "NAME": "a name",
-    "QUANTITY": "a number",
-    "NUMBER": "a number",
-    "STRING": "a string",
-    "$END": "the end of the file",
-    "END_OF_DECLARATION": "the end of the declaration",
-}
-# The LaTeX grammar's terminals share names with the infix grammar's (`AND` is
-# `and` there): these texts apply to LaTeX messages only.
-_LATEX_FRIENDLY = {
-    "OR": "`\\lor`",
-    "AND": "`\\land`",
-    "NOT": "`\\neg`",
-    "IMPLIES": "`\\rightarrow`",
-    "IFF": "`\\leftrightarrow`",
-    "UNTIL": "`\\until`",
-    "SINCE": "`\\since`",
-    "EVENTUALLY": "`\\eventually`",
-    "ALWAYS": "`\\always`",
-    "INT": "`\\int`",
-    "TOP": "`\\top`",
-    "BOT": "`\\bot`",
-    "LE": "`<=`",
-    "GE": "`>=`",
-}
-
-
-def _grammar_text(names: tuple[str, ...]) -> str:
-    folder = resources.files("rmvdsl.grammar")
-    return "\n".join(folder.joinpath(name).read_text(encoding="utf-8") for name in names)
-
-
-@functools.cache
-def _spec_parser() -> tuple[Lark, AstBuilder]:
-    builder = AstBuilder()
-    parser = Lark(
-        _grammar_text(_SPEC_GRAMMAR_FILES),
-        parser="lalr",
-        lexer="contextual",
-        start=["start", "formula", "term"],
-        transformer=builder,
-        maybe_placeholders=True,
-        # The LALR tables are kept in the temporary folder, keyed by the grammar's
-        # hash: every later run starts about 0.2 s sooner.
-        cache=True,
-    )
-    return parser, builder
-
-
-@functools.cache
-def _latex_parser() -> tuple[Lark, AstBuilder]:
-    builder = AstBuilder()
-    parser = Lark(
-        _grammar_text(("latex.lark",)),
-        parser="lalr",
-        lexer="contextual",
-        start=["start", "term"],
-        transformer=builder,
-        maybe_placeholders=True,
-        cache=True,
-    )
-    return parser, builder
-
-
-@functools.cache
-def _recognizer() -> Lark:
-    """The spec grammar with no actions: replays token streams to ask what fits."""
-    return bare_spec_parser()
-
-
-def bare_spec_parser() -> Lark:
-    """lark alone on the same grammar, building its own parse tree (the benchmark's
-    baseline)."""
-    return Lark(
-        _grammar_text(_SPEC_GRAMMAR_FILES),
-        parser="lalr",
-        lexer="contextual",
-        start=["start", "formula", "term"],
-        maybe_placeholders=True,
-    )
-
-
-@functools.cache
-def _terminal_texts(which: str) -> dict[str, str]:
-    parser = _spec_parser()[0] if which == "spec" else _latex_parser()[0]
-    texts = dict(_FRIENDLY) if which == "spec" else {**_FRIENDLY, **_LATEX_FRIENDLY}
-    for terminal in parser.terminals:
-        if terminal.name in texts:
-            continue
-        if isinstance(terminal.pattern, PatternStr):
-            texts[terminal.name] = f"`{terminal.pattern.value}`"
-    return texts
-
-
-def keywords() -> frozenset[str]:
-    """Every word the grammar reserves somewhere (the editor will complete them)."""
-    parser, _ = _spec_parser()
-    return frozenset(
-        terminal.pattern.value
-        for terminal in parser.terminals
-        if isinstance(terminal.pattern, PatternStr) and terminal.pattern.value.isidentifier()
-    )
-
-
-def accepted_words(text: str, start: int, offset: int) -> tuple[frozenset[str], bool] | None:
-    """What the grammar accepts at `offset` of a declaration starting at `start`:
-    its keywords, and whether a name may stand there. None when the text before
-    `offset` has a syntax error (nothing can be said from the tables then). A
-    declaration may also end there: the top-level words count as accepted then."""
-    parser = _recognizer()
-    interactive = parser.parse_interactive(text[start:offset], start="start")
-    try:
-        interactive.exhaust_lexer()
-    except (UnexpectedInput, UnexpectedCharacters):
-        return None
-    accepted = set(interactive.accepts())
-    words = {
-        terminal.pattern.value
-        for terminal in parser.terminals
-        if terminal.name in accepted
-        and isinstance(terminal.pattern, PatternStr)
-        and terminal.pattern.value.isidentifier()
-    }
-    if "$END" in accepted:
-        words |= TOP_LEVEL_KEYWORDS
-    return frozenset(words), "NAME" in accepted
-
-
-@functools.cache
-def reserved_names() -> frozenset[str]:
-    """Words that cannot stand for a name inside an expression or a formula (`and`,
-    `true`, `always`, ...): a declaration named so could never be referred to."""
-    text = _grammar_text(("expr.lark", "formula.lark", "lexical.lark"))
-    return frozenset(re.findall(r'"([a-z_]+)"', text)) & keywords()
-
-
-def describe_expected(expected: set[str] | frozenset[str], which: str = "spec") -> str:
-    texts = _terminal_texts(which)
-    keywords = sorted(name for name in expected if name.startswith("KW_") and name != "KW_COMPLETE")
-    rest = [name for name in expected if name not in keywords]
-    if which == "spec" and "$END" in rest:
-        # Each declaration is parsed alone: its end is not the file's.
-        rest.remove("$END")
-        if not keywords:
-            rest.append("END_OF_DECLARATION")
-    words = sorted({texts.get(name, f"`{name.lower()}`") for name in rest}, key=_word_order)
-    symbols = [w for w in words if w.startswith("`") and not any(c.isalpha() for c in w)]
-    if len(symbols) > 5:  # after a value: every operator fits; name a few
-        shown = [s for s in ("`+`", "`<`", "`=`") if s in symbols][:2]
-        words = [w for w in words if w not in symbols]
-        words.append(f"an operator ({', '.join([*shown, '...'])})")
-    if len(keywords) >= 5:
-        words.append("a new declaration (`topic`, `var`, `event`, ...)")
-    else:
-        words.extend(texts.get(name, name) for name in keywords)
-    if len(words) > 12:
-        words = [*words[:12], "..."]
-    if not words:
-        return "nothing more"
-    if len(words) == 1:
-        return words[0]
-    return ", ".join(words[:-1]) + " or " + words[-1]
-
-
-def _word_order(word: str) -> tuple[int, str]:
-    return (0 if word.startswith("a ") else 1, word)
-
-
-def describe_token(token: Token) -> str:
-    if token.type == "$END":
-        return "the end of the file"
-    if token.type == "STRING":
-        return f"the string {token}"
-    return f"`{token}`"
 
 
 @dataclass
@@ -224,204 +45,6 @@ class ParsedSpec:
     damaged_names: set[str] = field(default_factory=set)
     # Offsets [start, end) of the declarations that had syntax errors.
     damaged_ranges: list[tuple[int, int]] = field(default_factory=list)
-
-
-class _ChunkParser:
-    """Parses one declaration chunk with token-level recovery."""
-
-    def __init__(self, source: SourceFile, start: int, end: int, line: int) -> None:
-        self.source = source
-        self.start = start
-        self.end = end
-        self.line = line
-        self.diagnostics: list[Diagnostic] = []
-        self.accepted = _ACCEPTED_BEFORE_NEXT_REPORT
-        self.fed: list[Token] = []  # the tokens the parser took, in order
-
-    def parse(self) -> list[ast.Decl] | None:
-        parser, _ = _spec_parser()
-        interactive = parser.parse_interactive("", start="start")
-        counter = LineCounter("\n")
-        counter.char_pos = counter.line_start_pos = self.start
-        counter.line = self.line
-        interactive.lexer_thread.state = LexerState(
-            TextSlice(self.source.text, self.start, self.end), counter
-        )
-        last: Token | None = None
-        for token in self._tokens(interactive):
-            self._feed(interactive, token)
-            last = token
-        decls = self._finish(interactive, last)
-        if decls and len(decls) == 1 and last is not None and last.end_pos is not None:
-            # A declaration's span runs to its last token, the closing `}` included.
-            decl = decls[0]
-            end = Span(decl.span.path, decl.span.start, last.end_pos)
-            decls[0] = dataclasses.replace(decl, span=decl.span.cover(end))  # type: ignore[call-arg]
-        return decls
-
-    def _tokens(self, interactive: Any) -> Iterator[Token]:
-        while True:
-            stream = interactive.lexer_thread.lex(interactive.parser_state)
-            try:
-                yield from stream
-                return
-            except UnexpectedCharacters as exc:
-                self._skip_characters(interactive, exc)
-            except UnexpectedToken as exc:
-                # The contextual lexer found a token valid elsewhere in the grammar.
-                yield exc.token
-
-    def _skip_characters(self, interactive: Any, exc: UnexpectedCharacters) -> None:
-        state = interactive.lexer_thread.state
-        position = state.line_ctr.char_pos
-        text = self.source.text
-        if text[position] == '"':
-            line_end = text.find("\n", position)
-            line_end = self.end if line_end == -1 or line_end > self.end else line_end
-            self._report(
-                error(
-                    "RMV102",
-                    "unterminated string",
-                    self.source.span(position, line_end),
-                    label='this string has no closing `"`',
-                    help='close the string on the same line; write \\" for a quote inside it',
-                ),
-                force=True,
-            )
-            state.line_ctr.feed(text[position:line_end])
-            return
-        char = text[position]
-        self._report(
-            error(
-                "RMV101",
-                f"unexpected character `{char}`",
-                self.source.span(position, position + 1),
-                label="no token of the language starts with this character",
-                help="comments start with `//`; strings are written in double quotes",
-            ),
-            force=True,
-        )
-        state.line_ctr.feed(char)
-
-    def _feed(self, interactive: Any, token: Token) -> None:
-        try:
-            interactive.feed_token(token)
-            self.accepted += 1
-            self.fed.append(token)
-            return
-        except UnexpectedToken:
-            expected = self._expected_before()
-        closer = self._insertable_closer(interactive, token, expected)
-        self._report(self._unexpected(token, expected, closer))
-        self.accepted = 0
-        if closer is not None:
-            inserted = Token.new_borrow_pos(closer, _CLOSERS[closer], token)
-            interactive.feed_token(inserted)
-            interactive.feed_token(token)
-            self.fed += [inserted, token]
-
-    def _expected_before(self) -> set[str]:
-        """What the parser would have taken instead of the token it refused. A refused
-        token may already have made the parser reduce (LALR lookahead sets are merged
-        across contexts: after `when X`, a name reduces the expression), so the tokens
-        taken so far are replayed on a parser without actions and asked there;
-        accepts() tries each token, so the answer is exact."""
-        trial = _recognizer().parse_interactive("", start="start")
-        for taken in self.fed:
-            trial.feed_token(taken)
-        return set(trial.accepts())
-
-    def _insertable_closer(self, interactive: Any, token: Token, expected: set[str]) -> str | None:
-        for closer in _CLOSERS:
-            if closer not in expected:
-                continue
-            trial = interactive.copy(deepcopy_values=False)
-            try:
-                trial.feed_token(Token.new_borrow_pos(closer, _CLOSERS[closer], token))
-                trial.feed_token(token)
-            except UnexpectedInput:
-                continue
-            return closer
-        return None
-
-    def _unexpected(self, token: Token, expected: set[str], closer: str | None) -> Diagnostic:
-        span = self.source.span(token.start_pos or 0, token.end_pos or 0)
-        hint = None
-        if closer is not None:
-            hint = f"insert `{_CLOSERS[closer]}` before {describe_token(token)}"
-        elif token.type == "NAME" and str(token) in TOP_LEVEL_KEYWORDS:
-            hint = "start each declaration on a line of its own, without indentation"
-        return error(
-            "RMV100",
-            f"expected {describe_expected(expected)}, found {describe_token(token)}",
-            span,
-            label="unexpected here",
-            help=hint,
-        )
-
-    def _finish(self, interactive: Any, last: Token | None) -> list[ast.Decl] | None:
-        reported_eof = False
-        for _ in range(64):
-            try:
-                result = interactive.feed_eof(last)
-                return list(result) if result is not None else []
-            except UnexpectedToken:
-                expected = set(interactive.accepts())
-            closer = next((c for c in _CLOSERS if c in expected), None)
-            if not reported_eof and (self.accepted > 0 or not self.diagnostics):
-                self._report_eof(expected, last, closer)
-                reported_eof = True
-            if closer is None or last is None:
-                return None
-            interactive.feed_token(Token.new_borrow_pos(closer, _CLOSERS[closer], last))
-        return None
-
-    def _report_eof(self, expected: set[str], last: Token | None, closer: str | None) -> None:
-        end = self.end
-        while end > self.start and self.source.text[end - 1].isspace():
-            end -= 1
-        position = last.end_pos if last is not None and last.end_pos is not None else end
-        opener = _last_unclosed(self.source.text, self.start, self.end)
-        secondary = []
-        if opener is not None:
-            secondary.append(Label(self.source.span(opener, opener + 1), "opened here"))
-        self._report(
-            error(
-                "RMV103",
-                f"unexpected end of declaration: expected {describe_expected(expected)}",
-                self.source.span(position, position),
-                label="the declaration ends here",
-                secondary=secondary,
-                help=f"insert `{_CLOSERS[closer]}`" if closer else None,
-            ),
-            force=True,
-        )
-
-    def _report(self, diagnostic: Diagnostic, force: bool = False) -> None:
-        if force or self.accepted >= _ACCEPTED_BEFORE_NEXT_REPORT:
-            self.diagnostics.append(diagnostic)
-        if force:
-            self.accepted = 0
-
-
-def _last_unclosed(text: str, start: int, end: int) -> int | None:
-    stack: list[int] = []
-    index = start
-    while index < end:
-        char = text[index]
-        if char == '"':
-            index += 1
-            while index < end and text[index] not in '"\n':
-                index += 2 if text[index] == "\\" else 1
-        elif char == "/" and text.startswith("//", index):
-            newline = text.find("\n", index)
-            index = end if newline == -1 else newline
-        elif char in "{([":
-            stack.append(index)
-        elif char in "})]" and stack:
-            stack.pop()
-        index += 1
-    return stack[-1] if stack else None
 
 
 @dataclass(frozen=True)
@@ -451,7 +74,7 @@ def _parsed_chunk(
     cached = _CHUNK_CACHE.get(key)
     if cached is None:
         before = len(builder.diagnostics)
-        parser = _ChunkParser(source, start, end, line)
+        parser = ChunkParser(source, start, end, line)
         decls = parser.parse()
         damaged = bool(parser.diagnostics) or decls is None
         latex: list[Diagnostic] = []
@@ -480,7 +103,7 @@ def _scanned(source: SourceFile) -> ScanResult:
 
 def parse_source(source: SourceFile) -> ParsedSpec:
     """Parse a whole file: every declaration, every syntax error."""
-    _, builder = _spec_parser()
+    _, builder = spec_parser()
     builder.start_parse(source.path)
     scanned = _scanned(source)
     items: list[ast.Decl] = []
@@ -544,7 +167,7 @@ def _parse_latex_bodies(items: list[ast.Decl]) -> tuple[list[ast.Decl], list[Dia
 
 def parse_latex(literal: ast.StringLit, start: str = "start") -> tuple[Any, list[Diagnostic]]:
     """Parse the LaTeX notation inside a string literal; spans point into the file."""
-    parser, builder = _latex_parser()
+    parser, builder = latex_parser()
     path = literal.span.path
     offsets = literal.offsets or tuple(range(literal.span.start + 1, literal.span.end - 1))
     value = literal.value
@@ -633,7 +256,7 @@ def parse_formula(
     if syntax == "latex":
         literal = ast.StringLit(text, Span(path, -1, len(text) + 1), tuple(range(len(text))))
         return parse_latex(literal, "start" if kind == "formula" else "term")
-    parser, builder = _spec_parser()
+    parser, builder = spec_parser()
     builder.start_parse(path)
     try:
         formula = parser.parse(text, start=kind)
