@@ -23,45 +23,8 @@ from typing import Any
 
 import z3
 
-from rmvdsl.logic.terms import conjunction, disjunction, negation
-
-# A time: (base, offset). base 0 is time 0, base i >= 1 the change time t_i,
-# base -1 the evaluation time, base -2 - j the j-th crossing point (below).
-Time = tuple[int, Fraction]
-ZERO: Time = (0, Fraction(0))
-EVAL = -1
-
-Bool = Any  # a z3 BoolRef, or a Python bool once folded
-
-
-def _fold(items: tuple[Bool, ...], absorbing: bool, combine: Any) -> Bool:
-    """`and` (absorbing False) or `or` (absorbing True), folding Python bools so
-    that what is decided statically never reaches z3."""
-    rest = []
-    for item in items:
-        if item is absorbing:
-            return absorbing
-        if item is not (not absorbing):
-            rest.append(item)
-    if not rest:
-        return not absorbing
-    return rest[0] if len(rest) == 1 else combine(rest)
-
-
-def _and(*items: Bool) -> Bool:
-    return _fold(items, False, conjunction)
-
-
-def _or(*items: Bool) -> Bool:
-    return _fold(items, True, disjunction)
-
-
-def _not(item: Bool) -> Bool:
-    return (not item) if isinstance(item, bool) else negation(item)
-
-
-def as_z3(item: Bool) -> Any:
-    return z3.BoolVal(item) if isinstance(item, bool) else item
+from rmvdsl.logic.bounded_temporal import TemporalEncoding
+from rmvdsl.logic.folded import EVAL, Bool, Time, and_, as_z3, not_, or_
 
 
 def propositional(f: Any) -> bool:
@@ -78,7 +41,7 @@ class EncodingTimeout(Exception):
     """Building the encoding took longer than the question's time limit."""
 
 
-class BoundedTrace:
+class BoundedTrace(TemporalEncoding):
     """The symbolic trace and the encoding of formulas over it."""
 
     def __init__(self, segments: int, names: list[str], evaluation_free: bool) -> None:
@@ -136,12 +99,12 @@ class BoundedTrace:
         return found
 
     def less_equal(self, a: Time, b: Time) -> Bool:
-        return _not(self.less(b, a))
+        return not_(self.less(b, a))
 
     def equal(self, a: Time, b: Time) -> Bool:
         if a[0] == b[0]:
             return a[1] == b[1]
-        return _and(self.less_equal(a, b), self.less_equal(b, a))
+        return and_(self.less_equal(a, b), self.less_equal(b, a))
 
     # ---- where a formula can change ----
 
@@ -223,11 +186,11 @@ class BoundedTrace:
         if kind == "const":
             return bool(f[1])
         if kind == "not":
-            return _not(self.value(f[1], at, plus))
+            return not_(self.value(f[1], at, plus))
         if kind == "and":
-            return _and(self.value(f[1], at, plus), self.value(f[2], at, plus))
+            return and_(self.value(f[1], at, plus), self.value(f[2], at, plus))
         if kind == "or":
-            return _or(self.value(f[1], at, plus), self.value(f[2], at, plus))
+            return or_(self.value(f[1], at, plus), self.value(f[2], at, plus))
         if kind in ("until", "since") and f[1] == "<" and f[2] == 0:
             return False  # an empty window: no t' at all
         if kind == "until":
@@ -244,14 +207,14 @@ class BoundedTrace:
         start = (i, Fraction(0))
         inside = self.less_equal(start, at)
         if i + 1 < self.k:
-            inside = _and(inside, self.less(at, (i + 1, Fraction(0))))
+            inside = and_(inside, self.less(at, (i + 1, Fraction(0))))
         self._segments[(i, at)] = inside
         return inside
 
     def prop(self, name: str, at: Time) -> Bool:
         # Segments are closed on the left: a proposition's value just right of a
         # time is its value at that time.
-        return _or(*(_and(self.segment(i, at), self.holds[i][name]) for i in range(self.k)))
+        return or_(*(and_(self.segment(i, at), self.holds[i][name]) for i in range(self.k)))
 
     def holds_on(
         self, phi: Any, low: Time, high: Time, low_closed: bool, high_closed: bool
@@ -263,165 +226,14 @@ class BoundedTrace:
         if high_closed:
             parts.append(self.value(phi, high))
         for p in self.points(phi):
-            between = _and(self.less(low, p), self.less(p, high))
+            between = and_(self.less(low, p), self.less(p, high))
             if between is False:
                 continue
-            parts.append(_or(_not(between), _and(self.value(phi, p), self.value(phi, p, True))))
-        return _and(*parts)
+            parts.append(or_(not_(between), and_(self.value(phi, p), self.value(phi, p, True))))
+        return and_(*parts)
 
     def shifted(self, at: Time, delta: Fraction) -> Time:
         return (at[0], at[1] + delta)
-
-    def until(self, f: Any, at: Time) -> Bool:
-        _, op, bound, phi, psi = f
-        end = self.shifted(at, Fraction(bound))
-        if bound == 0:
-            return self.value(psi, at)
-        if op == "=":
-            return _and(self.value(psi, end), self.holds_on(phi, at, end, True, False))
-        options = [
-            self.value(psi, at),
-            _and(self.value(psi, at, True), self.value(phi, at), self.value(phi, at, True)),
-        ]
-        for c in self.points(phi) | self.points(psi):
-            after = self.less(at, c)
-            if after is False:
-                continue
-            before_end = self.less(c, end) if op == "<" else self.less_equal(c, end)
-            upto = self.holds_on(phi, at, c, True, False)
-            options.append(_and(after, before_end, self.value(psi, c), upto))
-            inside = _and(after, self.less(c, end))
-            options.append(
-                _and(
-                    inside,
-                    self.value(psi, c, True),
-                    upto,
-                    self.value(phi, c),
-                    self.value(phi, c, True),
-                )
-            )
-        if op == "<=":
-            options.append(_and(self.value(psi, end), self.holds_on(phi, at, end, True, False)))
-        return _or(*options)
-
-    def until_plus(self, f: Any, at: Time) -> Bool:
-        """The value on (at, at + epsilon)."""
-        _, op, bound, phi, psi = f
-        end = self.shifted(at, Fraction(bound))
-        if bound == 0:
-            return self.value(psi, at, True)
-        if op == "=":
-            return _and(
-                self.value(psi, end, True),
-                self.holds_on(phi, at, end, False, True),
-                self.value(phi, end, True),
-            )
-        options = [
-            self.value(psi, at, True),
-            # the window's end: its point and just right of it
-            _and(self.value(psi, end), self.holds_on(phi, at, end, False, False)),
-            _and(
-                self.value(psi, end, True),
-                self.holds_on(phi, at, end, False, True),
-                self.value(phi, end, True),
-            ),
-        ]
-        for c in self.points(phi) | self.points(psi):
-            inside = _and(self.less(at, c), self.less_equal(c, end))
-            if inside is False:
-                continue
-            upto = self.holds_on(phi, at, c, False, False)
-            options.append(_and(inside, self.value(psi, c), upto))
-            options.append(
-                _and(
-                    inside,
-                    self.value(psi, c, True),
-                    upto,
-                    self.value(phi, c),
-                    self.value(phi, c, True),
-                )
-            )
-        return _or(*options)
-
-    def since(self, f: Any, at: Time) -> Bool:
-        _, op, bound, phi, psi = f
-        begin = self.shifted(at, -Fraction(bound))
-        started = self.less_equal(ZERO, at)
-        if bound == 0:
-            return _and(started, self.value(psi, at))
-        if op == "=":
-            return _and(
-                started,
-                self.less_equal(ZERO, begin),
-                self.value(psi, begin),
-                self.holds_on(phi, begin, at, False, True),
-            )
-        options = [_and(started, self.value(psi, at))]
-        candidates = self.points(phi) | self.points(psi) | {ZERO, begin}
-        for c in candidates:
-            after_start = self.less_equal(ZERO, c)
-            before = self.less(c, at)
-            if after_start is False or before is False:
-                continue
-            in_window = self.less(begin, c) if op == "<" else self.less_equal(begin, c)
-            upto = self.holds_on(phi, c, at, False, True)
-            options.append(_and(after_start, before, in_window, self.value(psi, c), upto))
-            options.append(
-                _and(
-                    after_start,
-                    before,
-                    self.less_equal(begin, c),
-                    self.value(psi, c, True),
-                    upto,
-                )
-            )
-        return _or(*options)
-
-    def since_plus(self, f: Any, at: Time) -> Bool:
-        _, op, bound, phi, psi = f
-        begin = self.shifted(at, -Fraction(bound))
-        started = self.less_equal(ZERO, at)
-        now = self.value(phi, at, True)
-        if op == "=" or bound == 0:
-            if bound == 0:
-                return _and(started, self.value(psi, at, True))
-            return _and(
-                self.less_equal(ZERO, begin),
-                self.value(psi, begin, True),
-                self.holds_on(phi, begin, at, False, True),
-                now,
-            )
-        options = [_and(started, self.value(psi, at, True))]
-        candidates = self.points(phi) | self.points(psi) | {ZERO, begin}
-        for c in candidates:
-            after_start = self.less_equal(ZERO, c)
-            if after_start is False:
-                continue
-            at_most_now = self.less_equal(c, at)
-            if at_most_now is not False:
-                upto = _or(
-                    self.equal(c, at), self.holds_on(phi, c, at, False, True)
-                )  # (c, at] is empty when c is now
-                options.append(
-                    _and(
-                        after_start, at_most_now, self.less(begin, c), self.value(psi, c), upto, now
-                    )
-                )
-            before = self.less(c, at)
-            if before is not False:
-                options.append(
-                    _and(
-                        after_start,
-                        before,
-                        self.less_equal(begin, c),
-                        self.value(psi, c, True),
-                        self.holds_on(phi, c, at, False, True),
-                        now,
-                    )
-                )
-        return _or(*options)
-
-    # ---- durations ----
 
     def compare(self, f: Any, at: Time, plus: bool) -> Bool:
         _, op, left, right = f
@@ -487,17 +299,17 @@ class BoundedTrace:
         total = z3.RealVal(0)
         starts = [low, *points]
         for index, q in enumerate(starts):
-            inside = True if index == 0 else _and(self.less(low, q), self.less(q, high))
+            inside = True if index == 0 else and_(self.less(low, q), self.less(q, high))
             if inside is False:
                 continue
-            first = _and(*(_not(self.equal(q, other)) for other in starts[1:index]))
+            first = and_(*(not_(self.equal(q, other)) for other in starts[1:index]))
             following = b
             for p in points:
                 after = as_z3(self.less(q, p))
                 following = z3.If(
                     z3.And(after, self.z3_time(p) < following), self.z3_time(p), following
                 )
-            held = as_z3(_and(inside, first, self.value(body, q, True)))
+            held = as_z3(and_(inside, first, self.value(body, q, True)))
             total = total + z3.If(held, following - self.z3_time(q), 0)
         return total
 
@@ -508,9 +320,9 @@ class BoundedTrace:
         if kind == "const":
             return bool(f[1])
         if kind == "not":
-            return _not(self._segment_value(f[1], i))
+            return not_(self._segment_value(f[1], i))
         parts = (self._segment_value(f[1], i), self._segment_value(f[2], i))
-        return _and(*parts) if kind == "and" else _or(*parts)
+        return and_(*parts) if kind == "and" else or_(*parts)
 
     # ---- reading a model ----
 
