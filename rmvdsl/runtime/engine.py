@@ -52,9 +52,9 @@ from rmvdsl.runtime.records import (
     seconds,
     to_json,
 )
+from rmvdsl.runtime.reporting import Reporting
 from rmvdsl.runtime.values import exact_text
 from rmvdsl.runtime.verdicts import Segments
-from rmvdsl.runtime.wording import counted
 
 # What the other runtime modules define, read through this one by the hosts.
 __all__ = [
@@ -65,15 +65,12 @@ __all__ = [
     "seconds", "to_json", "verdict_of",
 ]  # fmt: skip
 
-_LOG_LEVEL = {"OK": "info", "INFO": "info", "WARNING": "warn", "CRITICAL": "error"}
-
-
 # The dataflow runs once per this many input instants (and on `decide()`): its output
 # does not depend on the batching, and a batch costs the per-run overhead once.
 PUMP_EVERY = 64
 
 
-class Runtime:
+class Runtime(Reporting):
     """The executable spec. `record` chooses the optional record kinds: `state`
     and `event` (value points and boolean changes) by default, `variable` too when
     asked for."""
@@ -251,44 +248,6 @@ class Runtime:
             self.reaches[topic] = found
         return found
 
-    def damaged(self, time: int, topic: str, reason: str) -> None:
-        """A message that could not be decoded."""
-        text = f"{topic}: a message cannot be decoded: {reason}"
-        self._input_lost(time, topic, f"damaged messages: {topic}", 1, text)
-
-    def lost(self, time: int, topic: str, count: int) -> None:
-        """Messages the transport lost (a host that sees gaps in the publishers'
-        sequence numbers reports them)."""
-        text = (
-            f"{topic}: {counted(count, 'message')} lost before the monitor could read "
-            f"{'it' if count == 1 else 'them'} "
-            "(a deeper `depth` in the topic's qos block keeps more waiting)"
-        )
-        self._input_lost(time, topic, f"lost messages: {topic}", count, text)
-
-    def _field_error(self, time: int, topic: str, variable: ir.Variable, reason: str) -> None:
-        text = f"{topic}: `{variable.name}` cannot be read: {reason}"
-        counter = f"messages not matching the spec: {variable.name}"
-        self._input_lost(time, topic, counter, 1, text, variable.origin)
-
-    def _input_lost(
-        self, time: int, topic: str, counter: str, count: int, text: str, origin: str = ""
-    ) -> None:
-        """Input the runtime could not use: always counted, reported once per
-        counter (a topic's, or a variable's)."""
-        self.counters[counter] += count
-        if counter not in self.reported:
-            self.reported.add(counter)
-            self._note(time, text, topic, origin)
-
-    def _note(self, time: int, text: str, topic: str, origin: str = "") -> None:
-        """A diagnostic record, at the spec's declaration that the input disagrees
-        with (the topic's, unless a more precise one is given)."""
-        origin = origin or self.topic_origin.get(topic, "")
-        self.out.append(
-            {"kind": "diagnostic", "time": seconds(time), "origin": origin, "message": text}
-        )
-
     def _begin(self, time: int) -> None:
         self.started = time
         # Each condition is evaluated at the first instant, changed input or not:
@@ -304,41 +263,6 @@ class Runtime:
                     {"kind": "state", "transducer": transducer.name, "time": seconds(time),
                      "state": transducer.initial}
                 )  # fmt: skip
-
-    def graph(self, time: int, endpoints: Iterable[Endpoint]) -> None:
-        """A snapshot of the ROS graph: every endpoint present at `time`. An
-        intrusion is reported when it appears and when it ends."""
-        present: dict[Endpoint, str] = {}
-        rules: dict[Endpoint, Any] = {}
-        for endpoint in endpoints:
-            found = verdict_of(self.spec, endpoint, self.ros_version)
-            if found is not None:
-                present[endpoint], rules[endpoint] = found
-        for endpoint, reason in present.items():
-            if endpoint not in self.intrusions:
-                self._intrusion(time, endpoint, reason, rules[endpoint], "start")
-        for endpoint, reason in list(self.intrusions.items()):
-            if endpoint not in present:
-                self._intrusion(time, endpoint, reason, None, "end")
-        self.intrusions = present
-
-    def _intrusion(self, time: int, endpoint: Endpoint, reason: str, rule: Any, phase: str) -> None:
-        record = {
-            "kind": "intrusion", "time": seconds(time), "phase": phase, "node": endpoint.node,
-            "topic": endpoint.topic, "role": endpoint.role, "reason": reason,
-        }  # fmt: skip
-        self.out.append(record)
-        if phase != "start":
-            return
-        self.counters["intrusions"] += 1
-        actions = (*(rule.actions if rule is not None else ()), *self.spec.intrusion.actions)
-        owner = "intrusion" if rule is None else type(rule).__name__.lower()
-        for action in actions:
-            text = action_text(action, f"intrusion: {endpoint.node} {reason}")
-            context = ActionContext(
-                owner, endpoint.node, action_level(action, "error"), text, record
-            )
-            self._act(action, context)
 
     def end(self, time: int | None = None) -> None:
         """The input ends at `time` (default: the newest message)."""
@@ -359,17 +283,6 @@ class Runtime:
             monitor.end(time)
             self._verdicts(monitor)
         self.segments.flush_all()
-
-    def records(self) -> list[Record]:
-        """The records produced since the last call, in the order they were decided."""
-        out, self.out = self.out, []
-        return out
-
-    def _act(self, action: ir.Action, context: ActionContext) -> None:
-        self.host.act(action, context)
-        if isinstance(self.host, RecordingHost):  # its records go out in order
-            self.out.extend(self.host.records)
-            self.host.records.clear()
 
     # ---- the dataflow ----
 
@@ -450,36 +363,6 @@ class Runtime:
             self.current_states[name] = value
             changes.extend(((old, False), (value, True)))
         return changes
-
-    def _alert(self, alert: ir.Alert, record: Record) -> None:
-        self.out.append(record)
-        self.counters[f"alerts: {alert.name}"] += 1
-        for action in alert.actions:
-            text = action_text(action, alert.message)
-            level = action_level(action, _LOG_LEVEL[record["level"]])
-            context = ActionContext("alert", alert.name, level, text, record)
-            self._act(action, context)
-
-    def _verdicts(self, monitor: PropertyMonitor) -> None:
-        self.segments.add(monitor.prop, monitor.verdicts())
-
-    @property
-    def pending_segments(self) -> dict[str, list[Any]]:
-        """Each property's open verdict segment (a live node's current verdict)."""
-        return self.segments.pending
-
-    def _write(self, record: Record) -> None:
-        self.out.append(record)
-
-    def _violated(self, prop: ir.Property, segment: list[Any]) -> None:
-        self.counters[f"violations: {prop.name}"] += 1
-        record = {"kind": "violation", "property": prop.name, "from": segment[0]}
-        for action in prop.actions:
-            text = action_text(action, f"{prop.name} violated")
-            self._act(
-                action,
-                ActionContext("property", prop.name, action_level(action, "error"), text, record),
-            )
 
     def decide(self, complete_before: int | None = None) -> None:
         """Compute everything the input so far decides (a live host calls this on a

@@ -7,10 +7,16 @@ dashboard's time range and the group-by interval."""
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from dataclasses import dataclass
 
+import jinja2
+
+from rmvdsl.dialects import influxql
+from rmvdsl.runtime import lineproto
 from rmvdsl.runtime import spec as ir
+from rmvdsl.targets.kapacitor.build import Build, stored_at
 
 # Marks, in a query, where a tool puts its time range and its interval.
 TIME_RANGE, INTERVAL = "\x00TIME\x00", "\x00INTERVAL\x00"
@@ -80,3 +86,35 @@ def panels(spec: ir.Spec, sources: Sources) -> list[Panel]:
                  f"WHERE {TIME_RANGE} GROUP BY {ident('alert')}")  # fmt: skip
         out.append(Panel("alerts", "table", query))
     return out
+
+
+def dashboard_files(build: Build, env: jinja2.Environment) -> dict[str, str]:
+    """A Grafana dashboard and a Chronograf dashboard export over the stored data."""
+    database = build.database
+    sources = Sources(
+        points=influxql.measurement(
+            stored_at(database, database.default_retention, build.measurement)
+        ),
+        alerts=influxql.measurement(
+            stored_at(database, database.default_retention, build.alerts_measurement)
+        ),
+        states=influxql.measurement(
+            stored_at(
+                database, database.default_retention, lineproto.states_measurement(build.spec)
+            )
+        ),
+        ident=influxql.identifier,
+        string=influxql.string,
+    )
+    found = panels(build.spec, sources)
+    name = build.spec.system.name
+    context = {"spec": build.spec, "panels": found, "title": build.spec.system.title or name}
+    uid = "rmv-" + re.sub(r"[^A-Za-z0-9_-]", "-", name)[:36]
+    return {
+        "dashboards/grafana.json": env.get_template("grafana.json.j2").render(
+            uid=uid, placeholders=GRAFANA, **context
+        ),
+        "dashboards/chronograf.json": env.get_template("chronograf.json.j2").render(
+            placeholders=CHRONOGRAF, **context
+        ),
+    }

@@ -14,15 +14,11 @@ with their one quoting rule; expressions reach them through translate.py.
 from __future__ import annotations
 
 import json
-import re
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from fractions import Fraction
 from functools import reduce
 from pathlib import Path
 from typing import Any
-
-import jinja2
 
 from rmvdsl.dialects import influxql
 from rmvdsl.dialects import tickscript as tick
@@ -30,6 +26,16 @@ from rmvdsl.runtime import lineproto
 from rmvdsl.runtime import spec as ir
 from rmvdsl.targets import ament, catkin
 from rmvdsl.targets.kapacitor import dashboards
+from rmvdsl.targets.kapacitor.build import (
+    KAPACITOR_URL,
+    LOG_FOLDER,
+    Build,
+    Left,
+    TickAlert,
+    environment,
+    stored_at,
+)
+from rmvdsl.targets.kapacitor.collector import collector1_files, collector_files
 from rmvdsl.targets.kapacitor.translate import (
     BuildError,
     Unsupported,
@@ -37,45 +43,7 @@ from rmvdsl.targets.kapacitor.translate import (
     tick_expression,
 )
 
-# The file every alert handler that writes a log appends to (Kapacitor's `.log`).
-LOG_FOLDER = "/var/log/kapacitor"
-KAPACITOR_URL = "http://127.0.0.1:9092"  # Kapacitor's own default
-
-
 # ---- the build ----
-
-
-@dataclass(frozen=True)
-class TickAlert:
-    name: str
-    task: str  # the Kapacitor task's id
-    file: str
-    script: tuple[str, str, str]  # dbrp, the alert's pipeline, the one storing its events
-
-
-@dataclass
-class Build:
-    spec: ir.Spec
-    database: ir.Database
-    measurement: str
-    handler_path: Path
-    alerts_measurement: str
-    queries: list[influxql.CreateContinuousQuery] = field(default_factory=list)
-    alerts: list[TickAlert] = field(default_factory=list)
-    report: list[Left] = field(default_factory=list)
-    publishes: bool = False
-
-
-class Left(str):
-    """A line of the report: a part of the spec this target leaves to the ros2
-    monitor, and where the spec declares it (`rmv check --target` points there)."""
-
-    origin: str
-
-    def __new__(cls, text: str, origin: str) -> Left:
-        line = super().__new__(cls, text)
-        line.origin = origin
-        return line
 
 
 def _database(spec: ir.Spec) -> ir.Database:
@@ -87,13 +55,9 @@ def _database(spec: ir.Spec) -> ir.Database:
     return spec.database
 
 
-def _target(database: ir.Database, retention: str, measurement: str) -> influxql.Measurement:
-    return influxql.Measurement(database.name, retention, measurement)
-
-
 def _event_query(build: Build, event: ir.Event) -> influxql.CreateContinuousQuery:
     assert event.window is not None
-    target = _target(build.database, build.database.default_retention, build.measurement)
+    target = stored_at(build.database, build.database.default_retention, build.measurement)
     fill = None
     if event.fill.mode == "number" and event.fill.value is not None:
         fill = influxql.expression(influxql_expression(event.fill.value))
@@ -144,8 +108,8 @@ def _downsample_query(build: Build, downsample: ir.Downsample) -> influxql.Creat
     every = influxql.duration(downsample.every)
     select = influxql.Select(
         columns=columns,
-        into=_target(build.database, downsample.into, build.measurement),
-        source=_target(build.database, downsample.source, build.measurement),
+        into=stored_at(build.database, downsample.into, build.measurement),
+        source=stored_at(build.database, downsample.source, build.measurement),
         where=None,
         interval=every,
         offset=None,
@@ -392,101 +356,11 @@ def manifest(build: Build) -> dict[str, Any]:
     }
 
 
-def _environment() -> jinja2.Environment:
-    """This target's templates (and, for the collector, the ros2 target's), with
-    the quoting filters of both."""
-    env = ament.environment(__package__ or "")
-    env.filters["ident"] = influxql.identifier
-    env.filters["iql"] = influxql.statement
-    return env
-
-
-def dashboard_files(build: Build, env: jinja2.Environment) -> dict[str, str]:
-    """A Grafana dashboard and a Chronograf dashboard export over the stored data."""
-    database = build.database
-    sources = dashboards.Sources(
-        points=influxql.measurement(
-            _target(database, database.default_retention, build.measurement)
-        ),
-        alerts=influxql.measurement(
-            _target(database, database.default_retention, build.alerts_measurement)
-        ),
-        states=influxql.measurement(
-            _target(database, database.default_retention, lineproto.states_measurement(build.spec))
-        ),
-        ident=influxql.identifier,
-        string=influxql.string,
-    )
-    found = dashboards.panels(build.spec, sources)
-    name = build.spec.system.name
-    context = {"spec": build.spec, "panels": found, "title": build.spec.system.title or name}
-    uid = "rmv-" + re.sub(r"[^A-Za-z0-9_-]", "-", name)[:36]
-    return {
-        "dashboards/grafana.json": env.get_template("grafana.json.j2").render(
-            uid=uid, placeholders=dashboards.GRAFANA, **context
-        ),
-        "dashboards/chronograf.json": env.get_template("chronograf.json.j2").render(
-            placeholders=dashboards.CHRONOGRAF, **context
-        ),
-    }
-
-
-COLLECTOR = (ament.NodeEntry("collector", "collector_node", "rmv_collector"),)
-
-
-# The collector's package carries the whole ROS 2 host, whose rmv_host/ros2.py imports
-# std_msgs (the actions' String): the ros2 target's base, all of it.
-COLLECTOR_DEPENDENCIES = ament.BASE_DEPENDENCIES
-
-
-def collector_files(build: Build, env: jinja2.Environment | None = None) -> dict[str, str]:
-    """The collector: an ament_python package, `collector/` in the build, sharing
-    the ros2 target's host (rmv_host/) and embedding the runtime's reading of
-    variables and its line protocol."""
-    spec = build.spec
-    name = f"{ament.package_name(spec)}_collector"
-    package = ament.Package(
-        name, spec, ament.dependencies(COLLECTOR_DEPENDENCIES, spec),
-        "InfluxDB collector", "kapacitor", COLLECTOR, "launch/collector.launch.py",
-    )  # fmt: skip
-    templates = {
-        "README.md": "collector_README.md.j2",
-        f"{name}/collector_node.py": "collector_node.py.j2",
-        "config/params.yaml": "collector_params.yaml.j2",
-    }
-    env = env or _environment()
-    found = ament.ament_package(package, env, templates, database=build.database)
-    return {f"collector/{path}": text for path, text in found.items()}
-
-
-COLLECTOR_SCRIPTS = (catkin.Script("collector", "rmv_collector", "collector_main"),)
-
-
-def collector1_files(build: Build) -> dict[str, str]:
-    """The collector on ROS 1: a catkin package, `collector/` in the build, with the
-    ros1 target's host (rmv_host/ros1.py): any message type, decoded from the
-    connection header's definition. (Its templates are the catkin ones, which
-    share names with the ament ones: an environment of their own.)"""
-    spec = build.spec
-    package = catkin.CatkinPackage(
-        f"{ament.package_name(spec)}_collector", spec, "InfluxDB collector", "kapacitor",
-        COLLECTOR_SCRIPTS,
-    )  # fmt: skip
-    templates = {
-        "README.md": "collector1_README.md.j2",
-        "launch/collector.launch": "collector1.launch.j2",
-        "config/params.yaml": "collector1_params.yaml.j2",
-    }
-    env = catkin.catkin_environment(__package__ or "")
-    found = catkin.catkin_package(package, env, templates, database=build.database)
-    return {f"collector/{path}": text for path, text in found.items()}
-
-
 def files(spec: ir.Spec, out: Path, ros: str = "ros2") -> tuple[dict[str, str], list[Left]]:
     """Every file of the build by path relative to `out`, and the report; the
     collector is for `ros` (ros2 or ros1)."""
     build = plan(spec, out.resolve() / "handlers")
-    env = _environment()
+    env = environment()
     context = {"build": build, "spec": spec, "database": build.database,
                "kapacitor_url": KAPACITOR_URL}  # fmt: skip
     iql = env.get_template("influxdb.iql.j2").render(statements=statements(build), **context)
@@ -497,7 +371,7 @@ def files(spec: ir.Spec, out: Path, ros: str = "ros2") -> tuple[dict[str, str], 
         written["handlers/publish_alert.py"] = env.get_template("publish_alert.py.j2").render(
             **context
         )
-    written.update(dashboard_files(build, env))
+    written.update(dashboards.dashboard_files(build, env))
     written.update(collector1_files(build) if ros == "ros1" else collector_files(build, env))
     written["deploy.json"] = json.dumps(manifest(build), indent=2) + "\n"
     written["README.md"] = env.get_template("README.md.j2").render(

@@ -1,0 +1,154 @@
+"""What the runtime reports besides verdicts' values: lost and damaged input
+(counted, reported once per counter), intrusions from graph snapshots, alerts,
+violations and the actions they run, and the records out (a part of Runtime)."""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Iterable
+from typing import Any
+
+from rmvdsl.runtime import spec as ir
+from rmvdsl.runtime.intrusions import Endpoint, verdict_of
+from rmvdsl.runtime.properties import PropertyMonitor
+from rmvdsl.runtime.records import (
+    ActionContext,
+    Host,
+    Record,
+    RecordingHost,
+    action_level,
+    action_text,
+    seconds,
+)
+from rmvdsl.runtime.verdicts import Segments
+from rmvdsl.runtime.wording import counted
+
+_LOG_LEVEL = {"OK": "info", "INFO": "info", "WARNING": "warn", "CRITICAL": "error"}
+
+
+class Reporting:
+    """Runtime's records and actions (Runtime's state, which this is a part of)."""
+
+    spec: ir.Spec
+    ros_version: int
+    host: Host
+    counters: Counter[str]
+    reported: set[str]
+    out: list[Record]
+    topic_origin: dict[str, str]
+    intrusions: dict[Endpoint, str]
+    segments: Segments
+
+    def damaged(self, time: int, topic: str, reason: str) -> None:
+        """A message that could not be decoded."""
+        text = f"{topic}: a message cannot be decoded: {reason}"
+        self._input_lost(time, topic, f"damaged messages: {topic}", 1, text)
+
+    def lost(self, time: int, topic: str, count: int) -> None:
+        """Messages the transport lost (a host that sees gaps in the publishers'
+        sequence numbers reports them)."""
+        text = (
+            f"{topic}: {counted(count, 'message')} lost before the monitor could read "
+            f"{'it' if count == 1 else 'them'} "
+            "(a deeper `depth` in the topic's qos block keeps more waiting)"
+        )
+        self._input_lost(time, topic, f"lost messages: {topic}", count, text)
+
+    def _field_error(self, time: int, topic: str, variable: ir.Variable, reason: str) -> None:
+        text = f"{topic}: `{variable.name}` cannot be read: {reason}"
+        counter = f"messages not matching the spec: {variable.name}"
+        self._input_lost(time, topic, counter, 1, text, variable.origin)
+
+    def _input_lost(
+        self, time: int, topic: str, counter: str, count: int, text: str, origin: str = ""
+    ) -> None:
+        """Input the runtime could not use: always counted, reported once per
+        counter (a topic's, or a variable's)."""
+        self.counters[counter] += count
+        if counter not in self.reported:
+            self.reported.add(counter)
+            self._note(time, text, topic, origin)
+
+    def _note(self, time: int, text: str, topic: str, origin: str = "") -> None:
+        """A diagnostic record, at the spec's declaration that the input disagrees
+        with (the topic's, unless a more precise one is given)."""
+        origin = origin or self.topic_origin.get(topic, "")
+        self.out.append(
+            {"kind": "diagnostic", "time": seconds(time), "origin": origin, "message": text}
+        )
+
+    def graph(self, time: int, endpoints: Iterable[Endpoint]) -> None:
+        """A snapshot of the ROS graph: every endpoint present at `time`. An
+        intrusion is reported when it appears and when it ends."""
+        present: dict[Endpoint, str] = {}
+        rules: dict[Endpoint, Any] = {}
+        for endpoint in endpoints:
+            found = verdict_of(self.spec, endpoint, self.ros_version)
+            if found is not None:
+                present[endpoint], rules[endpoint] = found
+        for endpoint, reason in present.items():
+            if endpoint not in self.intrusions:
+                self._intrusion(time, endpoint, reason, rules[endpoint], "start")
+        for endpoint, reason in list(self.intrusions.items()):
+            if endpoint not in present:
+                self._intrusion(time, endpoint, reason, None, "end")
+        self.intrusions = present
+
+    def _intrusion(self, time: int, endpoint: Endpoint, reason: str, rule: Any, phase: str) -> None:
+        record = {
+            "kind": "intrusion", "time": seconds(time), "phase": phase, "node": endpoint.node,
+            "topic": endpoint.topic, "role": endpoint.role, "reason": reason,
+        }  # fmt: skip
+        self.out.append(record)
+        if phase != "start":
+            return
+        self.counters["intrusions"] += 1
+        actions = (*(rule.actions if rule is not None else ()), *self.spec.intrusion.actions)
+        owner = "intrusion" if rule is None else type(rule).__name__.lower()
+        for action in actions:
+            text = action_text(action, f"intrusion: {endpoint.node} {reason}")
+            context = ActionContext(
+                owner, endpoint.node, action_level(action, "error"), text, record
+            )
+            self._act(action, context)
+
+    def records(self) -> list[Record]:
+        """The records produced since the last call, in the order they were decided."""
+        out, self.out = self.out, []
+        return out
+
+    def _act(self, action: ir.Action, context: ActionContext) -> None:
+        self.host.act(action, context)
+        if isinstance(self.host, RecordingHost):  # its records go out in order
+            self.out.extend(self.host.records)
+            self.host.records.clear()
+
+    def _alert(self, alert: ir.Alert, record: Record) -> None:
+        self.out.append(record)
+        self.counters[f"alerts: {alert.name}"] += 1
+        for action in alert.actions:
+            text = action_text(action, alert.message)
+            level = action_level(action, _LOG_LEVEL[record["level"]])
+            context = ActionContext("alert", alert.name, level, text, record)
+            self._act(action, context)
+
+    def _verdicts(self, monitor: PropertyMonitor) -> None:
+        self.segments.add(monitor.prop, monitor.verdicts())
+
+    @property
+    def pending_segments(self) -> dict[str, list[Any]]:
+        """Each property's open verdict segment (a live node's current verdict)."""
+        return self.segments.pending
+
+    def _write(self, record: Record) -> None:
+        self.out.append(record)
+
+    def _violated(self, prop: ir.Property, segment: list[Any]) -> None:
+        self.counters[f"violations: {prop.name}"] += 1
+        record = {"kind": "violation", "property": prop.name, "from": segment[0]}
+        for action in prop.actions:
+            text = action_text(action, f"{prop.name} violated")
+            self._act(
+                action,
+                ActionContext("property", prop.name, action_level(action, "error"), text, record),
+            )
