@@ -305,6 +305,13 @@ def test_the_kapacitor_collector_on_ros1_stores_every_message(tmp_path):
 
     spec = tmp_path / "abs.rmv"
     text = (CARLA / "abs.rmv").read_text(encoding="utf-8")
+    # Every message, as the spec asks: keep_all. (With the example's depth of 10,
+    # rospy drops the oldest when the collector falls behind a 10x `rosbag play`,
+    # and this bag's headers carry no `seq` to count them by: docs/ros1.md, Limits.)
+    text = text.replace("qos {\n    depth = 10\n", "qos {\n    history = keep_all\n")
+    objects = '"/carla/hero/objects"'
+    text = text.replace(f"{objects}\n", f"{objects} qos {{\n    history = keep_all\n}}\n")
+    assert text.count("history = keep_all") == 2
     spec.write_text(text.replace('messages "msg"', f"messages {json.dumps(str(CARLA / 'msg'))}"))
     build = tmp_path / "build"
     built = target("kapacitor").build(lower(check(str(spec))), build, {"collector": "ros1"})

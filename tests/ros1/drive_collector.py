@@ -61,7 +61,12 @@ def main() -> None:
                     rows = influxd.points(f'SELECT count(*) FROM "{measurement}"', database)
                     return max((max(r[1:]) for r in rows), default=0)
 
-                core.wait_for(lambda: stored() >= scenario["expected"], 30, "every point", 0.2)
+                try:
+                    core.wait_for(lambda: stored() >= scenario["expected"], 30, "every point", 0.2)
+                except TimeoutError as timeout:
+                    with lock:
+                        found = f"{stored()} stored, status {status}"
+                    raise TimeoutError(f"{timeout}: {found}") from None
                 time.sleep(1.0)  # nothing more comes
             finally:
                 code = core.stop(collector)
