@@ -1,10 +1,5 @@
-"""Lowering: from a checked spec (syntax tree, symbols, types) to the resolved spec
-of rmvdsl.runtime.spec, which every target, the runtime and the editor read.
-
-Nothing here decides what a spec means beyond filling in what the checker already
-established: names resolved, field paths typed, defaults (from rmvdsl.lang.builtins)
-filled, times in seconds, formulas compiled, events ordered by dependency.
-"""
+"""Lowering a checked model, part by part: the spec, its database, topics, message
+types, variables and events (what it does about them: reactions.py)."""
 
 from __future__ import annotations
 
@@ -12,37 +7,24 @@ from collections.abc import Iterable
 from fractions import Fraction
 from typing import Any
 
-from rmvdsl.check import CheckResult
 from rmvdsl.check.lowering import NotLowered, lower_expr, value_type
 from rmvdsl.check.model import Model
 from rmvdsl.check.msgtypes import FieldType, TypeRegistry, canonical
 from rmvdsl.check.types import TypeInfo
-from rmvdsl.grammar import ast, printer
-from rmvdsl.grammar.formula import TIME_UNITS
+from rmvdsl.grammar import ast
+from rmvdsl.ir.conversions import LowerError, credential, primitive, reads, setting_value
+from rmvdsl.ir.reactions import Reactions
 from rmvdsl.lang import builtins
 from rmvdsl.runtime import spec as ir
-from rmvdsl.runtime.rmtld3 import facts
-from rmvdsl.runtime.spec import dump, load, pattern
 from rmvdsl.runtime.values import literal
-from rmvdsl.runtime.wording import counted
-
-__all__ = ["LowerError", "dump", "load", "lower"]
 
 # ROS 1 time fields as a decoded message names them (rosbags and rclpy alike).
 _ROS1_TIME_READS = {"secs": "sec", "nsecs": "nanosec"}
 
 
-class LowerError(ValueError):
-    """The spec has errors: only an error-free check result lowers."""
+class Lowering(Reactions):
+    """A checked model, lowered part by part."""
 
-
-def lower(result: CheckResult) -> ir.Spec:
-    if result.errors or result.types is None:
-        raise LowerError(f"the spec has {counted(len(result.errors), 'error')}: fix them first")
-    return _Lowering(result.model, result.types).spec()
-
-
-class _Lowering:
     def __init__(self, model: Model, types: TypeInfo) -> None:
         self.model = model
         self.types = types
@@ -88,7 +70,7 @@ class _Lowering:
 
     def settings(self, block: str, given: Iterable[ast.Setting]) -> dict[str, Any]:
         """Every setting of the block: the spec's value, converted, or the default."""
-        values = {s.key.name: _setting_value(s.value) for s in given}
+        values = {s.key.name: setting_value(s.value) for s in given}
         out = {}
         for key, spec in builtins.block(block).settings.items():
             out[key] = values.get(key, spec.default)
@@ -110,9 +92,9 @@ class _Lowering:
             host=values["host"],
             port=values["port"],
             precision=values["precision"],
-            username=_credential(values["username"]),
-            password=_credential(values["password"]),
-            token=_credential(values["token"]),
+            username=credential(values["username"]),
+            password=credential(values["password"]),
+            token=credential(values["token"]),
             ssl=values["ssl"],
             timeout=values["timeout"],
             batch_size=values["batch_size"],
@@ -178,7 +160,7 @@ class _Lowering:
             constants = tuple((c, kind, value) for c, (kind, value) in definition.constants.items())
             found[name] = ir.Message(name, fields, constants)
             bases = (t.base for t in definition.fields.values())
-            pending += [canonical(base) for base in bases if not _primitive(base)]
+            pending += [canonical(base) for base in bases if not primitive(base)]
         return tuple(found[name] for name in sorted(found))
 
     # ---- variables ----
@@ -234,8 +216,8 @@ class _Lowering:
                     order[name] = None
                     continue
                 stack.append((name, True))
-                reads = sorted(n for n in _reads(events[name]) if n in events)
-                stack.extend((n, False) for n in reversed(reads) if n not in order)
+                found = sorted(n for n in reads(events[name]) if n in events)
+                stack.extend((n, False) for n in reversed(found) if n not in order)
         return list(order)
 
     def event(self, decl: ast.EventDecl) -> ir.Event:
@@ -264,7 +246,7 @@ class _Lowering:
             kind="boolean" if decl.boolean else "value",
             expr=self.expr(decl.expr),
             type=value_type(self.types.events[decl.name.name]),
-            reads=tuple(sorted(_reads(decl))),
+            reads=tuple(sorted(reads(decl))),
             where=self.expr(where) if where is not None else None,
             window=window,
             tags=tags,
@@ -292,200 +274,3 @@ class _Lowering:
         return ir.Fill("null")  # InfluxDB's default
 
     # ---- transducers ----
-
-    def transducer(self, decl: ast.TransducerDecl) -> ir.Transducer:
-        assert decl.initial is not None
-        transitions = tuple(
-            ir.Transition(
-                t.source.name,
-                t.dest.name,
-                t.input.name,
-                t.output.name if t.output else None,
-                self.origin(t),
-            )
-            for t in decl.transitions
-        )
-        emits = tuple(dict.fromkeys(t.emit for t in transitions if t.emit))
-        return ir.Transducer(
-            name=decl.name.name,
-            states=tuple(s.name for s in decl.states),
-            initial=decl.initial.name,
-            finals=tuple(f.name for f in decl.finals),
-            complete=decl.complete,
-            transitions=transitions,
-            emits=emits,
-            origin=self.origin(decl.name),
-            doc=decl.doc,
-        )
-
-    # ---- properties ----
-
-    def property(self, decl: ast.PropertyDecl) -> ir.Property:
-        formula = decl.formula
-        assert formula is not None, "a property without a formula passed the checker"
-        compiled = self.types.formulas[decl.name.name]
-        found = facts(compiled)
-        values = self.settings("property", decl.settings)
-        window = values["window"]
-        horizon = Fraction(found.future) + Fraction(found.past)
-        return ir.Property(
-            name=decl.name.name,
-            text=printer.formula(formula),
-            formula=compiled,
-            propositions=tuple(found.propositions),
-            horizon_future=Fraction(found.future),
-            horizon_past=Fraction(found.past),
-            rate=values["rate"],
-            trigger=values["trigger"],
-            window=horizon if window == builtins.DERIVED else window,
-            lateness=values["lateness"],
-            actions=self.actions(decl.actions),
-            origin=self.origin(decl.name),
-            doc=decl.doc,
-        )
-
-    # ---- alerts ----
-
-    def alert(self, decl: ast.AlertDecl) -> ir.Alert:
-        values = self.settings("alert", decl.settings)
-        levels = tuple(
-            ir.AlertLevel(
-                level.severity.name,
-                self.expr(level.condition),
-                self.expr(level.reset) if level.reset is not None else None,
-            )
-            for level in decl.levels
-        )
-        reads = set()
-        for level in decl.levels:
-            reads |= ast.names_in(level.condition)
-            if level.reset is not None:
-                reads |= ast.names_in(level.reset)
-        name = decl.name.name
-        return ir.Alert(
-            name=name,
-            id=name if values["id"] == builtins.DERIVED else values["id"],
-            message=decl.message.value if decl.message else name,
-            details=values["details"],
-            state_changes_only=values["state_changes_only"],
-            no_recoveries=values["no_recoveries"],
-            levels=levels,
-            reads=tuple(sorted(reads)),
-            actions=self.actions(decl.actions),
-            origin=self.origin(decl.name),
-            doc=decl.doc,
-        )
-
-    # ---- actions ----
-
-    def actions(self, actions: Iterable[ast.Action]) -> tuple[ir.Action, ...]:
-        return tuple(self.action(a) for a in actions)
-
-    def action(self, node: ast.Action) -> ir.Action:
-        signature = builtins.action(node.kind.name)
-        positional = [a for a in node.args if a.key is None]
-        given = dict(zip(signature.positional, positional, strict=False))
-        given |= {a.key.name: a for a in node.args if a.key is not None}
-        values = {
-            name: _setting_value(given[name].value) if name in given else parameter.default
-            for name, parameter in signature.parameters.items()
-        }
-        match signature.name:
-            case "log":
-                return ir.Log(values["message"], values["level"])
-            case "publish":
-                return ir.Publish(values["topic"], values["message"])
-            case "post":
-                return ir.Post(values["url"], values["timeout"])
-            case "exec":
-                args = values["args"]
-                return ir.Exec(values["command"], (args,) if isinstance(args, str) else args)
-            case "tcp":
-                return ir.Tcp(values["address"])
-        raise LowerError(f"no lowering of action `{signature.name}`")
-
-    # ---- intrusion detection ----
-
-    def whitelist(self, decl: ast.WhitelistDecl) -> ir.Whitelist:
-        if isinstance(decl.target, ast.Ident):
-            topic_name: str | None = decl.target.name
-            ros_name = self.model.topics[decl.target.name].path.value
-        else:
-            topic_name, ros_name = None, decl.target.value
-        return ir.Whitelist(
-            topic=pattern(ros_name),
-            topic_name=topic_name,
-            publishers=_patterns(decl.publishers),
-            subscribers=_patterns(decl.subscribers),
-            actions=self.actions(decl.actions),
-            origin=self.origin(decl.target),
-            doc=decl.doc,
-        )
-
-    def node_rule(self, decl: ast.NodeDecl) -> ir.NodeRule:
-        return ir.NodeRule(
-            node=pattern(decl.name.value),
-            publishes=_patterns(decl.publishes),
-            subscribes=_patterns(decl.subscribes),
-            actions=self.actions(decl.actions),
-            origin=self.origin(decl.name),
-            doc=decl.doc,
-        )
-
-    def intrusion(self, decl: ast.IntrusionDecl | None) -> ir.Intrusion:
-        values = self.settings("intrusion", decl.settings if decl else ())
-        return ir.Intrusion(
-            poll=values["poll"],
-            default=values["default"],
-            ignore_nodes=tuple(pattern(p) for p in values["ignore_nodes"]),
-            infrastructure=values["infrastructure"],
-            actions=self.actions(decl.actions) if decl else (),
-            origin=self.origin(decl) if decl else "",
-        )
-
-
-# ---- small conversions ----
-
-
-def _setting_value(node: ast.Value) -> Any:
-    """A setting's or argument's value as the resolved spec holds it."""
-    match node:
-        case ast.StringLit():
-            return node.value
-        case ast.NumberLit():
-            return int(node.value) if node.value.denominator == 1 else node.value
-        case ast.TimeLit():
-            assert node.time.unit is not None, "a time without a unit passed the checker"
-            return node.time.value * TIME_UNITS[node.time.unit]
-        case ast.RateLit():
-            return node.hertz
-        case ast.BoolLit():
-            return node.value
-        case ast.NameValue():
-            return node.ident.name
-        case ast.EnvRef():
-            return ast.EnvRef(node.variable)
-        case ast.ListValue():
-            return tuple(_setting_value(item) for item in node.items)
-    raise LowerError(f"not a value: {type(node).__name__}")
-
-
-def _credential(value: Any) -> ir.Credential | None:
-    if value is None:
-        return None
-    if isinstance(value, ast.EnvRef):
-        return ir.Credential(env=value.variable.value)
-    return ir.Credential(value=value)
-
-
-def _patterns(items: tuple[ast.StringLit, ...] | None) -> tuple[ir.Pattern, ...] | None:
-    return None if items is None else tuple(pattern(i.value) for i in items)
-
-
-def _reads(decl: ast.EventDecl) -> set[str]:
-    where = decl.clause("where")
-    return ast.names_in(decl.expr) | (ast.names_in(where.value) if where else set())
-
-
-def _primitive(base: str) -> bool:
-    return FieldType(base).is_primitive
