@@ -8,7 +8,8 @@ from fractions import Fraction
 import pytest
 from conftest import rmv_process
 
-from rmvdsl.logic.traces import TraceError, read_trace
+from rmvdsl.logic.trace_lines import TraceError
+from rmvdsl.logic.traces import read_trace
 from rmvdsl.runtime.rmtld3 import Monitor, merge
 
 BRAKING = (

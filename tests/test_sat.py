@@ -423,7 +423,7 @@ def test_solver_settings_in_rmv_toml(tmp_path):
 
 def test_a_witness_time_without_a_decimal_form_survives_the_trace_file(tmp_path):
     from rmvdsl.logic.answers import Witness
-    from rmvdsl.logic.traces import TraceError
+    from rmvdsl.logic.trace_lines import TraceError
 
     third = Fraction(1, 3)
     witness = Witness(

@@ -88,7 +88,8 @@ def _eval_output(args: argparse.Namespace, run: Streamed, at: Fraction) -> str |
 @contextlib.contextmanager
 def _trace_stream(path: str) -> Iterator[TraceStream]:
     from rmvdsl.check.loader import unreadable
-    from rmvdsl.logic.traces import TraceError, TraceStream
+    from rmvdsl.logic.trace_lines import TraceError
+    from rmvdsl.logic.traces import TraceStream
 
     try:
         handle = open(path, "rb")  # noqa: SIM115 (closed below, after the stream)
@@ -103,7 +104,8 @@ def _trace_stream(path: str) -> Iterator[TraceStream]:
 
 def _whole_trace(path: str) -> TraceFile:
     from rmvdsl.check.loader import read_text
-    from rmvdsl.logic.traces import TraceError, read_trace
+    from rmvdsl.logic.trace_lines import TraceError
+    from rmvdsl.logic.traces import read_trace
 
     try:
         return read_trace(path, read_text(path))

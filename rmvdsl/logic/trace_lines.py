@@ -1,0 +1,225 @@
+"""One line of a trace file at a time, JSONL or CSV, each problem a TraceError with its
+line and column: the reader that 's trace files and streams share."""
+
+from __future__ import annotations
+
+import csv
+import json
+import re
+from collections.abc import Callable
+from fractions import Fraction
+
+from rmvdsl.grammar.formula import TIME_UNITS
+from rmvdsl.lang.numbers import NumberError, exact_or_quotient
+from rmvdsl.runtime.wording import counted
+
+_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_^{}]*$")
+
+
+class TraceError(Exception):
+    def __init__(self, path: str, line: int, column: int, message: str, help: str | None = None):
+        super().__init__(message)
+        self.path, self.line, self.column, self.help = path, line, column, help
+
+    def __str__(self) -> str:
+        where = f"{self.path}:{self.line}:{self.column}"
+        text = f"{where}: {self.args[0]}"
+        return text + (f" (help: {self.help})" if self.help else "")
+
+
+class LineReader:
+    """The checks every line passes, and what they leave: the unit, the last sample
+    (its time kept as text until an exact comparison needs it), the end."""
+
+    def __init__(self, path: str) -> None:
+        self.path = path
+        self.unit = "s"
+        self.end: Fraction | None = None
+        self.last_text: str | None = None  # the newest sample's time as written
+        self.last_float = float("-inf")
+        self._last: Fraction | None = None
+        self.accepted: list[tuple[Fraction, frozenset[str]]] = []  # by the full reader
+        self.header: list[str] | None = None  # CSV
+
+    @property
+    def last(self) -> Fraction | None:
+        if self._last is None and self.last_text is not None:
+            self._last = exact_or_quotient(self.last_text)
+        return self._last
+
+    def add(self, line: int, column: int, t: Fraction, state: frozenset[str]) -> None:
+        if self.end is not None:
+            raise TraceError(
+                self.path, line, 1, "a sample after the end record", "the end record comes last"
+            )
+        last = self.last
+        if last is not None and t <= last:
+            what = "goes backwards" if t < last else "does not advance"
+            raise TraceError(
+                self.path,
+                line,
+                column,
+                f"time {t} {what} (the previous sample is at {last})",
+                "samples must be in strictly increasing time",
+            )
+        for name in state:
+            if not _NAME.match(name):
+                raise TraceError(self.path, line, column, f"`{name}` is not a proposition name")
+        self._last, self.last_text, self.last_float = t, None, float(t)
+        self.accepted.append((t, state))
+
+    def close(self, line: int, column: int, t: Fraction) -> None:
+        if self.end is not None:
+            raise TraceError(self.path, line, 1, "a second end record")
+        last = self.last
+        if last is not None and t < last:
+            raise TraceError(
+                self.path, line, column, f"the end {t} is before the last sample ({last})"
+            )
+        self.end = t
+
+    def set_unit(self, unit: str, line: int, column: int) -> None:
+        if self.last_text is not None or self._last is not None:
+            raise TraceError(self.path, line, column, "the unit comes before the first sample")
+        unit = {"u": "us"}.get(unit, unit)
+        if unit not in TIME_UNITS:
+            raise TraceError(
+                self.path, line, column, f"unknown unit `{unit}`", "ns, us, ms, s, m, h, d or w"
+            )
+        self.unit = unit
+
+    def fast_order(self, text: str, line: int, raw: str) -> None:
+        """A fast line whose time is not above the last as a float: compare exactly."""
+        t = exact_or_quotient(text)
+        last = self.last
+        if last is not None and t <= last:
+            self.jsonl(line, raw) if self.header is None else self.csv(line, raw)  # raises
+        self._last = t
+
+    # ---- the full reader, one line at a time ----
+
+    def jsonl(self, number: int, raw: str) -> None:
+        raw = raw.rstrip("\r")
+        if not raw.strip():
+            return
+        try:
+            record = load_json(raw)
+        except json.JSONDecodeError as exc:
+            raise TraceError(self.path, number, exc.colno, f"not JSON: {exc.msg}") from None
+        if not isinstance(record, dict):
+            raise TraceError(self.path, number, 1, "each line must be a JSON object")
+        column = _columns(raw)
+        if set(record) == {"unit"}:
+            self.set_unit(str(record["unit"]), number, column("unit"))
+            return
+        unknown = sorted(set(record) - {"t", "state", "props", "end"})
+        if unknown:
+            raise TraceError(self.path, number, column(unknown[0]), f"unknown field `{unknown[0]}`",
+                             'fields are "t", "state", "props" and "end"')  # fmt: skip
+        if "t" not in record:
+            raise TraceError(self.path, number, 1, 'a record without "t"')
+        t = _time(record["t"], self.path, number, column("t"))
+        if record.get("end") is True:
+            if "state" in record or "props" in record:
+                raise TraceError(self.path, number, column("end"), "an end record has no state")
+            self.close(number, column("t"), t)
+            return
+        if "end" in record:
+            raise TraceError(self.path, number, column("end"), '"end" must be true')
+        self.add(number, column("t"), t, _state(record, self.path, number, column))
+
+    def csv(self, number: int, raw: str) -> None:
+        raw = raw.rstrip("\r")
+        if self.header is None:
+            self._csv_preamble(number, raw)
+            return
+        if not raw.strip():
+            return
+        row = next(csv.reader([raw]), [])
+        header = self.header
+        if len(row) != len(header):
+            raise TraceError(
+                self.path,
+                number,
+                1,
+                f"{counted(len(row), 'cell')} for {counted(len(header), 'column')}",
+            )
+        cells = dict(zip(header, (c.strip() for c in row), strict=True))
+        t = _time(cells["t"], self.path, number, 1)
+        if cells.get("end", "").lower() in ("true", "1", "yes"):
+            self.close(number, 1, t)
+            return
+        if "state" in header:
+            value = cells["state"]
+            state = frozenset({value}) if value else frozenset()
+        else:
+            state = frozenset(p.strip() for p in cells["props"].split(";") if p.strip())
+        self.add(number, 1, t, state)
+
+    def _csv_preamble(self, number: int, raw: str) -> None:
+        """Comments (`# unit: ms`) and blank lines, then the header."""
+        if not raw.strip() or raw.lstrip().startswith("#"):
+            match = re.match(r"^\s*#\s*unit\s*:\s*(\S+)\s*$", raw)
+            if match:
+                self.set_unit(match.group(1), number, raw.find(match.group(1)) + 1)
+            return
+        header = [h.strip() for h in next(csv.reader([raw]), [])]
+        if "t" not in header or not ({"state", "props"} & set(header)):
+            raise TraceError(
+                self.path,
+                number,
+                1,
+                f"the header `{','.join(header)}` has no `t` and `state` (or `props`) columns",
+            )
+        unknown = [h for h in header if h not in {"t", "state", "props", "end"}]
+        if unknown:
+            raise TraceError(self.path, number, 1, f"unknown column `{unknown[0]}`")
+        self.header = header
+
+
+class JsonNumber(str):
+    """A number of a JSON text as written: read exactly, never through a float."""
+
+
+def load_json(raw: str) -> object:
+    """JSON with its numbers kept as written (`JsonNumber`); NaN and Infinity too."""
+    return json.loads(raw, parse_float=JsonNumber, parse_int=JsonNumber,
+                      parse_constant=JsonNumber)  # fmt: skip
+
+
+def _time(value: object, path: str, line: int, column: int) -> Fraction:
+    if isinstance(value, bool) or not isinstance(value, int | float | str):
+        raise TraceError(path, line, column, f"`t` must be a number, not {json.dumps(value)}")
+    text = str(value).strip()
+    try:
+        return exact_or_quotient(text)  # "1/3": an exact fraction, as `rmv sat` writes
+    except NumberError as exc:
+        message = f"`t` must be a number: {exc}"
+        if text.lower().lstrip("+-") in ("nan", "infinity", "inf"):
+            message = f"`t` is {text}: times must be finite numbers"
+        raise TraceError(path, line, column, message) from None
+
+
+def _columns(raw: str) -> Callable[[str], int]:
+    """Where a key stands on its line (1 when it does not)."""
+
+    def column(key: str) -> int:
+        return raw.find(f'"{key}"') + 1 or 1
+
+    return column
+
+
+def _state(
+    record: dict[str, object], path: str, line: int, column: Callable[[str], int]
+) -> frozenset[str]:
+    if ("state" in record) == ("props" in record):
+        raise TraceError(path, line, 1, 'a sample has either "state" or "props"')
+    if "state" in record:
+        value = record["state"]
+        if not isinstance(value, str):
+            raise TraceError(path, line, column("state"), '"state" is a string')
+        return frozenset({value})
+    value = record["props"]
+    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        raise TraceError(path, line, column("props"), '"props" is a list of strings')
+    return frozenset(value)
