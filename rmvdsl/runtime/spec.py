@@ -18,6 +18,24 @@ from typing import Any, ClassVar
 
 from rmvdsl.runtime import formulas
 from rmvdsl.runtime.jsonform import Codec
+from rmvdsl.runtime.spec_terms import Action as Action
+from rmvdsl.runtime.spec_terms import Binary as Binary
+from rmvdsl.runtime.spec_terms import Boolean as Boolean
+from rmvdsl.runtime.spec_terms import Call as Call
+from rmvdsl.runtime.spec_terms import Credential as Credential
+from rmvdsl.runtime.spec_terms import Exec as Exec
+from rmvdsl.runtime.spec_terms import Expr as Expr
+from rmvdsl.runtime.spec_terms import Log as Log
+from rmvdsl.runtime.spec_terms import Number as Number
+from rmvdsl.runtime.spec_terms import Pattern as Pattern
+from rmvdsl.runtime.spec_terms import Post as Post
+from rmvdsl.runtime.spec_terms import Publish as Publish
+from rmvdsl.runtime.spec_terms import Ref as Ref
+from rmvdsl.runtime.spec_terms import String as String
+from rmvdsl.runtime.spec_terms import Tcp as Tcp
+from rmvdsl.runtime.spec_terms import Time as Time
+from rmvdsl.runtime.spec_terms import Unary as Unary
+from rmvdsl.runtime.spec_terms import ValueType as ValueType
 
 FORMAT = "rmvdsl.ir"
 VERSION = 1
@@ -25,33 +43,6 @@ VERSION = 1
 
 class FormatError(ValueError):
     """A JSON text that is not a resolved spec of this version."""
-
-
-# ---- values ----
-
-
-@dataclass(frozen=True)
-class ValueType:
-    kind: str  # bool | int | float | string | time | duration
-    ros: str = ""  # the ROS type it comes from, if any
-    time_exponent: int = 0  # -1 per second (a derivative), +1 times seconds (an integral)
-
-
-@dataclass(frozen=True)
-class Pattern:
-    """A ROS name pattern: `*` matches any run of characters."""
-
-    text: str
-    regex: str  # anchored, for Python's `re` and Go's RE2 alike
-
-
-@dataclass(frozen=True)
-class Credential:
-    """A database credential: always from the environment (RMV211), or a username
-    written in the spec."""
-
-    env: str | None = None
-    value: str | None = None
 
 
 # ---- header ----
@@ -190,75 +181,6 @@ class Variable:
     doc: str
 
 
-# ---- expressions ----
-
-
-@dataclass(frozen=True)
-class Number:
-    TAG: ClassVar[str] = "number"
-    text: str  # as written: `3` is an integer, `3.0` a float (InfluxQL's rule)
-    value: Fraction
-    type: ValueType
-
-
-@dataclass(frozen=True)
-class String:
-    TAG: ClassVar[str] = "string"
-    value: str
-    type: ValueType
-
-
-@dataclass(frozen=True)
-class Boolean:
-    TAG: ClassVar[str] = "bool"
-    value: bool
-    type: ValueType
-
-
-@dataclass(frozen=True)
-class Time:
-    TAG: ClassVar[str] = "time"
-    text: str
-    seconds: Fraction
-    type: ValueType
-
-
-@dataclass(frozen=True)
-class Ref:
-    TAG: ClassVar[str] = "ref"
-    name: str
-    kind: str  # variable | event | emitted
-    type: ValueType
-
-
-@dataclass(frozen=True)
-class Unary:
-    TAG: ClassVar[str] = "unary"
-    op: str  # `-` | `not`
-    operand: Expr
-    type: ValueType
-
-
-@dataclass(frozen=True)
-class Binary:
-    TAG: ClassVar[str] = "binary"
-    op: str  # InfluxQL's, with `<>` written `!=`
-    left: Expr
-    right: Expr
-    type: ValueType
-
-
-@dataclass(frozen=True)
-class Call:
-    TAG: ClassVar[str] = "call"
-    function: str  # a name of rmvdsl.lang.builtins.FUNCTIONS
-    args: tuple[Expr, ...]
-    type: ValueType
-
-
-Expr = Number | String | Boolean | Time | Ref | Unary | Binary | Call
-
-
 # ---- events ----
 
 
@@ -316,46 +238,6 @@ class Event:
     resample_for: Fraction | None  # how far back each run reads
     origin: str
     doc: str
-
-
-# ---- actions ----
-
-
-@dataclass(frozen=True)
-class Log:
-    TAG: ClassVar[str] = "log"
-    message: str | None  # None: the owner's message
-    level: str | None  # None: the alert's level (`error` outside alerts)
-
-
-@dataclass(frozen=True)
-class Publish:
-    TAG: ClassVar[str] = "publish"
-    topic: str
-    message: str | None
-
-
-@dataclass(frozen=True)
-class Post:
-    TAG: ClassVar[str] = "post"
-    url: str
-    timeout: Fraction
-
-
-@dataclass(frozen=True)
-class Exec:
-    TAG: ClassVar[str] = "exec"
-    command: str
-    args: tuple[str, ...]
-
-
-@dataclass(frozen=True)
-class Tcp:
-    TAG: ClassVar[str] = "tcp"
-    address: str
-
-
-Action = Log | Publish | Post | Exec | Tcp
 
 
 # ---- transducers, properties, alerts ----
