@@ -348,7 +348,9 @@ def test_sim_time_and_parameters_override_the_spec(specs, workspace, tmp_path, r
     ]  # fmt: skip
     steps: list[list] = []
     for clock, messages in phases:
-        steps.append(["clock", clock])
+        # Each phase's messages are received at its clock: the node has read them
+        # all before the clock moves on (else the last are timed by the next).
+        steps += [["settle"], ["clock", clock]]
         steps.extend(_publish("/other/twist", _twist_cdr(t, v)) for t, v in messages)
     seen = _drive(workspace, {
         "monitor": command, "publishers": {"/other/twist": TWIST}, "steps": steps,
