@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from rmvdsl.check import check, msgtypes
+from rmvdsl.check import check, msgfolders
 
 SPEC = 'system cached\nmessages "msg"\ntopic S: demo_msgs/Status = "/s"\nvar V = S.{field}\n'
 
@@ -29,13 +29,13 @@ def _codes(spec: Path) -> list[str]:
 @pytest.fixture
 def reads(monkeypatch: pytest.MonkeyPatch) -> list[str]:
     seen: list[str] = []
-    original = msgtypes._read_msg
+    original = msgfolders._read_msg
 
-    def counted(name: str, path: str) -> msgtypes._FileRead:
+    def counted(name: str, path: str) -> msgfolders._FileRead:
         seen.append(name)
         return original(name, path)
 
-    monkeypatch.setattr(msgtypes, "_read_msg", counted)
+    monkeypatch.setattr(msgfolders, "_read_msg", counted)
     return seen
 
 

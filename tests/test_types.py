@@ -10,7 +10,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from rmvdsl.check import check
-from rmvdsl.check.msgtypes import parse_msg
+from rmvdsl.check.msgdefs import parse_msg
 from rmvdsl.grammar import ast
 from rmvdsl.grammar.parser import parse_source
 from rmvdsl.lang.source import SourceFile

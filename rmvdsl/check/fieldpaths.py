@@ -7,7 +7,7 @@ from collections.abc import Callable
 from typing import Any
 
 from rmvdsl.check.model import Model
-from rmvdsl.check.msgtypes import FieldType, MessageDef, canonical
+from rmvdsl.check.msgdefs import FieldType, MessageDef, canonical
 from rmvdsl.check.rosnames import message_type_problem
 from rmvdsl.check.typeinfo import TypeInfo
 from rmvdsl.check.vtypes import BOOL, FLOAT, INT, UNKNOWN, VType, from_ros

@@ -8,7 +8,8 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
-from rmvdsl.check.msgtypes import FieldType, MessageDef, TypeRegistry
+from rmvdsl.check.msgdefs import FieldType, MessageDef
+from rmvdsl.check.msgtypes import TypeRegistry
 from rmvdsl.check.vtypes import UNKNOWN, VType
 from rmvdsl.grammar import ast
 

@@ -13,13 +13,8 @@ from typing import Any, cast
 
 from rmvdsl.check.memo import MEMO_SIZE, Key, declaration_key
 from rmvdsl.check.model import Kind, Model
-from rmvdsl.check.msgtypes import (
-    DEFAULT_DISTRO,
-    DISTROS,
-    FieldType,
-    TypeRegistry,
-    environment_folders,
-)
+from rmvdsl.check.msgdefs import FieldType, environment_folders
+from rmvdsl.check.msgtypes import DEFAULT_DISTRO, DISTROS, TypeRegistry
 from rmvdsl.check.proptypes import PropertyTypes
 from rmvdsl.check.typeinfo import Horizon, TypeInfo
 from rmvdsl.check.vtypes import (

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from rmvdsl.check.msgtypes import FLOATS, INTEGERS
+from rmvdsl.check.msgdefs import FLOATS, INTEGERS
 
 NUMERIC = frozenset({"int", "float"})
 

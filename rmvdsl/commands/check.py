@@ -10,7 +10,7 @@ import re
 import sys
 
 from rmvdsl.check import CheckResult
-from rmvdsl.check.msgtypes import folders_read
+from rmvdsl.check.msgfolders import folders_read
 from rmvdsl.check.properties import PropertyReport
 from rmvdsl.commands import stored, write_text
 from rmvdsl.editor.workspace import Workspace

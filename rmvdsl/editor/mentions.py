@@ -14,7 +14,7 @@ import os
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from rmvdsl.check.msgtypes import MessageDef, canonical
+from rmvdsl.check.msgdefs import MessageDef, canonical
 from rmvdsl.grammar import ast
 from rmvdsl.lang.source import Span
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from rmvdsl.check.msgtypes import FieldType
+from rmvdsl.check.msgdefs import FieldType
 from rmvdsl.grammar import ast
 from rmvdsl.grammar.formula import TIME_UNITS
 from rmvdsl.runtime import spec as ir

@@ -9,7 +9,8 @@ from typing import Any
 
 from rmvdsl.check.lowering import NotLowered, lower_expr, value_type
 from rmvdsl.check.model import Model
-from rmvdsl.check.msgtypes import FieldType, TypeRegistry, canonical
+from rmvdsl.check.msgdefs import FieldType, canonical
+from rmvdsl.check.msgtypes import TypeRegistry
 from rmvdsl.check.types import TypeInfo
 from rmvdsl.grammar import ast
 from rmvdsl.ir.conversions import LowerError, credential, primitive, reads, setting_value
