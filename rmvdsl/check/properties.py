@@ -12,25 +12,25 @@ claims nothing.
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
 from rmvdsl.check.analysis import AnalysisResult
 from rmvdsl.check.conditions import Conditions
-from rmvdsl.check.model import Kind, Model
+from rmvdsl.check.model import Model
+from rmvdsl.check.property_findings import PropertyFindings
+from rmvdsl.check.property_system import system_of
 from rmvdsl.check.types import TypeInfo
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
 from rmvdsl.grammar.printer import formula as show_formula
-from rmvdsl.lang.diagnostics import Diagnostic, Label, Severity, error, warning
+from rmvdsl.lang.diagnostics import Diagnostic, Label, error, warning
 from rmvdsl.logic.answers import NO, UNKNOWN, YES, Answer, Witness
 from rmvdsl.logic.compile import CompileError, compile_formula
 from rmvdsl.logic.parallel import Question, answer_all, implied_all
 from rmvdsl.logic.sat import Limits, satisfiable, valid
 from rmvdsl.logic.sat import conflict as smallest_conflict
-from rmvdsl.logic.system import Machine, System
 from rmvdsl.runtime.rmtld3 import facts as formula_facts
 from rmvdsl.util.cache import Cache, Layered, default_cache
 
@@ -69,62 +69,7 @@ def analyze_properties(
     return _PropertyAnalyzer(model, types, analysis, skip, limits or Limits(), cache).run()
 
 
-def system_of(
-    model: Model,
-    analysis: AnalysisResult | None,
-    conditions: Conditions,
-    names: set[str],
-    skip: set[str],
-) -> System:
-    """The transducers, and the boolean events among `names` that can never hold,
-    or never together."""
-    machines = []
-    unreachable: set[str] = set()
-    for name, decl in model.transducers.items():
-        if name in skip:
-            continue
-        states = tuple(s.name for s in decl.states)
-        if len(set(states)) != len(states):
-            continue  # the names stage reported it
-        moves = frozenset(
-            (t.source.name, t.dest.name) for t in decl.transitions if t.source.name != t.dest.name
-        )
-        initial = decl.initial.name if decl.initial is not None else None
-        machines.append(Machine(name, states, initial, moves))
-        # States the initial one cannot reach never hold (the refutation does not
-        # follow transitions, so it is told).
-        facts = analysis.transducers.get(name) if analysis is not None else None
-        if facts is not None:
-            unreachable.update(facts.unreachable)
-    events = sorted(
-        n for n in names if (s := model.symbols.get(n)) is not None and s.kind is Kind.BOOL_EVENT
-    )
-    never = {
-        e for e in events if conditions.solve([conditions.of_event(e)], values=False)[0] == "unsat"
-    }
-    exclusive = {
-        (a, b)
-        for a, b in _sharing([e for e in events if e not in never], conditions)
-        if conditions.solve([conditions.of_event(a), conditions.of_event(b)], values=False)[0]
-        == "unsat"
-    }
-    return System(tuple(machines), frozenset(exclusive), frozenset(never | unreachable))
-
-
-def _sharing(events: list[str], conditions: Conditions) -> list[tuple[str, str]]:
-    """The pairs of events whose conditions read a common variable, in order: two
-    satisfiable conditions over disjoint variables hold together, so only these
-    pairs can exclude each other (what keeps the question from being quadratic in
-    the events)."""
-    readers: dict[str, list[int]] = {}
-    for index, event in enumerate(events):
-        for name in conditions.names_of_event(event):
-            readers.setdefault(name, []).append(index)
-    pairs = {(i, j) for group in readers.values() for i, j in itertools.combinations(group, 2)}
-    return [(events[i], events[j]) for i, j in sorted(pairs)]
-
-
-class _PropertyAnalyzer:
+class _PropertyAnalyzer(PropertyFindings):
     def __init__(
         self,
         model: Model,
@@ -314,55 +259,6 @@ class _PropertyAnalyzer:
             self.add(self.undecided(decl, "can fail", validity))
         return True
 
-    def impossible(self, decl: ast.PropertyDecl, pure: Witness | None) -> Diagnostic:
-        """RMV511, with a trace of pure logic where the property holds, if found."""
-        names = set(formula_facts(self.compiled[decl.name.name]).propositions)
-        machines = [m.name for m in self.system.relevant(names)]
-        because = (
-            "the transducer"
-            + ("s " if len(machines) > 1 else " ")
-            + ", ".join(f"`{m}`" for m in machines)
-            if machines
-            else "the events' conditions"
-        )
-        if machines:
-            help = (
-                "a transducer is in one state at a time, starts in its initial state and "
-                "moves only along its transitions; check the states the property names"
-            )
-        else:
-            events = sorted(n for n in names if n in self.system.never) or sorted(
-                {n for pair in self.system.exclusive for n in pair if n in names}
-            )
-            help = (
-                "no values of the variables make "
-                + ", ".join(f"`{e}`" for e in events)
-                + " hold as the property needs (a variable ranges over its ROS type); "
-                "check the events' conditions"
-            )
-        found = error(
-            "RMV511",
-            f"property `{decl.name.name}` can never hold on this system: it needs traces "
-            f"that {because} cannot make",
-            decl.name.span,
-            label="satisfiable in pure logic, impossible here" if pure else "impossible here",
-            help=help,
-        )
-        if pure is None:
-            return found
-        return found.with_notes(("without the spec's constraints it holds on:", *pure.timeline()))
-
-    def undecided(self, decl: ast.PropertyDecl, question: str, answer: Answer) -> Diagnostic:
-        return Diagnostic(
-            "RMV516",
-            Severity.NOTE,
-            f"could not decide whether property `{decl.name.name}` {question}: {answer.note}",
-            decl.name.span,
-            label="undecided",
-            help="raise the limit: `rmv check --timeout SECONDS`, or `solver_timeout` "
-            "and `solver_effort` in rmv.toml",
-        )
-
     def vacuity(self, decl: ast.PropertyDecl) -> bool:
         """Report implications whose antecedent never holds; True if there are any."""
         found = False
@@ -433,18 +329,3 @@ class _PropertyAnalyzer:
         for found in implied_all(asked, self.system, self.limits, self.cache):
             for name, implied_by in found:
                 self.add(self.implied(name, implied_by))
-
-    def implied(self, name: str, implied_by: list[str]) -> Diagnostic:
-        return Diagnostic(
-            "RMV515",
-            Severity.NOTE,
-            f"property `{name}` is implied by "
-            + ", ".join(f"`{n}`" for n in implied_by)
-            + ": its monitor fires only when theirs do",
-            self.model.properties[name].name.span,
-            label="redundant",
-            secondary=tuple(
-                Label(self.model.properties[n].name.span, "implies it") for n in implied_by
-            ),
-            help="keep it if a separate alert is wanted; otherwise drop it",
-        )
