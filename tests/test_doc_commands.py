@@ -152,9 +152,9 @@ def test_the_commands_not_run_are_listed_with_their_reasons():
 
 
 def test_every_command_of_rmv_is_shown_running_in_the_docs():
-    from rmvdsl.cli import _build_parser
+    from rmvdsl.commands.arguments import build_parser
 
-    parser = _build_parser()
+    parser = build_parser()
     names = set(parser._subparsers._group_actions[0].choices)  # type: ignore[union-attr]
     shown = {c.text.split()[1] for c in ALL}
     assert names - shown == set()
