@@ -85,7 +85,7 @@ def test_a_child_python_imports_the_installed_package(tmp_path: Path):
 
 
 # Modules that may name __file__: to find the package itself, not data beside it.
-FINDS_ITSELF = {"logic/parallel.py"}
+FINDS_ITSELF = {"util/processes.py"}
 
 
 def test_data_is_read_as_package_data():

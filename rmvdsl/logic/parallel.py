@@ -31,7 +31,6 @@ import sys
 import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import IO, Any
 
 from rmvdsl.logic.answers import Answer, Witness
@@ -39,6 +38,7 @@ from rmvdsl.logic.redundancy import group_key, implied
 from rmvdsl.logic.sat import Limits, ask, cached_answer, cut_system, keep, question_key
 from rmvdsl.logic.system import System
 from rmvdsl.util.cache import Cache
+from rmvdsl.util.processes import module_command
 
 # Below this many unanswered questions, waking workers costs more than it saves.
 LEAST_PARALLEL = 8
@@ -186,11 +186,9 @@ class _Recording(Cache):
 
 class _Worker:
     def __init__(self) -> None:
-        package_root = str(Path(__file__).resolve().parents[2])
-        path = os.environ.get("PYTHONPATH")
-        env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in (package_root, path) if p)}
+        command, env = module_command("rmvdsl.logic.parallel")
         self.process = subprocess.Popen(
-            [sys.executable, "-m", "rmvdsl.logic.parallel"],
+            command,
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=subprocess.DEVNULL,

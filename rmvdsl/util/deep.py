@@ -11,6 +11,7 @@ parser accepts, up to 1,000,000 nested levels.
 
 from __future__ import annotations
 
+import ctypes
 import sys
 import threading
 from collections.abc import Callable
@@ -27,12 +28,15 @@ def deep(function: Callable[..., T], *args: object) -> T:
         return function(*args)  # already on a deep stack
     results: list[T] = []
     errors: list[BaseException] = []
+    finished = threading.Event()
 
     def run() -> None:
         try:
             results.append(function(*args))
         except BaseException as exc:  # handed to the caller's thread as it is
             errors.append(exc)
+        finally:
+            finished.set()
 
     global _active, _saved_limit
     with _lock:
@@ -53,7 +57,7 @@ def deep(function: Callable[..., T], *args: object) -> T:
         finally:
             threading.stack_size(previous)
     try:
-        thread.join()
+        _wait(thread, finished)
     finally:
         with _lock:
             _active -= 1
@@ -62,6 +66,25 @@ def deep(function: Callable[..., T], *args: object) -> T:
     if errors:
         raise errors[0]
     return results[0]
+
+
+def _wait(thread: threading.Thread, finished: threading.Event) -> None:
+    """Wait for the command. Ctrl-C reaches the main thread only: it is handed on to
+    the command's thread as KeyboardInterrupt, so a command can stop cleanly (a
+    fleet replay prints what it did); a second Ctrl-C stops at once. (Timed waits
+    on an event: a signal the kernel gave the command's thread runs its handler
+    only when this thread wakes, and an interrupted Thread.join can leave the
+    thread marked as stopped while it runs.)"""
+    try:
+        while not finished.wait(0.1):
+            pass
+    except KeyboardInterrupt:
+        assert thread.ident is not None
+        ctypes.pythonapi.PyThreadState_SetAsyncExc(
+            ctypes.c_ulong(thread.ident), ctypes.py_object(KeyboardInterrupt)
+        )
+        while not finished.wait(0.1):
+            pass
 
 
 _THREAD_NAME = "rmv-deep-stack"
