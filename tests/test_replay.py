@@ -683,7 +683,7 @@ def test_two_bags_with_two_versions_of_a_type_decode_each_with_its_own(rmv, tmp_
         encoding="utf-8",
     )
     result = rmv("replay", str(spec), str(tmp_path / "v1.bag"), str(tmp_path / "v2.bag"),
-                 "--format", "jsonl")  # fmt: skip
+                 "--merge", "--format", "jsonl")  # fmt: skip
     records = [json.loads(line) for line in result.out.splitlines()]
     assert not [r for r in records if r["kind"] == "diagnostic"], records
     verdicts = [(r["verdict"], r["from"], r["to"]) for r in records if r["kind"] == "verdict"]

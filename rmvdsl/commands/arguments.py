@@ -158,7 +158,11 @@ spec has errors), 2 usage or I/O problem, or a recording that does not match the
 (a topic missing or of another type, a field missing, damaged or late messages)""",
     )
     replay_parser.add_argument("spec", metavar="SPEC")
-    replay_parser.add_argument("recordings", nargs="+", metavar="RECORDING")
+    replay_parser.add_argument(
+        "recordings", nargs="+", metavar="RECORDING",
+        help="a .bag, .mcap or .db3 file, a rosbag2 folder, a folder to search for them, "
+        "or a pattern (quoted: 'runs/**/*.bag'); several: one result each (docs/fleet.md)",
+    )  # fmt: skip
     replay_parser.add_argument(
         "--from", dest="start", metavar="T",
         help="start at T seconds on the recording's clock (+T: T after its start)",
@@ -176,6 +180,31 @@ spec has errors), 2 usage or I/O problem, or a recording that does not match the
         help="really run exec, post and tcp actions (default: only report them)",
     )  # fmt: skip
     replay_parser.add_argument("--no-color", action="store_true")
+    fleet = replay_parser.add_argument_group("several recordings (docs/fleet.md)")
+    fleet.add_argument(
+        "--jobs", type=_jobs, metavar="N",
+        help="replay N recordings at a time, each in a process (default: the cores)",
+    )  # fmt: skip
+    fleet.add_argument(
+        "--scheduler", metavar="ADDRESS",
+        help="run on the Dask cluster whose scheduler is at ADDRESS (tcp://HOST:PORT; "
+        "needs the fleet extra: pip install 'rmvdsl[fleet]')",
+    )  # fmt: skip
+    fleet.add_argument(
+        "--dask", action="store_true",
+        help="run on the Dask cluster whose scheduler RMV_DASK_SCHEDULER names",
+    )  # fmt: skip
+    fleet.add_argument(
+        "--timeout", type=_duration, metavar="SECONDS",
+        help="give up on a recording after SECONDS (retried once, then reported failed)",
+    )  # fmt: skip
+    fleet.add_argument(
+        "--quiet", action="store_true", help="no progress on standard error"
+    )  # fmt: skip
+    fleet.add_argument(
+        "--merge", action="store_true",
+        help="read the recordings as one, merged in time order (a bag split in parts)",
+    )  # fmt: skip
     _add_message_options(replay_parser)
 
     explain_parser = commands.add_parser(
@@ -333,6 +362,17 @@ def _jobs(text: str) -> int:
         raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
     if not 1 <= value <= 1024:
         raise argparse.ArgumentTypeError(f"must be 1 to 1024, not {value}")
+    return value
+
+
+def _duration(text: str) -> float:
+    """A --timeout of one recording: seconds, more than 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"{text}: give seconds, more than 0")
     return value
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import Any
 
 from rmvdsl.commands import message_options
 from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, EXIT_USAGE, UsageError
@@ -16,7 +17,7 @@ def run(args: argparse.Namespace) -> int:
     from rmvdsl.check import check
     from rmvdsl.ir import lower
     from rmvdsl.lang.render import render_text
-    from rmvdsl.tools import replay
+    from rmvdsl.tools import fleet, replay
 
     message_options(args)
     if args.report:
@@ -30,7 +31,10 @@ def run(args: argparse.Namespace) -> int:
         sys.stderr.write(render_text(result.errors, result.model.sources, False))
         print(f"rmv replay: {args.spec}: {counted(len(result.errors), 'error')}", file=sys.stderr)
         return EXIT_ERRORS
-    progress = replay.progress_bar() if sys.stderr.isatty() else None
+    scheduler = fleet.scheduler_of(args.scheduler, args.dask)
+    if not args.merge and fleet.is_fleet(args.recordings, scheduler):
+        return _fleet(args, lower(result), scheduler)
+    progress = replay.progress_bar() if sys.stderr.isatty() and not args.quiet else None
     try:
         summary = replay.run(
             lower(result), [Path(p) for p in args.recordings], sys.stdout,
@@ -43,3 +47,18 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_ERRORS
     # Input lost to a mismatch with the spec: the verdicts cannot be trusted.
     return EXIT_USAGE if summary.warnings else EXIT_OK
+
+
+def _fleet(args: argparse.Namespace, spec: Any, scheduler: str | None) -> int:
+    """Several recordings: one result each (rmvdsl.tools.fleet)."""
+    from rmvdsl.tools import fleet
+
+    if args.report and not args.report.endswith(".html"):
+        raise UsageError(f"--report {args.report}: over several recordings the report is one "
+                         "page: give FILE.html")  # fmt: skip
+    if args.run_actions:
+        raise UsageError("--run-actions runs one recording's actions: give one recording")
+    options = fleet.Options(start=args.start, stop=args.stop, timeout=args.timeout)
+    settings = fleet.Settings(output=args.format, jobs=args.jobs, scheduler=scheduler,
+                              report=args.report, quiet=args.quiet, options=options)  # fmt: skip
+    return fleet.run(spec, args.recordings, sys.stdout, settings)

@@ -1,0 +1,61 @@
+"""Progress of a fleet replay on standard error: a bar redrawn in place on a terminal
+(recordings done of all, messages a second, time left), a plain line every few
+seconds otherwise (a CI log), nothing with --quiet."""
+
+from __future__ import annotations
+
+import time
+from typing import TextIO
+
+from rmvdsl.runtime.wording import counted
+
+WIDTH = 24
+EVERY = 10.0  # seconds between plain lines
+
+
+class Progress:
+    def __init__(self, stream: TextIO | None, total: int, terminal: bool) -> None:
+        self.stream = stream
+        self.total = total
+        self.terminal = terminal
+        self.began = time.monotonic()
+        self.last_line = self.began
+        self.done = 0
+        self.messages = 0
+
+    def finished(self, messages: int) -> None:
+        """One more recording is done, having read `messages`."""
+        self.done += 1
+        self.messages += messages
+        if self.stream is None:
+            return
+        now = time.monotonic()
+        if self.terminal:
+            self.stream.write("\r" + self.line(now))
+            if self.done == self.total:
+                self.stream.write("\n")
+        elif now - self.last_line >= EVERY or self.done == self.total:
+            self.last_line = now
+            self.stream.write(f"rmv replay: {self.line(now)}\n")
+        self.stream.flush()
+
+    def clear(self) -> None:
+        """Before a line of output on the same terminal."""
+        if self.stream is not None and self.terminal and self.done < self.total:
+            self.stream.write("\r\033[K")
+
+    def line(self, now: float) -> str:
+        elapsed = max(now - self.began, 1e-9)
+        rate = self.messages / elapsed
+        left = elapsed / self.done * (self.total - self.done) if self.done else 0.0
+        filled = int(WIDTH * self.done / self.total) if self.total else WIDTH
+        bar = f"[{'#' * filled}{'.' * (WIDTH - filled)}] " if self.terminal else ""
+        recordings = counted(self.total, "recording", grouped=True)
+        return (f"{bar}{self.done:,}/{recordings}, {rate:,.0f} msg/s, "
+                f"{_clock(elapsed)} elapsed, {_clock(left)} left")  # fmt: skip
+
+
+def _clock(seconds: float) -> str:
+    whole = round(seconds)
+    hours, rest = divmod(whole, 3600)
+    return f"{hours}:{rest // 60:02d}:{rest % 60:02d}" if hours else f"{rest // 60}:{rest % 60:02d}"

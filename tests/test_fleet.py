@@ -1,0 +1,261 @@
+"""Fleet replay (docs/fleet.md): one spec over many recordings, made here with
+rosbags in the three formats. Parallel processes and a real Dask LocalCluster
+(on 127.0.0.1) give each recording the result sequential replay gives it, and
+that result's records are the ones `rmv replay` prints for the recording alone;
+a worker killed mid-run loses no recording; damaged, hanging and missing
+recordings are reported and counted while the rest complete; Ctrl-C stops with
+the partial results."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import fleet_recordings
+import pytest
+from conftest import RMV, ROOT, rmv_process
+
+FLEET = 200
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """200 small recordings (40 messages each) and the spec, in one folder."""
+    folder = tmp_path_factory.mktemp("fleet")
+    fleet_recordings.fleet(folder / "runs", FLEET)
+    (folder / "spec.rmv").write_text(fleet_recordings.SPEC, encoding="utf-8")
+    return folder
+
+
+def _results(out: str) -> dict[str, dict]:
+    found = {}
+    for line in out.splitlines():
+        result = json.loads(line)
+        found[Path(result.pop("path")).name] = result
+    return found
+
+
+def _comparable(result: dict) -> dict:
+    """A result without what depends on the machine (how long it took)."""
+    return {k: v for k, v in result.items() if k != "seconds"}
+
+
+@pytest.fixture(scope="module")
+def sequential(runs: Path) -> dict[str, dict]:
+    done = rmv_process(["replay", "spec.rmv", "runs", "--jobs", "1", "--format", "jsonl"],
+                       cwd=runs)  # fmt: skip
+    assert done.code == 1, done.err  # some runs violate their properties
+    return _results(done.out)
+
+
+def test_the_recordings_are_found_in_folders_and_patterns(runs, sequential):
+    names = set(sequential)
+    assert len(names) == FLEET
+    assert {n.rsplit("_", 1)[-1].rsplit(".", 1)[-1] for n in names} == {"bag", "db3", "mcap"}
+    statuses = {r["status"] for r in sequential.values()}
+    assert {"pass", "violations"} <= statuses
+    pattern = rmv_process(["replay", "spec.rmv", "runs/*.bag", "--format", "jsonl"], cwd=runs)
+    assert set(_results(pattern.out)) == {n for n in names if n.endswith(".bag")}
+
+
+def test_parallel_processes_give_the_sequential_results(runs, sequential):
+    parallel = rmv_process(["replay", "spec.rmv", "runs", "--jobs", "2", "--format", "jsonl"],
+                           cwd=runs)  # fmt: skip
+    assert parallel.code == 1, parallel.err
+    found = _results(parallel.out)
+    assert {k: _comparable(v) for k, v in found.items()} == {
+        k: _comparable(v) for k, v in sequential.items()
+    }
+
+
+@pytest.mark.parametrize("name", ["run0000.bag", "run0001_db3", "run0002_mcap"])
+def test_a_result_s_records_are_those_of_the_recording_alone(runs, sequential, name):
+    alone = rmv_process(["replay", "spec.rmv", f"runs/{name}", "--format", "json"], cwd=runs)
+    assert json.loads(alone.out)["records"] == sequential[name]["records"]
+
+
+def test_a_dask_cluster_gives_the_sequential_results(runs, sequential):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  host="127.0.0.1", dashboard_address=None) as cluster:  # fmt: skip
+        found = rmv_process(["replay", "spec.rmv", "runs", "--scheduler", cluster.scheduler_address,
+                             "--format", "jsonl"], cwd=runs)  # fmt: skip
+        assert found.code == 1, found.err
+        by_name = _results(found.out)
+        env = {**os.environ, "RMV_DASK_SCHEDULER": cluster.scheduler_address}
+        named = rmv_process(["replay", "spec.rmv", "runs/run000*", "--dask", "--quiet"],
+                            cwd=runs, env=env)  # fmt: skip
+    assert {k: _comparable(v) for k, v in by_name.items()} == {
+        k: _comparable(v) for k, v in sequential.items()
+    }
+    assert named.code in (0, 1) and "10 recordings of 10 replayed" in named.out, named.err
+
+
+def _children(pid: int) -> list[int]:
+    """The processes whose parent is `pid` (from /proc/*/stat)."""
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except (OSError, IndexError):
+            continue
+        if int(fields[1]) == pid:
+            found.append(int(stat.parent.name))
+    return found
+
+
+def test_a_worker_killed_mid_run_loses_no_recording(runs, sequential, tmp_path):
+    """kill -9 of a worker while it replays: its recording is retried on a new
+    worker, and every recording has the result it has alone."""
+    slow = tmp_path / "slow"
+    fleet_recordings.write(slow / "long", "mcap", fleet_recordings.speeds(7, 30_000))
+    for name in ("run0000.bag", "run0001_db3", "run0002_mcap"):
+        os.symlink(runs / "runs" / name, slow / name)
+    process = subprocess.Popen([*RMV, "replay", str(runs / "spec.rmv"), str(slow), "--jobs", "2",
+                                "--format", "jsonl"], stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)  # fmt: skip
+    killed = []
+    deadline = time.monotonic() + 60
+    while not killed and time.monotonic() < deadline:
+        workers = [p for p in _children(process.pid) if _is_worker(p)]
+        if len(workers) == 2:
+            time.sleep(1.0)  # both are replaying
+            os.kill(workers[0], signal.SIGKILL)
+            killed.append(workers[0])
+        time.sleep(0.05)
+    out, err = process.communicate(timeout=120)
+    assert killed
+    found = _results(out)
+    assert set(found) == {"long_mcap", "run0000.bag", "run0001_db3", "run0002_mcap"}, err
+    assert all(r["status"] != "failed" for r in found.values()), found
+    for name in ("run0000.bag", "run0001_db3", "run0002_mcap"):
+        assert _comparable(found[name]) == _comparable(sequential[name])
+
+
+def _is_worker(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/cmdline", "rb") as handle:
+            return b"rmvdsl.tools.fleet.serve" in handle.read()
+    except OSError:
+        return False
+
+
+def test_damaged_and_hanging_recordings_are_reported_and_the_rest_complete(runs, tmp_path):
+    mixed = tmp_path / "mixed"
+    mixed.mkdir()
+    for name in ("run0003.bag", "run0004_db3"):
+        os.symlink(runs / "runs" / name, mixed / name)
+    (mixed / "garbage.bag").write_bytes(b"#ROSBAG V2.0\n" + os.urandom(4000))
+    good = (runs / "runs" / "run0005_mcap" / "run0005_mcap.mcap").read_bytes()
+    (mixed / "truncated.mcap").write_bytes(good[: len(good) // 2])
+    os.mkfifo(mixed / "hangs.bag")  # opening it blocks: a recording that never reads
+    done = rmv_process(["replay", str(runs / "spec.rmv"), str(mixed), "--jobs", "2",
+                        "--timeout", "1", "--format", "jsonl"], cwd=tmp_path)  # fmt: skip
+    found = _results(done.out)
+    assert set(found) == {"run0003.bag", "run0004_db3", "garbage.bag", "truncated.mcap",
+                          "hangs.bag"}, done.err  # fmt: skip
+    assert found["garbage.bag"]["status"] == "unreadable"
+    assert found["truncated.mcap"]["status"] == "unreadable"
+    assert found["garbage.bag"]["error"]
+    hang = found["hangs.bag"]
+    assert hang["status"] == "failed"
+    assert hang["error"] == "took longer than --timeout 1 s, twice"
+    assert found["run0003.bag"]["status"] in ("pass", "violations")
+    assert done.code in (0, 1)
+
+
+def test_exit_codes_and_what_is_missing(runs, tmp_path):
+    (tmp_path / "a.bag").write_bytes(b"not a bag")
+    (tmp_path / "b.bag").write_bytes(b"nor this")
+    unreadable = rmv_process(["replay", str(runs / "spec.rmv"), "a.bag", "b.bag"], cwd=tmp_path)
+    assert unreadable.code == 2
+    assert "2 recordings unreadable" in unreadable.out
+    passing = [p.name for p in (runs / "runs").iterdir() if p.name.startswith("run01")]
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    nothing = rmv_process(["replay", str(runs / "spec.rmv"), str(empty)], cwd=tmp_path)
+    assert nothing.code == 2
+    assert nothing.err.strip().endswith(
+        "no recordings in it (.bag, .mcap or .db3 files, or rosbag2 folders)"
+    )
+    unmatched = rmv_process(["replay", str(runs / "spec.rmv"), "nowhere/*.bag"], cwd=tmp_path)
+    assert (unmatched.code, unmatched.err.strip()) == (
+        2, "rmv: error: nowhere/*.bag: no file or folder matches"
+    )  # fmt: skip
+    assert passing
+
+
+def test_progress_on_a_log_and_quiet(runs):
+    shown = rmv_process(["replay", "spec.rmv", "runs/run000*"], cwd=runs)
+    assert shown.err.startswith("rmv replay: 10/10 recordings, "), shown.err
+    assert " msg/s, " in shown.err and "left" in shown.err
+    quiet = rmv_process(["replay", "spec.rmv", "runs/run000*", "--quiet"], cwd=runs)
+    assert quiet.err == "" and quiet.out == shown.out.replace(shown.out, quiet.out)
+
+
+def test_the_fleet_report_is_one_page_with_every_recording(runs, sequential, tmp_path):
+    report = tmp_path / "fleet.html"
+    done = rmv_process(["replay", "spec.rmv", "runs", "--report", str(report), "--quiet"],
+                       cwd=runs)  # fmt: skip
+    assert done.code == 1
+    page = report.read_text(encoding="utf-8")
+    assert page.count("<tr><td>") == FLEET + 2  # every recording, and both properties
+    failing = sum(r["status"] == "violations" for r in sequential.values())
+    assert f"{failing} recordings with violations" in page
+    assert page.count("<svg") == 5  # the five worst runs' timelines
+    assert "NeverStops" in page and "NotFastLong" in page
+    assert "http" not in page.replace("http://www.w3.org/2000/svg", "")  # nothing fetched
+    assert "th.onclick" in page  # sortable
+
+
+def test_ctrl_c_stops_and_prints_what_was_done(runs, tmp_path):
+    report = tmp_path / "partial.html"
+    process = subprocess.Popen([*RMV, "replay", "spec.rmv", "runs", "--jobs", "2", "--report",
+                                str(report)], cwd=runs, stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)  # fmt: skip
+    assert process.stdout is not None
+    first = process.stdout.readline()  # a first recording is done
+    assert first.split()[0] in ("pass", "violations"), first
+    process.send_signal(signal.SIGINT)
+    out, _ = process.communicate(timeout=60)
+    assert process.returncode == 130
+    assert "interrupted: " in out
+    assert report.is_file()
+    assert not [p for p in _children_or_none(process.pid)]
+
+
+def _children_or_none(pid: int) -> list[int]:
+    try:
+        return _children(pid)
+    except OSError:
+        return []
+
+
+def test_scheduler_without_dask_says_how_to_install_it(runs):
+    code = (
+        "import sys; sys.modules['distributed'] = None; sys.modules['dask'] = None\n"
+        "from rmvdsl.cli import main\n"
+        "sys.exit(main(sys.argv[1:]))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code, "replay", "spec.rmv", "runs", "--scheduler",
+         "tcp://127.0.0.1:1"], cwd=runs, capture_output=True, text=True, timeout=60,
+    )  # fmt: skip
+    assert done.returncode == 2
+    assert done.stderr.strip() == (
+        "rmv: error: --scheduler needs Dask: pip install 'rmvdsl[fleet]'"
+    )
+
+
+def test_merge_reads_the_recordings_as_one(runs, tmp_path):
+    """--merge: the recordings' messages in one time order (a bag split in parts)."""
+    parts = [runs / "runs" / "run0000.bag", runs / "runs" / "run0003.bag"]
+    merged = rmv_process(["replay", "spec.rmv", *map(str, parts), "--merge", "--format", "json"],
+                         cwd=runs)  # fmt: skip
+    assert "records" in json.loads(merged.out)
+    assert ROOT.is_dir()
