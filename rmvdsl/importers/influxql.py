@@ -19,9 +19,9 @@ def rmv_name(name: str) -> str:
 
 def _token(token: influxql.Token) -> str:
     if token.kind == "ident" and token.text.startswith('"'):
-        return rmv_name(token.value)
+        return rmv_name(influxql.value(token))
     if token.kind == "string":
-        return quote(token.value)
+        return quote(influxql.value(token))
     if token.text.upper() in _WORDS:
         return token.text.lower()
     return token.text

@@ -3,7 +3,16 @@ kapacitor target emits as a small tree, the one quoting rule, their printer, and
 parser for `rmv deploy` (our own `influxdb.iql`, edited or not, and the queries
 InfluxDB's SHOW prints) and for the importers (expressions, token by token)."""
 
-from rmvdsl.dialects.influxql.reading import KEYWORDS, Token, parse, parse_query, split, tokens
+from rmvdsl.dialects.influxql.reading import (
+    KEYWORDS,
+    LEXICON,
+    Token,
+    parse,
+    parse_query,
+    split,
+    tokens,
+    value,
+)
 from rmvdsl.dialects.influxql.syntax import (
     NS_PER_UNIT,
     Binary,
@@ -18,11 +27,11 @@ from rmvdsl.dialects.influxql.syntax import (
     Literal,
     Measurement,
     Name,
-    Negate,
     Other,
     Select,
     Statement,
     Text,
+    Unary,
     duration,
     duration_ns,
     expression,
@@ -36,6 +45,7 @@ from rmvdsl.dialects.influxql.syntax import (
 
 __all__ = [
     "KEYWORDS",
+    "LEXICON",
     "NS_PER_UNIT",
     "Binary",
     "Call",
@@ -49,12 +59,12 @@ __all__ = [
     "Literal",
     "Measurement",
     "Name",
-    "Negate",
     "Other",
     "Select",
     "Statement",
     "Text",
     "Token",
+    "Unary",
     "duration",
     "duration_ns",
     "expression",
@@ -67,5 +77,6 @@ __all__ = [
     "string",
     "tokens",
     "unquote",
+    "value",
     "whole",
 ]

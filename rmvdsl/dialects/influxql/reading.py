@@ -4,11 +4,10 @@ reads (our own `influxdb.iql`, edited or not, and the queries SHOW prints)."""
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass
 
+from rmvdsl.dialects.common import Cursor, Lexicon, Token, climb, quoted_end, scan
 from rmvdsl.dialects.influxql.syntax import (
     NS_PER_UNIT,
-    Binary,
     Call,
     CreateContinuousQuery,
     CreateDatabase,
@@ -18,28 +17,15 @@ from rmvdsl.dialects.influxql.syntax import (
     Literal,
     Measurement,
     Name,
-    Negate,
     Other,
     Select,
     Statement,
     Text,
+    Unary,
     unquote,
 )
 
 # ---- tokens ----
-
-
-@dataclass(frozen=True)
-class Token:
-    kind: str  # ident (bare or quoted), string, number, duration, op, punct, keyword
-    text: str  # as written
-    start: int
-
-    @property
-    def value(self) -> str:
-        """An identifier's or a string's meaning; a keyword upper-cased."""
-        return self.text.upper() if self.kind == "keyword" else unquote(self.text)
-
 
 KEYWORDS = frozenset(
     ("ALL", "ALTER", "AND", "AS", "ASC", "BEGIN", "BY", "CONTINUOUS", "CREATE", "DATABASE",
@@ -47,25 +33,14 @@ KEYWORDS = frozenset(
      "GROUP", "INTO", "LIMIT", "NOT", "ON", "OR", "ORDER", "POLICY", "QUERY", "REPLICATION",
      "RESAMPLE", "RETENTION", "SELECT", "SHARD", "TRUE", "WHERE")
 )  # fmt: skip
-_OPERATORS = ("!=", "<>", "<=", ">=", "=~", "!~", "=", "<", ">", "+", "-", "*", "/", "%",
-              "&", "|", "^")  # fmt: skip
-_PUNCT = "(),;.:"
 
 
-def _quoted_end(text: str, start: int) -> int:
-    """The index after the quote that closes the literal opened at `start`."""
-    index = start + 1
-    while index < len(text):
-        if text[index] == "\\":
-            index += 2
-            continue
-        if text[index] == text[start]:
-            return index + 1
-        index += 1
-    raise InfluxQLError(f"unclosed {text[start]} at offset {start}")
+def _quoted(text: str, start: int) -> tuple[str, int]:
+    kind = "ident" if text[start] == '"' else "string"
+    return kind, quoted_end(text, start, InfluxQLError)
 
 
-def _number_end(text: str, start: int) -> tuple[int, str]:
+def _number(text: str, start: int) -> tuple[str, int]:
     index = start
     while index < len(text) and (text[index].isdigit() or text[index] == "."):
         index += 1
@@ -73,95 +48,41 @@ def _number_end(text: str, start: int) -> tuple[int, str]:
     while unit_end < len(text) and (text[unit_end].isalpha() or text[unit_end] == "µ"):
         unit_end += 1
     if unit_end > index and text[index:unit_end] in NS_PER_UNIT:
-        return unit_end, "duration"
-    return index, "number"
+        return "duration", unit_end
+    return "number", index
+
+
+LEXICON = Lexicon(
+    comment="--", quoted=_quoted, number=_number,
+    word=lambda word: "keyword" if word.upper() in KEYWORDS else "ident",
+    operators=("!=", "<>", "<=", ">=", "=~", "!~", "=", "<", ">", "+", "-", "*", "/", "%",
+               "&", "|", "^"),
+    punctuation="(),;.:", error=InfluxQLError,
+)  # fmt: skip
 
 
 def tokens(text: str) -> Iterator[Token]:
     """The tokens of an InfluxQL text; whitespace and `--` comments skipped."""
-    index = 0
-    while index < len(text):
-        char = text[index]
-        if char.isspace():
-            index += 1
-        elif text.startswith("--", index):
-            end = text.find("\n", index)
-            index = len(text) if end < 0 else end
-        elif char in "\"'":
-            end = _quoted_end(text, index)
-            yield Token("ident" if char == '"' else "string", text[index:end], index)
-            index = end
-        elif char.isdigit():
-            end, kind = _number_end(text, index)
-            yield Token(kind, text[index:end], index)
-            index = end
-        elif char.isalpha() or char == "_":
-            end = index
-            while end < len(text) and (text[end].isalnum() or text[end] == "_"):
-                end += 1
-            word = text[index:end]
-            yield Token("keyword" if word.upper() in KEYWORDS else "ident", word, index)
-            index = end
-        elif op := next((o for o in _OPERATORS if text.startswith(o, index)), None):
-            yield Token("op", op, index)
-            index += len(op)
-        elif char in _PUNCT:
-            yield Token("punct", char, index)
-            index += 1
-        else:
-            raise InfluxQLError(f"unexpected {char!r} at offset {index}")
+    return scan(text, LEXICON)
+
+
+def value(token: Token) -> str:
+    """An identifier's or a string's meaning; a keyword upper-cased."""
+    return token.text.upper() if token.kind == "keyword" else unquote(token.text)
 
 
 # ---- the parser ----
 
 
-class _Reader:
-    """Tokens with one of look-ahead, and the errors that name what was expected."""
-
+class _Reader(Cursor):
     def __init__(self, text: str) -> None:
-        self.text = text
-        self.items = list(tokens(text))
-        self.index = 0
-
-    def peek(self, ahead: int = 0) -> Token | None:
-        at = self.index + ahead
-        return self.items[at] if at < len(self.items) else None
-
-    def next(self, what: str) -> Token:
-        token = self.peek()
-        if token is None:
-            raise InfluxQLError(f"expected {what}, found the end of the statement")
-        self.index += 1
-        return token
-
-    def at(self, *words: str) -> bool:
-        for ahead, word in enumerate(words):
-            token = self.peek(ahead)
-            if token is None or token.kind not in ("keyword", "ident", "punct", "op"):
-                return False
-            if token.text.upper() != word:
-                return False
-        return True
-
-    def take(self, *words: str) -> bool:
-        if self.at(*words):
-            self.index += len(words)
-            return True
-        return False
-
-    def expect(self, *words: str) -> None:
-        if not self.take(*words):
-            found = self.peek()
-            raise InfluxQLError(
-                f"expected {' '.join(words)}, found "
-                + (f"`{found.text}` at offset {found.start}" if found else "the end")
-            )
+        super().__init__(list(tokens(text)), InfluxQLError, "statement", fold=True)
 
     def name(self) -> str:
         token = self.next("a name")
         if token.kind != "ident":
             raise InfluxQLError(f"expected a name, found `{token.text}` at offset {token.start}")
-        return token.value
+        return value(token)
 
     def word(self, kinds: tuple[str, ...], what: str) -> str:
         token = self.next(what)
@@ -174,15 +95,9 @@ _BINDING = (("OR",), ("AND",), ("=", "!=", "<>", "<", "<=", ">", ">=", "=~", "!~
             ("+", "-", "|", "^"), ("*", "/", "%", "&"))  # fmt: skip
 
 
-def _expression(reader: _Reader, level: int = 0) -> Expr:
-    if level == len(_BINDING):
-        return _primary(reader)
-    left = _expression(reader, level + 1)
-    while (token := reader.peek()) is not None and token.text.upper() in _BINDING[level]:
-        reader.index += 1
-        right = _expression(reader, level + 1)
-        left = Binary(token.text.upper(), left, right)
-    return left
+def _expression(reader: _Reader) -> Expr:
+    result: Expr = climb(reader, _BINDING, lambda: _primary(reader))
+    return result
 
 
 def _primary(reader: _Reader) -> Expr:
@@ -192,9 +107,9 @@ def _primary(reader: _Reader) -> Expr:
         reader.expect(")")
         return inner
     if token.text == "-":
-        return Negate(_primary(reader))
+        return Unary("-", _primary(reader))
     if token.kind == "string":
-        return Text(token.value)
+        return Text(value(token))
     if token.kind in ("number", "duration") or token.text.upper() in ("TRUE", "FALSE"):
         return Literal(token.text)
     if token.kind == "ident" and reader.take("("):
@@ -204,8 +119,8 @@ def _primary(reader: _Reader) -> Expr:
             reader.take(",")
         return Call(token.text, tuple(args))
     if token.kind == "ident" or token.text == "*":
-        return Name(token.value)
-    raise InfluxQLError(f"unexpected `{token.text}` at offset {token.start}")
+        return Name(value(token))
+    raise reader.unexpected(token)
 
 
 def _measurement(reader: _Reader) -> Measurement:

@@ -6,6 +6,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from fractions import Fraction
 
+from rmvdsl.dialects.common import Binary, Call, Literal, Text, Unary, printed
+
 
 class InfluxQLError(ValueError):
     """A text that is not InfluxQL, or a value InfluxQL cannot hold."""
@@ -104,39 +106,7 @@ class Name:
     name: str
 
 
-@dataclass(frozen=True)
-class Literal:
-    """A number, boolean or duration, as InfluxQL writes it."""
-
-    text: str
-
-
-@dataclass(frozen=True)
-class Text:
-    """A string literal."""
-
-    value: str
-
-
-@dataclass(frozen=True)
-class Binary:
-    op: str
-    left: Expr
-    right: Expr
-
-
-@dataclass(frozen=True)
-class Negate:
-    operand: Expr
-
-
-@dataclass(frozen=True)
-class Call:
-    function: str
-    args: tuple[Expr, ...]
-
-
-Expr = Name | Literal | Text | Binary | Negate | Call
+Expr = Name | Literal | Text | Binary | Unary | Call
 
 
 @dataclass(frozen=True)
@@ -218,24 +188,8 @@ Statement = (
 def expression(expr: Expr) -> str:
     """An expression, operands parenthesised so the tree is the one printed
     whatever InfluxQL's precedence."""
-    match expr:
-        case Name():
-            return identifier(expr.name)
-        case Literal():
-            return expr.text
-        case Text():
-            return string(expr.value)
-        case Negate():
-            return f"-{_operand(expr.operand)}"
-        case Binary():
-            return f"{_operand(expr.left)} {expr.op} {_operand(expr.right)}"
-        case Call():
-            return f"{expr.function}({', '.join(expression(a) for a in expr.args)})"
-
-
-def _operand(expr: Expr) -> str:
-    text = expression(expr)
-    return f"({text})" if isinstance(expr, (Binary, Negate)) else text
+    return printed(expr, lambda node: identifier(node.name) if isinstance(node, Name) else None,
+                   string)  # fmt: skip
 
 
 def measurement(target: Measurement) -> str:

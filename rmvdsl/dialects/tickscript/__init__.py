@@ -3,7 +3,7 @@ expressions as a small tree, the one quoting rule for each kind of literal (as
 Kapacitor's lexer, tick/ast/lex.go, reads them), their printer, and a parser for
 `rmv import` (the thesis's alert scripts)."""
 
-from rmvdsl.dialects.tickscript.reading import BINDING, Token, parse, tokens
+from rmvdsl.dialects.tickscript.reading import BINDING, LEXICON, Token, parse, tokens, value
 from rmvdsl.dialects.tickscript.syntax import (
     Binary,
     Call,
@@ -30,6 +30,7 @@ from rmvdsl.dialects.tickscript.syntax import (
 
 __all__ = [
     "BINDING",
+    "LEXICON",
     "Binary",
     "Call",
     "Dbrp",
@@ -54,4 +55,5 @@ __all__ = [
     "statement",
     "string",
     "tokens",
+    "value",
 ]

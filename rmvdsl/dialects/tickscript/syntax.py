@@ -7,6 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from fractions import Fraction
 
+from rmvdsl.dialects.common import Binary, Call, Literal, Text, Unary, printed
 from rmvdsl.dialects.influxql import whole
 
 
@@ -67,37 +68,6 @@ class Reference:
 
 
 @dataclass(frozen=True)
-class Literal:
-    """A number, TRUE/FALSE, or a duration, as written."""
-
-    text: str
-
-
-@dataclass(frozen=True)
-class Text:
-    value: str
-
-
-@dataclass(frozen=True)
-class Binary:
-    op: str
-    left: Expr
-    right: Expr
-
-
-@dataclass(frozen=True)
-class Unary:
-    op: str  # `-` or `!`
-    operand: Expr
-
-
-@dataclass(frozen=True)
-class Call:
-    function: str
-    args: tuple[Expr, ...]
-
-
-@dataclass(frozen=True)
 class Identifier:
     """A bare word as an argument (a variable, `stream`)."""
 
@@ -152,28 +122,18 @@ Statement = Pipeline | Dbrp | Var
 
 def expression(expr: Expr) -> str:
     """An expression, operands parenthesised so the tree is the one printed."""
-    match expr:
+    return printed(expr, _own, string)
+
+
+def _own(node: Expr) -> str | None:
+    match node:
         case Reference():
-            return reference(expr.name)
-        case Literal():
-            return expr.text
-        case Text():
-            return string(expr.value)
+            return reference(node.name)
         case Identifier():
-            return expr.name
-        case Unary():
-            return f"{expr.op}{_operand(expr.operand)}"
-        case Binary():
-            return f"{_operand(expr.left)} {expr.op} {_operand(expr.right)}"
-        case Call():
-            return f"{expr.function}({', '.join(expression(a) for a in expr.args)})"
+            return node.name
         case Lambda():
-            return f"lambda: {expression(expr.body)}"
-
-
-def _operand(expr: Expr) -> str:
-    text = expression(expr)
-    return f"({text})" if isinstance(expr, (Binary, Unary)) else text
+            return f"lambda: {expression(node.body)}"
+    return None
 
 
 def statement(stmt: Statement) -> str:

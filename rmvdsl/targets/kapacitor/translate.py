@@ -37,7 +37,7 @@ def influxql_expression(expr: ir.Expr) -> influxql.Expr:
         case ir.Ref():
             return influxql.Name(expr.name)
         case ir.Unary(op="-"):
-            return influxql.Negate(influxql_expression(expr.operand))
+            return influxql.Unary("-", influxql_expression(expr.operand))
         case ir.Unary():
             raise Unsupported(f"InfluxQL has no `{expr.op}`")
         case ir.Binary():
