@@ -80,17 +80,25 @@ def test_a_result_s_records_are_those_of_the_recording_alone(runs, sequential, n
 
 
 def test_a_dask_cluster_gives_the_sequential_results(runs, sequential):
-    distributed = pytest.importorskip("distributed")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  host="127.0.0.1", dashboard_address=None) as cluster:  # fmt: skip
-        found = rmv_process(["replay", "spec.rmv", "runs", "--scheduler", cluster.scheduler_address,
+    """A LocalCluster (processes=True, 2 workers, 127.0.0.1) in a process of its own:
+    an existing cluster, as users have one, and none of Dask's threads in this one."""
+    pytest.importorskip("distributed")
+    cluster = subprocess.Popen([sys.executable, str(ROOT / "tests" / "fleet_cluster.py")],
+                               stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                               stderr=subprocess.DEVNULL, text=True)  # fmt: skip
+    try:
+        assert cluster.stdout is not None
+        address = cluster.stdout.readline().strip()
+        assert address.startswith("tcp://127.0.0.1:"), address
+        found = rmv_process(["replay", "spec.rmv", "runs", "--scheduler", address,
                              "--format", "jsonl"], cwd=runs)  # fmt: skip
         assert found.code == 1, found.err
-        by_name = _results(found.out)
-        env = {**os.environ, "RMV_DASK_SCHEDULER": cluster.scheduler_address}
+        env = {**os.environ, "RMV_DASK_SCHEDULER": address}
         named = rmv_process(["replay", "spec.rmv", "runs/run000*", "--dask", "--quiet"],
                             cwd=runs, env=env)  # fmt: skip
-    assert {k: _comparable(v) for k, v in by_name.items()} == {
+    finally:
+        cluster.communicate("", timeout=60)
+    assert {k: _comparable(v) for k, v in _results(found.out).items()} == {
         k: _comparable(v) for k, v in sequential.items()
     }
     assert named.code in (0, 1) and "10 recordings of 10 replayed" in named.out, named.err

@@ -85,6 +85,7 @@ def _wait(thread: threading.Thread, finished: threading.Event) -> None:
         )
         while not finished.wait(0.1):
             pass
+    thread.join()  # its last moments: the command has finished
 
 
 _THREAD_NAME = "rmv-deep-stack"
