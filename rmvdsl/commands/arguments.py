@@ -153,6 +153,7 @@ reached (the message says what was applied before), 2 usage or I/O problem""",
   rmv replay examples/carla/abs.rmv examples/carla/recordings/braking.bag
   rmv replay examples/carla/abs.rmv examples/carla/recordings/braking_mcap --format jsonl
   rmv replay spec.rmv run.bag --from +10 --to +60 --report timeline.html
+  rmv replay spec.rmv runs/ --jobs 4 --report fleet.html      (one result per recording)
 exit codes: 0 every property held and no intrusion, 1 a violation or an intrusion (or the
 spec has errors), 2 usage or I/O problem, or a recording that does not match the spec
 (a topic missing or of another type, a field missing, damaged or late messages)""",
