@@ -183,7 +183,6 @@ def test_exit_codes_and_what_is_missing(runs, tmp_path):
     unreadable = rmv_process(["replay", str(runs / "spec.rmv"), "a.bag", "b.bag"], cwd=tmp_path)
     assert unreadable.code == 2
     assert "2 recordings unreadable" in unreadable.out
-    passing = [p.name for p in (runs / "runs").iterdir() if p.name.startswith("run01")]
     empty = tmp_path / "empty"
     empty.mkdir()
     nothing = rmv_process(["replay", str(runs / "spec.rmv"), str(empty)], cwd=tmp_path)
@@ -195,7 +194,6 @@ def test_exit_codes_and_what_is_missing(runs, tmp_path):
     assert (unmatched.code, unmatched.err.strip()) == (
         2, "rmv: error: nowhere/*.bag: no file or folder matches"
     )  # fmt: skip
-    assert passing
 
 
 def test_progress_on_a_log_and_quiet(runs):
@@ -203,7 +201,10 @@ def test_progress_on_a_log_and_quiet(runs):
     assert shown.err.startswith("rmv replay: 10/10 recordings, "), shown.err
     assert " msg/s, " in shown.err and "left" in shown.err
     quiet = rmv_process(["replay", "spec.rmv", "runs/run000*", "--quiet"], cwd=runs)
-    assert quiet.err == "" and quiet.out == shown.out.replace(shown.out, quiet.out)
+    assert quiet.err == ""
+    totals = [line for line in shown.out.splitlines() if not line.startswith(("pass ", "viol"))]
+    assert totals[0].startswith("10 recordings of 10 replayed (400 messages): ")
+    assert [line for line in quiet.out.splitlines() if line in totals] == totals
 
 
 def test_the_fleet_report_is_one_page_with_every_recording(runs, sequential, tmp_path):
