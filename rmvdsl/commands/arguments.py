@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable
 
 from rmvdsl import __version__, targets
 from rmvdsl.lang.errors import EXIT_USAGE
@@ -366,23 +367,21 @@ def _jobs(text: str) -> int:
     return value
 
 
-def _duration(text: str) -> float:
-    """A --timeout of one recording: seconds, more than 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not 0 < value < float("inf"):
-        raise argparse.ArgumentTypeError(f"{text}: give seconds, more than 0")
-    return value
+def _seconds_up_to(most: float | None) -> Callable[[str], float]:
+    """A --timeout's type: seconds, more than 0 (and at most `most`)."""
+    bound = "" if most is None else f" and at most {most:g}"
+
+    def seconds(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = float("nan")
+        if not 0 < value < float("inf") or (most is not None and value > most):
+            raise argparse.ArgumentTypeError(f"{text}: give seconds, more than 0{bound}")
+        return value
+
+    return seconds
 
 
-def _seconds(text: str) -> float:
-    """A --timeout: seconds, more than 0 and at most an hour."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not 0 < value <= 3600:
-        raise argparse.ArgumentTypeError(f"{text}: give seconds, more than 0 and at most 3600")
-    return value
+_seconds = _seconds_up_to(3600)  # a solver call's
+_duration = _seconds_up_to(None)  # one recording's

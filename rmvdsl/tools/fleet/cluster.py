@@ -14,7 +14,7 @@ from collections.abc import Callable
 from typing import Any
 
 from rmvdsl.lang.errors import UsageError
-from rmvdsl.tools.fleet.worker import Options, failed, task
+from rmvdsl.tools.fleet.worker import Options, failed, replay_one
 
 INSTALL = "pip install 'rmvdsl[fleet]'"
 
@@ -45,7 +45,7 @@ def run_on_cluster(client: Any, spec_json: str, options: Options, paths: list[st
     def submit(index: int, attempt: int) -> Any:
         key = f"rmv-replay-{run}-{index}-{attempt}"
         index_of[key] = index
-        future = client.submit(task, shipped, paths[index], options, key=key, pure=False)
+        future = client.submit(replay_one, shipped, paths[index], options, key=key, pure=False)
         submitted.append(future)
         return future
 

@@ -95,8 +95,3 @@ def failed(path: str, reason: str) -> dict[str, Any]:
     return {"path": path, "status": "failed", "error": reason, "violations": 0,
             "intrusions": 0, "warnings": 0, "messages": 0, "seconds": 0.0,
             "records": []}  # fmt: skip
-
-
-def task(spec_json: str, path: str, options: Options) -> dict[str, Any]:
-    """The Dask task: one recording (importable on every worker)."""
-    return replay_one(spec_json, path, options)
