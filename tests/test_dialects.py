@@ -195,3 +195,43 @@ def test_lambdas_import_with_the_parentheses_rmv_needs():
         '    crit when m * (2 + 3) >= "x"\n'
         "}"
     )
+
+
+HAND_EDITED = (
+    'CREATE DATABASE "lab";\n'
+    'CREATE CONTINUOUS QUERY "lab.hourly" ON "lab" BEGIN SELECT mean("v") AS "v" '
+    'INTO "lab"."autogen"."hourly" FROM "lab"."autogen"."m" GROUP BY time(1h), "topic" END;\n'
+)
+
+
+def test_a_query_the_dialect_does_not_model_is_kept_as_written():
+    """A hand-edited influxdb.iql (GROUP BY a tag): the head is parsed, the SELECT
+    kept as written, and it prints back."""
+    _, query = influxql.parse(HAND_EDITED)
+    assert isinstance(query, influxql.CreateContinuousQuery)
+    assert (query.name, query.database) == ("lab.hourly", "lab")
+    assert query.select == (
+        'SELECT mean("v") AS "v" INTO "lab"."autogen"."hourly" FROM "lab"."autogen"."m" '
+        'GROUP BY time(1h), "topic"'
+    )
+    assert influxql.parse(influxql.statement(query)) == [query]
+    with pytest.raises(influxql.InfluxQLError, match="expected `AS`"):
+        influxql.parse('CREATE CONTINUOUS QUERY "q" ON "d" BEGIN SELECT x')  # and no END
+
+
+def test_deploy_applies_a_hand_edited_query_once(tmp_path):
+    """rmv deploy compares what InfluxDB shows of it, as for its own queries."""
+    from rmvdsl.targets.kapacitor.deploy import Influx
+
+    (tmp_path / "influxd").mkdir()
+    server = Influxd(tmp_path / "influxd")
+    try:
+        influx = Influx(server.url, None, None)
+        first, second = Report(), Report()
+        deploy_influx(influx, HAND_EDITED, "lab.", first)
+        deploy_influx(influx, HAND_EDITED, "lab.", second)
+    finally:
+        server.stop()
+    assert first.applied == ["created database lab", "created continuous query lab.hourly"]
+    assert second.applied == []
+    assert second.unchanged == ["database lab", "continuous query lab.hourly"]

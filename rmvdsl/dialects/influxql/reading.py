@@ -77,6 +77,7 @@ def value(token: Token) -> str:
 class _Reader(Cursor):
     def __init__(self, text: str) -> None:
         super().__init__(list(tokens(text)), InfluxQLError, "statement", fold=True)
+        self.text = text
 
     def name(self) -> str:
         token = self.next("a name")
@@ -115,8 +116,9 @@ def _primary(reader: _Reader) -> Expr:
     if token.kind == "ident" and reader.take("("):
         args: list[Expr] = []
         while not reader.take(")"):
+            if args:
+                reader.expect(",")
             args.append(_expression(reader))
-            reader.take(",")
         return Call(token.text, tuple(args))
     if token.kind == "ident" or token.text == "*":
         return Name(value(token))
@@ -165,6 +167,31 @@ def _select(reader: _Reader) -> Select:
                   descending, limit)  # fmt: skip
 
 
+def _body(reader: _Reader) -> Select | str:
+    """A continuous query's SELECT, through its END: as a tree, or as written when
+    it holds what this module does not model (a hand-edited query)."""
+    start = reader.index
+    try:
+        select = _select(reader)
+        reader.expect("END")
+        return select
+    except InfluxQLError as why:
+        reader.index = start
+        return _as_written(reader, why)
+
+
+def _as_written(reader: _Reader, why: InfluxQLError) -> str:
+    """The tokens from here to the statement's last END, as written (with no END:
+    the error that made it needed)."""
+    start = reader.index
+    ends = [i for i in range(start + 1, len(reader.items)) if reader.items[i].text.upper() == "END"]
+    if not ends:
+        raise why
+    first, last = reader.items[start], reader.items[ends[-1] - 1]
+    reader.index = ends[-1] + 1
+    return reader.text[first.start : last.start + len(last.text)]
+
+
 def _statement(text: str) -> Statement:
     reader = _Reader(text)
     if reader.take("CREATE", "DATABASE"):
@@ -191,9 +218,7 @@ def _statement(text: str) -> Statement:
             every = reader.word(("duration",), "a duration") if reader.take("EVERY") else None
             for_ = reader.word(("duration",), "a duration") if reader.take("FOR") else None
         reader.expect("BEGIN")
-        select = _select(reader)
-        reader.expect("END")
-        stmt = CreateContinuousQuery(name, database, every, for_, select)
+        stmt = CreateContinuousQuery(name, database, every, for_, _body(reader))
     else:
         return Other(text)
     if (extra := reader.peek()) is not None:

@@ -151,7 +151,7 @@ class CreateContinuousQuery:
     database: str
     resample_every: str | None
     resample_for: str | None
-    select: Select
+    select: Select | str  # a SELECT this module does not model: as written
 
 
 @dataclass(frozen=True)
@@ -234,7 +234,8 @@ def statement(stmt: Statement) -> str:
                 every = f" EVERY {stmt.resample_every}" if stmt.resample_every else ""
                 for_ = f" FOR {stmt.resample_for}" if stmt.resample_for else ""
                 head.append(f"RESAMPLE{every}{for_}")
-            body = ["  " + line for line in _select_lines(stmt.select)]
+            lines = [stmt.select] if isinstance(stmt.select, str) else _select_lines(stmt.select)
+            body = ["  " + line for line in lines]
             return "\n".join([*head, "BEGIN", *body, "END"])
         case DropContinuousQuery():
             return f"DROP CONTINUOUS QUERY {identifier(stmt.name)} ON {identifier(stmt.database)}"

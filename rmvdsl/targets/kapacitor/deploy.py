@@ -191,7 +191,7 @@ def _shown_queries(influx: Influx, db: str, report: Report) -> dict[str, str]:
     return {r["name"]: r["query"] for r in rows if r["series"] == db}
 
 
-def _meaning(shown: str) -> tuple[str | None, str | None, influxql.Select] | None:
+def _meaning(shown: str) -> tuple[str | None, str | None, influxql.Select | str] | None:
     """What a query as SHOW prints it does, without its name and database: its
     resample clause and its SELECT (None: a query this module cannot read, which
     is then replaced)."""
@@ -204,7 +204,7 @@ def _meaning(shown: str) -> tuple[str | None, str | None, influxql.Select] | Non
 
 def _canonical(
     influx: Influx, query: influxql.CreateContinuousQuery, report: Report
-) -> tuple[str | None, str | None, influxql.Select] | None:
+) -> tuple[str | None, str | None, influxql.Select | str] | None:
     """What the query does as InfluxDB prints it (SHOW reformats what CREATE was
     given: durations, parentheses), found by creating it once in a scratch database."""
     statement = influxql.statement(query)
