@@ -11,7 +11,7 @@ from typing import Any
 
 import pytest
 from conftest import EXAMPLES, FIXTURES
-from hypothesis import given
+from hypothesis import example, given
 from hypothesis import strategies as st
 from influx.server import Influxd
 
@@ -104,6 +104,9 @@ def test_influxql_quoting_reads_back(text):
 
 
 @given(TEXT)
+@example('\\"')  # Kapacitor's lexer: a backslash escapes the quote only
+@example("\\'")
+@example("a\\\\b")
 def test_tickscript_quoting_reads_back_or_is_refused(text):
     for quote, kind in ((tick.string, "string"), (tick.reference, "reference")):
         try:

@@ -129,12 +129,15 @@ def scan(text: str, lexicon: Lexicon) -> Iterator[Token]:
         index = end
 
 
-def quoted_end(text: str, start: int, error: type[ValueError], stop: str = "") -> int:
-    """The index after the quote closing the literal opened at `start` (a backslash
-    escapes the next character; a character of `stop` ends it unclosed)."""
+def quoted_end(
+    text: str, start: int, error: type[ValueError], stop: str = "", only_quote: bool = False
+) -> int:
+    """The index after the quote closing the literal opened at `start`: a backslash
+    escapes the next character (with `only_quote`, only the quote itself, as
+    Kapacitor's lexer reads); a character of `stop` ends it unclosed."""
     index = start + 1
     while index < len(text):
-        if text[index] == "\\":
+        if text[index] == "\\" and (not only_quote or text[index + 1 : index + 2] == text[start]):
             index += 2
             continue
         if text[index] == text[start]:

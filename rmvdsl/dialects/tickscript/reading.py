@@ -35,7 +35,8 @@ def _quoted(text: str, start: int) -> tuple[str, int]:
             raise TickError(f"unclosed ''' at offset {start}")
         return "string", end + 3
     kind = "string" if text[start] == "'" else "reference"
-    return kind, quoted_end(text, start, TickError, stop="\n" if kind == "reference" else "")
+    stop = "\n" if kind == "reference" else ""
+    return kind, quoted_end(text, start, TickError, stop=stop, only_quote=True)
 
 
 def _number(text: str, start: int) -> tuple[str, int]:
