@@ -8,13 +8,13 @@ import re
 from rmvdsl.dialects import influxql
 from rmvdsl.grammar.printer import quote
 
-_IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+IDENTIFIER = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 _WORDS = ("AND", "OR", "NOT", "TRUE", "FALSE")
 
 
 def rmv_name(name: str) -> str:
     """A field or tag as an .rmv name: bare where it is an identifier, else quoted."""
-    return name if _IDENT.match(name) else quote(name)
+    return name if IDENTIFIER.match(name) else quote(name)
 
 
 def _token(token: influxql.Token) -> str:

@@ -9,54 +9,57 @@ carried over: `stream |from() .measurement('M') |alert()` with
 
 from __future__ import annotations
 
+from fractions import Fraction
+
 from rmvdsl.dialects import tickscript as tick
+from rmvdsl.grammar import ast, printer
 from rmvdsl.grammar.printer import quote
-from rmvdsl.importers.influxql import rmv_name
+from rmvdsl.importers.influxql import IDENTIFIER as _IDENT
 
 _LEVELS = ("info", "warn", "crit")
 
-# .rmv's binding strengths (rmvdsl/grammar/expr.lark), weakest first.
-_STRENGTH = {"OR": 1, "AND": 2, "==": 4, "!=": 4, "<": 4, "<=": 4, ">": 4, ">=": 4, "=~": 4,
-             "!~": 4, "+": 8, "-": 8, "*": 9, "/": 9, "%": 9}  # fmt: skip
-_COMPARISON = 4
 _RMV_OPS = {"OR": "or", "AND": "and", "==": "="}
 
 
 def rmv_expression(expr: tick.Expr, measurement: str) -> str:
-    """A lambda's body in .rmv syntax, parenthesised only where .rmv's binding
-    needs it; the reference "value" names the measurement (rostopicmon's field)."""
-    return _rmv(expr, measurement)[0]
+    """A lambda's body in .rmv syntax, printed by .rmv's own printer (parentheses
+    where .rmv's binding needs them); the reference "value" names the measurement
+    (rostopicmon's field)."""
+    return printer.expression(_node(expr, measurement))
 
 
-def _rmv(expr: tick.Expr, measurement: str) -> tuple[str, int]:
+def _node(expr: tick.Expr, measurement: str) -> ast.Expr:
+    """The .rmv syntax tree of a TICKscript expression."""
     match expr:
         case tick.Reference():
-            return rmv_name(measurement if expr.name == "value" else expr.name), 11
+            name = measurement if expr.name == "value" else expr.name
+            return ast.NameRef(ast.Ident(name)) if _IDENT.match(name) else ast.StringLit(name)
         case tick.Text():
-            return quote(expr.value), 11
+            return ast.StringLit(expr.value)
+        case tick.Literal() if expr.text in ("TRUE", "FALSE"):
+            return ast.BoolLit(expr.text == "TRUE")
         case tick.Literal():
-            return expr.text.lower() if expr.text in ("TRUE", "FALSE") else expr.text, 11
-        case tick.Unary(op="!"):
-            return f"not {_wrapped(expr.operand, 3, measurement)}", 3
+            return ast.NumberLit(_number(expr.text), expr.text)
         case tick.Unary():
-            return f"-{_wrapped(expr.operand, 10, measurement)}", 10
+            op = "not" if expr.op == "!" else "-"
+            return ast.UnaryOp(op, _node(expr.operand, measurement))
         case tick.Binary():
-            strength = _STRENGTH[expr.op]
-            # Comparisons do not chain in .rmv; the others bind to the left.
-            right_needs = strength + 1
-            left_needs = strength + 1 if strength == _COMPARISON else strength
-            left = _wrapped(expr.left, left_needs, measurement)
-            right = _wrapped(expr.right, right_needs, measurement)
-            return f"{left} {_RMV_OPS.get(expr.op, expr.op)} {right}", strength
+            left, right = _node(expr.left, measurement), _node(expr.right, measurement)
+            return ast.BinOp(_RMV_OPS.get(expr.op, expr.op), left, right)
         case tick.Call():
-            args = ", ".join(rmv_expression(a, measurement) for a in expr.args)
-            return f"{expr.function}({args})", 11
-    return tick.expression(expr), 11
+            args = tuple(_node(a, measurement) for a in expr.args)
+            return ast.Call(ast.Ident(expr.function), args)
+    # What .rmv has no expression for (a lambda, a bare word): as TICKscript wrote it,
+    # for the import's check to report.
+    return ast.NameRef(ast.Ident(tick.expression(expr)))
 
 
-def _wrapped(expr: tick.Expr, needs: int, measurement: str) -> str:
-    text, strength = _rmv(expr, measurement)
-    return text if strength >= needs else f"({text})"
+def _number(text: str) -> Fraction:
+    """A literal's value where it is a number (the printer writes `text` as is)."""
+    try:
+        return Fraction(text)
+    except ValueError:
+        return Fraction(0)
 
 
 def _steps(statements: list[tick.Statement]) -> list[tick.Step]:
