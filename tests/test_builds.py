@@ -47,7 +47,8 @@ def test_every_target_builds_every_example_as_before(rmv, tmp_path, spec, target
         # The resolved spec a package carries is the ir target's output.
         ir_out = (GOLDEN / Path(spec).stem / "ir" / "out").read_text(encoding="utf-8")
         carried = [p.read_text(encoding="utf-8") for p in out.rglob("spec.json")]
-        assert carried and all(text == ir_out for text in carried)
+        # The C monitors carry node tables, not the spec.
+        assert (carried or target == "c") and all(text == ir_out for text in carried)
     else:
         written = {"out": out.read_text(encoding="utf-8")}
     folder = GOLDEN / Path(spec).stem / target

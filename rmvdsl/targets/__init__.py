@@ -24,6 +24,7 @@ REGISTRY = {
     "ros2": "rmvdsl.targets.ros2",
     "ros1": "rmvdsl.targets.ros1",
     "kapacitor": "rmvdsl.targets.kapacitor",
+    "c": "rmvdsl.targets.c",
 }
 
 

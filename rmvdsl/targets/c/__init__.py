@@ -1,0 +1,46 @@
+"""`rmv build --target c`: the spec's properties as C99 monitors, static memory
+sized from the spec, with a replay driver (docs/c.md). The generator is
+`generate`, imported when first used."""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Mapping
+from pathlib import Path
+
+from rmvdsl.runtime import spec as ir
+from rmvdsl.runtime.wording import counted
+from rmvdsl.targets import Built, Finding, Target, TargetError, folder_output
+
+_HELP = "docs/c.md lists what the C target compiles"
+
+
+def _build(spec: ir.Spec, out: Path | None, options: Mapping[str, str | None]) -> Built:
+    generate = importlib.import_module("rmvdsl.targets.c.generate")
+    folder = folder_output("c", out)
+    try:
+        written, size = generate.build(spec, folder)
+    except generate.Unsupported as exc:
+        raise TargetError(f"the c target cannot build this spec:\n{exc}") from None
+    summary = (
+        f"wrote the c target to {folder} ({counted(len(written), 'file')}; the monitor"
+        f" holds at most {counted(size, 'byte')})"
+    )
+    return Built(tuple(written), summary)
+
+
+def _findings(spec: ir.Spec) -> list[Finding]:
+    generate = importlib.import_module("rmvdsl.targets.c.generate")
+    return [
+        Finding("error", origin, message, _HELP) for origin, message in generate.problems_of(spec)
+    ]
+
+
+TARGET = Target(
+    name="c",
+    summary="C99 monitors of the properties: static memory, no malloc, a replay driver",
+    docs="docs/c.md",
+    output="folder",
+    build=_build,
+    findings=_findings,
+)

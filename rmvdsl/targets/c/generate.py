@@ -1,0 +1,284 @@
+"""`rmv build --target c`: each property's formula compiled to node tables
+(model.py), rendered with the engine into `rmv_<system>.h` / `.c`, a replay driver,
+a Makefile and a CMakeLists.txt (docs/c.md)."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable
+from dataclasses import dataclass
+from fractions import Fraction
+from pathlib import Path
+from typing import Any
+
+import jinja2
+
+from rmvdsl.runtime import spec as ir
+from rmvdsl.targets.c.model import (
+    BATCH,
+    KINDS,
+    SETS,
+    TICKS_PER_SECOND,
+    Formula,
+    Unsupported,
+    changes_bound,
+    compile_formula,
+    scratch_size,
+    sized,
+)
+
+__all__ = [
+    "CProperty",
+    "CSystem",
+    "build",
+    "c_identifier",
+    "c_string",
+    "files",
+    "identifiers",
+    "system_of",
+]
+
+_C_KEYWORDS = frozenset(
+    {
+        "auto", "break", "case", "char", "const", "continue", "default", "do", "double",
+        "else", "enum", "extern", "float", "for", "goto", "if", "inline", "int", "long",
+        "register", "restrict", "return", "short", "signed", "sizeof", "static", "struct",
+        "switch", "typedef", "union", "unsigned", "void", "volatile", "while", "_Bool",
+        "_Complex", "_Imaginary",
+    }
+)  # fmt: skip
+
+
+def c_string(text: str) -> str:
+    """Any text as a C string literal (the one quoting function for C): printable
+    ASCII as is, everything else as octal escapes of its UTF-8 bytes (an octal
+    escape takes at most three digits, so a digit after one reads as itself)."""
+    out = []
+    for byte in str(text).encode("utf-8"):
+        char = chr(byte)
+        if char in '"\\':
+            out.append("\\" + char)
+        elif 0x20 <= byte < 0x7F and char != "?":  # `?` could start a trigraph
+            out.append(char)
+        else:
+            out.append(f"\\{byte:03o}")
+    return '"' + "".join(out) + '"'
+
+
+def c_identifier(name: str) -> str:
+    """A spec name as a C identifier: a plain identifier as is (a C keyword with a
+    trailing `_`), anything else with each other character as `_xHH` of its UTF-8
+    bytes. Two names that meet this way are told apart by `identifiers`."""
+    if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", str(name)):
+        return f"{name}_" if name in _C_KEYWORDS else str(name)
+    text = "".join(
+        char if char.isascii() and (char.isalnum() or char == "_") else
+        "".join(f"_x{b:02X}" for b in char.encode("utf-8"))
+        for char in str(name)
+    )  # fmt: skip
+    return text if text and not text[0].isdigit() else "_" + text
+
+
+def identifiers(names: Iterable[str]) -> dict[str, str]:
+    """Each name's C identifier, distinct: a later name whose identifier is taken
+    gets `_2`, `_3`, ..."""
+    taken: set[str] = set()
+    out: dict[str, str] = {}
+    for name in names:
+        base = candidate = c_identifier(name)
+        count = 1
+        while candidate in taken:
+            count += 1
+            candidate = f"{base}_{count}"
+        taken.add(candidate)
+        out[name] = candidate
+    return out
+
+
+def comment(text: str) -> str:
+    """Any text inside a one-line C comment (or a Makefile's, or CMake's): one line,
+    printable ASCII, no `*/` or `/*`, no `??` to start a trigraph."""
+    flat = re.sub(r"\s+", " ", str(text))
+    flat = "".join(c if " " <= c <= "~" else "?" for c in flat)
+    for sequence, safe in (("*/", "* /"), ("/*", "/ *"), ("??", "? ?"), ("??", "? ?")):
+        flat = flat.replace(sequence, safe)
+    return flat.rstrip("\\")  # a backslash at the end would join the next line
+
+
+@dataclass(frozen=True)
+class CProperty:
+    name: str
+    text: str
+    formula: Formula
+    period: int  # ticks; 0: every change
+    first_node: int = 0
+    prop_first: int = 0
+    indexes: tuple[int, ...] = ()  # its propositions' system indexes
+    words: int = 1
+    bits_offset: int = 0
+    held_offset: int = 0
+    pool_offset: int = 0
+
+
+@dataclass(frozen=True)
+class CSystem:
+    name: str
+    properties: tuple[CProperty, ...]
+    propositions: tuple[str, ...]
+
+    @property
+    def identifier(self) -> str:
+        return c_identifier(self.name)
+
+
+def laid_out(name: str, compiled: list[tuple[str, str, Formula, int]]) -> CSystem:
+    """Properties (name, text, sized formula, period) placed in the pools."""
+    propositions: dict[str, int] = {}
+    properties = []
+    nodes = pool = bits = held = slots = 0
+    for prop_name, text, formula, period in compiled:
+        indexes = tuple(propositions.setdefault(p, len(propositions)) for p in formula.propositions)
+        words = max(1, -(-len(indexes) // 32))
+        properties.append(
+            CProperty(
+                prop_name, text, formula, period, nodes, slots, indexes, words, bits, held, pool
+            )
+        )
+        nodes += len(formula.nodes)
+        pool += sum(n.cap for n in formula.nodes)
+        bits += (SETS + 2 * BATCH) * words  # the engine's sets and the held changes
+        held += BATCH
+        slots += len(indexes)
+    return CSystem(name, tuple(properties), tuple(propositions))
+
+
+def system_of(spec: ir.Spec) -> CSystem:
+    """The spec's properties, compiled; Unsupported names what cannot be."""
+    problems = problems_of(spec)
+    if problems:
+        raise Unsupported(
+            "\n".join(f"{origin}: {message}" if origin else message for origin, message in problems)
+        )
+    return laid_out(spec.system.name, [_compiled_property(p) for p in spec.properties])
+
+
+def problems_of(spec: ir.Spec) -> list[tuple[str, str]]:
+    """What the C target cannot build: (where, why) each."""
+    if not spec.properties:
+        return [("", "the spec has no property: the C target compiles properties")]
+    problems = []
+    for prop in spec.properties:
+        try:
+            _compiled_property(prop)
+        except Unsupported as error:
+            problems.append((prop.origin, str(error)))
+    return problems
+
+
+def _compiled_property(prop: ir.Property) -> tuple[str, str, Formula, int]:
+    where = f"property {prop.name}"
+    if prop.trigger != "always":
+        raise Unsupported(f"{where}: `trigger = {prop.trigger}` (the C monitor runs always)")
+    if prop.lateness:
+        raise Unsupported(f"{where}: `lateness` (the C monitor takes samples in time order)")
+    if prop.rate is None:
+        raise Unsupported(
+            f"{where}: no `rate`: the C monitor's memory is sized from how often its input"
+            " can change; give the property a `rate = ...Hz`"
+        )
+    try:
+        formula = compile_formula(prop.formula)
+    except Unsupported as error:
+        raise Unsupported(f"{where}: {error}") from None
+    period = _period_ticks(prop.rate)
+    bound = changes_bound(Fraction(TICKS_PER_SECOND, period), formula.horizon)
+    return prop.name, prop.text, sized(formula, bound), period
+
+
+def _period_ticks(rate: Fraction) -> int:
+    """The period the Python runtime samples at (influx.nanoseconds(1 / rate)), in ticks."""
+    from rmvdsl.runtime import influx
+
+    return 2 * int(influx.nanoseconds(1 / rate))
+
+
+def environment() -> jinja2.Environment:
+    env = jinja2.Environment(
+        loader=jinja2.PackageLoader(__package__ or "rmvdsl.targets.c", "templates"),
+        autoescape=False,
+        keep_trailing_newline=True,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        undefined=jinja2.StrictUndefined,
+    )
+    env.filters["c"] = c_string
+    env.filters["c_id"] = c_identifier
+    env.filters["comment"] = comment
+    return env
+
+
+def memory_bytes(system: CSystem) -> int:
+    """An upper bound of sizeof(the monitor struct): each array padded to 8 bytes."""
+
+    def padded(size: int) -> int:
+        return -(-size // 8) * 8
+
+    count = len(system.properties)
+    nodes = sum(len(p.formula.nodes) for p in system.properties)
+    pool = sum(sum(n.cap for n in p.formula.nodes) for p in system.properties)
+    bits = sum((SETS + 2 * BATCH) * p.words for p in system.properties)
+    scratch = max(scratch_size(p.formula) for p in system.properties)
+    run = 96  # sizeof(rmv_run) is 88 on LP64 targets
+    return (padded(run * count) + padded(4 * nodes) + padded(8 * pool) + 2 * padded(pool)
+            + padded(4 * bits) + padded(8 * BATCH * count) + padded(8 * scratch) + 16)  # fmt: skip
+
+
+def files(system: CSystem, source: str = "") -> dict[str, str]:
+    """Every file of the build, by name."""
+    identifier = system.identifier
+    header, source_file = f"rmv_{identifier}.h", f"rmv_{identifier}.c"
+    context: dict[str, Any] = {
+        "system": system,
+        "id": identifier,
+        "ID": identifier.upper(),
+        "header": header,
+        "source_file": source_file,
+        "driver": f"rmv_{identifier}_replay.c",
+        "program": f"rmv_{identifier}_replay",
+        "library": f"rmv_{identifier}",
+        "source": source or "a spec",
+        "propositions": system.propositions,
+        "proposition_ids": identifiers(system.propositions),
+        "property_ids": identifiers(p.name for p in system.properties),
+        "properties": system.properties,
+        "proposition_slots": sum(len(p.indexes) for p in system.properties),
+        "kinds": KINDS,
+        "batch": BATCH,
+        "bytes": memory_bytes(system),
+        "nodes": sum(len(p.formula.nodes) for p in system.properties),
+        "pool": sum(sum(n.cap for n in p.formula.nodes) for p in system.properties),
+        "bits": sum((SETS + 2 * BATCH) * p.words for p in system.properties),
+        "held": BATCH * len(system.properties),
+        "scratch": max(scratch_size(p.formula) for p in system.properties),
+    }
+    env = environment()
+    return {
+        header: env.get_template("monitor.h.j2").render(context),
+        source_file: env.get_template("monitor.c.j2").render(context),
+        context["driver"]: env.get_template("replay.c.j2").render(context),
+        "Makefile": env.get_template("Makefile.j2").render(context),
+        "CMakeLists.txt": env.get_template("CMakeLists.txt.j2").render(context),
+    }
+
+
+def build(spec: ir.Spec, out: Path) -> tuple[list[Path], int]:
+    """Write the build into `out`; the paths written and the monitor's bytes."""
+    system = system_of(spec)
+    written = []
+    origin = spec.properties[0].origin.rsplit(":", 2)[0]  # the spec file that declares them
+    for name, text in files(system, origin).items():
+        path = out / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text, encoding="utf-8")
+        written.append(path)
+    return written, memory_bytes(system)
