@@ -171,7 +171,7 @@ def measure(scale: int, repeat: int, folder: str) -> dict[str, float]:
 
 
 BARE = (
-    "import sys; from rmvdsl.grammar.parser import bare_spec_parser; "
+    "import sys; from rmvdsl.grammar.grammars import bare_spec_parser; "
     "bare_spec_parser().parse(open(sys.argv[1], encoding='utf-8').read(), start='start')"
 )
 

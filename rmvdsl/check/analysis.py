@@ -23,6 +23,7 @@ from rmvdsl.check.types import TypeInfo
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
 from rmvdsl.lang.diagnostics import Diagnostic, Label, error, warning
+from rmvdsl.util.cache import default_cache, digest
 
 
 @dataclass
@@ -124,15 +125,25 @@ class Analyzer:
             untaken = found
 
     def _unsatisfiable(self, name: str) -> bool:
-        """A boolean event whose condition no values make true (asked once a name)."""
+        """A boolean event whose condition no values make true (asked once a name;
+        its answer kept under the text of the question, so a re-check builds no
+        z3 term for it)."""
         if name not in self._unsat:
             decl = self.model.events.get(name)
-            self._unsat[name] = bool(
-                decl is not None
-                and decl.boolean
-                and self.conditions.solve([self.conditions.of_event(name)], values=False)[0]
-                == "unsat"
-            )
+            if decl is None or not decl.boolean:
+                self._unsat[name] = False
+                return False
+            cache = default_cache()
+            key = digest("unsatisfiable event", "1", z3.get_version_string(),
+                         self.conditions.event_question(name))  # fmt: skip
+            cached = cache.get(key)
+            if cached is not None and isinstance(cached.get("unsat"), bool):
+                self._unsat[name] = cached["unsat"]
+                return self._unsat[name]
+            answer = self.conditions.solve([self.conditions.of_event(name)], values=False)[0]
+            self._unsat[name] = answer == "unsat"
+            if answer != "unknown":  # a time limit is not an answer to keep
+                cache.put(key, {"unsat": self._unsat[name]})
         return self._unsat[name]
 
     def reachability(

@@ -108,6 +108,40 @@ class Conditions:
         finally:
             self._inlining.discard(name)
 
+    def event_question(self, name: str) -> str:
+        """What `of_event(name)` builds, as text, without z3: the lowered trees of
+        the event and of every boolean event it inlines (each Ref's kind and type
+        in them), so a question about the event is keyed before any term is made
+        (a re-check asks the cache first; building the terms cost more than the
+        answers)."""
+        parts: list[str] = []
+        self._question(name, (), parts)
+        return "\n".join(parts)
+
+    def _question(self, name: str, inlining: tuple[str, ...], parts: list[str]) -> None:
+        decl = self.model.events.get(name)
+        if decl is None or not decl.boolean or name in inlining or self.types is None:
+            parts.append(f"free event {name}")
+            return
+        try:
+            trees = [lower_expr(self.model, self.types, decl.expr)]
+            where = decl.clause("where")
+            if where is not None:
+                trees.append(lower_expr(self.model, self.types, where.value))
+        except NotLowered:
+            parts.append(f"unlowered event {name}")
+            return
+        parts.append(f"event {name}: {trees!r}")
+        for tree in trees:
+            for ref in _refs(tree):
+                inlined = self.model.events.get(ref.name)
+                if (
+                    ref.kind not in ("variable", "emitted")
+                    and inlined is not None
+                    and inlined.boolean
+                ):
+                    self._question(ref.name, (*inlining, name), parts)
+
     def solve(self, constraints: list[Any], values: bool = True) -> tuple[str, str]:
         """`solve` of these constraints, with the ranges of the
         variables they mention (only those: a question's cache key and its cost do
@@ -222,6 +256,23 @@ def text(node: ir.Expr) -> str:
         case ir.Call():
             return f"{node.function}({', '.join(text(a) for a in node.args)})"
     return repr(node)
+
+
+def _refs(node: ir.Expr) -> list[ir.Ref]:
+    """The names an expression reads, left to right, by a loop (expressions nest
+    deep)."""
+    found, stack = [], [node]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, ir.Ref):
+            found.append(item)
+        elif isinstance(item, ir.Unary):
+            stack.append(item.operand)
+        elif isinstance(item, ir.Binary):
+            stack.extend((item.right, item.left))
+        elif isinstance(item, ir.Call):
+            stack.extend(reversed(item.args))
+    return found
 
 
 def _value_name(name: str) -> str:
