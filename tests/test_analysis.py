@@ -109,3 +109,28 @@ def test_graph_formats(rmv, tmp_path):
 def test_graph_of_an_unknown_transducer(rmv):
     result = rmv("graph", "examples/carla/abs.rmv", "--transducer", "Brakin")
     assert result.code == 2 and "did you mean `Braking`?" in result.err
+
+
+def test_a_cached_answer_follows_an_edit_of_an_inlined_event(tmp_path):
+    """A re-check answers "is this input unsatisfiable" from the cache by the text
+    of the question: an edit of the event, or of an event it reads, asks again."""
+    import os
+    import subprocess
+
+    spec = tmp_path / "u.rmv"
+    text = (
+        'system u\ntopic t: std_msgs/Float64 = "/t"\nvar X = t.data\n'
+        "event F when X > 5\nevent E when F and X < 3\n"
+        "transducer T {\n    states A, B\n    initial A\n    A -> B on E\n    B -> A on F\n}\n"
+    )
+    env = {**os.environ, "RMV_CACHE_DIR": str(tmp_path / "cache")}
+
+    def unreachable(source: str) -> bool:
+        spec.write_text(source)
+        done = subprocess.run(["rmv", "check", str(spec)], capture_output=True, text=True, env=env)
+        return "RMV500" in done.stdout + done.stderr
+
+    assert unreachable(text)
+    assert not unreachable(text.replace("X < 3", "X < 9"))
+    assert unreachable(text.replace("X < 3", "X < 9").replace("X > 5", "X > 50"))
+    assert not unreachable(text.replace("X < 3", "X < 9"))
