@@ -274,9 +274,29 @@ def test_every_example_over_random_samples_equals_the_property_monitors(
     """Random instants over each example's propositions (states changing every
     0-400 ms, pulses now and then), through the runtime's property monitors and
     through the C build of the same spec."""
+    assert_random_instants_agree(spec_of(path), None, 1_000_000, tmp_path)
+
+
+def test_a_property_without_rate_is_built_for_max_rate(tmp_path: Path) -> None:
+    """A property monitored at every change (no `rate`), built with --max-rate 10Hz
+    and given changes at most 10 a second: the property monitor's verdicts."""
+    spec = tmp_path / "p.rmv"
+    spec.write_text(
+        'system p\ntopic t: std_msgs/Float64 = "/t"\nvar X = t.data\n'
+        "event A when X > 1\nevent B when X > 2\n"
+        "property P: A -> eventually[<=1s] B\n"
+        "property Q: duration[2s](A) - 1s < 0.5s\n"
+    )
+    assert_random_instants_agree(spec_of(spec), Fraction(10), 100_000_000, tmp_path / "out")
+
+
+def assert_random_instants_agree(
+    spec: Any, max_rate: Fraction | None, grain: int, out: Path
+) -> None:
+    """3,000 random instants `grain` ns apart or more (0-400 ms), the same through
+    the property monitors and the C build."""
     from rmvdsl.targets.c.generate import system_of
 
-    spec = spec_of(path)
     names = sorted({n for p in spec.properties for n in p.propositions})
     rng = random.Random(7)
     start = 1_700_000_000 * NS
@@ -285,7 +305,7 @@ def test_every_example_over_random_samples_equals_the_property_monitors(
     lines = [sample_line(Fraction(start, NS), truth)]
     time = start
     for _ in range(3000):
-        time += rng.randrange(0, 400_000_000, 1_000_000)
+        time += rng.randrange(grain, 400_000_000, grain)
         flips = {n for n in names if rng.random() < 0.15}
         pulses = {n for n in names if rng.random() < 0.03} - truth - flips
         changes = [(n, n not in truth) for n in sorted(flips)]
@@ -299,8 +319,8 @@ def test_every_example_over_random_samples_equals_the_property_monitors(
         monitor.end(end)
     lines.append(end_line(Fraction(end, NS)))
     expected = {p.name: merge(m.verdicts()) for p, m in zip(spec.properties, monitors, strict=True)}
-    write(files(system_of(spec)), tmp_path)
-    _, records, errors = run_driver(compile_driver(tmp_path, sanitize=True), lines)
+    write(files(system_of(spec, max_rate)), out)
+    _, records, errors = run_driver(compile_driver(out, sanitize=True), lines)
     assert segments_by_property(records) == expected, errors
     assert any(s[4] == "false" for v in expected.values() for s in v)  # the data decides something
 
@@ -343,9 +363,13 @@ def test_what_the_c_target_cannot_compute_is_refused_at_its_declaration(tmp_path
     )
     assert done.returncode == 1, done.stdout + done.stderr
     text = done.stdout + done.stderr
-    for line, why in ((6, "rate"), (7, "one duration"), (8, "a duration times 2")):
+    for line, why in ((6, "--max-rate"), (7, "one duration"), (8, "a duration times 2")):
         assert f"s.rmv:{line}:" in text and why in text, text
     assert "RMV600]: property Fine" not in text
     build = ["rmv", "build", "--target", "c", str(spec), "-o", str(tmp_path / "out")]
     built = subprocess.run(build, capture_output=True, text=True)
     assert built.returncode == 2 and "NoRate" in built.stderr and "Traceback" not in built.stderr
+    built = subprocess.run([*build, "--max-rate", "50Hz"], capture_output=True, text=True)
+    assert built.returncode == 2 and "NoRate" not in built.stderr and "Scaled" in built.stderr
+    built = subprocess.run([*build, "--max-rate", "0Hz"], capture_output=True, text=True)
+    assert built.returncode == 2 and "--max-rate 0Hz: expected a positive rate" in built.stderr

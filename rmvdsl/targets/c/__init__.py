@@ -5,21 +5,35 @@ sized from the spec, with a replay driver (docs/c.md). The generator is
 from __future__ import annotations
 
 import importlib
+import re
 from collections.abc import Mapping
+from fractions import Fraction
 from pathlib import Path
 
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.wording import counted
-from rmvdsl.targets import Built, Finding, Target, TargetError, folder_output
+from rmvdsl.targets import Built, Finding, Option, Target, TargetError, folder_output
 
 _HELP = "docs/c.md lists what the C target compiles"
+
+
+def _rate(text: str | None) -> Fraction | None:
+    """`--max-rate 100Hz` (or `100`, `2.5kHz`) in Hz."""
+    if text is None:
+        return None
+    found = re.fullmatch(r"\s*(\d+(?:\.\d+)?)\s*(Hz|kHz)?\s*", text)
+    rate = Fraction(found[1]) * (1000 if found[2] == "kHz" else 1) if found else Fraction(0)
+    if rate <= 0:
+        raise TargetError(f"--max-rate {text}: expected a positive rate such as 100Hz")
+    return rate
 
 
 def _build(spec: ir.Spec, out: Path | None, options: Mapping[str, str | None]) -> Built:
     generate = importlib.import_module("rmvdsl.targets.c.generate")
     folder = folder_output("c", out)
+    rate = _rate(options.get("max_rate"))
     try:
-        written, size = generate.build(spec, folder)
+        written, size = generate.build(spec, folder, rate)
     except generate.Unsupported as exc:
         raise TargetError(f"the c target cannot build this spec:\n{exc}") from None
     summary = (
@@ -42,5 +56,13 @@ TARGET = Target(
     docs="docs/c.md",
     output="folder",
     build=_build,
+    options=(
+        Option(
+            "max_rate",
+            "HZ",
+            "how often the input of a property without `rate` can change (e.g. 100Hz):"
+            " sizes its memory",
+        ),
+    ),
     findings=_findings,
 )

@@ -152,44 +152,52 @@ def laid_out(name: str, compiled: list[tuple[str, str, Formula, int]]) -> CSyste
     return CSystem(name, tuple(properties), tuple(propositions))
 
 
-def system_of(spec: ir.Spec) -> CSystem:
-    """The spec's properties, compiled; Unsupported names what cannot be."""
-    problems = problems_of(spec)
+def system_of(spec: ir.Spec, max_rate: Fraction | None = None) -> CSystem:
+    """The spec's properties, compiled; Unsupported names what cannot be.
+    `max_rate` (Hz) bounds how often the input of a property without `rate`
+    changes."""
+    problems = problems_of(spec, max_rate)
     if problems:
         raise Unsupported(
             "\n".join(f"{origin}: {message}" if origin else message for origin, message in problems)
         )
-    return laid_out(spec.system.name, [_compiled_property(p) for p in spec.properties])
+    compiled = [_compiled_property(p, max_rate) for p in spec.properties]
+    return laid_out(spec.system.name, compiled)
 
 
-def problems_of(spec: ir.Spec) -> list[tuple[str, str]]:
+def problems_of(spec: ir.Spec, max_rate: Fraction | None = None) -> list[tuple[str, str]]:
     """What the C target cannot build: (where, why) each."""
     if not spec.properties:
         return [("", "the spec has no property: the C target compiles properties")]
     problems = []
     for prop in spec.properties:
         try:
-            _compiled_property(prop)
+            _compiled_property(prop, max_rate)
         except Unsupported as error:
             problems.append((prop.origin, str(error)))
     return problems
 
 
-def _compiled_property(prop: ir.Property) -> tuple[str, str, Formula, int]:
+def _compiled_property(
+    prop: ir.Property, max_rate: Fraction | None
+) -> tuple[str, str, Formula, int]:
     where = f"property {prop.name}"
     if prop.trigger != "always":
         raise Unsupported(f"{where}: `trigger = {prop.trigger}` (the C monitor runs always)")
     if prop.lateness:
         raise Unsupported(f"{where}: `lateness` (the C monitor takes samples in time order)")
-    if prop.rate is None:
+    if prop.rate is None and max_rate is None:
         raise Unsupported(
             f"{where}: no `rate`: the C monitor's memory is sized from how often its input"
-            " can change; give the property a `rate = ...Hz`"
+            " can change; give the property a `rate = ...Hz`, or build with `--max-rate`"
         )
     try:
         formula = compile_formula(prop.formula)
     except Unsupported as error:
         raise Unsupported(f"{where}: {error}") from None
+    if prop.rate is None:  # every change, at most max_rate a second
+        assert max_rate is not None
+        return prop.name, prop.text, sized(formula, changes_bound(max_rate, formula.horizon)), 0
     period = _period_ticks(prop.rate)
     bound = changes_bound(Fraction(TICKS_PER_SECOND, period), formula.horizon)
     return prop.name, prop.text, sized(formula, bound), period
@@ -271,9 +279,9 @@ def files(system: CSystem, source: str = "") -> dict[str, str]:
     }
 
 
-def build(spec: ir.Spec, out: Path) -> tuple[list[Path], int]:
+def build(spec: ir.Spec, out: Path, max_rate: Fraction | None = None) -> tuple[list[Path], int]:
     """Write the build into `out`; the paths written and the monitor's bytes."""
-    system = system_of(spec)
+    system = system_of(spec, max_rate)
     written = []
     origin = spec.properties[0].origin.rsplit(":", 2)[0]  # the spec file that declares them
     for name, text in files(system, origin).items():
