@@ -9,6 +9,10 @@
 
 #include <stdint.h>
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 #ifndef RMV_COMMON_TYPES
 #define RMV_COMMON_TYPES
 /* A verdict: three-valued, false < unknown < true (docs/semantics.md). */
@@ -110,5 +114,9 @@ uint32_t rmv_carla_abs_overflows(const rmv_carla_abs_monitor *monitor, int32_t p
 
 const char *rmv_carla_abs_property_name(int32_t property);
 const char *rmv_carla_abs_proposition_name(int32_t proposition);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif

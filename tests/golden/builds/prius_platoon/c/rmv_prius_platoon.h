@@ -9,6 +9,10 @@
 
 #include <stdint.h>
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 #ifndef RMV_COMMON_TYPES
 #define RMV_COMMON_TYPES
 /* A verdict: three-valued, false < unknown < true (docs/semantics.md). */
@@ -108,5 +112,9 @@ uint32_t rmv_prius_platoon_overflows(const rmv_prius_platoon_monitor *monitor, i
 
 const char *rmv_prius_platoon_property_name(int32_t property);
 const char *rmv_prius_platoon_proposition_name(int32_t proposition);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif
