@@ -239,6 +239,8 @@ class Temporal(Evaluated):
                 best = max(best, min(psi.right_of(cursor), prefix))
             if best == TRUE:
                 return TRUE
+            if prefix == FALSE:  # phi failed: no later t' can raise the supremum
+                return best
             cursor = point
         if op == "<=" or end == t:
             best = max(best, min(psi.at(end), prefix)) if op == "<=" else best
@@ -271,6 +273,8 @@ class Temporal(Evaluated):
                 best = max(best, min(psi.right_of(point), suffix))
             if best == TRUE:
                 return TRUE
+            if suffix == FALSE:  # phi failed: no earlier t' can raise the supremum
+                return best
             cursor = point
         if low_closed and low < t:
             best = max(best, min(psi.at(low), suffix))
