@@ -354,3 +354,43 @@ def test_stream_reads_crlf_a_byte_order_mark_and_reports_bad_bytes(rmv, tmp_path
     bad.write_bytes(b'{"t": 0, "state": "a"}\n{"t": 1, "state": "b"}\n{"t": 2, "state": "\xe9"}\n')
     result = rmv("eval", "--formula", "a", "--trace", str(bad))
     assert result.code == 2 and ":3:20:" in result.err and "not UTF-8" in result.err
+
+
+def test_any_key_order_spacing_or_props_list_reads_the_same(rmv, tmp_path):
+    """The common content written any way JSON allows (keys swapped, spaces, a
+    `props` list, a few lines only through the full reader) gives the same segments:
+    the fast reading is not tied to one key order."""
+    import random
+
+    rng = random.Random(5)
+    samples = [(k / 4, rng.choice("ABC")) for k in range(2000)]
+    forms = {
+        "usual": lambda t, s: f'{{"t": {t}, "state": "{s}"}}',
+        "swapped": lambda t, s: f'{{"state": "{s}", "t": {t}}}',
+        "tight": lambda t, s: f'{{"t":{t},"props":["{s}"]}}',
+        # a props list naming one twice, spaces everywhere, and every 7th line
+        # with a time the fast reading leaves to the full reader (an exponent)
+        "mixed": lambda t, s: (
+            f'{{ "props" : ["{s}", "{s}"] , "t" : {t} }}' if int(t * 4) % 7 else
+            f'{{"state": "{s}", "t": {t * 100}e-2}}'
+        ),
+    }  # fmt: skip
+    outputs = {}
+    for name, form in forms.items():
+        path = tmp_path / f"{name}.jsonl"
+        path.write_text(
+            "".join(form(t, s) + "\n" for t, s in samples) + '{"t": 600, "end": true}\n'
+        )
+        run = rmv("eval", "--formula", "A -> eventually[<=2] B", "--trace", str(path), "--all")
+        assert run.code in (0, 1), run.err
+        outputs[name] = run.out
+    assert len(set(outputs.values())) == 1, outputs
+
+
+def test_a_bad_line_among_fast_ones_is_reported_at_its_place(rmv, tmp_path):
+    path = tmp_path / "t.jsonl"
+    lines = [f'{{"state": "A", "t": {k}}}' for k in range(10)]
+    lines[6] = '{"state": "A", "t": 6, "extra": 1}'
+    path.write_text("\n".join(lines) + "\n")
+    run = rmv("eval", "--formula", "A", "--trace", str(path), "--all")
+    assert run.code == 2 and ":7:" in run.err, run.err

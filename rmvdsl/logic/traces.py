@@ -62,6 +62,37 @@ _FAST_JSONL = re.compile(
     re.MULTILINE,
 )
 _FAST_CSV = re.compile(rf"^[ \t]*{_DECIMAL}[ \t]*,[ \t]*{_PROPOSITION}[ \t\r]*$", re.MULTILINE)
+_NAME_TEXT = re.compile(_PROPOSITION)
+
+
+StateKey = str | frozenset[str]  # one proposition's name, or the set a `props` line names
+# The text of a line's time, where a JSON key "t" is followed by a decimal (a name
+# cannot hold a quote, so a value that passes the checks holds no such text).
+_TIME_TEXT = re.compile(rf'"t"[ \t]*:[ \t]*{_DECIMAL}[ \t]*[,}}]')
+
+
+def common_sample(raw: str) -> tuple[str, StateKey] | None:
+    """A JSON line with the common content in any key order or spacing: `t` a
+    decimal number and `state` a name, or `props` a list of names; its time's text
+    and its state. None: the full reader decides (and explains) the line."""
+    try:
+        record = json.loads(raw)
+    except ValueError:
+        return None
+    if type(record) is not dict or len(record) != 2 or type(record.get("t")) not in (int, float):
+        return None
+    state = record.get("state")
+    if type(state) is str and _NAME_TEXT.fullmatch(state):
+        key: StateKey = state
+    else:
+        names = record.get("props")
+        if type(names) is not list or not all(
+            type(n) is str and _NAME_TEXT.fullmatch(n) for n in names
+        ):
+            return None
+        key = frozenset(names)
+    found = _TIME_TEXT.search(raw)
+    return None if found is None else (found[1], key)
 
 
 def scaled(t: Fraction) -> int | Fraction:
@@ -122,7 +153,7 @@ class TraceStream:
         self.samples = 0
         self.seen: set[str] = set()
         self.notes: list[str] = []
-        self._states: dict[str, frozenset[str]] = {}  # of the common lines, by name
+        self._states: dict[StateKey, frozenset[str]] = {}  # of the common lines
         self._current: frozenset[str] | None = None  # the state of the last sample
         self._peek_unit()
 
@@ -183,19 +214,37 @@ class TraceStream:
                 yield from self._fast_lines(pairs, number, lines)
                 number += count
             else:
-                for raw in lines.split("\n")[:count]:
-                    match = fast.match(raw) if self._fast_ready() else None
-                    if match is not None:
-                        yield from self._fast_lines([(match[1], match[2])], number, raw)
+                raws = lines.split("\n")[:count]
+                ready = self._fast_ready()
+                found = [self._common(fast, raw) if ready else None for raw in raws]
+                common = [pair for pair in found if pair is not None]
+                if len(common) == count:  # every line of common content, in any form
+                    yield from self._fast_lines(common, number, lines)
+                    number += count
+                    raws = []
+                for raw in raws:
+                    pair = self._common(fast, raw) if self._fast_ready() else None
+                    if pair is not None:
+                        yield from self._fast_lines([pair], number, raw)
                     else:
                         yield from self._full_line(number + 1, raw)
                     number += 1
             chunk = rest + self._read()
-        self.seen.update(self._states)
+        for key in self._states:
+            self.seen.update((key,) if type(key) is str else key)
         self._finish()
 
+    def _common(self, fast: re.Pattern[str], raw: str) -> tuple[str, StateKey] | None:
+        """The time's text and the state of a line of common content: the chunk's
+        expression first, then (JSON Lines) any key order, spacing or `props` list,
+        as fast as JSON's own parser reads them."""
+        match = fast.match(raw)
+        if match is not None:
+            return match[1], match[2]
+        return None if self._csv else common_sample(raw)
+
     def _fast_lines(
-        self, pairs: list[tuple[str, str]], before: int, lines: str
+        self, pairs: list[tuple[str, StateKey]], before: int, lines: str
     ) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
         """Lines of the common shape, the ones after line `before` (their text is
         `lines`, read again only to report a time out of order): the hot loop."""
@@ -208,7 +257,8 @@ class TraceStream:
             reader._last = None
             state = states.get(name)
             if state is None:
-                state = states[name] = frozenset((name,))
+                state = frozenset((name,)) if isinstance(name, str) else name
+                states[name] = state
             if state is not current:
                 if current is None:
                     self.first = exact_or_quotient(text)
