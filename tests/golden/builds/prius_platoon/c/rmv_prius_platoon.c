@@ -302,6 +302,7 @@ static uint8_t rmv_until_at(const rmv_formula *f, const rmv_node *d, int64_t t) 
             best = rmv_max(best, rmv_min(psi.op[j], prefix));
         }
         if (best == RMV_T) return RMV_T;
+        if (prefix == RMV_F) return best;  /* phi failed: no later t' can raise it */
         if (point >= end) break;
         cursor = point;
         rmv_walk_to(&phi, &i, cursor);
@@ -355,6 +356,7 @@ static uint8_t rmv_since_at(const rmv_formula *f, const rmv_node *d, int64_t t) 
             best = rmv_max(best, rmv_min(psi.op[j >= 0 ? j : 0], suffix));
         }
         if (best == RMV_T) return RMV_T;
+        if (suffix == RMV_F) return best;  /* phi failed: no earlier t' can raise it */
         if (point <= low) break;
         cursor = point;
         while (i >= 0 && phi.at[i] >= cursor) i--;
