@@ -9,10 +9,13 @@ import re
 from collections.abc import Mapping
 from fractions import Fraction
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.wording import counted
 from rmvdsl.targets import Built, Finding, Option, Target, TargetError, folder_output
+
+if TYPE_CHECKING:
+    from rmvdsl.runtime import spec as ir
 
 _HELP = "docs/c.md lists what the C target compiles"
 

@@ -5,9 +5,12 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from rmvdsl.runtime import spec as ir
 from rmvdsl.targets import Built, Target, TargetError
+
+if TYPE_CHECKING:
+    from rmvdsl.runtime import spec as ir
 
 
 def _build(spec: ir.Spec, out: Path | None, options: Mapping[str, str | None]) -> Built:

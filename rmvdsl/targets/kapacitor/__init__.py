@@ -8,9 +8,8 @@ from __future__ import annotations
 import importlib
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.wording import counted
 from rmvdsl.targets import (
     Built,
@@ -21,6 +20,9 @@ from rmvdsl.targets import (
     TargetError,
     folder_output,
 )
+
+if TYPE_CHECKING:
+    from rmvdsl.runtime import spec as ir
 
 
 def _build(spec: ir.Spec, out: Path | None, options: Mapping[str, str | None]) -> Built:
