@@ -20,6 +20,7 @@ import jinja2
 from rmvdsl.runtime import spec as ir
 from rmvdsl.targets import TargetError
 from rmvdsl.targets.embed import embedded
+from rmvdsl.targets.rendering import template_environment
 
 # Run dependencies every package has; the spec adds its message packages. The
 # launch file imports launch, launch_ros and ament_index_python.
@@ -105,19 +106,8 @@ def environment(*packages: str) -> jinja2.Environment:
     """The templates of each of `packages` (their `templates` folder, read as
     package data), then the ones every ament package shares (beside this module),
     with the quoting filters."""
-    loaders = [jinja2.PackageLoader(p, "templates") for p in (*packages, __name__)]
-    env = jinja2.Environment(
-        loader=jinja2.ChoiceLoader(loaders),
-        autoescape=False,
-        keep_trailing_newline=True,
-        trim_blocks=True,
-        lstrip_blocks=True,
-        undefined=jinja2.StrictUndefined,
-    )
-    env.filters["py"] = py_string
-    env.filters["xml"] = xml_text
-    env.filters["yaml"] = yaml_string
-    return env
+    filters = {"py": py_string, "xml": xml_text, "yaml": yaml_string}
+    return template_environment((*packages, __name__), filters)
 
 
 def ament_package(

@@ -26,6 +26,7 @@ from rmvdsl.targets.c.model import (
     scratch_size,
     sized,
 )
+from rmvdsl.targets.rendering import template_environment
 
 __all__ = [
     "CProperty",
@@ -211,18 +212,8 @@ def _period_ticks(rate: Fraction) -> int:
 
 
 def environment() -> jinja2.Environment:
-    env = jinja2.Environment(
-        loader=jinja2.PackageLoader(__package__ or "rmvdsl.targets.c", "templates"),
-        autoescape=False,
-        keep_trailing_newline=True,
-        trim_blocks=True,
-        lstrip_blocks=True,
-        undefined=jinja2.StrictUndefined,
-    )
-    env.filters["c"] = c_string
-    env.filters["c_id"] = c_identifier
-    env.filters["comment"] = comment
-    return env
+    filters = {"c": c_string, "comment": comment}
+    return template_environment((__package__ or "rmvdsl.targets.c",), filters)
 
 
 def memory_bytes(system: CSystem) -> int:

@@ -3,7 +3,7 @@ first, with every time in ticks (half nanoseconds: docs/c.md) and every signal's
 capacity derived from how often the property's input can change.
 
 The tables are the Python monitor's nodes (rmvdsl.runtime.rmtld3.build) written
-as data; the engine in templates/engine.c.inc walks them. What the engine cannot
+as data; the engine in templates/*.c.inc walks them. What the engine cannot
 compute exactly is refused here, with the reason, never approximated."""
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from typing import Any
 
 TICKS_PER_SECOND = 2_000_000_000  # half nanoseconds: midpoints of breakpoints are whole
 BATCH = 32  # changes held before the nodes are recomputed (or once they span the horizon)
-SETS = 8  # the engine's bit sets of one property (B_SETS in engine.c.inc)
+SETS = 8  # the engine's bit sets of one property (B_SETS in templates/property.c.inc)
 SLACK = 6  # the breakpoint at a signal's start, its unknown tail, the one kept at a cut
 
 TEMPORAL_OPS = {"<": "OP_LT", "<=": "OP_LE", "=": "OP_EQ"}

@@ -7,7 +7,7 @@
 /* The monitor's size, as the header states it. */
 typedef char rmv_prius_platoon_fits[sizeof(rmv_prius_platoon_monitor) <= RMV_PRIUS_PLATOON_BYTES ? 1 : -1];
 
-/* ---- The RMTLD3 engine (docs/c.md): the Python runtime's online monitor
+/* ---- The RMTLD3 engine, part 1 (docs/c.md): the Python runtime's online monitor
  * (rmvdsl/runtime/rmtld3.py, temporal.py, durations.py) over fixed arrays.
  *
  * Times are ticks, half nanoseconds: every breakpoint is an even tick, so the
@@ -197,7 +197,8 @@ static int32_t rmv_merge(const int64_t *a, int32_t na, int64_t shift_a, const in
     return n;
 }
 
-/* ---- the nodes ---- */
+/* ---- The RMTLD3 engine, part 2 (docs/c.md): each node of a formula recomputed
+ * from its children's signals (rmvdsl/runtime/temporal.py, durations.py). ---- */
 
 typedef struct {
     const rmv_node *nodes;  /* this property's nodes, children first */
