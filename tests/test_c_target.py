@@ -39,6 +39,7 @@ ROOT = Path(__file__).resolve().parent.parent
 CASES = int(os.environ.get("RMV_C_CASES", "10000"))
 BATCH_CASES = 1000
 NS = 1_000_000_000
+START = Fraction("1700000000.123456789")
 
 
 # ---- random formulas and traces (the generators of test_monitor_equivalence,
@@ -78,8 +79,10 @@ def random_bound(rng: random.Random, positive: bool = False) -> Fraction:
 def random_trace(
     rng: random.Random, names: list[str]
 ) -> list[tuple[Fraction, frozenset, frozenset]]:
-    """Samples (time, state, pulses): 1-8 changes 1-8 apart, some with pulses."""
-    t, samples = Fraction(0), []
+    """Samples (time, state, pulses): 1-8 changes 1-8 apart, some with pulses, from
+    a start that is no whole number of the sampling periods (ticks are at multiples
+    of the period from time 0, not from the first sample)."""
+    t, samples = START, []
     for _ in range(rng.randint(1, 8)):
         state = frozenset(n for n in names if rng.random() < 0.5)
         pulses = frozenset(n for n in names if rng.random() < 0.1)

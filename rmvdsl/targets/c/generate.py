@@ -17,6 +17,7 @@ from rmvdsl.runtime import spec as ir
 from rmvdsl.targets.c.model import (
     BATCH,
     KINDS,
+    LIMIT,
     SETS,
     TICKS_PER_SECOND,
     Formula,
@@ -200,6 +201,10 @@ def _compiled_property(
         assert max_rate is not None
         return prop.name, prop.text, sized(formula, changes_bound(max_rate, formula.horizon)), 0
     period = _period_ticks(prop.rate)
+    if not 0 < period <= LIMIT:
+        raise Unsupported(
+            f"{where}: `rate` {float(prop.rate)!r} Hz is below one sample in 18 years"
+        )
     bound = changes_bound(Fraction(TICKS_PER_SECOND, period), formula.horizon)
     return prop.name, prop.text, sized(formula, bound), period
 
@@ -228,8 +233,9 @@ def memory_bytes(system: CSystem) -> int:
     bits = sum((SETS + 2 * BATCH) * p.words for p in system.properties)
     scratch = max(scratch_size(p.formula) for p in system.properties)
     run = 96  # sizeof(rmv_run) is 88 on LP64 targets
-    return (padded(run * count) + padded(4 * nodes) + padded(8 * pool) + 2 * padded(pool)
-            + padded(4 * bits) + padded(8 * BATCH * count) + padded(8 * scratch) + 16)  # fmt: skip
+    tail = 40  # the callback, its context, the base time and the counters
+    arrays = padded(4 * nodes) + padded(8 * pool) + 2 * padded(pool) + padded(4 * bits)
+    return padded(run * count) + arrays + padded(8 * BATCH * count) + padded(8 * scratch) + tail
 
 
 def files(system: CSystem, source: str = "") -> dict[str, str]:

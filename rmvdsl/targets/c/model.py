@@ -9,12 +9,16 @@ compute exactly is refused here, with the reason, never approximated."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import Any
 
 TICKS_PER_SECOND = 2_000_000_000  # half nanoseconds: midpoints of breakpoints are whole
 BATCH = 32  # changes held before the nodes are recomputed (or once they span the horizon)
+# The C monitor counts ticks from its first sample in int64 and takes samples within
+# 2^61 ticks of it (RMV_SPAN_NS): every bound, window, constant and horizon stays
+# within 2^60 ticks (18 years), so no sum of them overflows.
+LIMIT = 1 << 60
 SETS = 8  # the engine's bit sets of one property (B_SETS in templates/property.c.inc)
 SLACK = 6  # the breakpoint at a signal's start, its unknown tail, the one kept at a cut
 
@@ -71,6 +75,8 @@ def ticks(seconds: Any, what: str) -> int:
     exact = Fraction(seconds) * TICKS_PER_SECOND
     if exact.denominator != 1 or exact % 2:
         raise Unsupported(f"{what} {float(seconds)!r} s is not a whole number of nanoseconds")
+    if abs(exact) > LIMIT:
+        raise Unsupported(f"{what} {float(seconds)!r} s is longer than the C monitor's 18 years")
     return int(exact)
 
 
@@ -94,6 +100,8 @@ def compile_formula(formula: Any) -> Formula:
             continue
         index = _add(item, [done[id(c)] for c in children], nodes, props, prop_nodes)
         done[id(item)] = index
+    if any(n.future + n.past > LIMIT for n in nodes):
+        raise Unsupported("the formula looks further ahead and back than the C monitor's 18 years")
     root = nodes[done[id(formula)]]
     if done[id(formula)] != len(nodes) - 1:  # a shared proposition came last: the root goes last
         nodes.append(root)
@@ -242,7 +250,7 @@ def sized(formula: Formula, changes: int) -> Formula:
     out, offset = [], 0
     for node in formula.nodes:
         cap = 2 if node.kind == "const" else node.weight * per_copy + SLACK
-        out.append(_replace(node, offset=offset, cap=cap))
+        out.append(replace(node, offset=offset, cap=cap))
         offset += cap
     return Formula(tuple(out), formula.propositions, formula.future, formula.past)
 
@@ -265,9 +273,3 @@ def scratch_size(formula: Formula) -> int:
         elif node.kind == "cmp":
             need = max(need, 12 * formula.nodes[node.left].cap + 8)  # the result, points, crossings
     return need
-
-
-def _replace(node: Node, **changes: Any) -> Node:
-    from dataclasses import replace
-
-    return replace(node, **changes)

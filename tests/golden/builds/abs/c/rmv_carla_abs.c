@@ -546,6 +546,7 @@ typedef struct {
     int32_t property;
     void (*on_verdict)(void *context, int32_t property, const rmv_segment *segment);
     void *context;
+    int64_t base;            /* ns: the time of tick 0, the system's first sample */
 } rmv_view;
 
 static uint32_t *rmv_set(const rmv_view *v, int32_t which) {
@@ -573,7 +574,7 @@ static void rmv_copy(uint32_t *to, const uint32_t *from, int32_t words) {
     memmove(to, from, (size_t)words * sizeof to[0]);  /* the same set at times */
 }
 
-static int64_t rmv_ns(int64_t ticks) { return ticks / 2; }
+static int64_t rmv_ns(const rmv_view *v, int64_t ticks) { return v->base + ticks / 2; }
 
 /* Report a merged verdict segment and remember it as the current verdict. */
 static void rmv_report(const rmv_view *v, const rmv_segment *segment) {
@@ -606,7 +607,7 @@ static void rmv_finish(const rmv_view *v, rmv_emission *e, int final) {
         return;
     }
     rmv_report(v, &e->pending);
-    v->run->emitted = 2 * e->pending.to_ns;
+    v->run->emitted = 2 * (e->pending.to_ns - v->base);
     v->run->emitted_point = e->pending.to_closed;
     e->has = 0;
 }
@@ -615,17 +616,17 @@ static void rmv_piece(const rmv_view *v, rmv_emission *e, int64_t a, int64_t b, 
                       int b_closed, uint8_t value, int final) {
     rmv_segment *p = &e->pending;
     if (e->stopped) return;
-    if (e->has && p->value == (rmv_verdict)value && p->to_ns == rmv_ns(a)
+    if (e->has && p->value == (rmv_verdict)value && p->to_ns == rmv_ns(v, a)
         && (p->to_closed || a_closed)) {
-        p->to_ns = rmv_ns(b);
+        p->to_ns = rmv_ns(v, b);
         p->to_closed = (uint8_t)b_closed;
         return;
     }
     if (!(a < b || (a_closed && b_closed))) return;
     rmv_finish(v, e, final);
     if (e->stopped) return;
-    p->from_ns = rmv_ns(a);
-    p->to_ns = rmv_ns(b);
+    p->from_ns = rmv_ns(v, a);
+    p->to_ns = rmv_ns(v, b);
     p->from_closed = (uint8_t)a_closed;
     p->to_closed = (uint8_t)b_closed;
     p->value = (rmv_verdict)value;
@@ -723,8 +724,8 @@ static void rmv_overflowed(const rmv_view *v) {
     run->overflow = 0;
     run->overflows++;
     if (run->known > run->emitted || !run->emitted_point) {
-        lost.from_ns = rmv_ns(run->emitted);
-        lost.to_ns = rmv_ns(run->known);
+        lost.from_ns = rmv_ns(v, run->emitted);
+        lost.to_ns = rmv_ns(v, run->known);
         lost.from_closed = (uint8_t)!run->emitted_point;
         lost.to_closed = 0;
         lost.value = RMV_UNKNOWN;
@@ -791,9 +792,11 @@ static void rmv_instant(const rmv_view *v, int64_t t) {
         rmv_sample(v, t, rmv_set(v, B_IN), rmv_set(v, B_IN_PULSES));
         return;
     }
-    if (!run->opened) {
+    if (!run->opened) {  /* ticks at whole multiples of the period since time 0 */
+        int64_t ns = rmv_ns(v, t), every = period / 2;
+        int64_t first = ns >= 0 ? (ns / every + (ns % every != 0)) * every : ns / every * every;
         run->opened = 1;
-        run->next_tick = t >= 0 ? (t + period - 1) / period * period : t / period * period;
+        run->next_tick = 2 * (first - v->base);
     }
     rmv_ticks_before(v, t);
     rmv_copy(rmv_set(v, B_TRUTH), rmv_set(v, B_IN), words);
@@ -893,7 +896,23 @@ static rmv_view rmv_view_of(rmv_carla_abs_monitor *m, int32_t property) {
     v.property = property;
     v.on_verdict = m->on_verdict;
     v.context = m->context;
+    v.base = m->base;
     return v;
+}
+
+/* A time in ticks from the first sample; 0 when it is out of the span (counted). */
+static int rmv_ticks_of(rmv_carla_abs_monitor *m, int64_t time_ns, int64_t *ticks) {
+    if (!m->based) {
+        m->base = time_ns;
+        m->based = 1;
+    }
+    if ((time_ns >= m->base && time_ns - m->base > RMV_SPAN_NS)
+        || (time_ns < m->base && m->base - time_ns > RMV_SPAN_NS)) {
+        m->rejected++;
+        return 0;
+    }
+    *ticks = 2 * (time_ns - m->base);
+    return 1;
 }
 
 void rmv_carla_abs_init(rmv_carla_abs_monitor *monitor, rmv_on_verdict on_verdict, void *context) {
@@ -905,13 +924,14 @@ void rmv_carla_abs_init(rmv_carla_abs_monitor *monitor, rmv_on_verdict on_verdic
 void rmv_carla_abs_step(rmv_carla_abs_monitor *monitor, const rmv_carla_abs_input *input,
                       int64_t time_ns) {
     int32_t property, k;
+    int64_t t;
+    if (!rmv_ticks_of(monitor, time_ns, &t)) return;
     for (property = 0; property < RMV_CARLA_ABS_PROPERTIES; property++) {
         const rmv_property *def = &PROPERTIES[property];
         const int32_t *indexes = PROPOSITIONS + def->prop_first;
         rmv_run *run = &monitor->run[property];
         uint32_t *sets = monitor->bits + def->bits_offset;
         uint32_t *in = sets + B_IN * def->words, *in_pulses = sets + B_IN_PULSES * def->words;
-        int64_t t = 2 * time_ns;
         rmv_view v;
         /* the common case, a sample that repeats the state: time passes, no more */
         if (!def->period && run->started && t >= run->known) {
@@ -938,17 +958,21 @@ void rmv_carla_abs_step(rmv_carla_abs_monitor *monitor, const rmv_carla_abs_inpu
 
 void rmv_carla_abs_advance(rmv_carla_abs_monitor *monitor, int64_t time_ns) {
     int32_t property;
+    int64_t t;
+    if (!monitor->based || !rmv_ticks_of(monitor, time_ns, &t)) return;
     for (property = 0; property < RMV_CARLA_ABS_PROPERTIES; property++) {
         rmv_view v = rmv_view_of(monitor, property);
-        rmv_advance_to(&v, 2 * time_ns);
+        rmv_advance_to(&v, t);
     }
 }
 
 void rmv_carla_abs_end(rmv_carla_abs_monitor *monitor, int64_t time_ns) {
     int32_t property;
+    int64_t t;
+    if (!monitor->based || !rmv_ticks_of(monitor, time_ns, &t)) return;
     for (property = 0; property < RMV_CARLA_ABS_PROPERTIES; property++) {
         rmv_view v = rmv_view_of(monitor, property);
-        rmv_finish_at(&v, 2 * time_ns);
+        rmv_finish_at(&v, t);
     }
 }
 
@@ -956,7 +980,7 @@ rmv_verdict rmv_carla_abs_verdict(const rmv_carla_abs_monitor *monitor, int32_t 
                          int64_t *since_ns) {
     const rmv_run *run = &monitor->run[property];
     if (!run->has_current) {
-        if (since_ns) *since_ns = run->start / 2;
+        if (since_ns) *since_ns = monitor->base + run->start / 2;
         return RMV_UNKNOWN;
     }
     if (since_ns) *since_ns = run->current.from_ns;
@@ -970,6 +994,8 @@ uint32_t rmv_carla_abs_late(const rmv_carla_abs_monitor *monitor, int32_t proper
 uint32_t rmv_carla_abs_overflows(const rmv_carla_abs_monitor *monitor, int32_t property) {
     return monitor->run[property].overflows;
 }
+
+uint32_t rmv_carla_abs_rejected(const rmv_carla_abs_monitor *monitor) { return monitor->rejected; }
 
 const char *rmv_carla_abs_property_name(int32_t property) { return PROPERTY_NAMES[property]; }
 

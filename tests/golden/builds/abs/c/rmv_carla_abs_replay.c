@@ -309,5 +309,9 @@ int main(void) {
             printf(", \"value\": %lu}\n", (unsigned long)rmv_carla_abs_overflows(&monitor, property));
         }
     }
+    if (rmv_carla_abs_rejected(&monitor)) {
+        printf("{\"kind\": \"counter\", \"name\": \"rejected: further than RMV_SPAN_NS from"
+               " the first sample\", \"value\": %lu}\n", (unsigned long)rmv_carla_abs_rejected(&monitor));
+    }
     return any_false;
 }
