@@ -225,3 +225,18 @@ def test_the_generated_makefile_and_cmake_build_the_driver(tmp_path: Path) -> No
         subprocess.run(["cmake", "-S", str(out), "-B", str(build)], check=True, capture_output=True)
         subprocess.run(["cmake", "--build", str(build)], check=True, capture_output=True)
         assert (build / "rmv_carla_abs_replay").exists()
+
+
+def test_a_sample_beyond_the_span_is_counted_not_used(tmp_path: Path) -> None:
+    """Times count from the first sample in int64: one 73 years later would
+    overflow the arithmetic, so it is counted and left out, never wrapped."""
+    formula = ("until", "<=", Fraction(2), ("const", True), ("prop", "x"))
+    write(files(laid_out("span", [("P", "e", sized(compile_formula(formula), 8), 0)])), tmp_path)
+    far = Fraction(2**61, NS)
+    lines = [sample_line(Fraction(0), {"x"}), sample_line(far, set()), end_line(far + 1)]
+    status, records, errors = run_driver(compile_driver(tmp_path, sanitize=True), lines)
+    assert status == 0, errors
+    counters = [r for r in records if r["kind"] == "counter"]
+    assert counters and counters[0]["value"] == 2 and "rejected" in counters[0]["name"]
+    # x held from 0 on, as far as the input is known: to the span's end
+    assert segments_by_property(records) == {"P": [(0, Fraction(2**60, NS), True, False, "true")]}

@@ -956,7 +956,11 @@ void rmv_prius_platoon_advance(rmv_prius_platoon_monitor *monitor, int64_t time_
 void rmv_prius_platoon_end(rmv_prius_platoon_monitor *monitor, int64_t time_ns) {
     int32_t property;
     int64_t t;
-    if (!monitor->based || !rmv_ticks_of(monitor, time_ns, &t)) return;
+    if (!monitor->based) return;
+    if (!rmv_ticks_of(monitor, time_ns, &t)) {
+        if (time_ns < monitor->base) return;
+        t = 2 * RMV_SPAN_NS;  /* the input is known to the span's end: decide up to there */
+    }
     for (property = 0; property < RMV_PRIUS_PLATOON_PROPERTIES; property++) {
         rmv_view v = rmv_view_of(monitor, property);
         rmv_finish_at(&v, t);
