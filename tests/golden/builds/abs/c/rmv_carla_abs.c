@@ -766,7 +766,10 @@ static void rmv_sample(const rmv_view *v, int64_t t, const uint32_t *state,
     rmv_copy(rmv_held_pulses(v, run->changes), pulses, words);
     run->changes++;
     rmv_copy(rmv_set(v, B_STATE), state, words);
-    if (run->changes == v->batch || t - run->written > v->def->horizon) rmv_flush(v, 0);
+    /* Decide once 32 changes are held or they span 4 horizons (a recomputation
+     * re-reads a horizon before them: batches pay that once for many changes);
+     * a host's timer calls advance() to decide in silence. */
+    if (run->changes == v->batch || t - run->written > 4 * v->def->horizon) rmv_flush(v, 0);
 }
 
 /* A property sampled at a rate: samples at its clock's ticks before `bound`, of the
