@@ -35,7 +35,9 @@ from bench_monitor import (
     FORMULAS,
     REELAY,
     VARIABLES,
+    Disagreement,
     change_points,
+    compare_dense,
     compiled,
     generate,
     reelay,
@@ -111,10 +113,6 @@ int main(int argc, char **argv) {
 }
 """
 NAMES = {0: "false", 1: "unknown", 2: "true"}
-
-
-class Disagreement(Exception):
-    pass
 
 
 def build_harness(folder: Path, formula: Any) -> tuple[Path, list[str], int]:
@@ -213,22 +211,6 @@ def peak_rss_kb(program: Path, data: Path, monitored: bool) -> int:
     raise RuntimeError("no peak memory in /usr/bin/time -v's report")
 
 
-def same_false(ours: list, reelay_out: Any, end: int) -> bool:
-    """reelay's dense verdicts against the C monitor's on the open intervals between
-    change points (reelay's output cannot show points)."""
-    times, values, _ = steps_of_segments(ours)
-    theirs = [(float(o["time"]), o["value"]) for o in reelay_out]
-    for (t, value), following in zip(
-        theirs, [*[x for x, _ in theirs[1:]], float(end)], strict=True
-    ):
-        middle = (t + following) / 2
-        for a, b, _, _, verdict in ours:
-            if float(a) < middle < float(b) and (verdict == "true") != value:
-                return False
-    del times, values
-    return True
-
-
 def section(name: str, trace: list[tuple[int, str]], repeat: int, folder: Path) -> dict[str, Any]:
     formula = compiled(name)
     end = trace[-1][0] + 1
@@ -250,8 +232,8 @@ def section(name: str, trace: list[tuple[int, str]], repeat: int, folder: Path) 
         }
         if mode == "per change" and name in REELAY and reelay is not None:
             r_seconds, r_out = run_reelay(REELAY[name], samples, end, repeat)
-            if not same_false(c_segments, r_out, end):
-                raise Disagreement(f"{name}: the C monitor and reelay differ")
+            reelay_steps = ([float(o["time"]) for o in r_out], [o["value"] for o in r_out], end)
+            compare_dense({"rmvdsl": steps_of_segments(c_segments), "reelay": reelay_steps}, {})
             entry["reelay_per_s"] = len(samples) / r_seconds
             entry["c_over_reelay"] = r_seconds / c_seconds
         row[mode] = entry

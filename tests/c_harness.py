@@ -74,12 +74,14 @@ def end_line(t: Fraction) -> str:
     return f'{{"t": {exact_text(Fraction(t))}, "end": true}}'
 
 
-def monitor_segments(formula: Any, samples: Sequence[tuple[Fraction, frozenset[str]]],
-                     end: Fraction) -> list[tuple]:  # fmt: skip
-    """The Python monitor's merged verdict segments over samples (as rmv eval runs it)."""
+def monitor_segments(
+    formula: Any, samples: Sequence[tuple[Any, ...]], end: Fraction
+) -> list[tuple]:
+    """The Python monitor's merged verdict segments over samples (time, state) or
+    (time, state, pulses), as rmv eval runs it."""
     monitor = Monitor(formula)
-    for t, state in samples:
-        monitor.step(t, state)
+    for t, state, *pulses in samples:
+        monitor.step(t, state, *pulses)
     monitor.end(end)
     return merge(monitor.verdicts())
 

@@ -6,7 +6,6 @@ spec declares it."""
 
 from __future__ import annotations
 
-import shutil
 import subprocess
 from fractions import Fraction
 from pathlib import Path
@@ -188,8 +187,6 @@ def test_two_systems_and_two_monitors_share_one_program(language: str, tmp_path:
                        check=True)  # fmt: skip
     cxx = [compiler()] if language == "c" else ["g++", "-std=c++11", "-Wall", "-Wextra", "-Werror"]
     program = tmp_path / "main"
-    if language == "c++" and not shutil.which("g++"):
-        pytest.skip("no g++")
     subprocess.run([*cxx, "-o", str(program), str(main), *objects], check=True)
     out = subprocess.run([str(program)], capture_output=True, text=True, check=True).stdout
     got: dict[tuple[str, int], list] = {}
@@ -215,28 +212,12 @@ def test_the_generated_makefile_and_cmake_build_the_driver(tmp_path: Path) -> No
     subprocess.run(["rmv", "build", "--target", "c", str(spec), "-o", str(out)], check=True,
                    capture_output=True)  # fmt: skip
     line = sample_line(Fraction(0), {"Cruising"}) + "\n" + end_line(Fraction(30)) + "\n"
-    if shutil.which("make"):
-        subprocess.run(["make", "-s", "-C", str(out)], check=True, capture_output=True)
-        done = subprocess.run([str(out / "rmv_carla_abs_replay")], input=line, text=True,
-                              capture_output=True)  # fmt: skip
-        assert done.returncode == 0 and '"property": "ABSCheck"' in done.stdout, done.stderr
-    if shutil.which("cmake"):
-        build = tmp_path / "cmake"
-        subprocess.run(["cmake", "-S", str(out), "-B", str(build)], check=True, capture_output=True)
-        subprocess.run(["cmake", "--build", str(build)], check=True, capture_output=True)
-        assert (build / "rmv_carla_abs_replay").exists()
-
-
-def test_a_sample_beyond_the_span_is_counted_not_used(tmp_path: Path) -> None:
-    """Times count from the first sample in int64: one 73 years later would
-    overflow the arithmetic, so it is counted and left out, never wrapped."""
-    formula = ("until", "<=", Fraction(2), ("const", True), ("prop", "x"))
-    write(files(laid_out("span", [("P", "e", sized(compile_formula(formula), 8), 0)])), tmp_path)
-    far = Fraction(2**61, NS)
-    lines = [sample_line(Fraction(0), {"x"}), sample_line(far, set()), end_line(far + 1)]
-    status, records, errors = run_driver(compile_driver(tmp_path, sanitize=True), lines)
-    assert status == 0, errors
-    counters = [r for r in records if r["kind"] == "counter"]
-    assert counters and counters[0]["value"] == 2 and "rejected" in counters[0]["name"]
-    # x held from 0 on, as far as the input is known: to the span's end
-    assert segments_by_property(records) == {"P": [(0, Fraction(2**60, NS), True, False, "true")]}
+    # make, cmake and g++ are .ci/run's (ROS 2's message packages need them too)
+    subprocess.run(["make", "-s", "-C", str(out)], check=True, capture_output=True)
+    done = subprocess.run([str(out / "rmv_carla_abs_replay")], input=line, text=True,
+                          capture_output=True)  # fmt: skip
+    assert done.returncode == 0 and '"property": "ABSCheck"' in done.stdout, done.stderr
+    build = tmp_path / "cmake"
+    subprocess.run(["cmake", "-S", str(out), "-B", str(build)], check=True, capture_output=True)
+    subprocess.run(["cmake", "--build", str(build)], check=True, capture_output=True)
+    assert (build / "rmv_carla_abs_replay").exists()

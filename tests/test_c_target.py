@@ -97,13 +97,7 @@ def python_segments(
     """The verdicts the Python runtime gives: the monitor fed every sample (as
     `rmv eval` does), or the property monitor sampling at a rate (as `rmv replay`)."""
     if not period_ns:
-        from rmvdsl.runtime.rmtld3 import Monitor
-
-        monitor = Monitor(formula)
-        for t, state, pulses in trace:
-            monitor.step(t, state, pulses)
-        monitor.end(end)
-        return merge(monitor.verdicts())
+        return monitor_segments(formula, trace, end)
     prop = SimpleNamespace(
         formula=formula, propositions=tuple(names), trigger="always",
         rate=Fraction(NS, period_ns), horizon_future=0, horizon_past=0,
