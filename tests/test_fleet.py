@@ -96,12 +96,26 @@ def test_a_dask_cluster_gives_the_sequential_results(runs, sequential):
         env = {**os.environ, "RMV_DASK_SCHEDULER": address}
         named = rmv_process(["replay", "spec.rmv", "runs/run000*", "--dask", "--quiet"],
                             cwd=runs, env=env)  # fmt: skip
+        # Each 4 s recording in four 1 s chunks, a task each.
+        chunked = rmv_process(["replay", "spec.rmv", "runs/run000*", "--scheduler", address,
+                               "--chunk", "1", "--format", "jsonl", "--quiet"],
+                              cwd=runs)  # fmt: skip
     finally:
         cluster.communicate("", timeout=60)
     assert {k: _comparable(v) for k, v in _results(found.out).items()} == {
         k: _comparable(v) for k, v in sequential.items()
     }
     assert named.code in (0, 1) and "10 recordings of 10 replayed" in named.out, named.err
+    joined = _results(chunked.out)
+    assert len(joined) == 10 and {r["chunks"] for r in joined.values()} == {4}, chunked.err
+    for name, result in joined.items():
+        whole = sequential[name]
+        texts = [sorted(json.dumps(r) for r in records)
+                 for records in (result.pop("records"), whole["records"])]  # fmt: skip
+        assert texts[0] == texts[1]
+        assert {k: result[k] for k in ("status", "violations", "messages")} == {
+            k: whole[k] for k in ("status", "violations", "messages")
+        }
 
 
 def _children(pid: int) -> list[int]:

@@ -155,6 +155,7 @@ reached (the message says what was applied before), 2 usage or I/O problem""",
   rmv replay examples/carla/abs.rmv examples/carla/recordings/braking_mcap --format jsonl
   rmv replay spec.rmv run.bag --from +10 --to +60 --report timeline.html
   rmv replay spec.rmv runs/ --jobs 4 --report fleet.html      (one result per recording)
+  rmv replay spec.rmv long.mcap --chunk 10m                   (its chunks in parallel)
 exit codes: 0 every property held and no intrusion, 1 a violation or an intrusion (or the
 spec has errors), 2 usage or I/O problem, or a recording that does not match the spec
 (a topic missing or of another type, a field missing, damaged or late messages)""",
@@ -199,6 +200,11 @@ spec has errors), 2 usage or I/O problem, or a recording that does not match the
     fleet.add_argument(
         "--timeout", type=_duration, metavar="SECONDS",
         help="give up on a recording after SECONDS (retried once, then reported failed)",
+    )  # fmt: skip
+    fleet.add_argument(
+        "--chunk", type=_chunk, metavar="DURATION",
+        help="replay a recording longer than DURATION (600, 90s, 10m, 1h) in chunks that "
+        "long, in parallel, joined into exactly one run's result",
     )  # fmt: skip
     fleet.add_argument(
         "--quiet", action="store_true", help="no progress on standard error"
@@ -381,6 +387,23 @@ def _seconds_up_to(most: float | None) -> Callable[[str], float]:
         return value
 
     return seconds
+
+
+_UNITS = {"ms": 10**6, "s": 10**9, "m": 60 * 10**9, "h": 3600 * 10**9}
+
+
+def _chunk(text: str) -> int:
+    """A --chunk: a duration (seconds, or with ms, s, m or h), at least 1 ms; in ns."""
+    import re
+    from fractions import Fraction
+
+    match = re.fullmatch(r"(\d+(?:\.\d+)?)(ms|s|m|h)?", text.strip())
+    value = Fraction(match.group(1)) * _UNITS[match.group(2) or "s"] if match else 0
+    if value < 10**6:
+        raise argparse.ArgumentTypeError(
+            f"{text}: give a duration of at least 1 ms: seconds (600) or 500ms, 90s, 10m, 1h"
+        )
+    return int(value)
 
 
 _seconds = _seconds_up_to(3600)  # a solver call's

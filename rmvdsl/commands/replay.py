@@ -32,7 +32,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"rmv replay: {args.spec}: {counted(len(result.errors), 'error')}", file=sys.stderr)
         return EXIT_ERRORS
     scheduler = fleet.scheduler_of(args.scheduler, args.dask)
-    if not args.merge and fleet.is_fleet(args.recordings, scheduler):
+    if args.merge and args.chunk is not None:
+        raise UsageError("--chunk replays each recording on its own: leave out --merge")
+    if not args.merge and fleet.is_fleet(args.recordings, scheduler, args.chunk):
         return _fleet(args, lower(result), scheduler)
     progress = replay.progress_bar() if sys.stderr.isatty() and not args.quiet else None
     try:
@@ -60,5 +62,6 @@ def _fleet(args: argparse.Namespace, spec: Any, scheduler: str | None) -> int:
         raise UsageError("--run-actions runs one recording's actions: give one recording")
     options = fleet.Options(start=args.start, stop=args.stop, timeout=args.timeout)
     settings = fleet.Settings(output=args.format, jobs=args.jobs, scheduler=scheduler,
-                              report=args.report, quiet=args.quiet, options=options)  # fmt: skip
+                              report=args.report, quiet=args.quiet, options=options,
+                              chunk=args.chunk)  # fmt: skip
     return fleet.run(spec, args.recordings, sys.stdout, settings)

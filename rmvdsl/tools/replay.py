@@ -28,6 +28,10 @@ from rmvdsl.runtime.engine import (
 from rmvdsl.runtime.wording import counted
 from rmvdsl.tools.report.text import decimal_text, text_line
 
+# A chunk's hook at a seam: (seam, runtime, the graph's endpoints seen, messages read)
+# -> whether the run stops there.
+AtSeam = Callable[[int, Runtime, set[Endpoint], int], bool]
+
 
 class ReplayError(Exception):
     """A recording that cannot be read at all (the CLI exits 2)."""
@@ -170,7 +174,7 @@ def decoder(reader: Any) -> Callable[[Any, bytes], Any]:
     return decode
 
 
-def _time(text: str | None, start: int) -> int | None:
+def window_time(text: str | None, start: int) -> int | None:
     """`--from`/`--to`: seconds on the recording's clock, or `+N` after its start."""
     if text is None:
         return None
@@ -191,8 +195,17 @@ def replay(
     stop: str | None = None,
     record: Sequence[str] = ("state", "event"),
     progress: Callable[[int, int], None] | None = None,
+    read_from: int | None = None,
+    seams: Sequence[int] = (),
+    at_seam: AtSeam | None = None,
 ) -> Iterator[Record]:
-    """Every record of the spec over the recordings, as it is decided."""
+    """Every record of the spec over the recordings, as it is decided.
+
+    A chunk of a long recording (rmvdsl.tools.fleet.sections) starts reading at
+    `read_from` (ns, the recording's clock) and names `seams`: before the first
+    message at or after each, everything the input decides is given out and
+    `at_seam(seam, runtime, endpoints, messages)` runs; when it returns True the
+    run stops there, without ending the input."""
     reader = open_reader(paths, spec)
     try:
         found = plan(spec, reader)
@@ -203,7 +216,10 @@ def replay(
             }  # fmt: skip
         runtime = Runtime(spec, host, record=record, skip=found.skipped_variables)
         runtime.counters.update(found.skipped_messages)
-        low, high = _time(start, reader.start_time), _time(stop, reader.start_time)
+        low, high = window_time(start, reader.start_time), window_time(stop, reader.start_time)
+        if read_from is not None:
+            low = read_from
+        upcoming = list(seams)
         endpoints: set[Endpoint] = set()
         seen_connections: set[tuple[int, int]] = set()
         read = {key(c) for c in found.connections}
@@ -218,6 +234,12 @@ def replay(
         for connection, timestamp, raw in reader.messages(
             connections=connections, start=low, stop=high
         ):
+            while upcoming and timestamp >= upcoming[0]:
+                runtime.decide()
+                yield from runtime.records()
+                assert at_seam is not None
+                if at_seam(upcoming.pop(0), runtime, endpoints, done):
+                    return
             if key(connection) not in seen_connections:
                 seen_connections.add(key(connection))
                 caller = getattr(connection.ext, "callerid", None)
@@ -236,6 +258,12 @@ def replay(
             if progress is not None and done % 2000 == 0:
                 progress(done, total)
             yield from runtime.records()
+        for seam in upcoming:  # after the last message
+            runtime.decide()
+            yield from runtime.records()
+            assert at_seam is not None
+            if at_seam(seam, runtime, endpoints, done):
+                return
         # rosbags' end_time is one nanosecond after the newest message.
         runtime.end(high if high is not None else reader.end_time - 1)
         if progress is not None:

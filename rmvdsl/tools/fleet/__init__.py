@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import os
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
@@ -17,6 +18,7 @@ from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.wording import counted
 from rmvdsl.tools.fleet.paths import is_search, recordings
 from rmvdsl.tools.fleet.progress import Progress
+from rmvdsl.tools.fleet.sections import Job, Joined, plan
 from rmvdsl.tools.fleet.summary import FleetSummary
 from rmvdsl.tools.fleet.worker import Options as Options
 from rmvdsl.tools.fleet.worker import replay_one
@@ -34,12 +36,14 @@ class Settings:
     report: str | None = None
     quiet: bool = False
     options: Options = field(default_factory=Options)
+    chunk: int | None = None  # ns: a longer recording is replayed in chunks
 
 
-def is_fleet(arguments: list[str], scheduler: str | None) -> bool:
-    """Several recordings, a folder to search or a pattern (or a cluster): one
-    result per recording. One recording alone keeps its records' output."""
-    return len(arguments) > 1 or scheduler is not None or any(is_search(a) for a in arguments)
+def is_fleet(arguments: list[str], scheduler: str | None, chunk: int | None = None) -> bool:
+    """Several recordings, a folder to search or a pattern (or a cluster, or chunks):
+    one result per recording. One recording alone keeps its records' output."""
+    return (len(arguments) > 1 or scheduler is not None or chunk is not None
+            or any(is_search(a) for a in arguments))  # fmt: skip
 
 
 def scheduler_of(given: str | None, dask: bool) -> str | None:
@@ -77,28 +81,35 @@ def run(spec: ir.Spec, arguments: list[str], out: TextIO, settings: Settings) ->
     progress = Progress(stream, len(paths), sys.stderr.isatty())
     printer = _Printer(out, settings.output, progress)
 
-    def done(index: int, result: dict[str, Any]) -> None:
+    def recording_done(index: int, result: dict[str, Any]) -> None:
         result["path"] = shown[index]
         results[index] = result
         summary.add(result)
         printer.result(result)
-        progress.finished(result["messages"])
+        if "chunks" in result:  # its messages and chunks were counted as they came
+            progress.finished(0, units=0)
+        else:
+            progress.finished(result["messages"])
 
+    work = Work(spec, paths, settings, recording_done, progress)
     interrupted = False
     try:
         if client is not None:
             from rmvdsl.tools.fleet.cluster import run_on_cluster
 
             with client:
-                run_on_cluster(client, spec_json, settings.options, paths, done)
-        elif _in_process(settings, len(paths)):
-            for index, path in enumerate(paths):
-                done(index, replay_one(spec_json, path, settings.options))
+                run_on_cluster(client, spec_json, settings.options, work.jobs, work.done)
+        elif _in_process(settings, len(work.jobs)):
+            index = 0
+            while index < len(work.jobs):  # grows as sections are joined
+                work.jobs.extend(work.done(index, replay_one(spec_json, work.jobs[index],
+                                                             settings.options)))  # fmt: skip
+                index += 1
         else:
             from rmvdsl.tools.fleet.local import LocalPool
 
             jobs = settings.jobs or os.cpu_count() or 1
-            LocalPool(spec_json, jobs, settings.options).run(paths, done)
+            LocalPool(spec_json, jobs, settings.options).run(work.jobs, work.done)
     except KeyboardInterrupt:
         interrupted = True
     finished = [r for r in results if r is not None]
@@ -108,6 +119,49 @@ def run(spec: ir.Spec, arguments: list[str], out: TextIO, settings: Settings) ->
 
         Path(settings.report).write_text(page(spec, finished, summary), encoding="utf-8")
     return INTERRUPTED if interrupted else summary.exit_code()
+
+
+class Work:
+    """The jobs: a recording each, or with --chunk the sections of a long one, whose
+    results are joined (sections.py) before the recording's result is given."""
+
+    def __init__(self, spec: ir.Spec, paths: list[str], settings: Settings,
+                 recording_done: Callable[[int, dict[str, Any]], None],
+                 progress: Progress) -> None:  # fmt: skip
+        self.progress = progress
+        self.jobs: list[Job] = []
+        self.owner: list[int] = []  # each job's recording
+        self.joins: dict[int, Joined] = {}  # recording -> its sections' join
+        self.recording_done = recording_done
+        options = settings.options
+        for index, path in enumerate(paths):
+            sections = [] if settings.chunk is None else plan(
+                path, spec, settings.chunk, options.start, options.stop)  # fmt: skip
+            if sections:
+                self.joins[index] = Joined(path, sections)
+            jobs = [Job(path, section) for section in sections] or [Job(path)]
+            self.jobs.extend(jobs)
+            self.owner.extend(index for _ in jobs)
+        progress.units = len(self.jobs)
+        progress.chunked = bool(self.joins)
+
+    def done(self, index: int, result: dict[str, Any]) -> list[Job]:
+        """A job's result: the recording's when whole; the jobs it makes necessary."""
+        recording = self.owner[index]
+        join = self.joins.get(recording)
+        if join is None:
+            self.recording_done(recording, result)
+            return []
+        first_wave = any(self.jobs[index].section is s for s in join.sections)
+        if first_wave and "section" in result:
+            messages = result["section"]["section_messages"]
+            self.progress.finished(messages, recordings=0)
+        more = join.add(self.jobs[index], result)
+        self.owner.extend(recording for _ in more)
+        if join.result is not None:
+            del self.joins[recording]
+            self.recording_done(recording, join.result)
+        return more
 
 
 def _in_process(settings: Settings, count: int) -> bool:
@@ -159,4 +213,8 @@ def text_line(result: dict[str, Any]) -> str:
         parts.insert(0, counted(result["intrusions"], "intrusion"))
     if result["violations"]:
         parts.insert(0, counted(result["violations"], "violation"))
+    if "chunks" in result:
+        read_on = result["seams_read_past"]
+        past = f", read on past {counted(read_on, 'seam')}" if read_on else ""
+        parts.append(f"{result['chunks']} chunks{past}")
     return f"{status:<11} {path} ({', '.join(parts)})"

@@ -14,6 +14,7 @@ from collections.abc import Callable
 from typing import Any
 
 from rmvdsl.lang.errors import UsageError
+from rmvdsl.tools.fleet.sections import Job
 from rmvdsl.tools.fleet.worker import Options, failed, replay_one
 
 INSTALL = "pip install 'rmvdsl[fleet]'"
@@ -32,9 +33,10 @@ def client_for(address: str) -> Any:
         raise UsageError(f"--scheduler {address}: no Dask scheduler answers: {error}") from None
 
 
-def run_on_cluster(client: Any, spec_json: str, options: Options, paths: list[str],
-                   done: Callable[[int, dict[str, Any]], None]) -> None:  # fmt: skip
-    """Replay every path as a task; `done(index, result)` as each finishes."""
+def run_on_cluster(client: Any, spec_json: str, options: Options, jobs: list[Job],
+                   done: Callable[[int, dict[str, Any]], list[Job]]) -> None:  # fmt: skip
+    """Run every job as a task; `done(index, result)` as each finishes, which may
+    give more jobs (appended to `jobs`)."""
     from dask.distributed import as_completed
 
     run = uuid.uuid4().hex[:8]
@@ -45,11 +47,11 @@ def run_on_cluster(client: Any, spec_json: str, options: Options, paths: list[st
     def submit(index: int, attempt: int) -> Any:
         key = f"rmv-replay-{run}-{index}-{attempt}"
         index_of[key] = index
-        future = client.submit(replay_one, shipped, paths[index], options, key=key, pure=False)
+        future = client.submit(replay_one, shipped, jobs[index], options, key=key, pure=False)
         submitted.append(future)
         return future
 
-    futures = as_completed([submit(i, 1) for i in range(len(paths))])
+    futures = as_completed([submit(i, 1) for i in range(len(jobs))])
     retried: set[int] = set()
     try:
         for future in futures:
@@ -57,13 +59,15 @@ def run_on_cluster(client: Any, spec_json: str, options: Options, paths: list[st
             try:
                 result = future.result()
             except Exception as error:  # KilledWorker, or a worker without rmvdsl
-                result = failed(paths[index], f"{type(error).__name__}: {error}")
+                result = failed(jobs[index].path, f"{type(error).__name__}: {error}")
             if result.get("timed_out") and index not in retried:
                 retried.add(index)
                 futures.add(submit(index, 2))
                 continue
             if result.get("timed_out"):
                 result = {**result, "error": f"{result['error']}, twice"}
-            done(index, result)
+            for more in done(index, result):
+                jobs.append(more)
+                futures.add(submit(len(jobs) - 1, 1))
     finally:  # Ctrl-C: what has not run does not
         client.cancel([f for f in submitted if not f.done()])

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
 from typing import Any
 
+from rmvdsl.tools.fleet.sections import Job
 from rmvdsl.tools.fleet.worker import Options, failed
 from rmvdsl.util.processes import module_command
 
@@ -28,7 +29,7 @@ class _Worker:
     process: subprocess.Popen[bytes]
     jobs: Connection  # to the worker
     connection: Connection  # from the worker: its results
-    job: tuple[int, str] | None = None
+    job: tuple[int, Job] | None = None
     started: float = 0.0
 
     def alive(self) -> bool:
@@ -63,10 +64,11 @@ class LocalPool:
         worker.jobs.send((self.spec_json, self.options))
         return worker
 
-    def run(self, paths: list[str], done: Callable[[int, dict[str, Any]], None]) -> None:
-        """Replay every path; `done(index, result)` as each finishes."""
-        pending = deque(enumerate(paths))
-        tries = [0] * len(paths)
+    def run(self, jobs: list[Job], done: Callable[[int, dict[str, Any]], list[Job]]) -> None:
+        """Run every job; `done(index, result)` as each finishes, which may give more
+        jobs (they are appended to `jobs`)."""
+        pending = deque(enumerate(jobs))
+        tries = [0] * len(jobs)
         reasons: dict[int, str] = {}
         finished = [0]
 
@@ -75,18 +77,21 @@ class LocalPool:
             reason = result["error"] if result is not None and result.get("timed_out") else reason
             if reason and tries[index] < ATTEMPTS:
                 reasons[index] = reason
-                pending.appendleft((index, paths[index]))
+                pending.appendleft((index, jobs[index]))
                 return
             if reason:
-                result = result or failed(paths[index], reason)
+                result = result or failed(jobs[index].path, reason)
                 result["error"] = _twice(reasons.get(index, reason), reason)
             assert result is not None
-            done(index, result)
+            for more in done(index, result):
+                pending.append((len(jobs), more))
+                jobs.append(more)
+                tries.append(0)
             finished[0] += 1
 
-        self.workers = [self._start() for _ in range(min(self.jobs, len(paths)))]
+        self.workers = [self._start() for _ in range(min(self.jobs, len(jobs)))]
         try:
-            while finished[0] < len(paths):
+            while finished[0] < len(jobs):
                 for worker in self.workers:
                     if worker.job is None and pending:
                         worker.job = pending.popleft()

@@ -14,27 +14,37 @@ EVERY = 10.0  # seconds between plain lines
 
 
 class Progress:
-    def __init__(self, stream: TextIO | None, total: int, terminal: bool) -> None:
+    """`total` recordings, in `units` pieces of work (a recording each, or with
+    --chunk one per chunk of a long one)."""
+
+    def __init__(self, stream: TextIO | None, total: int, terminal: bool,
+                 units: int | None = None) -> None:  # fmt: skip
         self.stream = stream
         self.total = total
+        self.units = total if units is None else units
+        self.chunked = units is not None and units != total
         self.terminal = terminal
         self.began = time.monotonic()
         self.last_line = self.began
-        self.done = 0
+        self.done = 0  # recordings
+        self.units_done = 0
         self.messages = 0
 
-    def finished(self, messages: int) -> None:
-        """One more recording is done, having read `messages`."""
-        self.done += 1
+    def finished(self, messages: int, *, recordings: int = 1, units: int = 1) -> None:
+        """Recordings and units of work done, having read `messages`: a recording is
+        one of each; a chunk is a unit; a chunked recording, once joined, a recording."""
+        self.units_done += units
+        self.done += recordings
         self.messages += messages
         if self.stream is None:
             return
         now = time.monotonic()
+        last = self.done == self.total
         if self.terminal:
             self.stream.write("\r" + self.line(now))
-            if self.done == self.total:
+            if last:
                 self.stream.write("\n")
-        elif now - self.last_line >= EVERY or self.done == self.total:
+        elif now - self.last_line >= EVERY or last:
             self.last_line = now
             self.stream.write(f"rmv replay: {self.line(now)}\n")
         self.stream.flush()
@@ -47,11 +57,13 @@ class Progress:
     def line(self, now: float) -> str:
         elapsed = max(now - self.began, 1e-9)
         rate = self.messages / elapsed
-        left = elapsed / self.done * (self.total - self.done) if self.done else 0.0
-        filled = int(WIDTH * self.done / self.total) if self.total else WIDTH
+        share = min(self.units_done, self.units) / self.units if self.units else 1.0
+        left = elapsed / share * (1 - share) if share else 0.0
+        filled = int(WIDTH * share)
         bar = f"[{'#' * filled}{'.' * (WIDTH - filled)}] " if self.terminal else ""
         recordings = counted(self.total, "recording", grouped=True)
-        return (f"{bar}{self.done:,}/{recordings}, {rate:,.0f} msg/s, "
+        chunks = f" ({self.units_done:,}/{self.units:,} chunks)" if self.chunked else ""
+        return (f"{bar}{self.done:,}/{recordings}{chunks}, {rate:,.0f} msg/s, "
                 f"{_clock(elapsed)} elapsed, {_clock(left)} left")  # fmt: skip
 
 

@@ -1,7 +1,8 @@
 """A worker process of `rmv replay --jobs`: `python -m rmvdsl.tools.fleet.serve
-READ_FD WRITE_FD`. Reads the spec's JSON and the options once, then recordings;
-writes one result per recording; stops at end of input. Started by local.py as its
-own program (not a fork of the command, nor a re-run of its main module)."""
+READ_FD WRITE_FD`. Reads the spec's JSON and the options once, then jobs (a
+recording, or a section of one); writes one result per job; stops at end of input.
+Started by local.py as its own program (not a fork of the command, nor a re-run of
+its main module)."""
 
 from __future__ import annotations
 
@@ -18,10 +19,10 @@ def main(argv: list[str]) -> int:
     spec_json, options = incoming.recv()
     while True:
         try:
-            index, path = incoming.recv()
+            index, job = incoming.recv()
         except EOFError:
             return 0
-        outgoing.send((index, replay_one(spec_json, path, options)))
+        outgoing.send((index, replay_one(spec_json, job, options)))
 
 
 if __name__ == "__main__":

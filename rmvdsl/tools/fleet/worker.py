@@ -10,8 +10,8 @@ from pathlib import Path
 from typing import Any
 
 from rmvdsl.runtime import spec as ir
-from rmvdsl.runtime.engine import to_json
 from rmvdsl.tools import replay
+from rmvdsl.tools.fleet.sections import Job, replay_section, status_of, tally
 
 # What a result's `status` says, from worst to best.
 STATUSES = ("failed", "unreadable", "violations", "intrusions", "incomplete", "pass")
@@ -39,10 +39,12 @@ def spec_of(text: str) -> ir.Spec:
     return spec
 
 
-def replay_one(spec_json: str, path: str, options: Options) -> dict[str, Any]:
-    """The result of one recording: its path and status, what decided the status,
-    the messages read and the time taken, and its records as JSON texts (those
-    `rmv replay --format json` prints for it alone)."""
+def replay_one(spec_json: str, job: Job | str, options: Options) -> dict[str, Any]:
+    """The result of one recording (or of one section of it, `--chunk`): its path and
+    status, what decided the status, the messages read and the time taken, and its
+    records as JSON texts (those `rmv replay --format json` prints for it alone)."""
+    job = job if isinstance(job, Job) else Job(job)
+    path = job.path
     began = time.monotonic()
     deadline = None if options.timeout is None else began + options.timeout
     read = [0]
@@ -55,20 +57,15 @@ def replay_one(spec_json: str, path: str, options: Options) -> dict[str, Any]:
     result: dict[str, Any] = {"path": path}
     texts: list[str] = []
     counts = {"violations": 0, "intrusions": 0, "warnings": 0}
+    run_options = {"start": options.start, "stop": options.stop, "progress": progress}
     try:
         spec = spec_of(spec_json)
-        for record in replay.replay(
-            spec, [Path(path)], start=options.start, stop=options.stop, progress=progress
-        ):
-            kind = record["kind"]
-            if kind == "verdict" and record["verdict"] == "false":
-                counts["violations"] += 1
-            elif kind == "intrusion" and record["phase"] == "start":
-                counts["intrusions"] += 1
-            elif kind == "diagnostic":
-                counts["warnings"] += 1
-            if kind != "variable":
-                texts.append(to_json(record))
+        if job.section is not None:
+            result["section"] = replay_section(spec, path, job.section, run_options, read)
+            counts = result["section"]["counts"]
+        else:
+            for record in replay.replay(spec, [Path(path)], **run_options):  # type: ignore[arg-type]
+                tally(counts, texts, record)
     except TimedOut as why:
         result.update(status="failed", error=str(why), timed_out=True)
     except (replay.ReplayError, ValueError, ZeroDivisionError) as why:
@@ -80,14 +77,6 @@ def replay_one(spec_json: str, path: str, options: Options) -> dict[str, Any]:
     result.update(counts, messages=read[0], seconds=round(time.monotonic() - began, 3),
                   records=texts)  # fmt: skip
     return result
-
-
-def status_of(counts: dict[str, int]) -> str:
-    if counts["violations"]:
-        return "violations"
-    if counts["intrusions"]:
-        return "intrusions"
-    return "incomplete" if counts["warnings"] else "pass"
 
 
 def failed(path: str, reason: str) -> dict[str, Any]:
