@@ -79,7 +79,7 @@ def test_a_result_s_records_are_those_of_the_recording_alone(runs, sequential, n
     assert json.loads(alone.out)["records"] == sequential[name]["records"]
 
 
-def test_a_dask_cluster_gives_the_sequential_results(runs, sequential):
+def test_a_dask_cluster_gives_the_sequential_results(runs, sequential, tmp_path):
     """A LocalCluster (processes=True, 2 workers, 127.0.0.1) in a process of its own:
     an existing cluster, as users have one, and none of Dask's threads in this one."""
     pytest.importorskip("distributed")
@@ -96,6 +96,14 @@ def test_a_dask_cluster_gives_the_sequential_results(runs, sequential):
         env = {**os.environ, "RMV_DASK_SCHEDULER": address}
         named = rmv_process(["replay", "spec.rmv", "runs/run000*", "--dask", "--quiet"],
                             cwd=runs, env=env)  # fmt: skip
+        # A recording that blocks its worker's thread (opening a FIFO): the task is
+        # cancelled and the worker restarted, the retry goes to the other worker.
+        (tmp_path / "hangs").mkdir()
+        os.mkfifo(tmp_path / "hangs" / "hangs.bag")
+        os.symlink(runs / "runs" / "run0003.bag", tmp_path / "hangs" / "run0003.bag")
+        hanging = rmv_process(["replay", str(runs / "spec.rmv"), "hangs", "--scheduler", address,
+                               "--timeout", "1", "--format", "jsonl", "--quiet"],
+                              cwd=tmp_path)  # fmt: skip
         # Each 4 s recording in four 1 s chunks, a task each.
         chunked = rmv_process(["replay", "spec.rmv", "runs/run000*", "--scheduler", address,
                                "--chunk", "1", "--format", "jsonl", "--quiet"],
@@ -106,6 +114,10 @@ def test_a_dask_cluster_gives_the_sequential_results(runs, sequential):
         k: _comparable(v) for k, v in sequential.items()
     }
     assert named.code in (0, 1) and "10 recordings of 10 replayed" in named.out, named.err
+    stuck = _results(hanging.out)
+    assert stuck["hangs.bag"]["status"] == "failed", hanging.err
+    assert stuck["hangs.bag"]["error"] == "took longer than --timeout 1 s, twice"
+    assert _comparable(stuck["run0003.bag"]) == _comparable(sequential["run0003.bag"])
     joined = _results(chunked.out)
     assert len(joined) == 10 and {r["chunks"] for r in joined.values()} == {4}, chunked.err
     for name, result in joined.items():
@@ -282,3 +294,19 @@ def test_merge_reads_the_recordings_as_one(runs, tmp_path):
                          cwd=runs)  # fmt: skip
     assert "records" in json.loads(merged.out)
     assert ROOT.is_dir()
+
+
+def test_a_retry_goes_to_another_worker():
+    """A job whose try timed out in a worker that lives on is not given back to it
+    while there is another worker; with one worker, it is."""
+    from collections import deque
+
+    from rmvdsl.tools.fleet.local import _take
+    from rmvdsl.tools.fleet.sections import Job
+
+    pending = deque([(0, Job("a.bag")), (1, Job("b.bag"))])
+    assert _take(pending, 11, {0: 11}, 2) == (1, Job("b.bag"))
+    assert _take(pending, 11, {0: 11}, 2) is None
+    assert _take(pending, 12, {0: 11}, 2) == (0, Job("a.bag"))
+    pending.append((0, Job("a.bag")))
+    assert _take(pending, 11, {0: 11}, 1) == (0, Job("a.bag"))

@@ -1,7 +1,7 @@
 """`--jobs N`: recordings replayed by N worker processes on this machine (serve.py,
 each its own program). The spec goes to each worker once; a worker that dies
 (kill -9, out of memory) or runs one recording past --timeout is replaced, its
-recording retried once on another, then reported as failed with the reason.
+recording retried once on another worker, then reported as failed with the reason.
 Ctrl-C stops every worker."""
 
 from __future__ import annotations
@@ -69,6 +69,7 @@ class LocalPool:
         jobs (they are appended to `jobs`)."""
         pending = deque(enumerate(jobs))
         tries = [0] * len(jobs)
+        tried_on: dict[int, int] = {}  # the process of a job's last try
         reasons: dict[int, str] = {}
         finished = [0]
 
@@ -94,9 +95,13 @@ class LocalPool:
             while finished[0] < len(jobs):
                 for worker in self.workers:
                     if worker.job is None and pending:
-                        worker.job = pending.popleft()
+                        taken = _take(pending, worker.process.pid, tried_on, len(self.workers))
+                        if taken is None:
+                            continue
+                        worker.job = taken
                         worker.started = time.monotonic()
-                        tries[worker.job[0]] += 1
+                        tries[taken[0]] += 1
+                        tried_on[taken[0]] = worker.process.pid
                         # A worker that died idle: _lost() sees it, and the job goes again.
                         with contextlib.suppress(OSError):
                             worker.jobs.send(worker.job)
@@ -148,6 +153,17 @@ class LocalPool:
             worker.process.wait()
             worker.close()
         self.workers = []
+
+
+def _take(pending: deque[tuple[int, Job]], pid: int, tried_on: dict[int, int],
+          workers: int) -> tuple[int, Job] | None:  # fmt: skip
+    """The next job for the worker `pid`: a retry goes to another worker (one that
+    timed out stays alive, and may be what is wrong), unless there is no other."""
+    for position, (index, job) in enumerate(pending):
+        if workers == 1 or tried_on.get(index) != pid:
+            del pending[position]
+            return index, job
+    return None
 
 
 def _death(code: int | None) -> str:
