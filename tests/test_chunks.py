@@ -70,7 +70,7 @@ def _chunked(spec: ir.Spec, path: str, chunk: int, lead: int | None = None,
     spec_json = ir.dump(spec, indent=None)
     sections = plan(path, spec, chunk, options.start, options.stop, lead)
     assert sections, "the recording should be longer than a chunk"
-    join = Joined(path, sections)
+    join = Joined(path, sections, options.start is not None or options.stop is not None)
     jobs = [Job(path, section) for section in sections]
     index = 0
     while index < len(jobs):
@@ -208,3 +208,27 @@ def test_chunk_durations_and_their_errors(long_run):
     merged = rmv_process(["replay", "spec.rmv", "long_mcap", "--chunk", "1h", "--merge"],
                          cwd=long_run)  # fmt: skip
     assert merged.code == 2 and "leave out --merge" in merged.err, merged.err
+
+
+def test_a_damaged_recording_chunked_says_what_the_whole_run_says(tmp_path):
+    """A byte flipped so that the reader gives one message fewer than the recording
+    lists: the joined result counts and reports it as the one run does."""
+    good = fleet_recordings.write(tmp_path / "good", "mcap", fleet_recordings.speeds(1, 600))
+    (tmp_path / "spec.rmv").write_text(fleet_recordings.SPEC, encoding="utf-8")
+    spec = lower(check(str(tmp_path / "spec.rmv")))
+    data = next(good.glob("*.mcap"))
+    original = data.read_bytes()
+    rng = random.Random(7)
+    for _ in range(200):
+        damaged = bytearray(original)
+        damaged[rng.randrange(len(original))] ^= 0xFF
+        data.write_bytes(bytes(damaged))
+        whole = replay_one(ir.dump(spec, indent=None), str(good), Options())
+        if whole["status"] == "incomplete" and any(
+            "lists but cannot be read" in text for text in whole["records"]
+        ):
+            break
+    else:
+        pytest.fail("no flip lost a message")
+    joined = _chunked(spec, str(good), 7 * NS, NS)
+    assert not _same(whole, joined), _same(whole, joined)

@@ -167,10 +167,12 @@ spec has errors), 2 usage or I/O problem, or a recording that does not match the
         "or a pattern (quoted: 'runs/**/*.bag'); several: one result each (docs/fleet.md)",
     )  # fmt: skip
     replay_parser.add_argument(
-        "--from", dest="start", metavar="T",
+        "--from", dest="start", metavar="T", type=_instant("--from"),
         help="start at T seconds on the recording's clock (+T: T after its start)",
     )  # fmt: skip
-    replay_parser.add_argument("--to", dest="stop", metavar="T", help="stop at T (as --from)")
+    replay_parser.add_argument(
+        "--to", dest="stop", metavar="T", type=_instant("--to"), help="stop at T (as --from)"
+    )  # fmt: skip
     replay_parser.add_argument("--format", choices=("text", "json", "jsonl"), default="text")
     replay_parser.add_argument(
         "--report",
@@ -387,6 +389,29 @@ def _seconds_up_to(most: float | None) -> Callable[[str], float]:
         return value
 
     return seconds
+
+
+# The latest time a recording can hold: rosbags' times are int64 nanoseconds.
+_LATEST = (2**63 - 1) // 10**9
+
+
+def _instant(flag: str) -> Callable[[str], str]:
+    """--from/--to: seconds on the recording's clock or, with +, after its start:
+    a decimal number from 0 to the latest time a recording holds (kept as text;
+    the replay reads it against the recording)."""
+
+    def instant(text: str) -> str:
+        import re
+
+        match = re.fullmatch(r"\+?(\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d{1,3})?", text.strip())
+        if match is None or float(text.strip().lstrip("+")) > _LATEST:
+            raise argparse.ArgumentTypeError(
+                f"{text}: give seconds on the recording's clock (1700000012.5) or after its "
+                f"start (+12.5), from 0 to {_LATEST:,}"
+            )
+        return text.strip()
+
+    return instant
 
 
 _UNITS = {"ms": 10**6, "s": 10**9, "m": 60 * 10**9, "h": 3600 * 10**9}

@@ -26,6 +26,22 @@ from rmvdsl.runtime.wording import counted
 _LOG_LEVEL = {"OK": "info", "INFO": "info", "WARNING": "warn", "CRITICAL": "error"}
 
 
+def unread(listed: int, read: int) -> tuple[str, str]:
+    """The counter and the words for a recording that gave other than it lists."""
+    if read < listed:
+        lost = listed - read
+        return "messages the recording lists but cannot be read", (
+            f"the recording lists {counted(listed, 'message', grouped=True)} on the topics "
+            f"the spec reads, and {read:,} could be read: {lost:,} "
+            f"{'is' if lost == 1 else 'are'} lost to damage (what "
+            f"{'it' if lost == 1 else 'they'} would have changed is not known)"
+        )  # fmt: skip
+    return "messages the recording does not list", (
+        f"the recording lists {counted(listed, 'message', grouped=True)} on the topics the "
+        f"spec reads, but gave {read:,}: its index does not match its data"
+    )
+
+
 class Reporting:
     """Runtime's records and actions (Runtime's state, which this is a part of)."""
 
@@ -53,6 +69,15 @@ class Reporting:
             "(a deeper `depth` in the topic's qos block keeps more waiting)"
         )
         self._input_lost(time, topic, f"lost messages: {topic}", count, text)
+
+    def unreadable(self, time: int, listed: int, read: int) -> None:
+        """The recording lists `listed` messages on the topics read, and gave `read`."""
+        counter, text = unread(listed, read)
+        self._input_lost(time, "", counter, abs(listed - read), text)
+
+    def note(self, time: int, text: str) -> None:
+        """Something about the input as a whole (a diagnostic record)."""
+        self._note(time, text, "")
 
     def _field_error(self, time: int, topic: str, variable: ir.Variable, reason: str) -> None:
         text = f"{topic}: `{variable.name}` cannot be read: {reason}"

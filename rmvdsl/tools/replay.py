@@ -8,6 +8,7 @@ hands its records to the caller as they are decided.
 
 from __future__ import annotations
 
+import struct
 import sys
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
@@ -28,9 +29,19 @@ from rmvdsl.runtime.engine import (
 from rmvdsl.runtime.wording import counted
 from rmvdsl.tools.report.text import decimal_text, text_line
 
-# A chunk's hook at a seam: (seam, runtime, the graph's endpoints seen, messages read)
+
+@dataclass
+class Position:
+    """How far a run has read: the messages the reader gave on the topics the spec
+    reads (damaged ones too), and those fed to the runtime."""
+
+    read: int = 0
+    fed: int = 0
+
+
+# A chunk's hook at a seam: (seam, runtime, the graph's endpoints seen, the position)
 # -> whether the run stops there.
-AtSeam = Callable[[int, Runtime, set[Endpoint], int], bool]
+AtSeam = Callable[[int, Runtime, set[Endpoint], Position], bool]
 
 
 class ReplayError(Exception):
@@ -138,11 +149,44 @@ def open_reader(paths: Sequence[Path], spec: ir.Spec) -> Any:
     try:
         reader = AnyReader(list(paths), default_typestore=_typestore(spec))
         reader.open()
-    except (AnyReaderError, OSError, ValueError, KeyError) as error:
+    except AnyReaderError as error:
         raise ReplayError(
             f"{', '.join(map(str, paths))}: cannot read the recording: {error}"
         ) from None
+    except Exception as error:  # rosbags meets damaged bytes in many ways
+        raise ReplayError(
+            f"{', '.join(map(str, paths))}: cannot read the recording: {damage(error)}"
+        ) from None
     return reader
+
+
+def damage(error: Exception) -> str:
+    """What a reader's error on damaged bytes means, in a user's words."""
+    if isinstance(error, UnicodeDecodeError):
+        return "it is damaged: it holds bytes that are not text where text belongs"
+    if isinstance(error, OverflowError | IndexError | MemoryError | struct.error):
+        return "it is damaged: a length or an offset in it points outside the file"
+    if isinstance(error, OSError) and error.strerror:
+        return error.strerror[0].lower() + error.strerror[1:]
+    return str(error) or f"it is damaged ({type(error).__name__})"
+
+
+def _messages(reader: Any, runtime: Runtime, **window: Any) -> Iterator[tuple[Any, int, bytes]]:
+    """The reader's messages, up to where the recording cannot be read any further
+    (damaged bytes): said there, and the run ends with what was read."""
+    messages = reader.messages(**window)
+    last = reader.start_time
+    while True:
+        try:
+            connection, timestamp, raw = next(messages)
+        except StopIteration:
+            return
+        except Exception as error:  # rosbags meets damaged bytes in many ways
+            runtime.note(last, f"the recording cannot be read past {decimal_text(seconds(last))}: "
+                               f"{damage(error)}; the rest of it is not checked")  # fmt: skip
+            return
+        last = timestamp
+        yield connection, timestamp, raw
 
 
 def key(connection: Any) -> tuple[int, int]:
@@ -198,14 +242,17 @@ def replay(
     read_from: int | None = None,
     seams: Sequence[int] = (),
     at_seam: AtSeam | None = None,
+    ended: dict[str, int] | None = None,
 ) -> Iterator[Record]:
     """Every record of the spec over the recordings, as it is decided.
 
     A chunk of a long recording (rmvdsl.tools.fleet.sections) starts reading at
     `read_from` (ns, the recording's clock) and names `seams`: before the first
     message at or after each, everything the input decides is given out and
-    `at_seam(seam, runtime, endpoints, messages)` runs; when it returns True the
-    run stops there, without ending the input."""
+    `at_seam(seam, runtime, endpoints, position)` runs; when it returns True the
+    run stops there, without ending the input. A run that reaches the end fills
+    `ended`: where the input ended, the messages the recording lists on the topics
+    read, and those read."""
     reader = open_reader(paths, spec)
     try:
         found = plan(spec, reader)
@@ -217,6 +264,10 @@ def replay(
         runtime = Runtime(spec, host, record=record, skip=found.skipped_variables)
         runtime.counters.update(found.skipped_messages)
         low, high = window_time(start, reader.start_time), window_time(stop, reader.start_time)
+        if low is not None and high is not None and low >= high:
+            raise ReplayError(f"--from {start} --to {stop}: the window is empty: "
+                              "it ends where it starts or before")  # fmt: skip
+        whole = low is None and high is None and read_from is None
         if read_from is not None:
             low = read_from
         upcoming = list(seams)
@@ -230,15 +281,15 @@ def replay(
         connections = found.connections + [c for c in watched if key(c) not in read]
         total = sum(c.msgcount for c in found.connections)
         decode = decoder(reader)
-        done = 0
-        for connection, timestamp, raw in reader.messages(
-            connections=connections, start=low, stop=high
+        position = Position()
+        for connection, timestamp, raw in _messages(
+            reader, runtime, connections=connections, start=low, stop=high
         ):
             while upcoming and timestamp >= upcoming[0]:
                 runtime.decide()
                 yield from runtime.records()
                 assert at_seam is not None
-                if at_seam(upcoming.pop(0), runtime, endpoints, done):
+                if at_seam(upcoming.pop(0), runtime, endpoints, position):
                     return
             if key(connection) not in seen_connections:
                 seen_connections.add(key(connection))
@@ -248,29 +299,43 @@ def replay(
                     runtime.graph(timestamp, endpoints)
             if key(connection) not in read:
                 continue
+            position.read += 1
             try:
                 message = decode(connection, raw)
             except Exception as error:
                 runtime.damaged(timestamp, connection.topic, str(error))
                 continue
             runtime.message(timestamp, connection.topic, message)
-            done += 1
-            if progress is not None and done % 2000 == 0:
-                progress(done, total)
+            position.fed += 1
+            if progress is not None and position.fed % 2000 == 0:
+                progress(position.fed, total)
             yield from runtime.records()
         for seam in upcoming:  # after the last message
             runtime.decide()
             yield from runtime.records()
             assert at_seam is not None
-            if at_seam(seam, runtime, endpoints, done):
+            if at_seam(seam, runtime, endpoints, position):
                 return
         # rosbags' end_time is one nanosecond after the newest message.
-        runtime.end(high if high is not None else reader.end_time - 1)
+        end = high if high is not None else reader.end_time - 1
+        if whole and position.read != total:
+            runtime.unreadable(end, total, position.read)
+        elif read_from is None and not whole and position.read == 0:
+            runtime.note(end, f"the window {_window(start, stop)} holds no message of the "
+                              "topics the spec reads: nothing was checked")  # fmt: skip
+        if ended is not None:
+            ended.update(end=end, listed=total, read=position.read)
+        runtime.end(end)
         if progress is not None:
-            progress(done, total)
+            progress(position.fed, total)
         yield from runtime.records()
     finally:
         reader.close()
+
+
+def _window(start: str | None, stop: str | None) -> str:
+    return " ".join(f"{flag} {value}" for flag, value in (("--from", start), ("--to", stop))
+                    if value is not None)  # fmt: skip
 
 
 def progress_bar(stream: Any = sys.stderr) -> Callable[[int, int], None]:

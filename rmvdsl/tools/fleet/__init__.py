@@ -138,7 +138,8 @@ class Work:
             sections = [] if settings.chunk is None else plan(
                 path, spec, settings.chunk, options.start, options.stop)  # fmt: skip
             if sections:
-                self.joins[index] = Joined(path, sections)
+                windowed = options.start is not None or options.stop is not None
+                self.joins[index] = Joined(path, sections, windowed)
             jobs = [Job(path, section) for section in sections] or [Job(path)]
             self.jobs.extend(jobs)
             self.owner.extend(index for _ in jobs)

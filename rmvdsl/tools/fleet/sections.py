@@ -21,7 +21,9 @@ from typing import Any
 
 from rmvdsl.runtime import seams
 from rmvdsl.runtime.engine import Runtime, to_json
-from rmvdsl.runtime.records import Record
+from rmvdsl.runtime.records import Record, seconds
+from rmvdsl.runtime.reporting import unread
+from rmvdsl.tools.replay import Position
 
 Key = str | None
 
@@ -94,24 +96,26 @@ class _Run:
     leave: dict[str, Any] | None = None
     counters: dict[str, int] = field(default_factory=dict)
 
-    def at_seam(self, time: int, runtime: Runtime, endpoints: set[Any], done: int) -> bool:
+    def at_seam(self, time: int, runtime: Runtime, endpoints: set[Any], at: Position) -> bool:
         section = self.section
         if time == section.begin and not self.kept:
             self.kept = True
-            self.enter = self._seam(time, runtime, endpoints, done)
+            self.enter = self._seam(time, runtime, endpoints, at)
             return False
-        seam = self._seam(time, runtime, endpoints, done)
+        seam = self._seam(time, runtime, endpoints, at)
         index = section.seams.index(time)
         if section.keys and (seam["key"] is None or seam["key"] != section.keys[index]):
             return False
         self.leave = seam
         return True
 
-    def _seam(self, time: int, runtime: Runtime, endpoints: set[Any], done: int) -> dict[str, Any]:
+    def _seam(
+        self, time: int, runtime: Runtime, endpoints: set[Any], at: Position
+    ) -> dict[str, Any]:
         return {
             "time": time, "key": seams.seam_key(runtime, endpoints),
             "pending": seams.pending_starts(runtime), "counters": dict(runtime.counters),
-            "messages": done,
+            "messages": at.fed, "read": at.read,
         }  # fmt: skip
 
     def add(self, record: Record) -> None:
@@ -155,19 +159,21 @@ def replay_section(spec: Any, path: str, section: Section, run_options: dict[str
 
     run = _Run(section, kept=section.begin is None)
     order = ((section.begin,) if section.begin is not None else ()) + section.seams
+    ended: dict[str, int] = {}
     for record in replay.replay(spec, [Path(path)], read_from=section.read_from, seams=order,
-                                at_seam=run.at_seam, **run_options):  # fmt: skip
+                                at_seam=run.at_seam, ended=ended, **run_options):  # fmt: skip
         run.add(record)
     entered = run.enter.get("counters", {})
     if run.leave is not None:
-        after, messages = run.leave["counters"], run.leave["messages"]
+        after, messages, read_to = run.leave["counters"], run.leave["messages"], run.leave["read"]
     else:
-        after, messages = run.counters, read[0]
+        after, messages, read_to = run.counters, read[0], ended["read"]
     return {
         "texts": run.texts, "counts": run.counts, "heads": run.heads,
-        "enter": run.enter, "leave": run.leave,
+        "enter": run.enter, "leave": run.leave, "ended": ended,
         "counters": {k: v - entered.get(k, 0) for k, v in after.items()},
         "section_messages": messages - run.enter.get("messages", 0),
+        "section_read": read_to - run.enter.get("read", 0),
     }  # fmt: skip
 
 
@@ -176,9 +182,10 @@ class Joined:
     result; it returns the jobs to run next (a run reading on past a seam whose keys
     differ), and `result` is set when the recording is whole."""
 
-    def __init__(self, path: str, sections: list[Section]) -> None:
+    def __init__(self, path: str, sections: list[Section], windowed: bool = False) -> None:
         self.path = path
         self.sections = sections
+        self.windowed = windowed  # read in a --from/--to window: its count is not listed
         self.first: list[dict[str, Any] | None] = [None] * len(sections)
         # Joined so far, in order: each run's section and its part of the result.
         self.pieces: list[tuple[Section, dict[str, Any]]] = []
@@ -269,9 +276,24 @@ class Joined:
                     else carried[name]
                     for name, start in piece["leave"]["pending"].items()
                 }  # fmt: skip
+        self._check_count(texts, counts, counters)
         texts.extend(to_json({"kind": "counter", "name": name, "value": value})
                      for name, value in sorted(counters.items()))  # fmt: skip
         seams_read_past = len(self.sections) - 1 - self.joined
         return {"path": self.path, "status": status_of(counts), **counts, "messages": messages,
                 "seconds": round(self.seconds, 3), "records": texts,
                 "chunks": len(self.sections), "seams_read_past": seams_read_past}  # fmt: skip
+
+    def _check_count(self, texts: list[str], counts: dict[str, int],
+                     counters: dict[str, int]) -> None:  # fmt: skip
+        """What one run over the whole recording says when the recording gave other
+        than it lists (rmvdsl.tools.replay), said of the chunks' reads added up."""
+        ended = self.pieces[-1][1]["ended"]
+        read = sum(piece["section_read"] for _, piece in self.pieces)
+        if read == ended["listed"] or self.windowed:
+            return
+        counter, text = unread(ended["listed"], read)
+        counters[counter] = counters.get(counter, 0) + abs(ended["listed"] - read)
+        texts.append(to_json({"kind": "diagnostic", "time": seconds(ended["end"]),
+                              "origin": "", "message": text}))  # fmt: skip
+        counts["warnings"] += 1
