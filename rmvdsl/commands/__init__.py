@@ -7,8 +7,9 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from typing import Any
 
-from rmvdsl.lang.errors import UsageError
+from rmvdsl.lang.errors import UsageError, os_problem
 
 
 def write_text(path: str, text: str) -> None:
@@ -17,7 +18,7 @@ def write_text(path: str, text: str) -> None:
         with open(path, "w", encoding="utf-8") as handle:
             handle.write(text)
     except OSError as exc:
-        raise UsageError(f"{path}: cannot write: {exc.strerror}") from None
+        raise UsageError(f"{path}: cannot write: {os_problem(exc)}") from None
 
 
 def use_color(args: argparse.Namespace) -> bool:
@@ -35,3 +36,14 @@ def message_options(args: argparse.Namespace) -> None:
     for folder in args.messages:
         if not os.path.isdir(folder):
             raise UsageError(f"--messages {folder}: no such folder")
+
+
+def warn_if_nothing_checked(result: Any) -> bool:
+    """Say on standard error that the spec checks nothing (RMV226), if it does not:
+    a package or a replay of it would pass anything. Whether it said so."""
+    from rmvdsl.lang.render import render_text
+
+    found = [d for d in result.diagnostics if d.code == "RMV226"]
+    if found:
+        sys.stderr.write(render_text(found, result.model.sources, False))
+    return bool(found)

@@ -7,8 +7,8 @@ import argparse
 import sys
 
 from rmvdsl import targets
-from rmvdsl.commands import message_options
-from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, UsageError
+from rmvdsl.commands import message_options, warn_if_nothing_checked
+from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, UsageError, os_problem
 from rmvdsl.runtime.wording import counted
 
 
@@ -28,6 +28,7 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_ERRORS
     from pathlib import Path
 
+    warn_if_nothing_checked(result)
     spec = lower(result)
     target = targets.target(args.target)
     options = {o.name: getattr(args, o.name) for o in target.options}
@@ -41,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
     except targets.TargetError as exc:
         raise UsageError(str(exc)) from None
     except OSError as exc:
-        raise UsageError(f"{args.output}: {exc.strerror or exc}") from None
+        raise UsageError(f"{args.output}: {os_problem(exc)}") from None
     for line in built.notes:
         print(f"rmv build: {line}", file=sys.stderr)
     if built.text is not None:

@@ -6,7 +6,7 @@ import argparse
 import sys
 from typing import Any
 
-from rmvdsl.commands import message_options
+from rmvdsl.commands import message_options, warn_if_nothing_checked
 from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, EXIT_USAGE, UsageError
 from rmvdsl.runtime.wording import counted
 
@@ -31,6 +31,9 @@ def run(args: argparse.Namespace) -> int:
         sys.stderr.write(render_text(result.errors, result.model.sources, False))
         print(f"rmv replay: {args.spec}: {counted(len(result.errors), 'error')}", file=sys.stderr)
         return EXIT_ERRORS
+    if warn_if_nothing_checked(result):
+        raise UsageError(f"{args.spec}: the spec checks nothing: a replay of it would pass "
+                         "any recording")  # fmt: skip
     scheduler = fleet.scheduler_of(args.scheduler, args.dask)
     if args.merge and args.chunk is not None:
         raise UsageError("--chunk replays each recording on its own: leave out --merge")

@@ -28,6 +28,7 @@ _CLOSERS = {"RPAR": ")", "RSQB": "]", "RBRACE": "}"}
 
 
 _ACCEPTED_BEFORE_NEXT_REPORT = 3
+MAX_ERRORS = 20  # in one declaration; then its rest is skipped
 
 
 class ChunkParser:
@@ -53,6 +54,9 @@ class ChunkParser:
         )
         last: Token | None = None
         for token in self._tokens(interactive):
+            if len(self.diagnostics) >= MAX_ERRORS:
+                self._give_up(token)
+                return None
             self._feed(interactive, token)
             last = token
         decls = self._finish(interactive, last)
@@ -94,18 +98,23 @@ class ChunkParser:
             )
             state.line_ctr.feed(text[position:line_end])
             return
-        char = text[position]
-        self._report(
-            error(
-                "RMV101",
-                f"unexpected character `{char}`",
-                self.source.span(position, position + 1),
-                label="no token of the language starts with this character",
-                help="comments start with `//`; strings are written in double quotes",
-            ),
-            force=True,
-        )
-        state.line_ctr.feed(char)
+        stop = stray_end(text, position, self.end)
+        self._report(stray_error(text[position:stop], self.source.span(position, stop)), force=True)
+        state.line_ctr.feed(text[position:stop])
+
+    def _give_up(self, token: Token) -> None:
+        """Too many errors in one declaration (not a spec, or a paste gone wrong): one
+        error says where reading stopped, and the rest of the declaration is skipped."""
+        end = self.source.text.rfind("\n", self.start, self.end)
+        last_line = self.source.text.count("\n", 0, end if end > self.start else self.end) + 1
+        self.diagnostics.append(error(
+            "RMV100",
+            f"more than {MAX_ERRORS} errors in this declaration: the rest of it, to line "
+            f"{last_line}, is not read",
+            self.source.span(token.start_pos or self.start, token.end_pos or self.start),
+            label="reading stopped here",
+            help="is this file a spec? fix the errors above and check again",
+        ))  # fmt: skip
 
     def _feed(self, interactive: Any, token: Token) -> None:
         try:
@@ -114,9 +123,15 @@ class ChunkParser:
             self.fed.append(token)
             return
         except UnexpectedToken:
+            pass
+        if self.accepted < _ACCEPTED_BEFORE_NEXT_REPORT:
+            # Not reported (too close to the last error): recover without asking the
+            # parser what it expected, which replays the whole declaration.
+            closer = self._insertable_closer(interactive, token, set(_CLOSERS))
+        else:
             expected = self._expected_before()
-        closer = self._insertable_closer(interactive, token, expected)
-        self._report(self._unexpected(token, expected, closer))
+            closer = self._insertable_closer(interactive, token, expected)
+            self._report(self._unexpected(token, expected, closer))
         self.accepted = 0
         if closer is not None:
             inserted = Token.new_borrow_pos(closer, _CLOSERS[closer], token)
@@ -155,6 +170,8 @@ class ChunkParser:
             hint = f"insert `{_CLOSERS[closer]}` before {describe_token(token)}"
         elif token.type == "NAME" and str(token) in TOP_LEVEL_KEYWORDS:
             hint = "start each declaration on a line of its own, without indentation"
+        elif str(token) == "=" and self._follows_equals(token):
+            hint = "conditions are InfluxQL, which compares with one `=`: write `x = 5`"
         return error(
             "RMV100",
             f"expected {describe_expected(expected)}, found {describe_token(token)}",
@@ -162,6 +179,11 @@ class ChunkParser:
             label="unexpected here",
             help=hint,
         )
+
+    def _follows_equals(self, token: Token) -> bool:
+        """Whether `token` is the second `=` of `==`."""
+        before = self.fed[-1] if self.fed else None
+        return before is not None and str(before) == "=" and before.end_pos == token.start_pos
 
     def _finish(self, interactive: Any, last: Token | None) -> list[ast.Decl] | None:
         reported_eof = False
@@ -226,3 +248,46 @@ def _last_unclosed(text: str, start: int, end: int) -> int | None:
             stack.pop()
         index += 1
     return stack[-1] if stack else None
+
+
+# What can start a token of the language besides letters, digits and `_`.
+_TOKEN_STARTS = frozenset('"!%&()*+,-./:<=>[]^{|}~')
+
+
+def _stray(char: str) -> bool:
+    return not (char.isspace() or (char.isascii() and (char.isalnum() or char == "_"))
+                or char in _TOKEN_STARTS)  # fmt: skip
+
+
+def stray_end(text: str, start: int, end: int) -> int:
+    """Where a run of characters no token starts with ends: a word holding a letter
+    outside ASCII (a name in another script) is one run, as are `$$$` or 500 NULs."""
+    stop = start
+    if text[start].isalpha():
+        while stop < end and (text[stop].isalnum() or text[stop] == "_"):
+            stop += 1
+        return stop
+    while stop < end and _stray(text[stop]) and not text[stop].isalpha():
+        stop += 1
+    return max(stop, start + 1)
+
+
+def stray_error(run: str, span: Any) -> Diagnostic:
+    """One error for a run of characters that start no token (RMV101)."""
+    if run[0].isalpha():
+        return error(
+            "RMV101", f"`{run}` is not a name: names are ASCII letters, digits and `_`",
+            span, label="a letter outside ASCII",
+            help="write the name in ASCII letters (a ROS field keeps its own spelling: "
+                 "only the spec's names are ASCII)",
+        )  # fmt: skip
+    shown = run if len(run) <= 8 else f"{run[:3]}…{run[-3:]}"
+    count = f" ({len(run):,} characters)" if shown != run else ""
+    return error(
+        "RMV101",
+        f"unexpected character{'s' if len(run) > 1 else ''} `{shown}`{count}",
+        span,
+        label="no token of the language starts with "
+        + ("these characters" if len(run) > 1 else "this character"),
+        help="comments start with `//`; strings are written in double quotes",
+    )

@@ -59,9 +59,8 @@ def convert_files(paths: Iterable[str], system_name: str | None = None) -> Impor
     spec.header.append("ros noetic")
     for path, document in documents:
         if not isinstance(document, Located):
-            raise UsageError(
-                f"{path}: expected a YAML mapping at the top, found {type(document).__name__}"
-            )
+            raise UsageError(f"{path}: expected a YAML mapping at the top (`topics:` ...), "
+                             f"found {_yaml_kind(document)}")  # fmt: skip
         _convert_document(path, document, spec)
     text = _canonical(spec.text(), spec)
     _report_open_names(text, spec)
@@ -146,3 +145,18 @@ def _is_intrusion_list(topics: Any) -> bool:
     return isinstance(topics, list) and any(
         isinstance(t, dict) and ("publishers" in t or "subscribers" in t) for t in topics
     )
+
+
+def _yaml_kind(document: object) -> str:
+    """What a YAML document is, in YAML's words."""
+    if document is None:
+        return "nothing (the file is empty)"
+    if isinstance(document, bool):
+        return "true or false"
+    if isinstance(document, int | float):
+        return "a number"
+    if isinstance(document, str):
+        return "a string"
+    if isinstance(document, list):
+        return "a list"
+    return "something else"

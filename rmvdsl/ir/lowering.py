@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from fractions import Fraction
+from pathlib import Path
 from typing import Any
 
 from rmvdsl.check.lowering import NotLowered, lower_expr, value_type
@@ -33,6 +34,10 @@ class Lowering(Reactions):
 
     # ---- the whole spec ----
 
+    def _file_name(self) -> str:
+        specs = self.model.specs
+        return Path(specs[0].path).stem if specs and specs[0].path != "-" else ""
+
     def spec(self) -> ir.Spec:
         model = self.model
         system = model.system
@@ -41,7 +46,8 @@ class Lowering(Reactions):
             format=ir.FORMAT,
             version=ir.VERSION,
             system=ir.System(
-                system.name.name if system else "",
+                # Without a `system` line, the spec is named after its file.
+                system.name.name if system else self._file_name(),
                 system.title.value if system and system.title else "",
                 system.doc if system else "",
             ),

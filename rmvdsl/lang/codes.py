@@ -338,6 +338,20 @@ publishes or subscribes to but leaves out ROS's own topics is reported for them 
 soon as the node runs (an editor offers the edit that adds them).""",
     ),
     (
+        "RMV226",
+        "the spec checks nothing",
+        """(warning) The spec declares no property, no alert, no whitelist and no node
+rule (and no `intrusion` block): whatever a recording or a running system does,
+its replay passes and its monitor stays silent. An empty file, or a file of
+topics and variables meant to be imported, says this when checked on its own.
+Add what must hold:
+
+    property NeverStops: not Stopped
+    whitelist status { publishers: "/carla_bridge" }
+
+`rmv replay` of such a spec exits 2 rather than pass.""",
+    ),
+    (
         "RMV300",
         "unknown message type",
         """A topic's message type is not among the definitions rmvdsl knows: the

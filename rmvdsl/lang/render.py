@@ -72,9 +72,27 @@ def width(text: str) -> int:
     return total
 
 
+SHOWN_PER_FILE = 100  # diagnostics drawn per file; the rest are counted
+
+
 def render_text(diagnostics: Iterable[Diagnostic], sources: SourceMap, color: bool = False) -> str:
+    """The diagnostics drawn, at most SHOWN_PER_FILE of each file, then how many more
+    each file has (a file of junk gives a page, not megabytes)."""
     style = _Style(color)
-    return "".join(_render_one(d, sources, style) + "\n" for d in diagnostics)
+    shown: dict[str, int] = {}
+    more: dict[str, int] = {}
+    out = []
+    for diagnostic in diagnostics:
+        path = diagnostic.span.path
+        if shown.get(path, 0) >= SHOWN_PER_FILE:
+            more[path] = more.get(path, 0) + 1
+            continue
+        shown[path] = shown.get(path, 0) + 1
+        out.append(_render_one(diagnostic, sources, style) + "\n")
+    for path, count in more.items():
+        out.append(f"{visible(path)}: {counted(count, 'more diagnostic', grouped=True)} not shown "
+                   "(`--format json` lists every one)\n")  # fmt: skip
+    return "".join(out)
 
 
 def _render_one(diagnostic: Diagnostic, sources: SourceMap, style: _Style) -> str:
@@ -127,20 +145,43 @@ def _snippet(
         return [gutter]
     first = region(labels[0][0], sources)
     raw = source.line_text(first.line)
-    text = visible(raw.expandtabs(1))
+    spans = [_columns(region(span, sources), raw) for span, _, _ in labels]
+    low, high, cut = _shown(raw, spans)
+    text = ("…" if low else "") + visible(raw[low:high].expandtabs(1)) + ("…" if cut else "")
     number = style.paint(str(first.line).rjust(digits) + " |", "1", "34")
     out = [gutter, f"{number} {text}"]
-    for span, message, is_primary in sorted(labels, key=lambda label: label[0].start):
-        where = region(span, sources)
-        end_column = where.end_column if where.end_line == where.line else len(raw) + 1
+    ordered = sorted(zip(labels, spans, strict=True), key=lambda pair: pair[0][0].start)
+    for (_, message, is_primary), (start, end) in ordered:
+        start, end = min(max(start, low), high), min(max(end, low), high)
         # columns count characters; a terminal counts cells (a wide character is two)
-        before = width(visible(raw[: where.column - 1].expandtabs(1)))
-        under = width(visible(raw[where.column - 1 : end_column - 1].expandtabs(1)))
+        before = width(visible(raw[low:start].expandtabs(1))) + (1 if low else 0)
+        under = width(visible(raw[start:end].expandtabs(1)))
         mark = ("^" if is_primary else "-") * max(1, under)
         color = severity_color if is_primary else "34"
         label = f"{mark} {visible(message)}".rstrip()
         out.append(f"{gutter} {' ' * before}{style.paint(label, '1', color)}")
     return out
+
+
+LONG_LINE = 200  # characters of a line shown whole; a longer one is cut around its marks
+_SHOWN = 160  # at most this many of a long line's characters
+_CONTEXT = 50
+
+
+def _columns(where: Region, raw: str) -> tuple[int, int]:
+    """A label's characters on its first line, as offsets into the line."""
+    end = where.end_column if where.end_line == where.line else len(raw) + 1
+    return where.column - 1, end - 1
+
+
+def _shown(raw: str, spans: list[tuple[int, int]]) -> tuple[int, int, bool]:
+    """The part of a line to show: all of it when short; else from some characters
+    before the first mark to some after the last (at most a screen's worth)."""
+    if len(raw) <= LONG_LINE:
+        return 0, len(raw), False
+    low = max(0, min(start for start, _ in spans) - _CONTEXT)
+    high = min(len(raw), max(end for _, end in spans) + _CONTEXT, low + _SHOWN)
+    return low, high, high < len(raw)
 
 
 def summary(paths: list[str], diagnostics: list[Diagnostic]) -> str:

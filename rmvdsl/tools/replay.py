@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from rmvdsl.lang import builtins
+from rmvdsl.lang.errors import os_problem
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.engine import (
     Endpoint,
@@ -151,7 +152,7 @@ def open_reader(paths: Sequence[Path], spec: ir.Spec) -> Any:
         reader.open()
     except AnyReaderError as error:
         raise ReplayError(
-            f"{', '.join(map(str, paths))}: cannot read the recording: {error}"
+            f"{', '.join(map(str, paths))}: cannot read the recording: {_reader_words(error)}"
         ) from None
     except Exception as error:  # rosbags meets damaged bytes in many ways
         raise ReplayError(
@@ -160,14 +161,24 @@ def open_reader(paths: Sequence[Path], spec: ir.Spec) -> Any:
     return reader
 
 
+def _reader_words(error: Exception) -> str:
+    """rosbags' refusal, without the Python beneath it."""
+    text = str(error)
+    if text.startswith("Invalid bag metadata"):
+        return "its metadata.yaml is damaged, or not a rosbag2 recording's"
+    if text.startswith("Unrecognized storage format"):
+        return "it is not a recording: rosbags reads ROS 1 .bag, and .db3 and .mcap of rosbag2"
+    return text
+
+
 def damage(error: Exception) -> str:
     """What a reader's error on damaged bytes means, in a user's words."""
     if isinstance(error, UnicodeDecodeError):
         return "it is damaged: it holds bytes that are not text where text belongs"
     if isinstance(error, OverflowError | IndexError | MemoryError | struct.error):
         return "it is damaged: a length or an offset in it points outside the file"
-    if isinstance(error, OSError) and error.strerror:
-        return error.strerror[0].lower() + error.strerror[1:]
+    if isinstance(error, OSError):
+        return os_problem(error)
     return str(error) or f"it is damaged ({type(error).__name__})"
 
 
