@@ -104,8 +104,12 @@ def test_the_system_s_refusals_in_words(rmv, tmp_path, args, says):
     (tmp_path / "empty.yaml").write_text("")
     (tmp_path / "fake").mkdir()
     (tmp_path / "fake" / "metadata.yaml").write_text("x\n")
-    names = {"abs": str(EXAMPLES / "carla" / "abs.rmv"), "file": str(tmp_path / "file"),
-             "empty_yaml": str(tmp_path / "empty.yaml"), "fake_bag": str(tmp_path / "fake")}
+    names = {
+        "abs": str(EXAMPLES / "carla" / "abs.rmv"),
+        "file": str(tmp_path / "file"),
+        "empty_yaml": str(tmp_path / "empty.yaml"),
+        "fake_bag": str(tmp_path / "fake"),
+    }
     result = rmv(*(a.format(**names) for a in args))
     assert result.code == 2 and says.format(**names) in result.err, result.err
     for internal in ("File exists", "Not a directory", "NoneType", "string indices", "Errno"):

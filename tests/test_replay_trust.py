@@ -38,8 +38,11 @@ def test_a_window_that_holds_no_message_is_not_a_pass(rmv, window, says):
         (["--from", "1700000010", "--to", "+5"], "the window is empty"),
         (["--to", "-5"], "argument --to: -5: give seconds on the recording's clock"),
         (["--from", "1e400"], "argument --from: 1e400: give seconds"),
-        (["--from", "abc"], "argument --from: abc: give seconds on the recording's clock "
-                            "(1700000012.5) or after its start (+12.5)"),  # fmt: skip
+        (
+            ["--from", "abc"],
+            "argument --from: abc: give seconds on the recording's clock "
+            "(1700000012.5) or after its start (+12.5)",
+        ),
     ],
 )
 def test_a_window_that_is_empty_or_not_a_time_is_a_usage_error(rmv, window, says):

@@ -25,7 +25,7 @@ from rmvdsl.check.lateness import lateness_warnings
 from rmvdsl.check.loader import Reader, UsageError, load, read_text
 from rmvdsl.check.model import Model
 from rmvdsl.check.msgtypes import DISTROS
-from rmvdsl.check.names import check_names
+from rmvdsl.check.names import check_names, nothing_checked
 from rmvdsl.check.types import TypeConfig, TypeInfo, check_types
 from rmvdsl.lang.diagnostics import Diagnostic, Severity, did_you_mean, error, sort_key, warning
 from rmvdsl.lang.source import SourceFile, Span
@@ -159,7 +159,7 @@ def _check(
         fast = _quieted(
             model, [*loaded.diagnostics, *config_diagnostics], name_diagnostics, type_diagnostics
         )
-        return CheckResult(model, sorted(fast, key=sort_key), types)
+        return CheckResult(model, sorted(_said_if_empty(model, fast), key=sort_key), types)
     # networkx and z3 load only when a check runs, not for `rmv --version` or `fmt`.
     from rmvdsl.check.analysis import analyze
 
@@ -177,8 +177,15 @@ def _check(
     skip = broken_declarations(model, earlier)
     with SOLVER_LOCK:
         report = analyze_properties(model, types, analysis, skip, limits)
-    diagnostics = sorted([*earlier, *report.diagnostics], key=sort_key)
+    diagnostics = sorted(_said_if_empty(model, [*earlier, *report.diagnostics]), key=sort_key)
     return CheckResult(model, diagnostics, types, analysis, report)
+
+
+def _said_if_empty(model: Model, diagnostics: list[Diagnostic]) -> list[Diagnostic]:
+    """RMV226 for a spec that checks nothing, once it has no error to fix first."""
+    if any(d.severity is Severity.ERROR for d in diagnostics):
+        return diagnostics
+    return [*diagnostics, *nothing_checked(model)]
 
 
 def _quieted(

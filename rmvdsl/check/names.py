@@ -89,26 +89,7 @@ class NameChecker(Declarations, StructureChecks, ActionChecks, EventChecks):
         self.diagnostics += check_whitelist_agreement(self.model)
         self.diagnostics += infrastructure_warnings(self.model)
         self.report_unused()
-        self.report_nothing_checked()
         return self.model, self.diagnostics
-
-    def report_nothing_checked(self) -> None:
-        """A spec with no property, alert, whitelist or node rule checks nothing: a
-        replay of it would pass anything (RMV226)."""
-        model = self.model
-        if model.properties or model.alerts or model.whitelists or model.nodes:
-            return
-        if model.intrusion is not None or any(self.damaged_ranges.values()):
-            return  # an intrusion block's default may deny; or the rest did not parse
-        root = model.specs[0] if model.specs else None
-        if root is None:
-            return
-        self.report(warning(
-            "RMV226",
-            "the spec checks nothing: it declares no property, alert, whitelist or node rule",
-            Span(root.path, 0, 0), label="a replay or a monitor of it passes anything",
-            help="add a `property NAME: FORMULA`, an `alert`, or a `whitelist` for a topic",
-        ))  # fmt: skip
 
     # ---- resolving ----
 
@@ -386,3 +367,18 @@ def check_names(
     declarations whose text has not changed (an editor's, rmvdsl.check.memo)."""
     checker = NameChecker(specs, sources, damaged or set(), damaged_ranges or {}, incremental)
     return checker.run()
+
+
+def nothing_checked(model: Model) -> list[Diagnostic]:
+    """A spec with no property, alert, whitelist, node rule or intrusion block checks
+    nothing: a replay of it would pass anything (RMV226)."""
+    if model.properties or model.alerts or model.whitelists or model.nodes:
+        return []
+    if model.intrusion is not None or not model.specs:
+        return []
+    return [warning(
+        "RMV226",
+        "the spec checks nothing: it declares no property, alert, whitelist or node rule",
+        Span(model.specs[0].path, 0, 0), label="a replay or a monitor of it passes anything",
+        help="add a `property NAME: FORMULA`, an `alert`, or a `whitelist` for a topic",
+    )]  # fmt: skip

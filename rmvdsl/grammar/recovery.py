@@ -23,6 +23,7 @@ from rmvdsl.grammar.grammars import (
 from rmvdsl.grammar.scanner import TOP_LEVEL_KEYWORDS
 from rmvdsl.lang.diagnostics import Diagnostic, Label, error
 from rmvdsl.lang.source import SourceFile, Span
+from rmvdsl.runtime.wording import counted
 
 _CLOSERS = {"RPAR": ")", "RSQB": "]", "RBRACE": "}"}
 
@@ -109,7 +110,8 @@ class ChunkParser:
         last_line = self.source.text.count("\n", 0, end if end > self.start else self.end) + 1
         self.diagnostics.append(error(
             "RMV100",
-            f"more than {MAX_ERRORS} errors in this declaration: the rest of it, to line "
+            f"more than {counted(MAX_ERRORS, 'error')} in this declaration: the rest of it, "
+            "to line "
             f"{last_line}, is not read",
             self.source.span(token.start_pos or self.start, token.end_pos or self.start),
             label="reading stopped here",
@@ -282,7 +284,7 @@ def stray_error(run: str, span: Any) -> Diagnostic:
                  "only the spec's names are ASCII)",
         )  # fmt: skip
     shown = run if len(run) <= 8 else f"{run[:3]}…{run[-3:]}"
-    count = f" ({len(run):,} characters)" if shown != run else ""
+    count = f" ({counted(len(run), 'character', grouped=True)})" if shown != run else ""
     return error(
         "RMV101",
         f"unexpected character{'s' if len(run) > 1 else ''} `{shown}`{count}",

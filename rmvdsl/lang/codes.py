@@ -72,7 +72,10 @@ starts with `topic`, `var`, `event`, `alert`, `transducer`, `property`,
         "RMV101",
         "unexpected character",
         """A character that cannot start any token of the language, for example `$` or
-`@`. Strings are written in double quotes; comments start with `//`.""",
+`@`. Strings are written in double quotes; comments start with `//`. A run of such
+characters (`$$$`, 500 NUL bytes) is one error. Names are ASCII letters, digits and
+`_`: a name in another script (`Скорость`) is one error that says so; a ROS field
+keeps its own spelling in the topic's message, only the spec's names are ASCII.""",
     ),
     (
         "RMV102",

@@ -217,5 +217,5 @@ def text_line(result: dict[str, Any]) -> str:
     if "chunks" in result:
         read_on = result["seams_read_past"]
         past = f", read on past {counted(read_on, 'seam')}" if read_on else ""
-        parts.append(f"{result['chunks']} chunks{past}")
+        parts.append(counted(result["chunks"], "chunk") + past)
     return f"{status:<11} {path} ({', '.join(parts)})"

@@ -62,7 +62,8 @@ class Progress:
         filled = int(WIDTH * share)
         bar = f"[{'#' * filled}{'.' * (WIDTH - filled)}] " if self.terminal else ""
         recordings = counted(self.total, "recording", grouped=True)
-        chunks = f" ({self.units_done:,}/{self.units:,} chunks)" if self.chunked else ""
+        done = f"{self.units_done:,}/{counted(self.units, 'chunk', grouped=True)}"
+        chunks = f" ({done})" if self.chunked else ""
         return (f"{bar}{self.done:,}/{recordings}{chunks}, {rate:,.0f} msg/s, "
                 f"{_clock(elapsed)} elapsed, {_clock(left)} left")  # fmt: skip
 

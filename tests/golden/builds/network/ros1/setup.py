@@ -1,9 +1,9 @@
-"""The rmv Python package, for catkin_python_setup (not for pip)."""
+"""The network Python package, for catkin_python_setup (not for pip)."""
 
 from catkin_pkg.python_setup import generate_distutils_setup
 from setuptools import setup
 
-PACKAGE = "rmv"
+PACKAGE = "network"
 
 setup(
     **generate_distutils_setup(

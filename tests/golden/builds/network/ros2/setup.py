@@ -1,8 +1,8 @@
-"""The rmv package: Runtime monitor."""
+"""The network package: Runtime monitor."""
 
 from setuptools import setup
 
-PACKAGE = "rmv"
+PACKAGE = "network"
 
 setup(
     name=PACKAGE,

@@ -1,4 +1,4 @@
-"""Start the nodes of rmv with config/params.yaml."""
+"""Start the nodes of network with config/params.yaml."""
 
 import os
 
@@ -8,13 +8,13 @@ from launch_ros.actions import Node
 
 
 def generate_launch_description() -> LaunchDescription:
-    share = get_package_share_directory("rmv")
+    share = get_package_share_directory("network")
     params = os.path.join(share, "config", "params.yaml")
     return LaunchDescription(
         [
-            Node(package="rmv", executable="monitor",
+            Node(package="network", executable="monitor",
                  name="rmv_monitor", parameters=[params], output="screen"),
-            Node(package="rmv", executable="intrusion",
+            Node(package="network", executable="intrusion",
                  name="rmv_intrusion", parameters=[params], output="screen"),
         ]
     )  # fmt: skip
