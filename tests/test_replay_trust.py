@@ -96,3 +96,59 @@ def test_flipped_bytes_never_pass_silently_nor_crash(rmv, twist, tmp_path):
             assert any(f"the recording lists 600 messages on the topics the spec reads, and "
                        f"{600 - lost} could be read" in s for s in said), said  # fmt: skip
     assert short >= 2, short  # the flips reach the case
+
+
+FAILING = """system failing
+topic t: std_msgs/msg/Float64 = "/t"
+var x = t.data
+event High when x > 5
+property Low: not High {{
+    action exec("{missing}", ["--now", "a b"])
+    action exec("{python}", ["-c", "raise SystemExit(3)"])
+    action tcp("127.0.0.1:{port}")
+    action post("http://127.0.0.1:{port}/hook", timeout = 2s)
+    action log("x went high")
+}}
+"""
+
+
+def test_actions_that_fail_say_so_in_every_format(rmv, tmp_path):
+    """--run-actions: a missing program, a program that exits 3, a tcp and a post
+    to a port nothing listens on: each action's line names what it ran and how it
+    failed, in words; the summary counts them; jsonl has the same words."""
+    import socket
+    import sys
+
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    with socket.socket() as probe:  # a port nothing listens on
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    spec = tmp_path / "failing.rmv"
+    spec.write_text(FAILING.format(missing=tmp_path / "no-such-program", python=sys.executable,
+                                   port=port), encoding="utf-8")  # fmt: skip
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    recording = tmp_path / "values"
+    with Writer(recording, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        connection = writer.add_connection("/t", "std_msgs/msg/Float64", typestore=store)
+        for k, value in enumerate([1.0, 7.0, 1.0]):
+            data = store.serialize_cdr(store.types["std_msgs/msg/Float64"](value),
+                                       "std_msgs/msg/Float64")  # fmt: skip
+            writer.write(connection, 10**9 * (1000 + k), data)
+    text = rmv("replay", str(spec), str(recording), "--run-actions")
+    assert text.code == 1, text.err
+    lines = [line for line in text.out.splitlines() if line.startswith("action")]
+    missing = tmp_path / "no-such-program"
+    assert lines[0].endswith(f"exec {missing} --now 'a b': Low violated  FAILED: no such "
+                             f"program: {missing}"), lines  # fmt: skip
+    assert lines[1].endswith("exited with code 3"), lines
+    assert "tcp 127.0.0.1" in lines[2] and "FAILED: connection refused" in lines[2], lines
+    assert "post http://127.0.0.1" in lines[3] and "FAILED: connection refused" in lines[3]
+    assert lines[4].endswith("log error: x went high") and "FAILED" not in lines[4]
+    assert text.out.rstrip().endswith("FAILED: 1 violation, 0 intrusions, 4 actions failed")
+    jsonl = rmv("replay", str(spec), str(recording), "--run-actions", "--format", "jsonl")
+    errors = [json.loads(line).get("error") for line in jsonl.out.splitlines()
+              if json.loads(line)["kind"] == "action"]  # fmt: skip
+    assert errors[0] == f"no such program: {missing}" and errors[4] is None
+    assert all("Errno" not in (e or "") for e in errors), errors

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import socket
 import subprocess
+import urllib.error
 import urllib.request
 
 from rmvdsl.runtime import spec as ir
@@ -24,14 +25,13 @@ def leaves_the_process(action: ir.Action) -> bool:
 
 
 def perform(action: ir.Action, record: Record) -> str | None:
-    """Do an exec, post or tcp action for `record`; the error, or None."""
+    """Do an exec, post or tcp action for `record`; what went wrong, in words, or
+    None."""
     payload = to_json(record).encode()
     try:
         if isinstance(action, ir.Exec):
-            subprocess.run(
-                [action.command, *action.args], input=payload, timeout=EXEC_TIMEOUT, check=False
-            )
-        elif isinstance(action, ir.Post):
+            return _run(action, payload)
+        if isinstance(action, ir.Post):
             request = urllib.request.Request(
                 action.url, data=payload, headers={"Content-Type": "application/json"}
             )
@@ -40,6 +40,43 @@ def perform(action: ir.Action, record: Record) -> str | None:
             host, _, port = action.address.rpartition(":")
             with socket.create_connection((host, int(port)), timeout=TCP_TIMEOUT) as connection:
                 connection.sendall(payload + b"\n")
-    except (OSError, ValueError, subprocess.SubprocessError) as error:
-        return str(error)
+    except urllib.error.HTTPError as error:
+        return f"the server answered {error.code} {error.reason}"
+    except urllib.error.URLError as error:
+        reason = error.reason
+        return _network(reason) if isinstance(reason, OSError) else f"cannot post: {reason}"
+    except (OSError, ValueError) as error:
+        return _network(error)
     return None
+
+
+def _run(action: ir.Exec, payload: bytes) -> str | None:
+    """The program, with the record on its standard input; a failure in words."""
+    try:
+        done = subprocess.run([action.command, *action.args], input=payload,
+                              timeout=EXEC_TIMEOUT, check=False)  # fmt: skip
+    except FileNotFoundError:
+        return f"no such program: {action.command}"
+    except PermissionError:
+        return f"not allowed to run {action.command}"
+    except subprocess.TimeoutExpired:
+        return f"{action.command} ran longer than {EXEC_TIMEOUT:g} s and was stopped"
+    except OSError as error:
+        return f"cannot run {action.command}: {_network(error)}"
+    if done.returncode != 0:
+        return f"{action.command} exited with code {done.returncode}"
+    return None
+
+
+def _network(error: Exception) -> str:
+    """A connection's failure in words (not `[Errno 111] Connection refused`)."""
+    if isinstance(error, ConnectionRefusedError):
+        return "connection refused: nothing listens there"
+    if isinstance(error, socket.timeout | TimeoutError):
+        return "no answer in time"
+    if isinstance(error, socket.gaierror):
+        return "unknown host"
+    if isinstance(error, ValueError):
+        return f"not an address: {error}"
+    text = getattr(error, "strerror", None) or str(error) or type(error).__name__
+    return text[0].lower() + text[1:]

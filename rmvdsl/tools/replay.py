@@ -372,6 +372,7 @@ class Summary:
     violations: int = 0
     intrusions: int = 0
     warnings: int = 0  # the recording did not match the spec: some input was lost
+    failed_actions: int = 0  # --run-actions: an action that did not do its job
 
     @property
     def failed(self) -> bool:
@@ -459,6 +460,8 @@ def run(
             summary.intrusions += 1
         elif item["kind"] == "diagnostic":
             summary.warnings += 1
+        elif item["kind"] == "action" and item.get("error"):
+            summary.failed_actions += 1
         if report:
             kept.append(item)
         if output == "text":
@@ -478,6 +481,11 @@ def run(
             + (
                 f", {counted(summary.warnings, 'warning')} about the recording"
                 if summary.warnings
+                else ""
+            )
+            + (
+                f", {counted(summary.failed_actions, 'action')} failed"
+                if summary.failed_actions
                 else ""
             )
             + "\n"

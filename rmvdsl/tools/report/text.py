@@ -3,6 +3,7 @@ HTML report lists under its drawing."""
 
 from __future__ import annotations
 
+import shlex
 from fractions import Fraction
 from typing import Any
 
@@ -42,15 +43,27 @@ def text_line(record: Record) -> str | None:
             f"state     {decimal_text(record['time'])} {record['transducer']} -> {record['state']}"
         )
     if kind == "action":
-        target = record.get("topic") or record.get("url") or record.get("address") or ""
-        level = record.get("level", "")
-        return (
-            f"action    {decimal_text(record['time'])} {record['action']} {level}{target}: "
-            + (record["message"])
-        )
+        return _action_line(record)
     if kind == "diagnostic":
         where = f"{record['origin']}: " if record.get("origin") else ""
         return f"warning   {decimal_text(record['time'])} {where}{record['message']}"
     if kind == "counter":
         return f"counter   {record['name']}: {record['value']}"
     return None
+
+
+def _action_line(record: dict[str, Any]) -> str:
+    """An action: what it does (the program and its arguments, the URL, the address,
+    the topic, the level), its message, and with --run-actions whether it ran."""
+    command = record.get("command")
+    target = (
+        " ".join(shlex.quote(str(part)) for part in command)
+        if command
+        else record.get("topic") or record.get("url") or record.get("address") or ""
+    )
+    level = record.get("level", "")
+    line = f"action    {decimal_text(record['time'])} {record['action']} {level}{target}: "
+    line += record["message"]
+    if record.get("error"):
+        return f"{line}  FAILED: {record['error']}"
+    return f"{line}  (ran)" if record.get("ran") else line
