@@ -153,6 +153,8 @@ class Work:
         if join is None:
             self.recording_done(recording, result)
             return []
+        if join.result is not None:
+            return []  # a section failed and the recording with it: the rest is moot
         first_wave = any(self.jobs[index].section is s for s in join.sections)
         if first_wave and "section" in result:
             messages = result["section"]["section_messages"]
@@ -160,7 +162,6 @@ class Work:
         more = join.add(self.jobs[index], result)
         self.owner.extend(recording for _ in more)
         if join.result is not None:
-            del self.joins[recording]
             self.recording_done(recording, join.result)
         return more
 
