@@ -122,7 +122,7 @@ def test_random_specs_and_recordings_chunked_equal_the_whole_run(tmp_path):
     lead-ins from none to longer than the recording."""
     rng = random.Random(20261127)
     cases = read_on = joined = 0
-    for seed in range(40):
+    for seed in range(24):
         case = differential.make_case(seed)
         case.text += _past_property(rng, case.text)
         result = differential.check_case(case, tmp_path)
@@ -145,7 +145,7 @@ def test_random_specs_and_recordings_chunked_equal_the_whole_run(tmp_path):
         read_on += result_["seams_read_past"]
         joined += result_["chunks"] - 1 - result_["seams_read_past"]
     # The cases reach both ways of joining.
-    assert cases >= 25 and read_on > 10 and joined > 10, (cases, read_on, joined)
+    assert cases >= 15 and read_on > 5 and joined > 5, (cases, read_on, joined)
 
 
 @pytest.mark.parametrize("name", ["braking.bag", "braking_db3", "braking_mcap"])
@@ -158,14 +158,14 @@ def test_the_example_chunked_equals_the_whole_run(name):
     whole = replay_one(ir.dump(spec, indent=None), path, Options())
     assert whole["violations"] > 0
     chunk, lead, options = {
-        "braking.bag": (NS, 2 * NS, Options(start="+3", stop="+25")),
+        "braking.bag": (3 * NS, 2 * NS, Options(start="+3", stop="+25")),
         "braking_db3": (7 * NS, None, Options()),
         "braking_mcap": (3 * NS, NS // 2, Options()),
     }[name]
     whole = replay_one(ir.dump(spec, indent=None), path, options)
     joined = _chunked(spec, path, chunk, lead, options)
     assert not _same(whole, joined), (chunk, lead, _same(whole, joined))
-    assert joined["seams_read_past"] > 0 if lead == NS // 2 else True
+    assert joined["seams_read_past"] > 0 if lead is not None else True
 
 
 @pytest.fixture(scope="module")
