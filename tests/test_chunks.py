@@ -122,7 +122,7 @@ def test_random_specs_and_recordings_chunked_equal_the_whole_run(tmp_path):
     lead-ins from none to longer than the recording."""
     rng = random.Random(20261127)
     cases = read_on = joined = 0
-    for seed in range(24):
+    for seed in range(16):
         case = differential.make_case(seed)
         case.text += _past_property(rng, case.text)
         result = differential.check_case(case, tmp_path)
@@ -145,7 +145,7 @@ def test_random_specs_and_recordings_chunked_equal_the_whole_run(tmp_path):
         read_on += result_["seams_read_past"]
         joined += result_["chunks"] - 1 - result_["seams_read_past"]
     # The cases reach both ways of joining.
-    assert cases >= 15 and read_on > 5 and joined > 5, (cases, read_on, joined)
+    assert cases >= 10 and read_on > 5 and joined > 5, (cases, read_on, joined)
 
 
 @pytest.mark.parametrize("name", ["braking.bag", "braking_db3", "braking_mcap"])
@@ -170,11 +170,11 @@ def test_the_example_chunked_equals_the_whole_run(name):
 
 @pytest.fixture(scope="module")
 def long_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A 2,000 s recording (20,000 messages, with stops and fast stretches) and the
+    """A 1,000 s recording (10,000 messages, with stops and fast stretches) and the
     fleet tests' spec (4 s horizons: its lead-in is 8 s)."""
     folder = tmp_path_factory.mktemp("long")
-    speeds = fleet_recordings.speeds(3, 20_000)
-    for at in (1234, 9000, 15_555):
+    speeds = fleet_recordings.speeds(3, 10_000)
+    for at in (1234, 6000, 8555):
         speeds[at] = 0.0
     speeds[5000:5030] = [30.0] * 30
     fleet_recordings.write(folder / "long", "mcap", speeds)
@@ -183,22 +183,22 @@ def long_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def test_a_long_recording_in_chunks_on_two_processes(long_run):
-    """`--chunk 200s --jobs 2`: ten chunks in two worker processes, joined by their
+    """`--chunk 100s --jobs 2`: ten chunks in two worker processes, joined by their
     keys; the result is the one run's, whose records `rmv replay` prints alone."""
     alone = rmv_process(["replay", "spec.rmv", "long_mcap", "--format", "json"], cwd=long_run)
     assert alone.code == 1, alone.err
     records = [json.dumps(r) for r in json.loads(alone.out)["records"]]
-    chunked = rmv_process(["replay", "spec.rmv", "long_mcap", "--chunk", "200s", "--jobs", "2",
+    chunked = rmv_process(["replay", "spec.rmv", "long_mcap", "--chunk", "100s", "--jobs", "2",
                            "--format", "jsonl"], cwd=long_run)  # fmt: skip
     assert chunked.code == 1, chunked.err
     result = json.loads(chunked.out)
-    assert (result["chunks"], result["seams_read_past"], result["messages"]) == (10, 0, 20_000)
+    assert (result["chunks"], result["seams_read_past"], result["messages"]) == (10, 0, 10_000)
     joined = [json.dumps(r) for r in result["records"]]
     assert collections.Counter(joined) == collections.Counter(records)
     assert _verdicts({"records": joined}) == _verdicts({"records": records})
-    text = rmv_process(["replay", "spec.rmv", "long_mcap", "--chunk", "10m", "--quiet"],
+    text = rmv_process(["replay", "spec.rmv", "long_mcap", "--chunk", "5m", "--quiet"],
                        cwd=long_run)  # fmt: skip
-    assert "4 chunks)" in text.out and "20,000 messages" in text.out, text.out
+    assert "4 chunks)" in text.out and "10,000 messages" in text.out, text.out
 
 
 def test_chunk_durations_and_their_errors(long_run):
