@@ -9,8 +9,9 @@ from dataclasses import dataclass, field
 from rmvdsl.grammar import ast
 from rmvdsl.grammar.parser import parse_source
 from rmvdsl.lang.diagnostics import Diagnostic, closest, error
-from rmvdsl.lang.errors import UsageError, os_problem
+from rmvdsl.lang.errors import UsageError
 from rmvdsl.lang.source import SourceFile, SourceMap
+from rmvdsl.runtime.wording import os_words
 
 __all__ = ["UsageError"]
 
@@ -33,7 +34,7 @@ def unreadable(path: str, exc: OSError) -> UsageError:
         return UsageError(f"{path}: is a directory, not a file")
     if isinstance(exc, PermissionError):
         return UsageError(f"{path}: permission denied")
-    return UsageError(f"{path}: cannot read: {os_problem(exc)}")
+    return UsageError(f"{path}: cannot read: {os_words(exc)}")
 
 
 def read_stdin() -> str:

@@ -9,7 +9,8 @@ import os
 import sys
 from typing import Any
 
-from rmvdsl.lang.errors import UsageError, os_problem
+from rmvdsl.lang.errors import UsageError
+from rmvdsl.runtime.wording import os_words
 
 
 def write_text(path: str, text: str) -> None:
@@ -18,7 +19,7 @@ def write_text(path: str, text: str) -> None:
         with open(path, "w", encoding="utf-8") as handle:
             handle.write(text)
     except OSError as exc:
-        raise UsageError(f"{path}: cannot write: {os_problem(exc)}") from None
+        raise UsageError(f"{path}: cannot write: {os_words(exc)}") from None
 
 
 def use_color(args: argparse.Namespace) -> bool:

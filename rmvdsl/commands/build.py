@@ -8,8 +8,8 @@ import sys
 
 from rmvdsl import targets
 from rmvdsl.commands import message_options, warn_if_nothing_checked
-from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, UsageError, os_problem
-from rmvdsl.runtime.wording import counted
+from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, UsageError
+from rmvdsl.runtime.wording import counted, os_words
 
 
 def run(args: argparse.Namespace) -> int:
@@ -42,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
     except targets.TargetError as exc:
         raise UsageError(str(exc)) from None
     except OSError as exc:
-        raise UsageError(f"{args.output}: {os_problem(exc)}") from None
+        raise UsageError(f"{args.output}: {os_words(exc)}") from None
     for line in built.notes:
         print(f"rmv build: {line}", file=sys.stderr)
     if built.text is not None:

@@ -15,9 +15,10 @@ from rmvdsl.check.properties import PropertyReport
 from rmvdsl.commands import stored, write_text
 from rmvdsl.editor.workspace import Workspace
 from rmvdsl.lang.diagnostics import Diagnostic, Severity, error
-from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, EXIT_USAGE, UsageError, os_problem
+from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, EXIT_USAGE, UsageError
 from rmvdsl.lang.render import render_json, render_sarif, render_text, summary
 from rmvdsl.lang.source import SourceMap, Span
+from rmvdsl.runtime.wording import os_words
 
 
 def run(args: argparse.Namespace, color: bool, entry: str | None) -> stored.Stored:
@@ -120,7 +121,7 @@ def write_witnesses(folder: str, report: PropertyReport, unit: str | None = None
     try:
         os.makedirs(folder, exist_ok=True)
     except OSError as exc:
-        raise UsageError(f"--witnesses {folder}: {os_problem(exc)}") from None
+        raise UsageError(f"--witnesses {folder}: {os_words(exc)}") from None
     for name, facts in report.facts.items():
         found = [
             ("holds", "true", facts.satisfiable),

@@ -106,8 +106,7 @@ class ChunkParser:
     def _give_up(self, token: Token) -> None:
         """Too many errors in one declaration (not a spec, or a paste gone wrong): one
         error says where reading stopped, and the rest of the declaration is skipped."""
-        end = self.source.text.rfind("\n", self.start, self.end)
-        last_line = self.source.text.count("\n", 0, end if end > self.start else self.end) + 1
+        last_line = self.source.position(max(self.start, self.end - 1)).line
         self.diagnostics.append(error(
             "RMV100",
             f"more than {counted(MAX_ERRORS, 'error')} in this declaration: the rest of it, "

@@ -15,6 +15,7 @@ import urllib.request
 
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.engine import Record, to_json
+from rmvdsl.runtime.wording import os_words
 
 EXEC_TIMEOUT = 30.0  # seconds a program may run
 TCP_TIMEOUT = 10.0
@@ -70,13 +71,8 @@ def _run(action: ir.Exec, payload: bytes) -> str | None:
 
 def _network(error: Exception) -> str:
     """A connection's failure in words (not `[Errno 111] Connection refused`)."""
-    if isinstance(error, ConnectionRefusedError):
-        return "connection refused: nothing listens there"
-    if isinstance(error, socket.timeout | TimeoutError):
-        return "no answer in time"
     if isinstance(error, socket.gaierror):
         return "unknown host"
-    if isinstance(error, ValueError):
-        return f"not an address: {error}"
-    text = getattr(error, "strerror", None) or str(error) or type(error).__name__
-    return text[0].lower() + text[1:]
+    if isinstance(error, OSError):
+        return os_words(error)
+    return f"not an address: {error}"

@@ -16,7 +16,6 @@ from pathlib import Path
 from typing import Any
 
 from rmvdsl.lang import builtins
-from rmvdsl.lang.errors import os_problem
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.engine import (
     Endpoint,
@@ -27,7 +26,7 @@ from rmvdsl.runtime.engine import (
     can_refuse,
     seconds,
 )
-from rmvdsl.runtime.wording import counted
+from rmvdsl.runtime.wording import counted, os_words
 from rmvdsl.tools.report.text import decimal_text, text_line
 
 
@@ -178,7 +177,7 @@ def damage(error: Exception) -> str:
     if isinstance(error, OverflowError | IndexError | MemoryError | struct.error):
         return "it is damaged: a length or an offset in it points outside the file"
     if isinstance(error, OSError):
-        return os_problem(error)
+        return os_words(error)
     return str(error) or f"it is damaged ({type(error).__name__})"
 
 

@@ -7,7 +7,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from rmvdsl.lang.errors import os_problem
+from rmvdsl.runtime.wording import os_words
 from rmvdsl.targets import Built, Target, TargetError
 
 if TYPE_CHECKING:
@@ -23,7 +23,7 @@ def _build(spec: ir.Spec, out: Path | None, options: Mapping[str, str | None]) -
     try:
         out.write_text(text, encoding="utf-8")
     except OSError as exc:
-        raise TargetError(f"{out}: cannot write: {os_problem(exc)}") from None
+        raise TargetError(f"{out}: cannot write: {os_words(exc)}") from None
     return Built((out,), "")  # quiet, as a compiler writing one file is
 
 
