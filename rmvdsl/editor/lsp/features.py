@@ -57,8 +57,8 @@ def register(server: RmvServer) -> None:
     """Every feature but the documents' own (server.build registers those)."""
 
     @server.feature(types.TEXT_DOCUMENT_HOVER)
-    def hover(ls: RmvServer, params: types.HoverParams) -> types.Hover | None:
-        target = ls.target_at(params.text_document.uri, params.position)
+    async def hover(ls: RmvServer, params: types.HoverParams) -> types.Hover | None:
+        target = await ls.target_at(params.text_document.uri, params.position)
         if target is None:
             return None
         result, symbol = target.result, target.symbol
@@ -70,8 +70,8 @@ def register(server: RmvServer) -> None:
         return types.Hover(contents=types.MarkupContent(types.MarkupKind.Markdown, text))
 
     @server.feature(types.TEXT_DOCUMENT_DEFINITION)
-    def definition(ls: RmvServer, params: types.DefinitionParams) -> types.Location | None:
-        target = ls.target_at(params.text_document.uri, params.position)
+    async def definition(ls: RmvServer, params: types.DefinitionParams) -> types.Location | None:
+        target = await ls.target_at(params.text_document.uri, params.position)
         if target is None:
             return None
         model = target.result.model
@@ -81,8 +81,8 @@ def register(server: RmvServer) -> None:
         return None if where is None else ls.location(model, where)
 
     @server.feature(types.TEXT_DOCUMENT_REFERENCES)
-    def find_references(ls: RmvServer, params: types.ReferenceParams) -> list[types.Location]:
-        target = ls.target_at(params.text_document.uri, params.position)
+    async def find_references(ls: RmvServer, params: types.ReferenceParams) -> list[types.Location]:
+        target = await ls.target_at(params.text_document.uri, params.position)
         if target is None:
             return []
         model, declared = target.result.model, params.context.include_declaration
@@ -98,11 +98,11 @@ def register(server: RmvServer) -> None:
         return [location for span in spans if (location := ls.location(model, span))]
 
     @server.feature(types.TEXT_DOCUMENT_DOCUMENT_SYMBOL)
-    def document_symbols(
+    async def document_symbols(
         ls: RmvServer, params: types.DocumentSymbolParams
     ) -> list[types.DocumentSymbol]:
         document = ls.document(params.text_document.uri)
-        result = ls.state.results.get(document.path)
+        result = await ls.latest(params.text_document.uri)
         if result is None:
             return []
         return outline(result.model, document.path, ls.encoding)
@@ -110,9 +110,11 @@ def register(server: RmvServer) -> None:
     @server.feature(
         types.TEXT_DOCUMENT_COMPLETION, types.CompletionOptions(trigger_characters=["=", " "])
     )
-    def complete(ls: RmvServer, params: types.CompletionParams) -> types.CompletionList:
+    async def complete(ls: RmvServer, params: types.CompletionParams) -> types.CompletionList:
         document = ls.document(params.text_document.uri)
-        result = ls.state.results.get(document.path)
+        # The newest check, even of a moment-old text: completion keeps pace with
+        # typing. Only a document with no check yet waits for its first.
+        result = ls.state.results.get(document.path) or await ls.analysed(params.text_document.uri)
         offset = convert.offset_at(document, params.position)
         items = [
             types.CompletionItem(
@@ -126,8 +128,10 @@ def register(server: RmvServer) -> None:
         return types.CompletionList(is_incomplete=False, items=items)
 
     @server.feature(types.TEXT_DOCUMENT_RENAME)
-    def rename_symbol(ls: RmvServer, params: types.RenameParams) -> types.WorkspaceEdit | None:
-        found = ls.found_at(params.text_document.uri, params.position)
+    async def rename_symbol(
+        ls: RmvServer, params: types.RenameParams
+    ) -> types.WorkspaceEdit | None:
+        found = await ls.found_at(params.text_document.uri, params.position)
         if found is None:
             return None
         model, symbol = found
@@ -167,8 +171,8 @@ def register(server: RmvServer) -> None:
         types.TEXT_DOCUMENT_SEMANTIC_TOKENS_FULL,
         types.SemanticTokensLegend(token_types=list(TOKEN_TYPES), token_modifiers=["declaration"]),
     )
-    def tokens(ls: RmvServer, params: types.SemanticTokensParams) -> types.SemanticTokens:
-        result = ls.checked(params.text_document.uri)
+    async def tokens(ls: RmvServer, params: types.SemanticTokensParams) -> types.SemanticTokens:
+        result = await ls.analysed(params.text_document.uri)
         if result is None:
             return types.SemanticTokens(data=[])
         path = ls.document(params.text_document.uri).path
@@ -178,9 +182,9 @@ def register(server: RmvServer) -> None:
         return types.SemanticTokens(data=convert.token_data(source, found, ls.encoding))
 
     @server.feature(types.TEXT_DOCUMENT_FOLDING_RANGE)
-    def folding(ls: RmvServer, params: types.FoldingRangeParams) -> list[types.FoldingRange]:
+    async def folding(ls: RmvServer, params: types.FoldingRangeParams) -> list[types.FoldingRange]:
         document = ls.document(params.text_document.uri)
-        result = ls.state.results.get(document.path)
+        result = await ls.latest(params.text_document.uri)
         if result is None:
             return []
         return [
@@ -189,11 +193,12 @@ def register(server: RmvServer) -> None:
         ]
 
     @server.feature(types.WORKSPACE_SYMBOL)
-    def workspace_symbols(
+    async def workspace_symbols(
         ls: RmvServer, params: types.WorkspaceSymbolParams
     ) -> list[types.SymbolInformation]:
         """Every declared name of the checked documents (and what they import)
         that contains the query, ignoring case."""
+        await ls.all_analysed()
         query, seen, out = params.query.lower(), set(), []
         for result in list(ls.state.results.values()):
             for symbol in result.model.symbols.values():

@@ -46,6 +46,13 @@ def build() -> RmvServer:
         path = ls.document(params.text_document.uri).path
         ls.state.workspace.close(path)
         ls.state.generation[path] = ls.state.generation.get(path, 0) + 1
+        # Nothing of a closed document stays: its checks go, and a request still
+        # waiting for one is answered now.
+        ls.state.results.pop(path, None)
+        ls.state.mentions.pop(path, None)
+        waiter = ls.state.analysed.pop(path, None)
+        if waiter is not None and not waiter.done():
+            waiter.set_result(None)
 
     features.register(server)
     return server

@@ -6,11 +6,18 @@ from __future__ import annotations
 
 import asyncio
 import functools
+import json
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
 
 from lsprotocol import types
+from pygls.exceptions import (
+    JsonRpcException,
+    JsonRpcInvalidParams,
+    JsonRpcInvalidRequest,
+    JsonRpcParseError,
+)
 from pygls.lsp.server import LanguageServer
 from pygls.protocol import LanguageServerProtocol
 from pygls.workspace import TextDocument
@@ -27,6 +34,10 @@ from rmvdsl.editor.workspace import (
 from rmvdsl.lang.source import Span
 
 DEBOUNCE = 0.3  # seconds of quiet before the solver stages run
+# How long a request waits for the check of the text it was sent against (an
+# editor asks for hover, tokens and folds right after didOpen): the fast stages of
+# a 20,000-line spec take seconds, a hung check must not hang the request too.
+ANALYSIS_WAIT = 30.0
 
 
 @dataclass
@@ -41,6 +52,8 @@ class State:
     pool: ThreadPoolExecutor = field(default_factory=lambda: ThreadPoolExecutor(2))
     published: dict[str, set[str]] = field(default_factory=dict)  # root -> paths shown
     mentions: dict[str, tuple[CheckResult, list[Mention]]] = field(default_factory=dict)
+    # path -> done when the fast stages of its newest text have been published
+    analysed: dict[str, asyncio.Future[None]] = field(default_factory=dict)
 
 
 class Protocol(LanguageServerProtocol):
@@ -66,6 +79,63 @@ class Protocol(LanguageServerProtocol):
         if self._request_futures.get(msg_id) is future:
             del self._request_futures[msg_id]
 
+    # Every request gets an answer (JSON-RPC 2.0, section 5): pygls drops a request
+    # whose params do not fit its type (a negative position) without one, and a
+    # message that is no message at all with only a log line.
+
+    def structure_message(self, data: dict[str, Any]) -> Any:
+        try:
+            return super().structure_message(data)
+        except JsonRpcException as error:
+            why = _validation_errors(error)
+            if not {"jsonrpc", "id", "method"} <= set(data):
+                raise JsonRpcInvalidParams(f"{data.get('method', 'a message')}: {why}") from None
+            invalid = JsonRpcInvalidParams(f"{data['method']}: {why}")
+            self._send_response(data["id"], None, invalid.to_response_error())
+            return ANSWERED
+
+    def handle_message(self, message: Any) -> None:
+        if message is ANSWERED:
+            return
+        if not hasattr(message, "jsonrpc"):  # valid JSON, but not an object of JSON-RPC
+            self.answer_unknown(JsonRpcInvalidRequest(
+                "not a JSON-RPC message: expected an object with `jsonrpc`, `method` "
+                "and `params`"))  # fmt: skip
+            return
+        super().handle_message(message)
+
+    def answer_unknown(self, error: JsonRpcException) -> None:
+        """An error answering a message whose id could not be read: `"id": null`,
+        written out (pygls leaves a None id out of the message)."""
+        answer = {"code": error.code, "message": error.message}
+        self._send_data({"jsonrpc": "2.0", "id": None, "error": answer})
+
+
+ANSWERED = object()  # a request structure_message has answered with an error
+
+
+def _validation_errors(error: BaseException) -> str:
+    """What was wrong with a message's params, in lsprotocol's words (the leaves
+    of cattrs's exception groups), at most three."""
+    leaves: list[str] = []
+    pending: list[BaseException] = [error.__cause__ or error]
+    while pending and len(leaves) < 3:
+        found = pending.pop(0)
+        inner = getattr(found, "exceptions", None)  # an exception group
+        if inner:
+            pending[:0] = list(inner)
+        elif isinstance(found, KeyError):
+            leaves.append(f"`{found.args[0]}` is missing")
+        elif isinstance(found, ValueError) and str(found):
+            leaves.append(str(found))  # lsprotocol's validators say what was wanted
+        else:  # a TypeError of Python's: name the attribute, as cattrs noted it
+            notes = getattr(found, "__notes__", [])
+            where = [n.rpartition("@ attribute ")[2] for n in notes if "@ attribute " in n]
+            leaves.append(
+                f"`{where[0]}` has the wrong type" if where else "a value of the wrong type"
+            )
+    return "; ".join(leaves) or "params of the wrong shape"
+
 
 class RmvServer(LanguageServer):
     def __init__(self) -> None:
@@ -77,6 +147,14 @@ class RmvServer(LanguageServer):
         )
         self.state = State()
 
+    def report_server_error(self, error: Exception, source: Any) -> None:
+        """A frame that is not JSON gets JSON-RPC's parse error (id null), then
+        pygls's message to the user, as every error outside a request does."""
+        if isinstance(error, json.JSONDecodeError):
+            assert isinstance(self.protocol, Protocol)
+            self.protocol.answer_unknown(JsonRpcParseError(f"the message is not JSON: {error}"))
+        super().report_server_error(error, source)
+
     def document(self, uri: str) -> TextDocument:
         return self.workspace.get_text_document(uri)
 
@@ -85,8 +163,12 @@ class RmvServer(LanguageServer):
 
     @property
     def encoding(self) -> str:
-        """The position encoding the client negotiated."""
-        return str(self.workspace.position_encoding or types.PositionEncodingKind.Utf16)
+        """The position encoding the client negotiated ("utf-16" unless it asked
+        for another), as the plain string every conversion compares with: pygls
+        gives an enum member when the client named none, and str() of that is
+        its Python name."""
+        chosen = self.workspace.position_encoding or types.PositionEncodingKind.Utf16
+        return str(getattr(chosen, "value", chosen))
 
     async def refresh(self, uri: str) -> None:
         """Check a document: the fast stages, then (if nothing changed meanwhile)
@@ -96,17 +178,32 @@ class RmvServer(LanguageServer):
         state.workspace.open(path, document.source)
         generation = state.generation[path] = state.generation.get(path, 0) + 1
         loop = asyncio.get_running_loop()
-        fast = functools.partial(state.workspace.check, path, solver=False)
-        result = await loop.run_in_executor(state.pool, fast)
-        if state.generation.get(path) != generation:
-            return
-        self.publish(path, result)
+        waiter = state.analysed.get(path)
+        if waiter is None or waiter.done():
+            waiter = state.analysed[path] = loop.create_future()
+        try:
+            fast = functools.partial(self._check_if_newest, path, generation, False)
+            result = await loop.run_in_executor(state.pool, fast)
+            if result is None or state.generation.get(path) != generation:
+                return
+            self.publish(path, result)
+        finally:
+            if state.generation.get(path) == generation and not waiter.done():
+                waiter.set_result(None)  # published, or the check failed: stop waiting
         await asyncio.sleep(DEBOUNCE)
         if state.generation.get(path) != generation:
             return
-        result = await loop.run_in_executor(state.pool, state.workspace.check, path)
-        if state.generation.get(path) == generation:
+        full = functools.partial(self._check_if_newest, path, generation, True)
+        result = await loop.run_in_executor(state.pool, full)
+        if result is not None and state.generation.get(path) == generation:
             self.publish(path, result)
+
+    def _check_if_newest(self, path: str, generation: int, solver: bool) -> CheckResult | None:
+        """A check of the document, unless a newer change overtook it while it
+        waited for a thread (a storm of edits queues one check each)."""
+        if self.state.generation.get(path) != generation:
+            return None
+        return self.state.workspace.check(path, solver=solver)
 
     def publish(self, root: str, result: CheckResult) -> None:
         """The diagnostics of a check, per file (an import's show in that file)."""
@@ -136,6 +233,28 @@ class RmvServer(LanguageServer):
             convert.uri_of(span.path), convert.lsp_range(source, span, self.encoding)
         )
 
+    async def analysed(self, uri: str) -> CheckResult | None:
+        """The check of the document's text as it is now, once its fast stages are
+        published: a request sent right after a change is answered for the text it
+        was sent against, not with nothing."""
+        path = self.document(uri).path
+        waiter = self.state.analysed.get(path)
+        if waiter is not None and not waiter.done():
+            await asyncio.wait({waiter}, timeout=ANALYSIS_WAIT)
+        return self.checked(uri)
+
+    async def latest(self, uri: str) -> CheckResult | None:
+        """The check of the text as it is now, else the newest check of the
+        document (an outline may show a moment-old text's declarations)."""
+        found = await self.analysed(uri)
+        return found or self.state.results.get(self.document(uri).path)
+
+    async def all_analysed(self) -> None:
+        """Wait until every open document's newest text has been checked."""
+        waiting = {w for w in self.state.analysed.values() if not w.done()}
+        if waiting:
+            await asyncio.wait(waiting, timeout=ANALYSIS_WAIT)
+
     def checked(self, uri: str) -> CheckResult | None:
         """The newest check of a document, if it checked the text shown now."""
         document = self.document(uri)
@@ -155,9 +274,9 @@ class RmvServer(LanguageServer):
             cached = self.state.mentions[root] = (result, mentions(result))
         return cached[1]
 
-    def target_at(self, uri: str, position: types.Position) -> Target | None:
+    async def target_at(self, uri: str, position: types.Position) -> Target | None:
         """The symbol or the mention at a position of a checked document."""
-        result = self.checked(uri)
+        result = await self.analysed(uri)
         if result is None:
             return None
         document = self.document(uri)
@@ -168,8 +287,8 @@ class RmvServer(LanguageServer):
         mention = mention_at(self.mentions_of(result), document.path, offset)
         return None if mention is None else Target(result, None, mention)
 
-    def found_at(self, uri: str, position: types.Position) -> tuple[Model, Symbol] | None:
-        target = self.target_at(uri, position)
+    async def found_at(self, uri: str, position: types.Position) -> tuple[Model, Symbol] | None:
+        target = await self.target_at(uri, position)
         if target is None or target.symbol is None:
             return None
         return target.result.model, target.symbol

@@ -1,0 +1,225 @@
+"""`rmv lsp` at the edges of the protocol, through raw JSON-RPC bytes (tests/
+lsp_wire.py): requests sent the moment a document opens or changes, a client that
+names no position encoding, messages that are wrong in every way a frame can be,
+and a storm of edits, cancellations, a 20,000-line file and a file deleted under
+the server."""
+
+from __future__ import annotations
+
+import random
+import re
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+from conftest import EXAMPLES
+from lsp_wire import Wire
+
+ABS = EXAMPLES / "carla" / "abs.rmv"
+
+
+@pytest.fixture
+def wire(tmp_path: Path):
+    server = Wire(cwd=tmp_path)
+    yield server
+    if server.process.poll() is None:
+        server.process.kill()
+        server.process.wait()
+
+
+def _position(text: str, needle: str, inside: int = 2) -> dict[str, int]:
+    """The LSP position (code points = UTF-16 units here: ASCII) `inside` a needle."""
+    line = next(i for i, s in enumerate(text.splitlines()) if needle in s)
+    return {"line": line, "character": text.splitlines()[line].index(needle) + inside}
+
+
+def test_requests_sent_with_didopen_are_answered_for_its_text(wire: Wire):
+    """VS Code asks for tokens, folds and symbols in the same breath as didOpen:
+    each waits for the first check instead of answering empty."""
+    wire.initialize(ABS.parent)
+    text = ABS.read_text(encoding="utf-8")
+    uri = wire.open(ABS, text)
+    doc = {"textDocument": {"uri": uri}}
+    at = {**doc, "position": _position(text, "event HardBrake when", len("event "))}
+    asked = {
+        "hover": wire.request("textDocument/hover", at),
+        "tokens": wire.request("textDocument/semanticTokens/full", doc),
+        "folds": wire.request("textDocument/foldingRange", doc),
+        "outline": wire.request("textDocument/documentSymbol", doc),
+        "symbols": wire.request("workspace/symbol", {"query": "brak"}),
+        "rename": wire.request("textDocument/rename", {**at, "newName": "Stopping"}),
+    }
+    got = {name: wire.answer(number)["result"] for name, number in asked.items()}
+    assert "HardBrake" in got["hover"]["contents"]["value"]
+    assert len(got["tokens"]["data"]) > 100 and len(got["folds"]) >= 3
+    assert any(s["name"] == "HardBrake" for s in got["outline"])
+    assert {"HardBrake", "BrakePedal"} <= {s["name"] for s in got["symbols"]}
+    edits = got["rename"]["changes"][uri]
+    assert len(edits) == len(re.findall(r"\bHardBrake\b", text)) == 3
+    # Right after a change, a hover on the new text finds the new name.
+    line = at["position"]["line"]
+    start = {"line": line, "character": len("event ")}
+    end = {"line": line, "character": len("event HardBrake")}
+    change = {"range": {"start": start, "end": end}, "text": "Stopping"}
+    document = {"uri": uri, "version": 2}
+    wire.notify("textDocument/didChange", {"textDocument": document, "contentChanges": [change]})
+    hover = wire.call("textDocument/hover", at)["result"]
+    assert "`Stopping`" in hover["contents"]["value"]
+    assert wire.close() == 0
+
+
+def test_a_client_naming_no_encoding_gets_utf16_everywhere(wire: Wire, tmp_path: Path):
+    """No `general.positionEncodings`: the server announces UTF-16, and diagnostics,
+    hover and definition all count UTF-16 units (two cars are four units)."""
+    assert wire.initialize(tmp_path)["capabilities"]["positionEncoding"] == "utf-16"
+    path = tmp_path / "cars.rmv"
+    text = (
+        'system cars\ntopic t: std_msgs/msg/Float64 = "/t"\nvar x = t.data\n'
+        'alert A { message "\U0001f697\U0001f697" warn when x > 1 and Nope > 1 }\n'
+    )
+    path.write_text(text, encoding="utf-8")
+    uri = wire.open(path, text)
+    found = wire.diagnostics_until(uri, lambda p: bool(_where(p, "RMV200")))
+    wrong = next(d for d in found["diagnostics"] if d["code"] == "RMV200")
+    line = text.splitlines()[3]
+    units = line.index("Nope") + 2  # each car: one code point, two UTF-16 units
+    assert wrong["range"]["start"] == {"line": 3, "character": units}
+    use = {"line": 3, "character": line.index(" x > 1") + 1 + 2}
+    answer = wire.call("textDocument/definition", {"textDocument": {"uri": uri}, "position": use})
+    assert answer["result"]["range"]["start"] == {"line": 2, "character": 4}
+    hover = wire.call("textDocument/hover", {"textDocument": {"uri": uri}, "position": use})
+    assert "**variable** `x`" in hover["result"]["contents"]["value"]
+    assert wire.close() == 0
+
+
+BAD_FRAMES: list[tuple[bytes, int]] = [
+    (b"{abc}", -32700),  # not JSON
+    (b"[1, 2]", -32600),  # JSON, not a message
+    (b'"text"', -32600),
+]
+
+
+def _frame(body: bytes) -> bytes:
+    return b"Content-Length: %d\r\n\r\n" % len(body) + body
+
+
+def test_every_request_gets_an_answer(wire: Wire, tmp_path: Path):
+    """Bad params, an unknown method, a frame that is not JSON or not a message:
+    each gets a JSON-RPC error, and the server goes on serving."""
+    wire.initialize(tmp_path)
+    doc = {"uri": (tmp_path / "x.rmv").as_uri()}
+    bad_params: list[tuple[str, Any]] = [
+        ("textDocument/hover", {"textDocument": doc, "position": {"line": -1, "character": 0}}),
+        ("textDocument/hover", {"textDocument": doc, "position": {"line": 0}}),
+        ("textDocument/definition", {"textDocument": 7, "position": {"line": 0, "character": 0}}),
+        ("textDocument/semanticTokens/full", []),
+        ("textDocument/rename", {"textDocument": doc, "position": {"line": 0, "character": 0}}),
+    ]
+    for method, params in bad_params:
+        answer = wire.call(method, params, timeout=30)
+        assert answer["error"]["code"] == -32602, (method, params, answer)
+        assert answer["error"]["message"].startswith(method)
+    assert wire.call("no/such/method", {})["error"]["code"] == -32601
+    for body, code in BAD_FRAMES:
+        wire.send_bytes(_frame(body))
+        reply = wire.take(30)
+        while reply is not None and "error" not in reply:
+            reply = wire.take(30)
+        assert reply is not None and reply["id"] is None and reply["error"]["code"] == code
+    # A notification with bad params has no answer: the user is told, once each.
+    wire.notify("textDocument/didChange", {"textDocument": {"uri": doc["uri"], "version": 2},
+                "contentChanges": [{"range": {"start": {"line": -3}}, "text": "x"}]})  # fmt: skip
+    shown = wire.take(30)
+    assert shown is not None and shown["method"] == "window/showMessage"
+    assert "didChange" in shown["params"]["message"]
+    path = tmp_path / "ok.rmv"
+    text = 'system ok\ntopic t: std_msgs/msg/Float64 = "/t"\nvar x = t.data\n'
+    uri = wire.open(path, text)
+    at = {"textDocument": {"uri": uri}, "position": {"line": 2, "character": 4}}
+    assert "`x`" in wire.call("textDocument/hover", at)["result"]["contents"]["value"]
+    assert wire.close() == 0
+
+
+def _rss_kib(pid: int) -> int:
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1])
+    raise AssertionError("no VmRSS")
+
+
+def _edit(uri: str, version: int, line: int, start: int, end: int, text: str) -> dict[str, Any]:
+    where = {"start": {"line": line, "character": start}, "end": {"line": line, "character": end}}
+    return {"textDocument": {"uri": uri, "version": version},
+            "contentChanges": [{"range": where, "text": text}]}  # fmt: skip
+
+
+def test_a_storm_of_edits_ends_in_diagnostics_of_the_last_text(wire: Wire, tmp_path: Path):
+    """1,000 edits as fast as the pipe takes them, hovers cancelled on the way, some
+    versions out of order; then a file deleted under the server and a 20,000-line
+    file: no crash, the last publication is of the last text, memory comes back
+    after didClose."""
+    wire.initialize(tmp_path)
+    path = tmp_path / "storm.rmv"
+    head = 'system storm\ntopic t: std_msgs/msg/Float64 = "/t"\nvar x = t.data\n'
+    text = head + "event E when x > 100\nproperty P: always[<=1s] not E\n"
+    path.write_text(text, encoding="utf-8")
+    uri = wire.open(path, text)
+    wire.diagnostics_until(uri, lambda p: p["diagnostics"] == [])
+    rng = random.Random(7)
+    line = 3  # "event E when x > 100": the digits are typed over and over
+    digits = "100"
+    for version in range(2, 1002):
+        new = str(rng.randrange(1000))
+        start = len("event E when x > ")
+        sent = version if version % 50 else version - 40  # now and then out of order
+        wire.notify(
+            "textDocument/didChange", _edit(uri, sent, line, start, start + len(digits), new)
+        )
+        digits = new
+        if version % 10 == 0:
+            number = wire.request("textDocument/hover", {"textDocument": {"uri": uri},
+                                  "position": {"line": 4, "character": 13}})  # fmt: skip
+            wire.notify("$/cancelRequest", {"id": number})
+    # Break it at the end: the last text has an unknown name.
+    wire.notify("textDocument/didChange", _edit(uri, 2000, line, len("event E when "),
+                                                len("event E when x"), "y"))  # fmt: skip
+    last = wire.diagnostics_until(uri, lambda p: p["version"] == 2000 and p["diagnostics"])
+    [unknown] = [d for d in last["diagnostics"] if d["code"] == "RMV200"]
+    assert "`y`" in unknown["message"] and unknown["range"]["start"]["line"] == line
+    # every request was answered: a result or the cancellation's error
+    answered = {m["id"] for m in wire.seen if "id" in m and "method" not in m}
+    assert set(range(2, wire.next_id + 1)) <= answered
+    # A file deleted under the server: its open text is still checked and served.
+    path.unlink()
+    wire.notify("textDocument/didChange", _edit(uri, 2001, line, len("event E when "),
+                                                len("event E when y"), "x"))  # fmt: skip
+    wire.diagnostics_until(uri, lambda p: p["version"] == 2001 and p["diagnostics"] == [])
+    hover = wire.call("textDocument/hover", {"textDocument": {"uri": uri},
+                      "position": {"line": 4, "character": len("property ")}})  # fmt: skip
+    assert "**property** `P`" in hover["result"]["contents"]["value"]
+    # 20,000 lines (each event unused: 19,996 warnings in one publication), opened,
+    # edited and closed twice: what the first cycle took, the second reuses.
+    big = tmp_path / "big.rmv"
+    body = head + "".join(f"event E{i} when x > {i}\n" for i in range(19_996))
+    big.write_text(body, encoding="utf-8")
+    after = []
+    for cycle in range(2):
+        started, mark = time.monotonic(), len(wire.seen)
+        big_uri = wire.open(big, body)
+        found = wire.diagnostics_until(big_uri, lambda p: p["version"] == 1, 300, mark)
+        assert len(found["diagnostics"]) == 19_997  # each unused event, and RMV226
+        edit = _edit(big_uri, 2, 10_000, len("event E9997 when "), len("event E9997 when x"), "zz")
+        wire.notify("textDocument/didChange", edit)
+        found = wire.diagnostics_until(big_uri, lambda p: p["version"] == 2, 300, mark)
+        assert [d["line"] for d in _where(found, "RMV200")] == [10_000]
+        wire.notify("textDocument/didClose", {"textDocument": {"uri": big_uri}})
+        wire.call("workspace/symbol", {"query": "zz"})  # answered after didClose ran
+        after.append(_rss_kib(wire.process.pid))
+        print(f"cycle {cycle}: {time.monotonic() - started:.1f} s, RSS after {after[-1]} KiB")
+    assert after[1] < after[0] * 1.1, after
+    assert wire.close() == 0
+
+
+def _where(published: dict[str, Any], code: str) -> list[dict[str, int]]:
+    return [d["range"]["start"] for d in published["diagnostics"] if d["code"] == code]
