@@ -135,7 +135,7 @@ class LineReader:
             return
         if not raw.strip():
             return
-        row = next(csv.reader([raw]), [])
+        row = _csv_row(raw, self.path, number)
         header = self.header
         if len(row) != len(header):
             raise TraceError(
@@ -163,7 +163,7 @@ class LineReader:
             if match:
                 self.set_unit(match.group(1), number, raw.find(match.group(1)) + 1)
             return
-        header = [h.strip() for h in next(csv.reader([raw]), [])]
+        header = [h.strip() for h in _csv_row(raw, self.path, number)]
         if "t" not in header or not ({"state", "props"} & set(header)):
             raise TraceError(
                 self.path,
@@ -175,6 +175,17 @@ class LineReader:
         if unknown:
             raise TraceError(self.path, number, 1, f"unknown column `{unknown[0]}`")
         self.header = header
+
+
+def _csv_row(raw: str, path: str, number: int) -> list[str]:
+    """One line's cells; a line the csv module refuses is the trace's error."""
+    try:
+        return next(csv.reader([raw]), [])
+    except csv.Error as error:
+        text = str(error)
+        why = ("a line break inside a cell" if "new-line" in text
+               else "a NUL character" if "NUL" in text else text)  # fmt: skip
+        raise TraceError(path, number, 1, f"not a CSV row: {why}") from None
 
 
 class JsonNumber(str):

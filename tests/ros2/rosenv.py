@@ -16,7 +16,7 @@ import re
 import shutil
 import subprocess
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -163,12 +163,20 @@ def run(
     )  # fmt: skip
 
 
-def message_package(src: Path, folder: Path, dependencies: list[str]) -> Path:
+def message_package(
+    src: Path, folder: Path, dependencies: list[str], only: Iterable[str] = ()
+) -> Path:
     """A colcon package of the .msg files in `folder/msg` (named after `folder`), the
-    way a ROS user writes one: package.xml and CMakeLists.txt with rosidl."""
+    way a ROS user writes one: package.xml and CMakeLists.txt with rosidl. With
+    `only`, just those messages and what they nest of the same package: each
+    message costs the build the compiling of its type supports in C and C++."""
     name = folder.name
     target = src / name
-    shutil.copytree(folder / "msg", target / "msg", dirs_exist_ok=True)
+    wanted = _nested(folder / "msg", name, set(only)) if only else None
+    (target / "msg").mkdir(parents=True, exist_ok=True)
+    for path in sorted((folder / "msg").glob("*.msg")):
+        if wanted is None or path.stem in wanted:
+            shutil.copy(path, target / "msg" / path.name)
     depends = "".join(f"  <depend>{d}</depend>\n" for d in dependencies)
     (target / "package.xml").write_text(
         '<?xml version="1.0"?>\n<package format="3">\n'
@@ -195,6 +203,25 @@ def message_package(src: Path, folder: Path, dependencies: list[str]) -> Path:
         encoding="utf-8",
     )
     return target
+
+
+def _nested(folder: Path, package: str, names: set[str]) -> set[str]:
+    """`names` and every message of `package` their fields use, transitively."""
+    found, pending = set(), list(names)
+    while pending:
+        name = pending.pop()
+        if name in found:
+            continue
+        found.add(name)
+        for line in (folder / f"{name}.msg").read_text(encoding="utf-8").splitlines():
+            words = line.split("#", 1)[0].split()
+            if not words:
+                continue
+            used = words[0].split("[", 1)[0]
+            owner, _, short = used.rpartition("/")
+            if owner in ("", package) and (folder / f"{short}.msg").exists():
+                pending.append(short)
+    return found
 
 
 def colcon_build(workspace: Path, timeout: float = 900) -> subprocess.CompletedProcess[str]:

@@ -150,10 +150,21 @@ class RmvServer(LanguageServer):
     def report_server_error(self, error: Exception, source: Any) -> None:
         """A frame that is not JSON gets JSON-RPC's parse error (id null), then
         pygls's message to the user, as every error outside a request does."""
-        if isinstance(error, json.JSONDecodeError):
+        if isinstance(error, (json.JSONDecodeError, UnicodeDecodeError)):
+            why = "not JSON" if isinstance(error, json.JSONDecodeError) else "not UTF-8"
             assert isinstance(self.protocol, Protocol)
-            self.protocol.answer_unknown(JsonRpcParseError(f"the message is not JSON: {error}"))
-        super().report_server_error(error, source)
+            self.protocol.answer_unknown(JsonRpcParseError(f"the message is {why}: {error}"))
+            self.ignored(f"a message that is {why} ({error})")
+        elif isinstance(error, JsonRpcInvalidParams):  # a notification's: no answer to give
+            self.ignored(f"a notification: {error.message}")
+        else:
+            super().report_server_error(error, source)
+
+    def ignored(self, what: str) -> None:
+        """Tell the user what the server could not read (it goes on serving)."""
+        self.window_show_message(
+            types.ShowMessageParams(type=types.MessageType.Warning, message=f"rmv lsp ignored {what}")
+        )
 
     def document(self, uri: str) -> TextDocument:
         return self.workspace.get_text_document(uri)
