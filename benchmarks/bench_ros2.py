@@ -28,6 +28,14 @@ none lost, none late) and every verdict answered.
 
     python benchmarks/bench_ros2.py [--seconds 100] [--count 5000]
     python benchmarks/bench_ros2.py --json benchmarks/results/ros2.json
+
+`--soak SECONDS` runs only the soak instead (tests/ros2/drive_soak.py on
+tests/ros2/soak.rmv's nodes; the test suite runs 60 s of it): allowed nodes starting
+and stopping every 2 s, a rogue publisher every 10 s; false alarms, each rogue's
+report latency, the nodes' memory over time, and the verdicts against a replay of
+what was sent.
+
+    python benchmarks/bench_ros2.py --soak 600 --json benchmarks/results/soak.json
 """
 
 from __future__ import annotations
@@ -119,6 +127,87 @@ def _workspace(root: Path) -> Path:
     return root
 
 
+def _soak(seconds: float, out: str | None) -> int:
+    """The soak for `seconds`: its figures printed, and written to `out`."""
+    import subprocess
+
+    rosenv.python()
+    with tempfile.TemporaryDirectory(prefix="rmv-bench-soak-") as folder:
+        root = Path(folder)
+        os.environ["RMV_CACHE_DIR"] = str(root / "cache")
+        spec = root / "soak.rmv"
+        spec.write_text((ROOT / "tests" / "ros2" / "soak.rmv").read_text(encoding="utf-8"))
+        ros2.build(lower(check(str(spec))), root / "src" / "soak")
+        built = rosenv.colcon_build(root)
+        if built.returncode != 0:
+            raise SystemExit(f"colcon build failed:\n{(built.stdout + built.stderr)[-4000:]}")
+        print(f"soak: {seconds:g} s ...", file=sys.stderr, flush=True)
+        run = rosenv.soak(root, root, seconds, rosenv.DOMAIN + 21)
+        if run.returncode != 0:
+            raise SystemExit(run.stderr[-4000:])
+        seen = json.loads(run.stdout)
+        recording = root / "sent"
+        _write_twists(recording, seen["sent"])
+        replay = subprocess.run(
+            [sys.executable, "-m", "rmvdsl.cli", "replay", str(spec), str(recording), "--format",
+             "jsonl"], capture_output=True, text=True,
+        )  # fmt: skip
+    from_replay = [json.loads(line) for line in replay.stdout.splitlines()
+                   if '"kind": "verdict"' in line]  # fmt: skip
+    from_node = [json.loads(v) for v in seen["verdicts"]]
+    same = _by_property(from_node) == _by_property(from_replay)
+    false_alarms = [text for text in seen["reports"] if "/rogue" not in text]
+    latencies = seen["latencies"]
+    rss = seen["rss"]
+    warm = rss[len(rss) // 4]
+    growth = [rss[-1][i] / warm[i] - 1 for i in (1, 2)]
+    figures = {
+        "seconds": seconds, "messages_sent": len(seen["sent"]),
+        "verdict_segments": len(from_node), "verdicts_equal_replay": same,
+        "false_alarms": len(false_alarms), "rogues": len(latencies),
+        "rogue_latency_max_s": max((x for x in latencies if x is not None), default=None),
+        "rogues_unreported": sum(1 for x in latencies if x is None),
+        "rss_kib_after_warmup": {"monitor": [warm[1], rss[-1][1]],
+                                 "intrusion": [warm[2], rss[-1][2]]},
+        "rss_growth": {"monitor": round(growth[0], 4), "intrusion": round(growth[1], 4)},
+        "exit_codes": seen["codes"],
+    }  # fmt: skip
+    print(json.dumps(figures, indent=2))
+    if out:
+        Path(out).write_text(json.dumps(figures, indent=2) + "\n", encoding="utf-8")
+    good = same and not false_alarms and figures["rogues_unreported"] == 0
+    return 0 if good else 1
+
+
+def _by_property(verdicts: list[dict]) -> dict[str, list[dict]]:
+    found: dict[str, list[dict]] = {}
+    for verdict in verdicts:
+        found.setdefault(verdict["property"], []).append(verdict)
+    return found
+
+
+def _write_twists(path: Path, sent: list[list[float]]) -> None:
+    """What the soak sent, as a rosbag2 (.mcap) logged at the stamps."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    types = store.types
+    name = "geometry_msgs/msg/TwistStamped"
+    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        connection = writer.add_connection("/vehicle/twist", name, typestore=store)
+        for stamp, speed in sent:
+            stamp = int(stamp)
+            header = types["std_msgs/msg/Header"](
+                stamp=types["builtin_interfaces/msg/Time"](*divmod(stamp, 10**9)), frame_id=""
+            )
+            vector = types["geometry_msgs/msg/Vector3"]
+            twist = types["geometry_msgs/msg/Twist"](vector(speed, 0.0, 0.0),
+                                                     vector(0.0, 0.0, 0.0))  # fmt: skip
+            message = types[name](header=header, twist=twist)
+            writer.write(connection, stamp, store.serialize_cdr(message, name))
+
+
 def _payloads(path: Path) -> None:
     """The braking recording's bytes of the two topics abs.rmv reads."""
     from rosbags.highlevel import AnyReader
@@ -190,7 +279,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seconds", type=float, default=100.0, help="of the 1x workload")
     parser.add_argument("--seconds-10x", type=float, default=30.0, help="of the 10x workload")
     parser.add_argument("--json", help="write the figures to this file")
+    parser.add_argument("--soak", type=float, metavar="SECONDS", help="run only the soak")
     args = parser.parse_args(argv)
+    if args.soak:
+        return _soak(args.soak, args.json)
 
     total = 8
     _progress(0, total, "ROS 2 wheels and colcon build")

@@ -302,3 +302,20 @@ def test_every_example_s_spec_loads_in_the_host(tmp_path):
         node.finish()
         messages = {s.name: s.message for s in out.reports[-1]}
         assert all(messages[f"property {p.name}"] == "unknown" for p in spec.properties)
+
+
+def test_publishers_of_another_type_are_reported_once_and_shown_while_there():
+    from rmvdsl.host.gaps import TypeWatch
+
+    watch = TypeWatch("rmv_monitor", {"/t": "geometry_msgs/msg/TwistStamped"})
+    mixed = [("/t", "/player", "geometry_msgs/msg/TwistStamped"),
+             ("/t", "/imposter", "std_msgs/msg/String")]  # fmt: skip
+    status, said = watch.look(mixed)
+    assert (status.level, status.message) == ("warn", "std_msgs/msg/String from /imposter on /t")
+    assert status.values == {"publishers of another type": "1"}
+    reads = "the spec reads geometry_msgs/msg/TwistStamped"
+    assert said == [f"/t: std_msgs/msg/String published by /imposter, {reads}: "
+                    "its messages never reach the monitor"]  # fmt: skip
+    assert watch.look(mixed)[1] == []  # said once
+    status, said = watch.look(mixed[:1])
+    assert (status.level, said) == ("ok", []) and status.values["publishers of another type"] == "0"

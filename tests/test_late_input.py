@@ -189,3 +189,68 @@ def test_late_input_makes_verdicts_unknown_never_wrong(tmp_path, seed):
         said = _verdict_at(dropped, "P", time)
         if said in ("true", "false"):
             assert said == _verdict_at(in_order, "P", time), (formula, time, arrivals)
+
+
+def _at(records, name="P"):
+    """The verdict segments as (verdict, from, to) in seconds."""
+    return [(v, f, t) for v, f, t, _, _ in _verdicts(records, name)]
+
+
+def test_lost_and_damaged_input_is_unknown_where_it_was():
+    """Lost messages (a gap the host saw before the message at 5 s) leave the topic
+    unknown since its last message; a damaged one at 7 s until the next, at 8 s.
+    `P: not High` is decided everywhere else; x is never high."""
+    spec = _spec_text("property P: not High\n")
+    runtime = Runtime(spec)
+    for second in range(10):
+        at = second * 10**9
+        if second == 5:
+            runtime.lost(at, "/t", 2)
+        if second == 7:
+            runtime.damaged(at, "/t", "3 bytes short")
+            continue
+        runtime.message(at, "/t", {"data": 1.0})
+    runtime.end()
+    records = runtime.records()
+    assert _at(records) == [("true", 0, 4), ("unknown", 4, 5), ("true", 5, 7),
+                            ("unknown", 7, 8), ("true", 8, 9)]  # fmt: skip
+    counters = {r["name"]: r["value"] for r in records if r["kind"] == "counter"}
+    assert counters["lost messages: /t"] == 2 and counters["damaged messages: /t"] == 1
+
+
+def test_a_stamp_far_ahead_of_its_receipt_is_dropped_not_believed():
+    """A message stamped a year ahead would make every later message late: it is
+    dropped and counted; its topic is unknown from the message before it (its time
+    is a stamp: the receipt time is another clock) to the one after, which is on
+    time."""
+    spec = _spec_text("property P: not High\n", stamped=True)
+    runtime = Runtime(spec)
+    year = 365 * 86_400 * 10**9
+    for second in range(6):
+        at = second * 10**9
+        stamp = at + year if second == 2 else at
+        runtime.message(at, "/t", _stamped(stamp, 1.0))
+    runtime.end()
+    records = runtime.records()
+    assert _at(records) == [("true", 0, 1), ("unknown", 1, 3), ("true", 3, 5)]
+    counters = {r["name"]: r["value"] for r in records if r["kind"] == "counter"}
+    assert counters["messages stamped ahead dropped: /t"] == 1
+    assert not [name for name in counters if name.startswith("late")]
+    [said] = [r["message"] for r in records if r["kind"] == "diagnostic"]
+    assert said == ("/t: a message stamped 31536000 s ahead of its receipt: dropped (a stamp "
+                    "more than 10 s ahead is not believed)")  # fmt: skip
+
+
+def _spec_text(body, stamped=False):
+    topic = 'topic t: geometry_msgs/TwistStamped = "/t" qos { time = header }\n'
+    text = (
+        "system lost\n" + (topic if stamped else 'topic t: std_msgs/msg/Float64 = "/t"\n')
+        + ("var x = t.twist.linear.x\n" if stamped else "var x = t.data\n")
+        + "event High when x > 5\n" + body
+    )  # fmt: skip
+    return lower(check("lost.rmv", text, use_environment=False))
+
+
+def _stamped(nanoseconds, value):
+    stamp = {"sec": nanoseconds // 10**9, "nanosec": nanoseconds % 10**9}
+    return {"header": {"stamp": stamp}, "twist": {"linear": {"x": value}}}

@@ -1,11 +1,13 @@
-"""Messages a reader lost (from gaps in each publisher's sequence numbers) or
-could not read (`Undecodable`)."""
+"""Messages a reader lost (from gaps in each publisher's sequence numbers), could
+not read (`Undecodable`), or never gets (publishers of another type: `TypeWatch`)."""
 
 from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
+
+from rmvdsl.host.status import OK, WARN, Status
 
 
 @dataclass(frozen=True)
@@ -35,3 +37,31 @@ class Gaps:
         if newest is not None and sequence > newest + 1:
             return int(sequence - newest - 1)
         return 0
+
+
+class TypeWatch:
+    """Publishers on the spec's topics that send another type than the spec reads.
+    ROS 2 never delivers their messages to the monitor's reader (DDS matches
+    readers and writers by type), so without this they would be silent input."""
+
+    def __init__(self, node: str, expected: dict[str, str]) -> None:
+        self.node = node
+        self.expected = expected  # ROS name -> the type the spec reads
+        self.warned: set[tuple[str, str, str]] = set()
+
+    def look(self, publishers: list[tuple[str, str, str]]) -> tuple[Status, list[str]]:
+        """`publishers`: (ROS name, node, type) of each publisher on the spec's
+        topics. The status, and a warning for each newly seen."""
+        others = sorted(p for p in publishers if p[2] != self.expected.get(p[0], p[2]))
+        said = [
+            f"{topic}: {kind} published by {node}, the spec reads {self.expected[topic]}: "
+            "its messages never reach the monitor"
+            for topic, node, kind in others
+            if (topic, node, kind) not in self.warned
+        ]
+        self.warned.update(others)
+        text = "; ".join(f"{kind} from {node} on {topic}" for topic, node, kind in others)
+        values = {"publishers of another type": str(len(others))}
+        status = Status(self.node, "topic types", WARN if others else OK,
+                        text or "every publisher sends the spec's types", values)  # fmt: skip
+        return status, said

@@ -29,6 +29,7 @@ from std_msgs.msg import String
 
 from rmvdsl.host import collector, intrusion, monitor
 from rmvdsl.host.actions import NodeActions
+from rmvdsl.host.gaps import TypeWatch
 from rmvdsl.host.packaged import load_spec, package, with_time_sources
 from rmvdsl.host.status import ERROR, OK, STALE, WARN, Status, fill_diagnostics
 from rmvdsl.runtime import spec as ir
@@ -92,18 +93,22 @@ def with_time_parameters(node: Node, spec: ir.Spec) -> ir.Spec:
 
 def subscribe(
     node: Node, spec: ir.Spec, callback: Callable[[str, Any, dict[str, Any]], None]
-) -> None:
+) -> dict[str, str]:
     """A subscription to every topic of the spec with its QoS; `callback(topic,
     message, info)` names the topic as the spec does. The parameter
-    `topics.<name>` holds the ROS name to read (a topic can be remapped)."""
+    `topics.<name>` holds the ROS name to read (a topic can be remapped). The ROS
+    names read, with their types."""
+    read = {}
     for topic in spec.topics:
         ros_name = node.declare_parameter(f"topics.{topic.name}", topic.ros_name).value
+        read[ros_name] = topic.message_type
         node.create_subscription(
             message_class(topic.message_type),
             ros_name,
             lambda message, info, name=topic.ros_name: callback(name, message, info),
             qos_profile(topic.qos),
         )
+    return read
 
 
 def log_at(node: Node, level: str, text: str) -> None:
@@ -167,7 +172,7 @@ class MonitorNode(Node):
             diagnostics_period=float(param("diagnostics_period", 1.0).value),
             queue_depth=int(param("queue_depth", 100_000).value),
         )  # fmt: skip
-        subscribe(self, spec, self.monitor.take)
+        self.types = TypeWatch(monitor.NODE_NAME, subscribe(self, spec, self.monitor.take))
         self.monitor.start()
 
     # monitor.Outputs
@@ -175,10 +180,22 @@ class MonitorNode(Node):
         self.verdicts.publish(String(data=text))
 
     def statuses(self, statuses: list[Status]) -> None:
-        self.diagnostics.publish(diagnostics(self, statuses))
+        publishers = [
+            (topic, _full_name(info.node_namespace, info.node_name), info.topic_type)
+            for topic in self.types.expected
+            for info in self.get_publishers_info_by_topic(topic)
+        ]
+        status, warnings = self.types.look(publishers)
+        for text in warnings:
+            self.warn(text)
+        self.diagnostics.publish(diagnostics(self, [*statuses, status]))
 
     def warn(self, text: str) -> None:
         self.get_logger().warn(text)
+
+
+def _full_name(namespace: str, name: str) -> str:
+    return f"{namespace.rstrip('/')}/{name}"
 
 
 class IntrusionNode(Node):

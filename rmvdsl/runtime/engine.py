@@ -52,7 +52,7 @@ from rmvdsl.runtime.records import (
     seconds,
     to_json,
 )
-from rmvdsl.runtime.reporting import Reporting
+from rmvdsl.runtime.reporting import STAMP_AHEAD, Reporting
 from rmvdsl.runtime.values import exact_text
 from rmvdsl.runtime.verdicts import Segments
 
@@ -149,10 +149,14 @@ class Runtime(Reporting):
             return
         if topic in self.stamped:
             try:
-                time = fields.stamp(message)
+                stamp = fields.stamp(message)
             except fields.FieldError as error:
                 self.damaged(time, topic, str(error))
                 return
+            if stamp - time > STAMP_AHEAD:
+                self.ahead(time, topic, stamp)
+                return
+            time = stamp
         if self.lateness:
             heapq.heappush(self.held, (time, self.sequence, topic, message))
             self.sequence += 1
@@ -216,13 +220,20 @@ class Runtime(Reporting):
 
     def _late_input(self, time: int, topic: str) -> None:
         """A message of `topic` at `time` came after the monitor had passed its time:
-        every property reading the topic is unknown where its verdict reads the
-        input from `time` to the newest the monitor had (and on, until the topic
-        publishes again, if it has not since), and what was given out there is
-        revised."""
-        assert self.started is not None  # a message is late only after others
-        noticed = seconds(max(self.now, self.complete_before))
+        the input from `time` to the newest the monitor had is unknown (and on,
+        until the topic publishes again, if it has not since)."""
         superseded = self.last_on.get(topic, -_FOREVER) > time
+        noticed = max(self.now, self.complete_before)
+        self._unknown_input(topic, time, noticed if superseded else None)
+
+    def _unknown_input(self, topic: str, first: int, last: int | None) -> None:
+        """What `topic` said from `first` to `last` (None: until it publishes
+        again) is not known (a message late, lost, damaged or stamped ahead):
+        every property reading the topic is unknown where its verdict reads that
+        stretch, and what was given out there is revised."""
+        if self.started is None:
+            self._begin(first)
+        assert self.started is not None
         reach = self._reach(topic)
         for monitor in self.properties:
             name = monitor.prop.name
@@ -231,11 +242,11 @@ class Runtime(Reporting):
             # A window's point is stamped up to an interval before its input and
             # holds until the next: the stretch widens by the lead on both sides.
             lead = seconds(reach[name] + (monitor.period or 0))
-            low = max(seconds(time) - lead - monitor.future, seconds(self.started))
+            low = max(seconds(first) - lead - monitor.future, seconds(self.started))
             after = lead + monitor.past
-            high = noticed + after if superseded else None
+            high = None if last is None else seconds(last) + after
             interval = self.segments.unknown(name, low, high)
-            if not superseded:
+            if last is None:
                 self.until_next.setdefault(topic, []).append((interval, after))
 
     def _reach(self, topic: str) -> dict[str, int]:

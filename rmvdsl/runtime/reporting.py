@@ -12,6 +12,7 @@ from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.intrusions import Endpoint, verdict_of
 from rmvdsl.runtime.properties import PropertyMonitor
 from rmvdsl.runtime.records import (
+    NS,
     ActionContext,
     Host,
     Record,
@@ -20,8 +21,13 @@ from rmvdsl.runtime.records import (
     action_text,
     seconds,
 )
+from rmvdsl.runtime.values import exact_text
 from rmvdsl.runtime.verdicts import Segments
 from rmvdsl.runtime.wording import counted
+
+# A stamp this far ahead of its message's receipt is not believed: taken as the
+# message's time it would make every later message late (docs/semantics.md).
+STAMP_AHEAD = 10 * NS
 
 _LOG_LEVEL = {"OK": "info", "INFO": "info", "WARNING": "warn", "CRITICAL": "error"}
 
@@ -54,21 +60,57 @@ class Reporting:
     topic_origin: dict[str, str]
     intrusions: dict[Endpoint, str]
     segments: Segments
+    last_on: dict[str, int]
+    stamped: frozenset[str]
+    started: int | None
+    now: int
+
+    def _unknown_input(self, topic: str, first: int, last: int | None) -> None: ...
 
     def damaged(self, time: int, topic: str, reason: str) -> None:
-        """A message that could not be decoded."""
+        """A message that could not be decoded, received at `time`: what the topic
+        says from then until its next message is unknown."""
         text = f"{topic}: a message cannot be decoded: {reason}"
         self._input_lost(time, topic, f"damaged messages: {topic}", 1, text)
+        self._unknown_from(topic, time)
 
     def lost(self, time: int, topic: str, count: int) -> None:
         """Messages the transport lost (a host that sees gaps in the publishers'
-        sequence numbers reports them)."""
+        sequence numbers reports them before the message after the gap, at `time`):
+        what the topic said since its last message is unknown."""
         text = (
             f"{topic}: {counted(count, 'message')} lost before the monitor could read "
             f"{'it' if count == 1 else 'them'} "
-            "(a deeper `depth` in the topic's qos block keeps more waiting)"
+            "(a deeper `depth` in the topic's qos block keeps more waiting; a message "
+            "that does not decode as the topic's type is lost too)"
         )
         self._input_lost(time, topic, f"lost messages: {topic}", count, text)
+        self._unknown_from(topic, self.last_on.get(topic, time), since_last=True)
+
+    def ahead(self, time: int, topic: str, stamp: int) -> None:
+        """A message received at `time` stamped much later: dropped (its stamp would
+        make every later message late), and unknown as a damaged one."""
+        ahead = exact_text(seconds(stamp - time))
+        text = (
+            f"{topic}: a message stamped {ahead} s ahead of its receipt: dropped (a "
+            f"stamp more than {exact_text(seconds(STAMP_AHEAD))} s ahead is not believed)"
+        )
+        self._input_lost(time, topic, f"messages stamped ahead dropped: {topic}", 1, text)
+        self._unknown_from(topic, time)
+
+    def _unknown_from(self, topic: str, time: int, since_last: bool = False) -> None:
+        """The topic unknown from `time` (a receipt time), or from its last message
+        (`since_last`, or a `time = header` topic: its times are stamps, another
+        clock than receipt), until its next message. Before any message of a stamped
+        topic there is nothing to leave unknown: its run starts with its first."""
+        first: int | None = time
+        if since_last or topic in self.stamped:
+            first = self.last_on.get(topic, time if topic not in self.stamped else None)
+        if first is None:
+            if self.started is None:
+                return
+            first = self.now
+        self._unknown_input(topic, first, None)
 
     def unreadable(self, time: int, listed: int, read: int) -> None:
         """The recording lists `listed` messages on the topics read, and gave `read`."""

@@ -134,7 +134,7 @@ def _child(args: argparse.Namespace) -> int:
     from fuzz.mutating import run_hypothesis
 
     prepare = target.prepare if target else _lsp_prepare
-    result = run_hypothesis(args.target, prepare(scratch / "work"), seeds, args)
+    result = run_hypothesis(args.target, prepare(_folder(scratch / "work")), seeds, args)
     print("RMV-FUZZ-RESULT " + json.dumps(result), flush=True)
     return 0 if result["crashes"] == result["hangs"] == 0 else 1
 

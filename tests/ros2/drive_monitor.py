@@ -9,7 +9,7 @@ they are (any type, decoded only by the node), `["clock", ns]` publishes /clock 
 waits until the node's clock has reached it, `["settle"]` waits until the node has
 counted every message sent so far, `["status", NAME, MESSAGE, SECONDS]` waits (at
 most SECONDS) until the node's /diagnostics show status NAME with MESSAGE and notes
-how long after the last publish it came, `["intruder", ros|dds, TOPIC]` starts an
+how long after the last publish it came, `["intruder", ros|dds|imposter, TOPIC]` starts an
 intruder (tests/ros2/intruder.py) that stays until the end. `also` names more nodes
 to start beside the monitor (its intrusion node). `late` names topics subscribed to only
 after the steps, transient_local, as a subscriber that starts late would. Prints, as

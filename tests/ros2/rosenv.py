@@ -234,3 +234,22 @@ def colcon_build(workspace: Path, timeout: float = 900) -> subprocess.CompletedP
         cwd=workspace, env=environment(DOMAIN), capture_output=True, text=True,
         timeout=timeout,
     )  # fmt: skip
+
+
+def soak(
+    workspace: Path, folder: Path, seconds: float, domain: int
+) -> subprocess.CompletedProcess[str]:
+    """tests/ros2/drive_soak.py for `seconds` on the nodes of tests/ros2/soak.rmv's
+    package (built in `workspace` as `soak`): 20 messages a second, an allowed node
+    starting or stopping every 2 s, a rogue every 10 s. Its JSON is on stdout."""
+    here = Path(__file__).resolve().parent
+    nodes = workspace / "install" / "soak" / "lib" / "soak"
+    scenario = {
+        "monitor": [str(nodes / "monitor")], "intrusion": [str(nodes / "intrusion")],
+        "topic": "/vehicle/twist", "intrusions": "/rmv/intrusion", "seconds": seconds,
+        "rate": 20, "churn": 2.0, "rogue_every": 10.0, "seed": 5,
+    }  # fmt: skip
+    file = folder / "soak.json"
+    file.write_text(json.dumps(scenario), encoding="utf-8")
+    return run([python(), str(here / "drive_soak.py"), str(file)], domain, workspace,
+               timeout=seconds + 240)  # fmt: skip

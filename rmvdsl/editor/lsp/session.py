@@ -163,7 +163,9 @@ class RmvServer(LanguageServer):
     def ignored(self, what: str) -> None:
         """Tell the user what the server could not read (it goes on serving)."""
         self.window_show_message(
-            types.ShowMessageParams(type=types.MessageType.Warning, message=f"rmv lsp ignored {what}")
+            types.ShowMessageParams(
+                type=types.MessageType.Warning, message=f"rmv lsp ignored {what}"
+            )
         )
 
     def document(self, uri: str) -> TextDocument:
