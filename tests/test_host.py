@@ -213,9 +213,14 @@ class _Influx(http.server.BaseHTTPRequestHandler):
 
     batches: ClassVar[list[str]] = []
     refuse = False
+    down = False  # answers 503, as an InfluxDB starting up or overloaded does
 
     def do_POST(self) -> None:
         body = self.rfile.read(int(self.headers["Content-Length"])).decode()
+        if type(self).down:
+            self.send_response(503)
+            self.end_headers()
+            return
         if type(self).refuse:
             self.send_response(400)
             self.end_headers()
@@ -277,6 +282,61 @@ def test_the_collector_counts_what_influxdb_refuses(tmp_path):
     assert final.values["points written"] == "3"
     assert final.level == status.WARN
     assert [level for level, _ in out.logged] == ["warn"]
+
+
+def _until(condition: Any, seconds: float = 30.0) -> None:
+    import time
+
+    deadline = time.monotonic() + seconds
+    while not condition():
+        assert time.monotonic() < deadline, "timed out"
+        time.sleep(0.02)
+
+
+def test_the_collector_spools_to_disk_while_influxdb_is_away(tmp_path):
+    """InfluxDB away: 5 points wait in memory, the older go to the spool file; back,
+    every point is written and the file emptied. Past the spool's bound points are
+    dropped and counted; what a stopping node could not write, the next run does."""
+    spec = _spec(tmp_path)
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), _Influx)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    _Influx.batches, _Influx.refuse, _Influx.down = [], False, True
+    spool = tmp_path / "spool" / "collector.spool"
+    settings = _settings(server.server_port, buffer=5, spool=str(spool), spool_bytes=10**6)
+    clock = iter(range(10**9, 10**12, 10**8))
+    node = collector.Collector(spec, settings, Outputs(), lambda: next(clock))
+    node.start()
+    for k in range(40):
+        node.take("/vehicle/twist", _twist(10.0 + k % 3), {})
+    waiting = node.status().values
+    assert int(waiting["points spooled"]) >= 30 and "points dropped: buffer full" not in waiting
+    _Influx.down = False
+    _until(lambda: node.status().values.get("points written") == "41")  # and a state
+    assert node.status().values["points spooled"] == "0" and spool.stat().st_size == 0
+    node.finish()
+    lines = [line for batch in _Influx.batches for line in batch.splitlines()]
+    assert len(lines) == len(set(lines)) == 41  # each point once
+
+    # A spool of 2,000 bytes holds some 15 points: the rest are dropped, counted.
+    _Influx.batches, _Influx.down = [], True
+    small = _settings(server.server_port, buffer=5, spool=str(spool), spool_bytes=2_000)
+    node = collector.Collector(spec, small, Outputs(), lambda: next(clock))
+    node.start()
+    for k in range(60):
+        node.take("/vehicle/twist", _twist(10.0 + k % 3), {})
+    final = node.finish()  # InfluxDB still away: memory goes to the spool if it fits
+    kept = int(final.values["points spooled"])
+    dropped = int(final.values["points dropped: buffer full"])
+    exit_dropped = int(final.values.get("points dropped: InfluxDB down at exit", "0"))
+    assert kept >= 10 and kept + dropped + exit_dropped == 61, final.values  # 60 and a state
+    # The next run writes what the last left on disk.
+    _Influx.down = False
+    node = collector.Collector(spec, small, Outputs(), lambda: next(clock))
+    node.start()
+    _until(lambda: node.status().values.get("points written") == str(kept))
+    node.finish()
+    server.shutdown()
+    assert sum(len(b.splitlines()) for b in _Influx.batches) == kept
 
 
 def test_percentiles_and_segments():

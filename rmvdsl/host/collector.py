@@ -25,6 +25,7 @@ from fractions import Fraction
 from typing import Any, Protocol
 
 from rmvdsl.host.gaps import Gaps, Undecodable
+from rmvdsl.host.spool import Spool
 from rmvdsl.host.status import OK, WARN, Status, percentiles
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.engine import Runtime
@@ -55,9 +56,11 @@ class Settings:
     batch_size: int
     flush_interval: float  # seconds
     timeout: float  # seconds
-    buffer: int  # points at most waiting
+    buffer: int  # points at most waiting in memory
     username_env: str
     password_env: str
+    spool: str = ""  # a file for the points past `buffer` ("": none)
+    spool_bytes: int = 0  # the spool file's bound
 
     @property
     def write_url(self) -> str:
@@ -80,6 +83,8 @@ def settings(database: ir.Database, parameter: Callable[[str, Any], Any]) -> Set
         buffer=int(parameter("buffer", 100_000)),
         username_env=_env(database.username, "INFLUX_USERNAME"),
         password_env=_env(database.password, "INFLUX_PASSWORD"),
+        spool=str(parameter("spool", "")),
+        spool_bytes=int(parameter("spool_bytes", 1_000_000_000)),
     )
 
 
@@ -113,6 +118,7 @@ class Collector:
         self.reported: set[str] = set()
         self.state = "writing"
         self.stopping = False
+        self.spool = Spool(settings.spool, settings.spool_bytes) if settings.spool else None
         self.thread = threading.Thread(target=self.write_batches, name="rmv-influx", daemon=True)
 
     def start(self) -> None:
@@ -155,22 +161,29 @@ class Collector:
     def enqueue(self, line: str, arrival: int) -> None:
         with self.lock:
             if len(self.waiting) + self.in_flight >= self.bound:
-                self._dropped_unlocked()
-                if not self.waiting:
-                    return  # the whole bound is being written: this point goes
-                self.waiting.popleft()  # else the oldest goes: the newest matter most
+                if not self.waiting:  # the whole bound is being written
+                    self._overflow_unlocked((line, arrival))
+                    return
+                # The oldest leave memory (the newest matter most): to the spool, if
+                # there is one with room, else dropped.
+                self._overflow_unlocked(self.waiting.popleft())
             self.waiting.append((line, arrival))
             if len(self.waiting) >= self.batch_size:
                 self.lock.notify()
 
-    def _dropped_unlocked(self) -> None:
+    def _overflow_unlocked(self, point: tuple[str, int]) -> None:
+        if self.spool is not None and self.spool.push(*point):
+            return
         self.counters["points dropped: buffer full"] += 1
         if "buffer" not in self.reported:
             self.reported.add("buffer")
+            where = counted(self.bound, "point")
+            if self.spool is not None:
+                where += f" in memory and {counted(self.spool.bound, 'byte')} on disk"
             self.logs.log(
                 "error",
-                f"InfluxDB cannot keep up: {counted(self.bound, 'point')} wait; the oldest are "
-                "dropped and counted (`points dropped: buffer full`)",
+                f"InfluxDB cannot keep up: {where} wait; the oldest are dropped and counted "
+                "(`points dropped: buffer full`)",
             )
 
     def count(self, counter: str, number: int, text: str) -> None:
@@ -194,6 +207,8 @@ class Collector:
                     return
                 size = min(self.batch_size, len(self.waiting))
                 batch = [self.waiting.popleft() for _ in range(size)]
+                if len(batch) < self.batch_size and self.spool is not None and self.spool.count:
+                    batch += self.spool.take(self.batch_size - len(batch))
                 self.in_flight = len(batch)
             if batch:
                 self.deliver(batch)
@@ -217,9 +232,7 @@ class Collector:
             except OSError as error:  # unreachable, timed out, or a 5xx
                 self.state = f"retrying: {getattr(error, 'reason', error)}"
                 if self.stopping:
-                    self.count("points dropped: InfluxDB down at exit", len(batch),
-                               f"{counted(len(batch), 'point')} not written at exit: "
-                               f"{error}")  # fmt: skip
+                    self._at_exit(batch, error)
                     return
                 time.sleep(pause)
                 pause = min(pause * 2, RETRY_LAST)
@@ -230,6 +243,15 @@ class Collector:
                 self.delays.extend(now - arrival for _, arrival in batch)
             self.state = "writing"
             return
+
+    def _at_exit(self, batch: list[tuple[str, int]], error: OSError) -> None:
+        """InfluxDB is down as the node stops: the batch goes to the spool (the next
+        run writes it), what does not fit is dropped and counted."""
+        with self.lock:
+            left = [p for p in batch if self.spool is None or not self.spool.push(*p)]
+        if left:
+            self.count("points dropped: InfluxDB down at exit", len(left),
+                       f"{counted(len(left), 'point')} not written at exit: {error}")  # fmt: skip
 
     def post(self, body: bytes) -> None:
         request = urllib.request.Request(self.settings.write_url, data=body, method="POST")
@@ -261,6 +283,8 @@ class Collector:
         with self.lock:
             values = {k: str(v) for k, v in sorted(self.counters.items())}
             values["points waiting"] = str(len(self.waiting) + self.in_flight)
+            if self.spool is not None:
+                values["points spooled"] = str(len(self.spool))
             values.update(percentiles("storage delay", list(self.delays)))
         dropped = any(k.startswith(("points dropped", "points refused")) for k in values)
         level = WARN if self.state != "writing" or dropped else OK
@@ -277,7 +301,11 @@ class Collector:
             self.lock.notify()
         if self.thread.is_alive():
             self.thread.join(timeout=self.settings.timeout * 4 + 5)
-        return self.status()
+        final = self.status()
+        if self.spool is not None:
+            with self.lock:
+                self.spool.close()  # what it holds is written by the next run
+        return final
 
 
 def _ns(seconds: Any) -> int:
