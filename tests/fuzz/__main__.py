@@ -75,18 +75,23 @@ def _run_all(names: list[str], args: argparse.Namespace) -> list[dict[str, Any]]
                        "--runs", str(args.runs), "--seconds", str(args.seconds),
                        "--timeout", str(args.timeout), "--engine", engine(args.engine)]  # fmt: skip
             started = time.monotonic()
-            process = subprocess.Popen(command, cwd=HERE.parent.parent, stdout=subprocess.PIPE,
+            # libFuzzer prints a line per new input kept: a long run's output would
+            # fill a pipe nobody reads until the end, and stop the child.
+            output = (scratch / "output.txt").open("w+")
+            process = subprocess.Popen(command, cwd=HERE.parent.parent, stdout=output,
                                        stderr=subprocess.STDOUT, text=True)  # fmt: skip
-            running.append((name, process, started, scratch))
+            running.append((name, process, started, scratch, output))
         time.sleep(0.2)
         for item in list(running):
-            name, process, started, scratch = item
+            name, process, started, scratch, output = item
             if process.poll() is None:
                 continue
             running.remove(item)
+            output.seek(0)
+            said = output.read()
+            output.close()
             shutil.rmtree(scratch, ignore_errors=True)  # libFuzzer's exit skips the child's
-            output = process.stdout.read() if process.stdout else ""
-            done.append(_result(name, output, process.returncode, time.monotonic() - started))
+            done.append(_result(name, said, process.returncode, time.monotonic() - started))
     return sorted(done, key=lambda r: names.index(r["target"]))
 
 
