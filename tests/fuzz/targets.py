@@ -60,19 +60,8 @@ def _command(make_argv: Callable[[Path], list[str]], name: str) -> Callable[[Pat
     """A target running `rmv` on the input written to `folder/name`."""
 
     def prepare(folder: Path) -> OneInput:
-        os.environ["RMV_DEBUG"] = "1"  # a bug raises instead of printing one line
-        os.environ["RMV_CACHE_DIR"] = ""  # no answer kept between inputs
-        os.environ["NO_COLOR"] = "1"
         path = folder / name
-        argv = make_argv(path)
-
-        def one(data: bytes) -> None:
-            path.write_bytes(data)
-            code = _quiet_cli(argv)
-            if code not in (0, 1, 2):
-                raise Crash(f"rmv {' '.join(argv)} exited with {code}")
-
-        return one
+        return _running(make_argv(path), path)
 
     return prepare
 
@@ -82,20 +71,27 @@ def _replay(kind: str) -> Callable[[Path], OneInput]:
     (a .bag file; the .db3 or .mcap file of a rosbag2 folder, its metadata kept)."""
 
     def prepare(folder: Path) -> OneInput:
-        os.environ["RMV_DEBUG"], os.environ["RMV_CACHE_DIR"] = "1", ""
         spec, recording = _recording(folder, kind)
         storage = recording if kind == "bag" else next(recording.glob(f"*.{kind}"))
-        argv = ["replay", str(spec), str(recording), "--format", "jsonl"]
-
-        def one(data: bytes) -> None:
-            storage.write_bytes(data)
-            code = _quiet_cli(argv)
-            if code not in (0, 1, 2):
-                raise Crash(f"rmv replay exited with {code}")
-
-        return one
+        return _running(["replay", str(spec), str(recording), "--format", "jsonl"], storage)
 
     return prepare
+
+
+def _running(argv: list[str], path: Path) -> OneInput:
+    """`rmv ARGV` on each input written to `path`: an exception escapes (RMV_DEBUG),
+    an exit status other than 0, 1 and 2 is a crash."""
+    os.environ["RMV_DEBUG"] = "1"  # a bug raises instead of printing one line
+    os.environ["RMV_CACHE_DIR"] = ""  # no answer kept between inputs
+    os.environ["NO_COLOR"] = "1"
+
+    def one(data: bytes) -> None:
+        path.write_bytes(data)
+        code = _quiet_cli(argv)
+        if code not in (0, 1, 2):
+            raise Crash(f"rmv {' '.join(argv)} exited with {code}")
+
+    return one
 
 
 def _recording(folder: Path, kind: str) -> tuple[Path, Path]:
