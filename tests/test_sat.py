@@ -446,3 +446,26 @@ def test_use_cache_replaces_the_default_that_checks_use():
     finally:
         cache_module.use_cache(None)
     assert cache_module.default_cache() is not fresh
+
+
+def test_a_conflict_is_minimised_without_refuting_what_a_trace_satisfies(monkeypatch):
+    """Found by fuzzing `rmv check`: minimising the conflict of these two asked the
+    refutation whether the first alone is impossible; it is satisfiable, so the
+    refutation searched until its 5 s limit (how soon z3 gives up varies with what
+    it was asked before), and the minimum was left unproven. The witness search
+    answers such a subset at once: the refutation never sees it."""
+    from rmvdsl.logic import sat
+
+    texts = ["eventually[<11s] p and always[<10s] not p", "eventually[<5s] (p and q)"]
+    compiled = [compile_formula(parse_formula(t, "rmv", "<f>", "formula")[0]) for t in texts]
+    asked = []
+
+    def recording(formulas, system, names, limits):
+        asked.append([compiled.index(f) for f in formulas])
+        return refute(formulas, system, names, limits)
+
+    monkeypatch.setattr(sat, "refute", recording)
+    # the core the satisfiability question found, as the checker passes it
+    members, complete = sat._smallest(compiled, System(), Limits(timeout=5.0), (0, 1))
+    assert (members, complete) == ((0, 1), True)
+    assert asked == [[0, 1]]  # neither alone: each is satisfiable

@@ -137,7 +137,10 @@ def _smallest(
     formulas: Sequence[Any], system: System, limits: Limits, core: Sequence[int]
 ) -> tuple[tuple[int, ...], bool]:
     """Deletion-based minimisation; False when a limit cut a refutation short
-    (then the result may not be the smallest, and is not cached)."""
+    (then the result may not be the smallest, and is not cached). A subset a trace
+    satisfies is no conflict: the witness search says so at once, where a
+    refutation would search until its time limit (found by fuzzing: 5 s for
+    `eventually[<11s] p and always[<10s] not p` alone)."""
     names = {n for f in formulas for n in system.names(set(facts(f).propositions))}
     members = list(core) or list(range(len(formulas)))
     verdict, found = refute([formulas[i] for i in members], system, names, limits)
@@ -151,6 +154,8 @@ def _smallest(
         rest = [m for m in members if m != candidate]
         if not rest:
             break
+        if satisfiable([formulas[i] for i in rest], system, limits).value == YES:
+            continue  # the rest can hold together: the candidate is in the conflict
         verdict, found = refute([formulas[i] for i in rest], system, names, limits)
         if verdict == "unsat":
             members = [rest[i] for i in found]
