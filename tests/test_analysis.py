@@ -134,3 +134,19 @@ def test_a_cached_answer_follows_an_edit_of_an_inlined_event(tmp_path):
     assert not unreachable(text.replace("X < 3", "X < 9"))
     assert unreachable(text.replace("X < 3", "X < 9").replace("X > 5", "X > 50"))
     assert not unreachable(text.replace("X < 3", "X < 9"))
+
+
+def test_a_group_too_large_for_redundancy_says_so(tmp_path):
+    """25 properties over one event (each implies the next): past 24 the redundancy
+    questions are skipped, and a note says so at the group's first property."""
+    lines = ["system many", 'topic t: std_msgs/msg/Float64 = "/t"', "var x = t.data",
+             "event High when x > 5"]  # fmt: skip
+    lines += [f"property P{i}: eventually[<={i + 1}s] High" for i in range(25)]
+    path = tmp_path / "many.rmv"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    found = check(str(path), use_environment=False).diagnostics
+    [skipped] = [d for d in found if d.code == "RMV517"]
+    assert skipped.message == ("redundancy not checked for 25 properties that share "
+                               "propositions (`P0`, `P1`, `P2` and 22 more): over 24")  # fmt: skip
+    assert skipped.span.start == path.read_text().index("P0")
+    assert not [d for d in found if d.code == "RMV515"]

@@ -326,6 +326,9 @@ class _PropertyAnalyzer(PropertyFindings):
             for g in groups
             if len(g) <= REDUNDANCY_LIMIT
         ]
+        for group in groups:
+            if len(group) > REDUNDANCY_LIMIT:  # said, never silently skipped
+                self.add(self.redundancy_skipped(group, REDUNDANCY_LIMIT))
         for found in implied_all(asked, self.system, self.limits, self.cache):
             for name, implied_by in found:
                 self.add(self.implied(name, implied_by))

@@ -70,6 +70,19 @@ class PropertyFindings:
             "and `solver_effort` in rmv.toml",
         )
 
+    def redundancy_skipped(self, group: list[str], limit: int) -> Diagnostic:
+        shown = ", ".join(f"`{n}`" for n in group[:3])
+        more = len(group) - 3
+        return Diagnostic(
+            "RMV517",
+            Severity.NOTE,
+            f"redundancy not checked for {len(group)} properties that share propositions "
+            f"({shown}{f' and {more} more' if more > 0 else ''}): over {limit}",
+            self.model.properties[group[0]].name.span,
+            label="redundancy not checked",
+            help="split the group to have it checked (`rmv explain RMV517`)",
+        )
+
     def implied(self, name: str, implied_by: list[str]) -> Diagnostic:
         return Diagnostic(
             "RMV515",

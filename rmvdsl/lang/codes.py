@@ -660,6 +660,16 @@ property can hold (or fail). Nothing is claimed. Raise the limit with
 property.""",
     ),
     (
+        "RMV517",
+        "redundancy not checked",
+        """(note) The properties named share propositions, so each could imply another,
+but they are more than 24: asking whether each is implied by the others would cost
+one solver question per property over all the rest, and `rmv check` skips it
+rather than take minutes. Nothing is claimed about their redundancy; the other
+analyses (each property alone, conflicts between them) ran. Split the group (a
+property over other states and events is in another group) to have it checked.""",
+    ),
+    (
         "RMV600",
         "the target cannot build the spec",
         """Only with `rmv check --target NAME`: the spec checks clean, but the target of
