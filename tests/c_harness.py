@@ -29,14 +29,18 @@ def write(files: dict[str, str], folder: Path) -> None:
         (folder / name).write_text(text, encoding="utf-8")
 
 
-def compile_driver(folder: Path, sanitize: bool = False, optimize: str = "-O2") -> Path:
-    """The replay driver of the build in `folder`, compiled with the strict flags."""
+def compile_driver(
+    folder: Path, sanitize: bool = False, optimize: str = "-O2", cc: str | None = None
+) -> Path:
+    """The replay driver of the build in `folder`, compiled with the strict flags
+    (by `cc`, gcc unless named)."""
     (driver,) = folder.glob("rmv_*_replay.c")
-    program = folder / driver.stem
+    program = folder / f"{driver.stem}_{Path(cc or 'cc').name}"
     flags = [*STRICT, *(SANITIZERS if sanitize else [optimize])]
     sources = [str(driver), str(driver).replace("_replay.c", ".c")]
-    subprocess.run([compiler() or "cc", *flags, "-o", str(program), *sources], check=True,
-                   capture_output=True, text=True)  # fmt: skip
+    done = subprocess.run([cc or compiler() or "cc", *flags, "-o", str(program), *sources],
+                          capture_output=True, text=True)  # fmt: skip
+    assert done.returncode == 0, done.stderr[-4000:]
     return program
 
 

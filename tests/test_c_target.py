@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import os
 import random
+import shutil
 import subprocess
 from concurrent.futures import ProcessPoolExecutor
 from fractions import Fraction
@@ -194,11 +195,17 @@ def spec_of(path: Path) -> Any:
 RECORDINGS = sorted((ROOT / "examples" / "carla" / "recordings").iterdir())
 
 
-@pytest.mark.parametrize("recording", RECORDINGS, ids=lambda p: p.name)
-def test_the_example_over_its_recordings_equals_rmv_replay(recording: Path, tmp_path: Path) -> None:
+# gcc over every recording; clang (also -Werror clean, and sanitized) over one.
+CASES = [(r, "gcc") for r in RECORDINGS] + [(RECORDINGS[0], "clang")]
+
+
+@pytest.mark.parametrize(("recording", "cc"), CASES, ids=lambda p: getattr(p, "name", p))
+def test_the_example_over_its_recordings_equals_rmv_replay(
+    recording: Path, cc: str, tmp_path: Path
+) -> None:
     """The runtime's property inputs during `rmv replay`, fed to the C monitors of
     the same spec (sanitized), print `rmv replay --format jsonl`'s verdict lines,
-    byte for byte."""
+    byte for byte, compiled by gcc and by clang."""
     from c_harness import property_inputs
 
     from rmvdsl.targets.c.generate import system_of
@@ -206,7 +213,8 @@ def test_the_example_over_its_recordings_equals_rmv_replay(recording: Path, tmp_
     spec = spec_of(ROOT / "examples" / "carla" / "abs.rmv")
     lines, expected = property_inputs(spec, [recording])
     write(files(system_of(spec)), tmp_path)
-    program = compile_driver(tmp_path, sanitize=True)
+    assert shutil.which(cc), f"{cc} is needed (.ci/run installs it)"
+    program = compile_driver(tmp_path, sanitize=True, cc=cc)
     done = subprocess.run([str(program)], input="\n".join(lines) + "\n", capture_output=True,
                           text=True)  # fmt: skip
     printed = [line for line in done.stdout.splitlines() if '"kind": "verdict"' in line]
