@@ -247,3 +247,41 @@ def test_a_target_s_package_is_light_to_import():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+def test_check_shows_the_solver_s_progress_on_a_terminal(tmp_path):
+    """On a terminal, solver work over RMV_PROGRESS_AFTER seconds (2 by default)
+    shows a bar on standard error, redrawn in place and cleared when done; piped,
+    nothing is added (every other test reads a pipe)."""
+    import pty
+    import subprocess
+
+    from conftest import RMV
+
+    lines = ["system bar", 'topic t: std_msgs/msg/Float64 = "/t"', "var x = t.data"]
+    lines += [f"event E{i} when x > {i}" for i in range(4)]
+    lines += [f"property P{i}: E{i % 4} -> eventually[<={i % 5 + 1}s] E{(i + 1) % 4}"
+              for i in range(12)]  # fmt: skip
+    spec = tmp_path / "bar.rmv"
+    spec.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    master, slave = pty.openpty()
+    env = dict(os.environ, RMV_CACHE_DIR=str(tmp_path / "cache"), RMV_PROGRESS_AFTER="0")
+    done = subprocess.Popen([*RMV, "check", "--jobs", "2", str(spec)], stdout=subprocess.PIPE,
+                            stderr=slave, env=env)  # fmt: skip
+    os.close(slave)
+    shown = b""
+    while True:
+        try:
+            chunk = os.read(master, 4096)
+        except OSError:  # the other end closed
+            break
+        if not chunk:
+            break
+        shown += chunk
+    out, _ = done.communicate()
+    os.close(master)
+    assert done.returncode == 0, out
+    text = shown.decode()
+    assert "\r[" in text and "solver: 1/" in text, text
+    assert text.endswith("\r"), text  # the bar cleared: the terminal's line is free
+    assert out.decode().strip().endswith("0 errors, 0 warnings")

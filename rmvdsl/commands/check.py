@@ -4,10 +4,13 @@ with the inputs it read (rmvdsl.commands.stored answers the next unchanged run).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import io
 import os
 import re
 import sys
+import time
+from typing import Any
 
 from rmvdsl.check import CheckResult
 from rmvdsl.check.msgfolders import folders_read
@@ -18,6 +21,7 @@ from rmvdsl.lang.diagnostics import Diagnostic, Severity, error
 from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, EXIT_USAGE, UsageError
 from rmvdsl.lang.render import render_json, render_sarif, render_text, summary
 from rmvdsl.lang.source import SourceMap, Span
+from rmvdsl.logic.parallel import Progress, progress
 from rmvdsl.runtime.wording import os_words
 
 
@@ -29,26 +33,9 @@ def run(args: argparse.Namespace, color: bool, entry: str | None) -> stored.Stor
     usage_problems: list[str] = []
     checked: list[str] = []
     workspace = Workspace()  # as `rmv lsp` checks, with no document open
-    for path in args.files:
-        try:
-            result = workspace.check(
-                path,
-                ros=args.ros,
-                messages=tuple(args.messages),
-                solver_timeout=args.timeout,
-                solver_jobs=args.jobs,
-            )
-        except UsageError as exc:
-            usage_problems.append(f"rmv: error: {exc}\n")
-            continue
-        checked.append(path)
-        all_diagnostics.extend(result.diagnostics)
-        if args.target and not result.errors:
-            all_diagnostics.extend(target_diagnostics(result, args.target))
-        if args.witnesses and result.properties is not None:
-            write_witnesses(args.witnesses, result.properties, result.model.time_unit)
-        for source in result.model.sources:
-            sources.add(source)
+    shown = progress(solver_bar(sys.stderr)) if sys.stderr.isatty() else contextlib.nullcontext()
+    with shown:
+        _check_files(args, workspace, all_diagnostics, sources, usage_problems, checked)
     out = io.StringIO()
     if args.format == "json":
         out.write(render_json(all_diagnostics, sources))
@@ -137,3 +124,52 @@ def write_witnesses(folder: str, report: PropertyReport, unit: str | None = None
             at = answer.witness.as_json()["at"]
             suffix = f" {unit}" if unit not in (None, "s") else ""
             print(f"rmv: {path}: `{name}` is {verdict} at t = {at}{suffix}", file=sys.stderr)
+
+
+def _check_files(
+    args: argparse.Namespace,
+    workspace: Workspace,
+    all_diagnostics: list[Diagnostic],
+    sources: SourceMap,
+    usage_problems: list[str],
+    checked: list[str],
+) -> None:
+    """Check each file, collecting what `run` prints."""
+    for path in args.files:
+        try:
+            result = workspace.check(
+                path,
+                ros=args.ros,
+                messages=tuple(args.messages),
+                solver_timeout=args.timeout,
+                solver_jobs=args.jobs,
+            )
+        except UsageError as exc:
+            usage_problems.append(f"rmv: error: {exc}\n")
+            continue
+        checked.append(path)
+        all_diagnostics.extend(result.diagnostics)
+        if args.target and not result.errors:
+            all_diagnostics.extend(target_diagnostics(result, args.target))
+        if args.witnesses and result.properties is not None:
+            write_witnesses(args.witnesses, result.properties, result.model.time_unit)
+        for source in result.model.sources:
+            sources.add(source)
+
+
+def solver_bar(stream: Any) -> Progress:
+    """The solver's progress, one line redrawn in place, once its work has taken
+    2 s (a quick check prints nothing more; RMV_PROGRESS_AFTER sets the seconds),
+    cleared when a stage ends."""
+    started = time.monotonic()
+    after = float(os.environ.get("RMV_PROGRESS_AFTER", "2"))
+
+    def draw(done: int, total: int) -> None:
+        if time.monotonic() - started < after:
+            return
+        filled = int(30 * done / total)
+        line = f"[{'#' * filled}{'.' * (30 - filled)}] solver: {done:,}/{total:,} tasks"
+        stream.write(f"\r{line}" if done < total else "\r" + " " * len(line) + "\r")
+        stream.flush()
+
+    return draw

@@ -21,6 +21,7 @@ in process.
 from __future__ import annotations
 
 import atexit
+import contextlib
 import importlib
 import os
 import pickle
@@ -29,7 +30,7 @@ import struct
 import subprocess
 import sys
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import IO, Any
 
@@ -121,6 +122,22 @@ def implied_all(
     ]
 
 
+# Told of each task done, with the count of tasks, where a terminal shows progress
+# (`rmv check` sets it; rmvdsl.commands.check).
+Progress = Callable[[int, int], None]
+_progress: list[Progress] = []
+
+
+@contextlib.contextmanager
+def progress(report: Progress) -> Iterator[None]:
+    """`report(done, total)` after each task the workers finish, while inside."""
+    _progress.append(report)
+    try:
+        yield
+    finally:
+        _progress.remove(report)
+
+
 def run_tasks(tasks: Sequence[tuple[Callable[..., Any], tuple[Any, ...]]], jobs: int) -> list[Any]:
     """Each task's result, in order, computed by `jobs` workers (each fed by a
     thread of its own, which waits on a pipe, not on the GIL); None where a task
@@ -131,6 +148,7 @@ def run_tasks(tasks: Sequence[tuple[Callable[..., Any], tuple[Any, ...]]], jobs:
     todo: queue.SimpleQueue[int] = queue.SimpleQueue()
     for index in range(len(tasks)):
         todo.put(index)
+    lock, done = threading.Lock(), [0]
 
     def serve(worker: _Worker) -> None:
         while True:
@@ -140,6 +158,10 @@ def run_tasks(tasks: Sequence[tuple[Callable[..., Any], tuple[Any, ...]]], jobs:
                 return
             function, args = tasks[index]
             results[index] = worker.call(function, args)
+            with lock:
+                done[0] += 1
+                for report in _progress:
+                    report(done[0], len(tasks))
 
     threads = [
         threading.Thread(target=serve, args=(w,), daemon=True)
