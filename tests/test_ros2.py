@@ -379,10 +379,10 @@ def test_sim_time_and_parameters_override_the_spec(specs, workspace, tmp_path, r
 
 
 def test_messages_the_reader_loses_are_counted(workspace, tmp_path):
-    """3,000 messages as fast as rclpy sends them to a reader of depth 1: what the
+    """1,500 messages as fast as rclpy sends them to a reader of depth 1: what the
     reader loses shows as gaps in the publisher's sequence numbers, and every
     message is either read or counted lost, with one warning in the log."""
-    burst = [_publish("/vehicle/twist", _twist_cdr(START + k, 20.0)) for k in range(3000)]
+    burst = [_publish("/vehicle/twist", _twist_cdr(START + k, 20.0)) for k in range(1500)]
     seen = _drive(workspace, {
         "monitor": [_executable(workspace, "lossy", "monitor")],
         "publishers": {"/vehicle/twist": TWIST},
@@ -391,7 +391,8 @@ def test_messages_the_reader_loses_are_counted(workspace, tmp_path):
     counters = seen["diagnostics"]["rmv_monitor: monitor"]
     lost = int(counters.get("lost messages: /vehicle/twist", "0"))
     assert lost > 0, counters
-    assert int(counters["messages"]) + lost == 3000
+    print(f"{lost} of 1,500 lost")
+    assert int(counters["messages"]) + lost == 1500
     # "1 message ... read it" or "N messages ... read them", said once
     lost = r"\d+ messages? lost before the monitor could read (it|them)"
     assert len(re.findall(lost, seen["log"])) == 1, seen["log"]
