@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -98,6 +99,10 @@ def _load_file(path: str, text: str, loaded: Loaded, active: list[str]) -> None:
 
 
 def _load_import(importer: str, item: ast.ImportDecl, loaded: Loaded, active: list[str]) -> None:
+    if "\0" in item.path.value:  # no file can be named so (and os.path refuses it)
+        why = f"cannot import {json.dumps(item.path.value)}: a path cannot hold a NUL character"
+        loaded.diagnostics.append(error("RMV003", why, item.path.span, label="not a path"))
+        return
     target = os.path.normpath(os.path.join(os.path.dirname(importer), item.path.value))
     real = os.path.realpath(target)
     if real in active:

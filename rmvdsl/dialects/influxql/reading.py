@@ -5,7 +5,15 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 
-from rmvdsl.dialects.common import Cursor, Lexicon, Token, climb, quoted_end, scan
+from rmvdsl.dialects.common import (
+    Cursor,
+    Lexicon,
+    Token,
+    climb,
+    nesting_refused,
+    quoted_end,
+    scan,
+)
 from rmvdsl.dialects.influxql.syntax import (
     NS_PER_UNIT,
     Call,
@@ -192,6 +200,7 @@ def _as_written(reader: _Reader, why: InfluxQLError) -> str:
     return reader.text[first.start : last.start + len(last.text)]
 
 
+@nesting_refused(InfluxQLError)
 def _statement(text: str) -> Statement:
     reader = _Reader(text)
     if reader.take("CREATE", "DATABASE"):

@@ -5,7 +5,15 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 
-from rmvdsl.dialects.common import Cursor, Lexicon, Token, climb, quoted_end, scan
+from rmvdsl.dialects.common import (
+    Cursor,
+    Lexicon,
+    Token,
+    climb,
+    nesting_refused,
+    quoted_end,
+    scan,
+)
 from rmvdsl.dialects.tickscript.syntax import (
     Call,
     Dbrp,
@@ -151,6 +159,7 @@ def _at_pipeline(reader: _Reader) -> bool:
     return first.text in ("stream", "batch") or (second is not None and second.text in "|.@")
 
 
+@nesting_refused(TickError)
 def parse(script: str) -> list[Statement]:
     """The statements of a script: `dbrp`, `var`, pipelines.
     TickError names what is malformed."""
