@@ -534,36 +534,7 @@ def test_the_collector_writes_every_message_and_survives_influxd_stopping(
     namespace: 60 messages arrive as points, with the transducer's 2 states; with
     influxd stopped, 150 more wait in a buffer of 100 points, the 50 oldest are
     dropped and counted; influxd started again gets the rest."""
-    resolved = lower(check(str(specs["collected"])))
-    texts, _ = kapacitor.files(resolved, tmp_path / "build")
-    from rmvdsl.dialects.influxql import split as split_statements
-
-    statements = [  # the schema, not the continuous queries: the collector's part only
-        s for s in split_statements(texts["influxdb.iql"])
-        if not s.startswith("CREATE CONTINUOUS QUERY")
-    ]  # fmt: skip
-    package = "collected_collector"
-    scenario = {
-        "influx_root": str(tmp_path / "influxd"),
-        "statements": statements,
-        "database": "collected",
-        "command": [_executable(workspace, package, "collector"), "--ros-args",
-                    "-p", "buffer:=100", "-p", "diagnostics_period:=0.2"],
-        "before": 60,
-        "during": 150,
-        "states": 2,
-    }  # fmt: skip
-    (tmp_path / "influxd").mkdir()
-    file = tmp_path / "collector.json"
-    file.write_text(json.dumps(scenario), encoding="utf-8")
-    run = rosenv.run(
-        [rosenv.python(), str(HERE / "drive_collector.py"), str(file)],
-        rosenv.DOMAIN + 5, workspace, timeout=240,
-    )  # fmt: skip
-    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-6000:]
-    seen = json.loads(run.stdout)
-    assert seen["code"] == 0, seen["log"]
-    assert seen["while_down"]["_message"].startswith("retrying"), seen["while_down"]
+    seen = _collect(specs, workspace, tmp_path, [], rosenv.DOMAIN + 5)
     status = seen["status"]
     start, step = 1_700_000_000 * 10**9, 50_000_000
     assert status["messages"] == "210"
@@ -579,6 +550,58 @@ def test_the_collector_writes_every_message_and_survives_influxd_stopping(
     assert set(range(60)) <= kept  # written before influxd stopped
     assert set(range(130, 210)) <= kept  # the newest stay; the oldest waiting went
     assert "InfluxDB cannot keep up" in seen["log"]
+
+
+def test_with_a_spool_the_collector_loses_nothing_while_influxd_is_away(specs, workspace, tmp_path):
+    """The same, with a spool file: the 50 points past the memory buffer wait on
+    disk, and influxd started again gets all 210 messages and both states."""
+    spool = tmp_path / "spool" / "collector.spool"
+    seen = _collect(specs, workspace, tmp_path, ["-p", f"spool:={spool}", "-p",
+                    "spool_bytes:=1000000"], rosenv.DOMAIN + 10)  # fmt: skip
+    assert int(seen["while_down"]["points spooled"]) >= 50, seen["while_down"]
+    status = seen["status"]
+    assert "points dropped: buffer full" not in status, status
+    assert (status["messages"], status["points written"]) == ("210", "212")
+    assert status["points spooled"] == "0" and spool.stat().st_size == 0
+    start, step = 1_700_000_000 * 10**9, 50_000_000
+    stored = {int(t): v for t, v in seen["stored"]}
+    assert sorted((t - start) // step for t in stored) == list(range(210))
+
+
+def _collect(specs: dict, workspace: Path, tmp_path: Path, extra: list[str], domain: int) -> dict:
+    """tests/ros2/drive_collector.py on the `collected` spec's collector (buffer 100,
+    and `extra` parameters): 60 messages, influxd stopped, 150 more, influxd back."""
+    resolved = lower(check(str(specs["collected"])))
+    texts, _ = kapacitor.files(resolved, tmp_path / "build")
+    from rmvdsl.dialects.influxql import split as split_statements
+
+    statements = [  # the schema, not the continuous queries: the collector's part only
+        s for s in split_statements(texts["influxdb.iql"])
+        if not s.startswith("CREATE CONTINUOUS QUERY")
+    ]  # fmt: skip
+    package = "collected_collector"
+    scenario = {
+        "influx_root": str(tmp_path / "influxd"),
+        "statements": statements,
+        "database": "collected",
+        "command": [_executable(workspace, package, "collector"), "--ros-args",
+                    "-p", "buffer:=100", "-p", "diagnostics_period:=0.2", *extra],
+        "before": 60,
+        "during": 150,
+        "states": 2,
+    }  # fmt: skip
+    (tmp_path / "influxd").mkdir()
+    file = tmp_path / "collector.json"
+    file.write_text(json.dumps(scenario), encoding="utf-8")
+    run = rosenv.run(
+        [rosenv.python(), str(HERE / "drive_collector.py"), str(file)],
+        domain, workspace, timeout=240,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-6000:]
+    seen = json.loads(run.stdout)
+    assert seen["code"] == 0, seen["log"]
+    assert seen["while_down"]["_message"].startswith("retrying"), seen["while_down"]
+    return seen
 
 
 def test_the_alert_handler_publishes_any_alert_text_as_data(tmp_path):

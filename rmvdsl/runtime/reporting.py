@@ -26,7 +26,7 @@ from rmvdsl.runtime.verdicts import Segments
 from rmvdsl.runtime.wording import counted
 
 # A stamp this far ahead of its message's receipt is not believed: taken as the
-# message's time it would make every later message late (docs/semantics.md).
+# message's time it would make every later message late (docs/runtime.md).
 STAMP_AHEAD = 10 * NS
 
 _LOG_LEVEL = {"OK": "info", "INFO": "info", "WARNING": "warn", "CRITICAL": "error"}
