@@ -196,10 +196,10 @@ RECORDINGS = sorted((ROOT / "examples" / "carla" / "recordings").iterdir())
 
 
 # gcc over every recording; clang (also -Werror clean, and sanitized) over one.
-CASES = [(r, "gcc") for r in RECORDINGS] + [(RECORDINGS[0], "clang")]
+COMPILED = [(r, "gcc") for r in RECORDINGS] + [(RECORDINGS[0], "clang")]
 
 
-@pytest.mark.parametrize(("recording", "cc"), CASES, ids=lambda p: getattr(p, "name", p))
+@pytest.mark.parametrize(("recording", "cc"), COMPILED, ids=lambda p: getattr(p, "name", p))
 def test_the_example_over_its_recordings_equals_rmv_replay(
     recording: Path, cc: str, tmp_path: Path
 ) -> None:

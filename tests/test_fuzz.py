@@ -13,18 +13,20 @@ from conftest import ROOT
 
 sys.path.insert(0, str(ROOT / "tests"))
 from fuzz import lsp
-from fuzz.targets import REGRESSIONS, TARGETS
+from fuzz.targets import ENVIRONMENT, REGRESSIONS, TARGETS
 
 FOUND = sorted(p for p in REGRESSIONS.glob("*/*") if p.is_file())
 
 
 @pytest.mark.parametrize("path", FOUND, ids=[f"{p.parent.name}/{p.name[:14]}" for p in FOUND])
-def test_what_the_fuzzer_found_stays_fixed(path: Path, tmp_path: Path):
+def test_what_the_fuzzer_found_stays_fixed(path: Path, tmp_path: Path, monkeypatch):
     """Each input the fuzzer once crashed or hung rmv with, through its target. The
     LSP's five: a frame that is not JSON, then one that is not UTF-8, shown as
     server errors instead of answered; and a message of the server's own built with
     two fields swapped, which ended it (lsp.py's inputs build on the server's state,
     so each is replayed from the example's text)."""
+    for name, value in ENVIRONMENT.items():  # as in a fuzzing process; this test only
+        monkeypatch.setenv(name, value)
     target = path.parent.name
     one = lsp.prepare(tmp_path) if target == "lsp" else TARGETS[target].prepare(tmp_path)
     one(path.read_bytes())

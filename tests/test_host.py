@@ -117,6 +117,24 @@ def test_lost_messages_are_counted_from_sequence_gaps():
     later = {"publication_sequence_number": 5, "publisher_gid": {"data": b"a"}}
     other = {"publication_sequence_number": 9, "publisher_gid": {"data": b"b"}}
     assert [gaps.lost("/t", first), gaps.lost("/t", later), gaps.lost("/t", other)] == [0, 3, 0]
+    # 3 came after 5 (a large message on a flow of its own): found again, once
+    third = {"publication_sequence_number": 3, "publisher_gid": {"data": b"a"}}
+    assert [gaps.lost("/t", third), gaps.lost("/t", third), gaps.lost("/t", later)] == [-1, 0, 0]
+
+
+def test_a_message_counted_lost_that_comes_later_is_counted_once(tmp_path):
+    """In the monitor: read + lost stays the number published when a message comes
+    after a later one."""
+    spec = _spec(tmp_path)
+    out = Outputs()
+    node = monitor.Monitor(spec, out.actions(), out, lambda: 0)
+    gid = {"data": b"a"}
+    for sequence in (1, 3, 2, 4):
+        info = {"publication_sequence_number": sequence, "publisher_gid": gid}
+        node.feed(sequence * 10**8, "/vehicle/twist", _twist(10.0), info)
+    counters = node.runtime.counters
+    assert counters["messages"] == 4 and "lost messages: /vehicle/twist" not in counters
+    assert counters["messages out of order: /vehicle/twist"] == 1
 
 
 def test_the_intrusion_watch_waits_for_names_and_says_each_thing_once(tmp_path):

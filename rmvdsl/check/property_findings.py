@@ -12,6 +12,7 @@ from rmvdsl.lang.diagnostics import Diagnostic, Label, Severity, error
 from rmvdsl.logic.answers import Answer, Witness
 from rmvdsl.logic.system import System
 from rmvdsl.runtime.rmtld3 import facts as formula_facts
+from rmvdsl.runtime.wording import counted
 
 
 class PropertyFindings:
@@ -76,8 +77,9 @@ class PropertyFindings:
         return Diagnostic(
             "RMV517",
             Severity.NOTE,
-            f"redundancy not checked for {len(group)} properties that share propositions "
-            f"({shown}{f' and {more} more' if more > 0 else ''}): over {limit}",
+            f"redundancy not checked for {counted(len(group), 'property', 'properties')} "
+            f"that share propositions ({shown}{f' and {more} more' if more > 0 else ''}): "
+            f"over {limit}",
             self.model.properties[group[0]].name.span,
             label="redundancy not checked",
             help="split the group to have it checked (`rmv explain RMV517`)",

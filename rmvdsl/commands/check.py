@@ -22,7 +22,7 @@ from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, EXIT_USAGE, UsageError
 from rmvdsl.lang.render import render_json, render_sarif, render_text, summary
 from rmvdsl.lang.source import SourceMap, Span
 from rmvdsl.logic.parallel import Progress, progress
-from rmvdsl.runtime.wording import os_words
+from rmvdsl.runtime.wording import counted, os_words
 
 
 def run(args: argparse.Namespace, color: bool, entry: str | None) -> stored.Stored:
@@ -168,7 +168,8 @@ def solver_bar(stream: Any) -> Progress:
         if time.monotonic() - started < after:
             return
         filled = int(30 * done / total)
-        line = f"[{'#' * filled}{'.' * (30 - filled)}] solver: {done:,}/{total:,} tasks"
+        tasks = counted(total, "task", grouped=True)
+        line = f"[{'#' * filled}{'.' * (30 - filled)}] solver: {done:,}/{tasks}"
         stream.write(f"\r{line}" if done < total else "\r" + " " * len(line) + "\r")
         stream.flush()
 

@@ -128,7 +128,11 @@ class Collector:
 
     def take(self, topic: str, message: Any, info: dict[str, Any]) -> None:
         lost = self.gaps.lost(topic, info)
-        if lost:
+        if lost < 0:  # counted lost, then came out of order
+            self.count(f"lost messages: {topic}", lost, "")
+            self.count(f"messages out of order: {topic}", 1,
+                       f"{topic}: a message came after a later one")  # fmt: skip
+        elif lost:
             self.count(f"lost messages: {topic}", lost,
                        f"{topic}: {counted(lost, 'message')} lost before the collector "
                        f"read {'it' if lost == 1 else 'them'}")  # fmt: skip

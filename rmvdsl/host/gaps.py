@@ -18,25 +18,41 @@ class Undecodable:
     reason: str
 
 
+MISSING_KEPT = 10_000  # sequence numbers of missing messages remembered per publisher
+
+
 class Gaps:
     """rmw's `publication_sequence_number` per topic and publisher gid: a jump of
-    more than one is the number of messages lost between two read."""
+    more than one is the number of messages lost between two read. A message that
+    comes after a later one (Fast DDS sends a large message on a flow of its own)
+    was counted lost when the later one came: it is found again."""
 
     def __init__(self) -> None:
         self.newest: dict[tuple[str, Any], int] = {}
+        self.missing: dict[tuple[str, Any], set[int]] = {}
 
     def lost(self, topic: str, info: Mapping[str, Any]) -> int:
-        """How many messages of this one's publisher went missing just before it."""
+        """How many messages of this one's publisher went missing just before it;
+        -1 when this one is a message counted missing before (found again)."""
         sequence = info.get("publication_sequence_number")
         if not sequence:
             return 0
         publisher = (topic, (info.get("publisher_gid") or {}).get("data"))
         newest = self.newest.get(publisher)
-        if newest is None or sequence > newest:
-            self.newest[publisher] = sequence
-        if newest is not None and sequence > newest + 1:
-            return int(sequence - newest - 1)
-        return 0
+        if newest is not None and sequence <= newest:
+            missing = self.missing.get(publisher, set())
+            if sequence in missing:
+                missing.discard(sequence)
+                return -1
+            return 0
+        self.newest[publisher] = sequence
+        if newest is None or sequence == newest + 1:
+            return 0
+        missing = self.missing.setdefault(publisher, set())
+        missing.update(range(max(newest + 1, sequence - MISSING_KEPT), sequence))
+        if len(missing) > 2 * MISSING_KEPT:  # only the newest can still come
+            self.missing[publisher] = {s for s in missing if s >= sequence - MISSING_KEPT}
+        return int(sequence - newest - 1)
 
 
 class TypeWatch:

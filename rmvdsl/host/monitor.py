@@ -136,8 +136,10 @@ class Monitor:
 
     def feed(self, now: int, topic: str, message: Any, info: dict[str, Any]) -> None:
         lost = self.gaps.lost(topic, info)
-        if lost:
+        if lost > 0:
             self.runtime.lost(now, topic, lost)
+        elif lost < 0:
+            self.runtime.found_again(now, topic)
         if isinstance(message, Undecodable):
             self.runtime.damaged(now, topic, message.reason)
         else:

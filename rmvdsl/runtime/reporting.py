@@ -87,6 +87,15 @@ class Reporting:
         self._input_lost(time, topic, f"lost messages: {topic}", count, text)
         self._unknown_from(topic, self.last_on.get(topic, time), since_last=True)
 
+    def found_again(self, time: int, topic: str) -> None:
+        """A message counted lost came after all (out of order): no longer lost,
+        and counted as out of order; the stretch stays unknown."""
+        self.counters[f"lost messages: {topic}"] -= 1
+        if not self.counters[f"lost messages: {topic}"]:
+            del self.counters[f"lost messages: {topic}"]
+        text = f"{topic}: a message came after a later one (counted lost until it came)"
+        self._input_lost(time, topic, f"messages out of order: {topic}", 1, text)
+
     def ahead(self, time: int, topic: str, stamp: int) -> None:
         """A message received at `time` stamped much later: dropped (its stamp would
         make every later message late), and unknown as a damaged one."""

@@ -131,6 +131,7 @@ def _line(result: dict[str, Any]) -> str:
 
 
 def _child(args: argparse.Namespace) -> int:
+    os.environ.update(known.ENVIRONMENT)
     scratch = args.child
     target = _target(args.target)
     seeds = target.seeds(scratch) if target else []

@@ -80,12 +80,15 @@ def _replay(kind: str) -> Callable[[Path], OneInput]:
     return prepare
 
 
+# What a fuzzing process runs under (set by tests.fuzz's child, and by
+# tests/test_fuzz.py for the test only): a bug raises instead of printing rmv's one
+# line, and no answer is kept between inputs.
+ENVIRONMENT = {"RMV_DEBUG": "1", "RMV_CACHE_DIR": "", "NO_COLOR": "1"}
+
+
 def _running(argv: list[str], path: Path) -> OneInput:
     """`rmv ARGV` on each input written to `path`: an exception escapes (RMV_DEBUG),
     an exit status other than 0, 1 and 2 is a crash."""
-    os.environ["RMV_DEBUG"] = "1"  # a bug raises instead of printing one line
-    os.environ["RMV_CACHE_DIR"] = ""  # no answer kept between inputs
-    os.environ["NO_COLOR"] = "1"
 
     def one(data: bytes) -> None:
         path.write_bytes(data)

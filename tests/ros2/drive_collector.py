@@ -51,8 +51,8 @@ class Player:
                 self.status = {v.key: v.value for v in status.values}
                 self.status["_message"] = status.message
 
-    def until(self, condition: Any, what: str) -> None:
-        deadline = time.monotonic() + DEADLINE
+    def until(self, condition: Any, what: str, deadline: float = DEADLINE) -> None:
+        deadline = time.monotonic() + deadline
         while not condition():
             if time.monotonic() > deadline:
                 raise SystemExit(f"timed out waiting for {what}: {self.status}")
@@ -94,10 +94,16 @@ def main() -> None:
         player.until(lambda: player.status.get("points written") == str(before + states),
                      "the first states")  # fmt: skip
         influxd.stop()
+        stopped = time.monotonic()
         player.send(before, during)
         total = before + during
         player.until(lambda: player.status.get("messages") == str(total), "every message")
+        # `down_for`: influxd stays away that long at least (the collector retries,
+        # its back-off growing to 30 s)
+        player.until(lambda: time.monotonic() - stopped >= scenario.get("down_for", 0),
+                     "the outage's end", deadline=scenario.get("down_for", 0) + 60)  # fmt: skip
         result["while_down"] = dict(player.status)
+        result["down_s"] = round(time.monotonic() - stopped, 1)
         influxd.start()
         kept = total - int(player.status.get("points dropped: buffer full", "0"))
         player.until(lambda: len(stored(influxd, database)) == kept, f"{kept} points")
