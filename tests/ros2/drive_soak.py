@@ -10,7 +10,7 @@ intrusions are published on, `seconds`, `rate` (Hz of the twist messages this
 player sends, stamped, their speeds from `seed`), `churn` (seconds between an
 allowed node starting or stopping: a second /player publisher, or a /listener
 subscriber, which the whitelist allows) and `rogue_every` (seconds between rogue
-publishers, each left for 2 s). Prints JSON: the messages sent (stamp, speed), the
+publishers, each left for 4 s). Prints JSON: the messages sent (stamp, speed), the
 node's verdict segments, every intrusion report with the node it names, each rogue's
 report latency, both nodes' RSS samples and their exit codes.
 """
@@ -35,7 +35,7 @@ from std_msgs.msg import String
 
 INTRUDER = Path(__file__).resolve().parent / "intruder.py"
 START = 1_700_000_000 * 10**9
-ROGUE_STAYS = 2.0  # seconds
+ROGUE_STAYS = 4.0  # seconds: a report later than the 2 s goal is measured, not missed
 
 
 def rss_kib(pid: int) -> int:
