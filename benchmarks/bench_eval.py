@@ -1,16 +1,24 @@
-"""`rmv eval` end to end: samples per second and peak memory against the trace's length.
+"""`rmv eval` end to end: samples per second and peak memory against the trace's length,
+for traces as users write them.
 
-The braking controller of bench_monitor.py at 100 Hz, written as JSON Lines (times in
-seconds with two decimals, as a logger writes them) at 100,000 and 1,000,000 samples,
-and formula 3.1. Each command runs as its own process (its start-up included); peak
-memory is the process's own maximum resident set. In the same run, beside it:
+The braking controller of bench_monitor.py at 100 Hz and formula 3.1, at 100,000 and
+1,000,000 samples, written two ways: `plain` (`{"t": 12.34, "state": "A"}`, as
+`rmv sat` and most examples write) and `logger` (what a logging node writes: the
+keys in a random order on every line, a sequence number on half the lines and a
+17-digit float reading on a third, whole seconds as integers). Each command runs as
+its own process (its start-up included); peak memory is the process's own maximum
+resident set. In the same run, over the same file:
 
-- `json.loads` per line: a plain Python reader of the same file that does nothing
-  with what it reads (the speed a JSON Lines tool starts from);
-- the whole trace in memory: the same monitor fed after reading the whole file into
-  lists (how `rmv eval` worked before it streamed), same output.
+- `json.loads` per line: the standard library's reader, doing nothing with what it
+  reads (the speed a JSON Lines tool starts from);
+- `msgspec` per chunk: the reader `rmv eval` uses, bare (decode_lines into a typed
+  record, 1 MB at a time), the floor under any reader built on it;
+- `orjson` per line, where it is installed: the other fast reader measured;
+- the whole trace in memory (plain only): the same monitor fed after reading the
+  whole file into lists (how `rmv eval` worked before it streamed), same output.
 
-Goals (issue 16): at least 500,000 samples a second end to end, memory flat in the
+`rmv eval`'s output is the same for both shapes (checked). Goals (issue 37): at least
+1,000,000 samples a second end to end for any valid JSON Lines, memory flat in the
 trace's length. Best of --repeat.
 
     python benchmarks/bench_eval.py [--json benchmarks/results/eval.json]
@@ -19,8 +27,10 @@ trace's length. Best of --repeat.
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import os
+import random
 import subprocess
 import sys
 import tempfile
@@ -65,11 +75,54 @@ sys.stdout.write(ev.as_json({
 }))
 """
 
+MSGSPEC_CHUNKS = """
+import sys
+import msgspec
 
-def write_trace(path: Path, samples: int) -> None:
+class Record(msgspec.Struct):
+    t: float
+    state: str | None = None
+    end: bool | None = None
+
+decoder, count = msgspec.json.Decoder(Record), 0
+with open(sys.argv[1], "rb") as handle:
+    rest = b""
+    while chunk := handle.read(1 << 20):
+        chunk = rest + chunk
+        cut = chunk.rfind(b"\\n") + 1
+        count += len(decoder.decode_lines(chunk[:cut]))
+        rest = chunk[cut:]
+    count += len(decoder.decode_lines(rest))
+print(count)
+"""
+ORJSON = """
+import sys
+import orjson
+count = 0
+with open(sys.argv[1], "rb") as handle:
+    for line in handle:
+        orjson.loads(line)
+        count += 1
+print(count)
+"""
+SHAPES = ("plain", "logger")
+
+
+def write_trace(path: Path, samples: int, shape: str) -> None:
+    draw = random.Random(37)
     with path.open("w", encoding="utf-8") as handle:
         for tick, state in generate(samples):
-            handle.write(f'{{"t": {tick // 100}.{tick % 100:02d}, "state": "{state}"}}\n')
+            time = f"{tick // 100}.{tick % 100:02d}"
+            if shape == "plain":
+                handle.write(f'{{"t": {time}, "state": "{state}"}}\n')
+                continue
+            fields = [f'"t": {tick // 100 if tick % 100 == 0 else time}', f'"state": "{state}"']
+            if draw.random() < 0.5:
+                fields.append(f'"seq": {tick}')
+            if draw.random() < 0.3:
+                fields.append(f'"speed": {draw.random() * 30!r}')
+            draw.shuffle(fields)
+            handle.write("{" + ", ".join(fields) + "}\n")
         handle.write(f'{{"t": {samples // 100}.{samples % 100:02d}, "end": true}}\n')
 
 
@@ -87,40 +140,50 @@ def measure(command: list[str], output: Path) -> tuple[float, float]:
     return seconds, usage.ru_maxrss / 1024
 
 
-def commands(trace: Path) -> dict[str, list[str]]:
+def commands(trace: Path, shape: str) -> dict[str, list[str]]:
     python = sys.executable
     options = ["--formula", FORMULA, "--trace", str(trace), "--all", "--format", "json"]
-    return {
+    found = {
         "rmv eval": [python, "-m", "rmvdsl.cli", "eval", *options],
         "json.loads per line": [python, "-c", BARE_JSON, str(trace)],
-        "whole trace in memory": [python, "-c", WHOLE_TRACE, str(trace), FORMULA],
+        "msgspec per chunk": [python, "-c", MSGSPEC_CHUNKS, str(trace)],
     }
+    if importlib.util.find_spec("orjson") is not None:
+        found["orjson per line"] = [python, "-c", ORJSON, str(trace)]
+    if shape == "plain":
+        found["whole trace in memory"] = [python, "-c", WHOLE_TRACE, str(trace), FORMULA]
+    return found
 
 
 def run(samples: list[int], repeat: int, folder: Path) -> dict[str, Any]:
     rows: dict[str, Any] = {}
     for count in samples:
-        trace = folder / f"braking-{count}.jsonl"
-        # written by another process: a child forked from a parent holding the
-        # samples would count them in its own peak memory
-        subprocess.run([sys.executable, __file__, "--write", str(trace), str(count)], check=True)
         outputs: dict[str, str] = {}
-        row: dict[str, Any] = {"bytes": trace.stat().st_size}
-        for name, command in commands(trace).items():
-            best = min(
-                (measure(command, folder / f"{name}.out") for _ in range(repeat)),
-                key=lambda m: m[0],
+        for shape in SHAPES:
+            trace = folder / f"braking-{count}-{shape}.jsonl"
+            # written by another process: a child forked from a parent holding the
+            # samples would count them in its own peak memory
+            subprocess.run(
+                [sys.executable, __file__, "--write", str(trace), str(count), shape], check=True
             )
-            outputs[name] = (folder / f"{name}.out").read_text(encoding="utf-8")
-            row[name] = {"seconds": best[0], "samples_per_s": count / best[0], "peak_mb": best[1]}
-        streamed, whole = (
-            json.loads(outputs["rmv eval"]),
-            json.loads(outputs["whole trace in memory"]),
-        )
-        streamed["memory"].pop("held"), whole["memory"].pop("held")
-        if streamed != whole:
-            raise SystemExit("rmv eval and the whole-trace evaluation disagree: no figures")
-        rows[str(count)] = row
+            row: dict[str, Any] = {"bytes": trace.stat().st_size}
+            for name, command in commands(trace, shape).items():
+                out = folder / f"{shape}-{name}.out"
+                best = min((measure(command, out) for _ in range(repeat)), key=lambda m: m[0])
+                outputs[f"{shape} {name}"] = out.read_text(encoding="utf-8")
+                row[name] = {"seconds": best[0], "samples_per_s": count / best[0],
+                             "peak_mb": best[1]}  # fmt: skip
+            row["rmv eval / json.loads"] = (
+                row["rmv eval"]["samples_per_s"] / row["json.loads per line"]["samples_per_s"]
+            )
+            trace.unlink()
+            rows[f"{count} {shape}"] = row
+        compared = ("plain rmv eval", "logger rmv eval", "plain whole trace in memory")
+        evaluated = [json.loads(outputs[key]) for key in compared]
+        for result in evaluated:
+            result["memory"].pop("held")
+        if not evaluated[0] == evaluated[1] == evaluated[2]:
+            raise SystemExit("the evaluations of the two shapes disagree: no figures")
     return rows
 
 
@@ -131,26 +194,30 @@ def main() -> int:
     parser.add_argument("--samples", type=int, nargs="+", default=[100_000, 1_000_000])
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--json", metavar="FILE")
-    parser.add_argument("--write", nargs=2, metavar=("FILE", "SAMPLES"), help=argparse.SUPPRESS)
+    parser.add_argument("--write", nargs=3, metavar=("FILE", "SAMPLES", "SHAPE"),
+                        help=argparse.SUPPRESS)  # fmt: skip
     args = parser.parse_args()
     if args.write:
-        write_trace(Path(args.write[0]), int(args.write[1]))
+        write_trace(Path(args.write[0]), int(args.write[1]), args.write[2])
         return 0
     with tempfile.TemporaryDirectory(prefix="rmv-bench-eval-") as folder:
         rows = run(args.samples, args.repeat, Path(folder))
-    names = list(commands(Path("x")))
-    print(f"formula 3.1 over the braking trace (JSON Lines), best of {args.repeat}; "
-          "same segments from both evaluations")  # fmt: skip
-    print(f"{'samples':>10} {'file MB':>8}" + "".join(f"{n + ' /s':>26}{'MB':>7}" for n in names))
-    for count, row in rows.items():
-        cells = "".join(
-            f"{row[n]['samples_per_s']:>26,.0f}{row[n]['peak_mb']:>7.0f}" for n in names
+    print(f"formula 3.1 over the braking trace (JSON Lines), samples per second, best of "
+          f"{args.repeat}; the same segments from every evaluation")  # fmt: skip
+    for key, row in rows.items():
+        cells = ", ".join(
+            f"{name} {value['samples_per_s']:,.0f} ({value['peak_mb']:.0f} MB)"
+            for name, value in row.items()
+            if isinstance(value, dict)
         )
-        print(f"{int(count):>10,} {row['bytes'] / 1e6:>8.1f}{cells}")
-    if len(rows) > 1:
-        small, large = rows[str(min(args.samples))], rows[str(max(args.samples))]
-        growth = large["rmv eval"]["peak_mb"] / small["rmv eval"]["peak_mb"]
-        print(f"rmv eval's peak memory, largest / smallest trace: {growth:.2f} (goal: flat)")
+        ratio = row["rmv eval / json.loads"]
+        print(f"{key} ({row['bytes'] / 1e6:.1f} MB): {cells}; rmv eval / json.loads {ratio:.2f}")
+    largest, smallest = max(args.samples), min(args.samples)
+    if largest != smallest:
+        for shape in SHAPES:
+            growth = (rows[f"{largest} {shape}"]["rmv eval"]["peak_mb"]
+                      / rows[f"{smallest} {shape}"]["rmv eval"]["peak_mb"])  # fmt: skip
+            print(f"rmv eval's peak memory, {shape}, largest / smallest trace: {growth:.2f}")
     if args.json:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)
         payload = {"formula": FORMULA, "repeat": args.repeat, "rows": rows}

@@ -69,14 +69,19 @@ def monitor_per_change(data: dict[str, Any]) -> str:
 
 
 def eval_end_to_end(data: dict[str, Any]) -> str:
+    names = ("rmv eval", "json.loads per line", "msgspec per chunk", "orjson per line",
+             "whole trace in memory")  # fmt: skip
     rows = []
-    for count, row in data["rows"].items():
-        cells = [f"{int(count):,}", f"{row['bytes'] / 1e6:.1f} MB"]
-        for name in ("rmv eval", "json.loads per line", "whole trace in memory"):
-            cells += [_count(row[name]["samples_per_s"]), f"{row[name]['peak_mb']:.0f} MB"]
-        rows.append(cells)
-    header = ["samples", "file", "rmv eval /s", "peak", "json.loads per line /s", "peak",
-              "whole trace in memory /s", "peak"]  # fmt: skip
+    for key, row in data["rows"].items():
+        count, shape = key.split()
+        cells = [f"{int(count):,}", shape, f"{row['bytes'] / 1e6:.1f} MB"]
+        for name in names:
+            found = row.get(name)
+            cells.append(f"{_count(found['samples_per_s'])} ({found['peak_mb']:.0f} MB)"
+                         if found else "-")  # fmt: skip
+        rows.append([*cells, f"{row['rmv eval / json.loads']:.2f}"])
+    header = ["samples", "shape", "file", *(f"{name} /s (peak)" for name in names),
+              "rmv eval / json.loads"]  # fmt: skip
     return f"Samples per second end to end, best of {data['repeat']}:\n\n" + _table(header, rows)
 
 

@@ -390,7 +390,33 @@ def test_any_key_order_spacing_or_props_list_reads_the_same(rmv, tmp_path):
 def test_a_bad_line_among_fast_ones_is_reported_at_its_place(rmv, tmp_path):
     path = tmp_path / "t.jsonl"
     lines = [f'{{"state": "A", "t": {k}}}' for k in range(10)]
-    lines[6] = '{"state": "A", "t": 6, "extra": 1}'
-    path.write_text("\n".join(lines) + "\n")
-    run = rmv("eval", "--formula", "A", "--trace", str(path), "--all")
-    assert run.code == 2 and ":7:" in run.err, run.err
+    for bad, message in [
+        ('{"state": "A B", "t": 6}', "`A B` is not a proposition name"),
+        ('{"state": "A", "t": true}', "`t` must be a number"),
+        ('{"state": "A", "t": 5}', "does not advance"),
+        ('{"state": "A", "t": 6, "end": true}', "an end record has no state"),
+        ('{"t": 6, "stat": "A"}', "unknown field `stat`"),
+    ]:
+        path.write_text("\n".join([*lines[:6], bad, *lines[7:]]) + "\n")
+        run = rmv("eval", "--formula", "A", "--trace", str(path), "--all")
+        assert run.code == 2 and ":7:" in run.err and message in run.err, run.err
+
+
+def test_any_key_order_and_extra_fields_read_alike_the_first_extra_noted(rmv, tmp_path):
+    """What a logger writes: keys in any order, its own fields beside them, ints and
+    floats mixed; the same segments as the plain form, and one note."""
+    plain, varied = tmp_path / "plain.jsonl", tmp_path / "varied.jsonl"
+    rows = [(k / 4, "AB"[k // 3 % 2]) for k in range(40)]
+    plain.write_text("".join(f'{{"t": {t}, "state": "{s}"}}\n' for t, s in rows))
+    varied.write_text("".join(
+        f'{{"state": "{s}", "seq": {k}, "t": {int(t) if t == int(t) else t}}}\n'
+        if k % 2 else f'{{"t": {t}, "state": "{s}"}}\n'
+        for k, (t, s) in enumerate(rows)
+    ))  # fmt: skip
+    runs = [
+        rmv("eval", "--formula", "A until[<2s] B", "--trace", str(p), "--all", "--format", "json")
+        for p in (plain, varied)
+    ]
+    assert runs[0].code == runs[1].code == 0 and runs[0].out == runs[1].out, runs
+    assert "varied.jsonl:2: fields other than t, state, props and end are ignored" in runs[1].err
+    assert "(the first: `seq`)" in runs[1].err and "ignored" not in runs[0].err

@@ -13,7 +13,8 @@ from rmvdsl.grammar.formula import TIME_UNITS
 from rmvdsl.lang.numbers import NumberError, exact_or_quotient
 from rmvdsl.runtime.wording import counted
 
-_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_^{}]*$")
+NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_^{}]*")  # a proposition (fullmatch)
+FIELDS = frozenset({"t", "state", "props", "end"})  # of a JSON Lines record
 
 
 class TraceError(Exception):
@@ -40,6 +41,19 @@ class LineReader:
         self._last: Fraction | None = None
         self.accepted: list[tuple[Fraction, frozenset[str]]] = []  # by the full reader
         self.header: list[str] | None = None  # CSV
+        self.ignored: tuple[str, int] | None = None  # the first field ignored, and its line
+
+    def ignore(self, name: str, line: int) -> None:
+        """A field the trace does not use (a logger's sequence number, say)."""
+        if self.ignored is None:
+            self.ignored = (name, line)
+
+    def ignored_note(self) -> list[str]:
+        if self.ignored is None:
+            return []
+        name, line = self.ignored
+        return [f"{self.path}:{line}: fields other than t, state, props and end are ignored "
+                f"(the first: `{name}`)"]  # fmt: skip
 
     @property
     def last(self) -> Fraction | None:
@@ -63,7 +77,7 @@ class LineReader:
                 "samples must be in strictly increasing time",
             )
         for name in state:
-            if not _NAME.match(name):
+            if not NAME.fullmatch(name):
                 raise TraceError(self.path, line, column, f"`{name}` is not a proposition name")
         self._last, self.last_text, self.last_float = t, None, float(t)
         self.accepted.append((t, state))
@@ -112,10 +126,12 @@ class LineReader:
         if set(record) == {"unit"}:
             self.set_unit(str(record["unit"]), number, column("unit"))
             return
-        unknown = sorted(set(record) - {"t", "state", "props", "end"})
-        if unknown:
+        unknown = [key for key in record if key not in FIELDS]  # in the order written
+        if unknown and not ({"state", "props", "end"} & set(record)):  # a misspelt field
             raise TraceError(self.path, number, column(unknown[0]), f"unknown field `{unknown[0]}`",
-                             'fields are "t", "state", "props" and "end"')  # fmt: skip
+                             'a sample has "state" or "props"; others are ignored')  # fmt: skip
+        if unknown:
+            self.ignore(unknown[0], number)
         if "t" not in record:
             raise TraceError(self.path, number, 1, 'a record without "t"')
         t = _time(record["t"], self.path, number, column("t"))

@@ -17,10 +17,12 @@ sample. Every problem is reported with its line (and column where it helps).
 
 `TraceStream` reads a file as it is used: its unit at once, then its state changes
 one chunk of lines at a time, so that `rmv eval` holds no more than a chunk however
-long the trace. Lines of the common shape (`{"t": 1.25, "state": "A"}`, or CSV
-`1.25,A` under a `t,state` header) are read by one regular expression per chunk and
-their times compared as floats (exactly where two floats tie); every other line goes
-through the full reader, which reports each problem. Times come out exact, as whole
+long the trace. A JSON Lines chunk is decoded at once by msgspec (keys in any order,
+fields other than these four ignored, the first one noted), its times as floats
+where a float holds them exactly (at most 15 significant digits, no exponent); a CSV
+chunk under a `t,state` header by one regular expression. Any chunk that does not
+decode so, and any line that is not a plain sample after the one before, goes through
+the full reader, which reports each problem. Times come out exact, as whole
 billionths of the trace's unit (an int; a Fraction only for a time finer than that).
 """
 
@@ -28,15 +30,21 @@ from __future__ import annotations
 
 import codecs
 import json
+import operator
 import re
+import sys
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from fractions import Fraction
-from typing import BinaryIO
+from itertools import groupby, islice
+from operator import itemgetter
+from typing import Any, BinaryIO
+
+import msgspec
 
 from rmvdsl.grammar.formula import TIME_UNITS
 from rmvdsl.lang.numbers import exact_or_quotient
-from rmvdsl.logic.trace_lines import LineReader, TraceError, load_json
+from rmvdsl.logic.trace_lines import NAME, LineReader, TraceError, load_json
 
 
 @dataclass
@@ -55,44 +63,47 @@ class TraceFile:
 SCALE = 10**9  # a stream's times: whole billionths of the trace's unit
 CHUNK = 1 << 20  # bytes read at a time
 _DECIMAL = r"(-?(?:0|[1-9][0-9]{0,14})(?:\.[0-9]{1,9})?)"  # exact in billionths, in range
-_PROPOSITION = r"([A-Za-z_][A-Za-z0-9_]*)"
-_FAST_JSONL = re.compile(
-    rf'^[ \t]*\{{[ \t]*"t"[ \t]*:[ \t]*{_DECIMAL}[ \t]*,[ \t]*"state"[ \t]*:[ \t]*'
-    rf'"{_PROPOSITION}"[ \t]*\}}[ \t\r]*$',
-    re.MULTILINE,
-)
-_FAST_CSV = re.compile(rf"^[ \t]*{_DECIMAL}[ \t]*,[ \t]*{_PROPOSITION}[ \t\r]*$", re.MULTILINE)
-_NAME_TEXT = re.compile(_PROPOSITION)
+_FAST_CSV = re.compile(rf"^[ \t]*{_DECIMAL}[ \t]*,[ \t]*([A-Za-z_][A-Za-z0-9_]*)[ \t\r]*$", re.M)
+# A time a float may not hold exactly: 16 or more digits, or an exponent. (A decimal
+# of at most 15 significant digits is its float's shortest repr, and floats order
+# as the decimals they were read from, ties apart.) The number is taken whole, then
+# looked back on: possessively where the `re` module can (3.11), twice as fast.
+_WHOLE_NUMBER = "[0-9.]*+" if sys.version_info >= (3, 11) else r"(?=([0-9.]*))\1"
+_INEXACT = re.compile(rf'"t"[ \t\r]*:[ \t\r]*-?{_WHOLE_NUMBER}(?:[eE]|(?<=[0-9.]{{16}}))')
 
 
-StateKey = str | frozenset[str]  # one proposition's name, or the set a `props` line names
-# The text of a line's time, where a JSON key "t" is followed by a decimal (a name
-# cannot hold a quote, so a value that passes the checks holds no such text).
-_TIME_TEXT = re.compile(rf'"t"[ \t]*:[ \t]*{_DECIMAL}[ \t]*[,}}]')
+class _Plain(msgspec.Struct, forbid_unknown_fields=True):
+    """A sample naming one state, keys in any order: what nearly every line of a
+    trace is, decoded a chunk at a time. `props` or `end` present: not plain."""
+
+    t: float
+    state: str
+    props: msgspec.UnsetType = msgspec.UNSET
+    end: msgspec.UnsetType = msgspec.UNSET
 
 
-def common_sample(raw: str) -> tuple[str, StateKey] | None:
-    """A JSON line with the common content in any key order or spacing: `t` a
-    decimal number and `state` a name, or `props` a list of names; its time's text
-    and its state. None: the full reader decides (and explains) the line."""
-    try:
-        record = json.loads(raw)
-    except ValueError:
-        return None
-    if type(record) is not dict or len(record) != 2 or type(record.get("t")) not in (int, float):
-        return None
-    state = record.get("state")
-    if type(state) is str and _NAME_TEXT.fullmatch(state):
-        key: StateKey = state
-    else:
-        names = record.get("props")
-        if type(names) is not list or not all(
-            type(n) is str and _NAME_TEXT.fullmatch(n) for n in names
-        ):
-            return None
-        key = frozenset(names)
-    found = _TIME_TEXT.search(raw)
-    return None if found is None else (found[1], key)
+class _Record(msgspec.Struct, forbid_unknown_fields=True):
+    """Any record of the fast reader: a chunk that is not all plain samples is
+    taken one record at a time, and a record of another shape still (a time
+    written as a string, say) sends the chunk to the full reader."""
+
+    t: float
+    state: str | None = None
+    props: list[str] | None = None
+    end: bool | None = None
+    unit: str | None = None
+
+
+_DECODERS = {
+    (shape, strict): msgspec.json.Decoder(
+        msgspec.defstruct(shape.__name__, [], bases=(shape,), forbid_unknown_fields=strict)
+    )
+    for shape in (_Plain, _Record)
+    for strict in (True, False)
+}
+_UNKNOWN = re.compile(r"unknown field `(.*)` - at `\$\[(\d+)\]")
+
+StateKey = str | tuple[str, ...]  # one proposition's name, or the list a `props` line names
 
 
 def scaled(t: Fraction) -> int | Fraction:
@@ -105,6 +116,26 @@ def _decimal_scaled(text: str) -> int:
     """A decimal the fast reader matched (at most 9 decimals) in billionths."""
     whole, _, fraction = text.partition(".")
     return int(whole + fraction.ljust(9, "0"))
+
+
+def _float_scaled(value: float) -> int | Fraction:
+    """A time the fast reader took as a float, in billionths: its shortest repr is
+    the decimal written (at most 15 digits, so exact)."""
+    text = repr(value)
+    whole, _, fraction = text.partition(".")
+    if "e" in text or len(fraction) > 9:
+        return scaled(exact_or_quotient(text))
+    return int(whole + fraction.ljust(9, "0"))
+
+
+def _line_of(lines: str, index: int) -> int:
+    """The line (from 1) of the index-th non-blank line of `lines`."""
+    for number, raw in enumerate(lines.split("\n"), 1):
+        if raw.strip():
+            if index == 0:
+                return number
+            index -= 1
+    return 1
 
 
 def _is_csv(path: str, text: str) -> bool:
@@ -120,7 +151,7 @@ def read_trace(path: str, text: str) -> TraceFile:
         read_line(number, raw)
     if is_csv and reader.header is None:
         raise TraceError(path, 1, 1, "the CSV file has no header", "start with `t,state`")
-    trace = TraceFile(unit=reader.unit, end=reader.end)
+    trace = TraceFile(unit=reader.unit, end=reader.end, notes=reader.ignored_note())
     trace.times = [t for t, _ in reader.accepted]
     trace.states = [state for _, state in reader.accepted]
     if not trace.times:
@@ -155,6 +186,7 @@ class TraceStream:
         self.notes: list[str] = []
         self._states: dict[StateKey, frozenset[str]] = {}  # of the common lines
         self._current: frozenset[str] | None = None  # the state of the last sample
+        self._strict = True  # until a field the trace does not use is noted
         self._peek_unit()
 
     @property
@@ -197,7 +229,6 @@ class TraceStream:
         return isinstance(record, dict) and set(record) == {"unit"}
 
     def changes(self) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
-        fast = _FAST_CSV if self._csv else _FAST_JSONL
         number, chunk = 0, self._head
         while chunk:
             complete = chunk.rfind("\n") + 1
@@ -209,45 +240,158 @@ class TraceStream:
                 complete = len(chunk)
             lines, rest = chunk[:complete], chunk[complete:]
             count = lines.count("\n") + (not lines.endswith("\n"))
-            pairs = fast.findall(lines) if self._fast_ready() else []
-            if len(pairs) == count:  # every line of the common shape
-                yield from self._fast_lines(pairs, number, lines)
-                number += count
-            else:
-                raws = lines.split("\n")[:count]
-                ready = self._fast_ready()
-                found = [self._common(fast, raw) if ready else None for raw in raws]
-                common = [pair for pair in found if pair is not None]
-                if len(common) == count:  # every line of common content, in any form
-                    yield from self._fast_lines(common, number, lines)
-                    number += count
-                    raws = []
-                for raw in raws:
-                    pair = self._common(fast, raw) if self._fast_ready() else None
-                    if pair is not None:
-                        yield from self._fast_lines([pair], number, raw)
-                    else:
-                        yield from self._full_line(number + 1, raw)
-                    number += 1
+            yield from self._chunk(lines, count, number)
+            number += count
             chunk = rest + self._read()
         for key in self._states:
             self.seen.update((key,) if type(key) is str else key)
         self._finish()
 
-    def _common(self, fast: re.Pattern[str], raw: str) -> tuple[str, StateKey] | None:
-        """The time's text and the state of a line of common content: the chunk's
-        expression first, then (JSON Lines) any key order, spacing or `props` list,
-        as fast as JSON's own parser reads them."""
-        match = fast.match(raw)
-        if match is not None:
-            return match[1], match[2]
-        return None if self._csv else common_sample(raw)
-
-    def _fast_lines(
-        self, pairs: list[tuple[str, StateKey]], before: int, lines: str
+    def _chunk(
+        self, lines: str, count: int, before: int
     ) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
-        """Lines of the common shape, the ones after line `before` (their text is
-        `lines`, read again only to report a time out of order): the hot loop."""
+        """The lines after line `before`: decoded at once where they allow it, else
+        one at a time by the full reader, which explains any problem."""
+        if self._fast_ready():
+            if self._csv:
+                pairs = _FAST_CSV.findall(lines)
+                if len(pairs) == count:
+                    yield from self._fast_pairs(pairs, before, lines)
+                    return
+            else:
+                decoded = self._decoded(lines, count, before)
+                if decoded is not None:
+                    plain, records = decoded
+                    if plain:
+                        yield from self._fast_plain(records, before, lines)
+                    else:
+                        yield from self._fast_records(records, before, lines)
+                    return
+        for index, raw in enumerate(lines.split("\n")[:count]):
+            yield from self._full_line(before + index + 1, raw)
+
+    def _decoded(
+        self, lines: str, count: int, before: int
+    ) -> tuple[bool, list[Any]] | None:
+        """The chunk's records, one per line, in any key order, with any extra fields
+        (the first one noted), and whether all are plain samples; None where a line
+        is blank or holds a record of another shape, or a time a float may not hold
+        exactly."""
+        if "\\u" in lines or _INEXACT.search(lines):
+            return None
+        for shape in (_Plain, _Record):
+            while True:
+                try:
+                    records = _DECODERS[shape, self._strict].decode_lines(lines)
+                except msgspec.ValidationError as error:
+                    found = _UNKNOWN.search(str(error))
+                    if not self._strict or found is None:
+                        break  # another shape
+                    self._strict = False
+                    self._reader.ignore(found[1], before + _line_of(lines, int(found[2])))
+                    continue
+                except msgspec.DecodeError:
+                    return None
+                return (shape is _Plain, records) if len(records) == count else None
+        return None
+
+    def _fast_plain(
+        self, records: list[Any], before: int, lines: str
+    ) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
+        """Plain samples: their times and names as lists, checked and grouped by
+        the interpreter's own loops (the hottest path: most chunks of most traces).
+        Anything to explain (a time not above the last, a new name that is no
+        proposition) is left to the record at a time path."""
+        times = [record.t for record in records]
+        names = [record.state for record in records]
+        states, reader = self._states, self._reader
+        new = set(names).difference(states)
+        if (
+            times[0] <= reader.last_float
+            or not all(map(operator.lt, times, islice(times, 1, None)))
+            or not all(NAME.fullmatch(name) for name in new)
+        ):
+            general = _DECODERS[_Record, self._strict].decode_lines(lines)  # rare: decoded again
+            yield from self._fast_records(general, before, lines)
+            return
+        for name in new:
+            states[name] = frozenset((name,))
+        current = self._current
+        for name, run in groupby(zip(times, names, strict=True), itemgetter(1)):
+            state = states[name]
+            if state is not current and state != current:
+                value = next(run)[0]
+                if current is None:
+                    self.first = exact_or_quotient(repr(value))
+                current = state
+                yield _float_scaled(value), state
+        self._current = current
+        self._settle(times[-1], len(times))
+
+    def _fast_records(
+        self, records: list[Any], before: int, lines: str
+    ) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
+        """Decoded records, the ones after line `before`: the hot loop. A record that
+        is not a plain sample after the one before (a new name, a time not above the
+        last, the end record) goes to the full reader."""
+        reader, states, current = self._reader, self._states, self._current
+        last, taken, raws = reader.last_float, 0, None
+        for index, record in enumerate(records):
+            value = record.t
+            state = None
+            if value > last and reader.end is None:
+                if record.props is None and record.end is None and record.unit is None:
+                    state = states.get(record.state)
+                if state is None:
+                    state = self._new_state(record)
+            if state is None:
+                self._settle(last, taken)
+                raws = raws or lines.split("\n")
+                self._current = current
+                yield from self._full_line(before + index + 1, raws[index])
+                current, last, taken = self._current, reader.last_float, 0
+                continue
+            last = value
+            taken += 1
+            if state is not current and state != current:
+                if current is None:
+                    self.first = exact_or_quotient(repr(value))
+                current = state
+                yield _float_scaled(value), state
+        self._settle(last, taken)
+        self._current = current
+
+    def _new_state(self, record: _Record) -> frozenset[str] | None:
+        """The state of a plain sample naming a state not seen before, if its names
+        are propositions' (else the full reader reports them)."""
+        if record.end is not None or record.unit is not None:
+            return None
+        if record.props is None:
+            if record.state is None:
+                return None
+            key: StateKey = record.state
+            names: tuple[str, ...] = (record.state,)
+        elif record.state is None:
+            key = names = tuple(record.props)
+        else:
+            return None
+        if not all(NAME.fullmatch(name) for name in names):
+            return None
+        state = self._states[key] = frozenset(names)
+        return state
+
+    def _settle(self, last: float, taken: int) -> None:
+        """The reader learns the newest of `taken` samples read fast."""
+        if taken:
+            reader = self._reader
+            reader.last_float, reader.last_text, reader._last = last, repr(last), None
+            self.samples += taken
+
+    def _fast_pairs(
+        self, pairs: list[tuple[str, str]], before: int, lines: str
+    ) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
+        """CSV lines of the common shape, the ones after line `before` (their text is
+        `lines`, read again only to report a time out of order)."""
         reader, states, current = self._reader, self._states, self._current
         for index, (text, name) in enumerate(pairs):
             value = float(text)
@@ -257,9 +401,8 @@ class TraceStream:
             reader._last = None
             state = states.get(name)
             if state is None:
-                state = frozenset((name,)) if isinstance(name, str) else name
-                states[name] = state
-            if state is not current:
+                state = states[name] = frozenset((name,))
+            if state is not current and state != current:
                 if current is None:
                     self.first = exact_or_quotient(text)
                 current = state
@@ -319,6 +462,7 @@ class TraceStream:
                 'add lines such as {"t": 0, "state": "A"}',
             )
         self.end = reader.end
+        self.notes.extend(reader.ignored_note())
         if self.end is None:
             self.end = reader.last
             self.notes.append(

@@ -1,0 +1,115 @@
+"""The streamed trace reader of `rmv eval` against the whole-file reader, on random
+JSON Lines of any shape: keys in any order, extra fields, ints, floats, exact
+quotients, times a float cannot hold, blank lines, bad lines, chunks cut anywhere."""
+
+from __future__ import annotations
+
+import io
+import json
+from fractions import Fraction
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from rmvdsl.logic import traces
+from rmvdsl.logic.trace_lines import TraceError
+from rmvdsl.logic.traces import TraceStream, read_trace, scaled
+
+NAMES = st.sampled_from(["A", "B", "Brake_2", "x^{1}"])
+BAD_NAMES = st.sampled_from(["A B", "", "A\n"])
+TIMES = st.one_of(
+    st.integers(-3, 40).map(str),
+    st.integers(0, 4000).map(lambda k: f"{k / 100:.2f}"),
+    st.sampled_from(["0.1000000000000000055", "1e1", "2.5E-1", '"1/3"', '"7"', "true", "-0.0"]),
+)
+
+
+ODD = ["", "  ", "{", "[]", '{"unit": "ms"}']
+
+
+@st.composite
+def records(draw: st.DrawFn, time: str, messy: bool) -> str:
+    kinds = ["state"] * 5 + ["props"] + (["end", "both", "none"] if messy else [])
+    kind = draw(st.sampled_from(kinds))
+    names = st.one_of(NAMES, BAD_NAMES) if messy else NAMES
+    items = [("t", time)]
+    if kind in ("state", "both"):
+        items.append(("state", json.dumps(draw(names))))
+    if kind in ("props", "both"):
+        items.append(("props", json.dumps(draw(st.lists(names, max_size=3)))))
+    if kind == "end":
+        items.append(("end", "true"))
+    for extra in draw(st.lists(st.sampled_from(["seq", "topic", "v"]), max_size=1)):
+        items.append((extra, draw(st.sampled_from(["1", '"x"', "12.345678901234567", "[1]"]))))
+    order = draw(st.permutations(items))
+    return "{" + ", ".join(f'"{key}": {value}' for key, value in order) + "}"
+
+
+@st.composite
+def traces_text(draw: st.DrawFn) -> str:
+    """Increasing times written as a logger might; in one trace of three, lines of
+    every other kind among them."""
+    lines, hundredths, messy = [], 0, draw(st.integers(0, 2)) == 0
+    for _ in range(draw(st.integers(1, 60))):
+        hundredths += draw(st.sampled_from([1, 7, 100] + ([0, -3] if messy else [])))
+        plain = f"{hundredths / 100:.2f}" if hundredths % 100 else str(hundredths // 100)
+        time = draw(TIMES) if messy and draw(st.integers(0, 9)) == 0 else plain
+        odd = messy and draw(st.integers(0, 9)) == 0
+        line = draw(st.sampled_from(ODD)) if odd else draw(records(time, messy))
+        lines.append(line)
+    return "\n".join(lines) + draw(st.sampled_from(["\n", "", "\n\n"]))
+
+
+def whole(text: str) -> tuple[str, object]:
+    try:
+        trace = read_trace("t.jsonl", text)
+    except TraceError as error:
+        return "error", (error.line, error.args[0])
+    changes, current = [], None
+    for t, state in zip(trace.times, trace.states, strict=True):
+        if state != current:
+            changes.append((scaled(t), state))
+            current = state
+    return "ok", (changes, trace.end, trace.notes)
+
+
+def streamed(text: str) -> tuple[str, object]:
+    stream = TraceStream("t.jsonl", io.BytesIO(text.encode()))
+    try:
+        changes = list(stream.changes())
+    except TraceError as error:
+        return "error", (error.line, error.args[0])
+    return "ok", (changes, stream.end, stream.notes)
+
+
+@settings(max_examples=150, deadline=None)
+@given(text=traces_text(), chunk=st.integers(16, 400))
+def test_the_stream_reads_what_the_whole_file_reader_reads(text, chunk):
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(traces, "CHUNK", chunk)
+        assert streamed(text) == whole(text)
+
+
+def test_a_time_no_float_holds_stays_exact():
+    text = '{"t": 0.1000000000000000055, "state": "A"}\n{"t": 0.2, "state": "B"}\n'
+    changes = list(TraceStream("t.jsonl", io.BytesIO(text.encode())).changes())
+    assert changes[0][0] == Fraction("0.1000000000000000055") * 10**9
+    assert changes[1][0] == 200_000_000
+
+
+@pytest.mark.parametrize(
+    "text",
+    ['"t": 1.5,', '"t": 12345678901234.5,', '"t":1e5}', '"t" : 123456789012345.5', '"t": -0',
+     '"t":\t-1234567890123456}', '"t": 1234567890123.5', '"t":-0.5E-3', '"t": "1/3"'],
+)  # fmt: skip
+def test_the_long_time_search_is_the_same_on_every_python(text):
+    """3.10's `re` has no possessive quantifier: its form must find the same."""
+    import re
+
+    portable = traces._INEXACT.pattern.replace("[0-9.]*+", r"(?=([0-9.]*))\1")
+    assert bool(re.search(portable, text)) == bool(traces._INEXACT.search(text))
+    digits = sum(c.isdigit() for c in text)
+    assert bool(traces._INEXACT.search(text)) == (
+        "e" in text.lower() or digits + ("." in text) >= 16
+    )
