@@ -44,11 +44,19 @@ class State:
     workspace: Workspace = field(default_factory=lambda: Workspace(incremental=True))
     generation: dict[str, int] = field(default_factory=dict)
     results: dict[str, CheckResult] = field(default_factory=dict)
-    pool: ThreadPoolExecutor = field(default_factory=lambda: ThreadPoolExecutor(2))
+    # Two lanes: the fast stages (what a keystroke must show at once) never queue
+    # behind a solver stage; solver stages run one at a time, and one queued for a
+    # text that has changed since is skipped when its turn comes.
+    fast_lane: ThreadPoolExecutor = field(default_factory=lambda: _lane("rmv-fast"))
+    solver_lane: ThreadPoolExecutor = field(default_factory=lambda: _lane("rmv-solver"))
     published: dict[str, set[str]] = field(default_factory=dict)  # root -> paths shown
     mentions: dict[str, tuple[CheckResult, list[Mention]]] = field(default_factory=dict)
     # path -> done when the fast stages of its newest text have been published
     analysed: dict[str, asyncio.Future[None]] = field(default_factory=dict)
+
+
+def _lane(name: str) -> ThreadPoolExecutor:
+    return ThreadPoolExecutor(1, thread_name_prefix=name)
 
 
 class RmvServer(LanguageServer):
@@ -111,7 +119,7 @@ class RmvServer(LanguageServer):
             waiter = state.analysed[path] = loop.create_future()
         try:
             fast = functools.partial(self._check_if_newest, path, generation, False)
-            result = await loop.run_in_executor(state.pool, fast)
+            result = await loop.run_in_executor(state.fast_lane, fast)
             if result is None or state.generation.get(path) != generation:
                 return
             self.publish(path, result)
@@ -122,7 +130,7 @@ class RmvServer(LanguageServer):
         if state.generation.get(path) != generation:
             return
         full = functools.partial(self._check_if_newest, path, generation, True)
-        result = await loop.run_in_executor(state.pool, full)
+        result = await loop.run_in_executor(state.solver_lane, full)
         if result is not None and state.generation.get(path) == generation:
             self.publish(path, result)
 
