@@ -113,6 +113,12 @@ async def run(edits: int) -> dict[str, Any]:
         if params.version is not None:
             published.setdefault(params.version, time.perf_counter())
 
+    shown: list[str] = []  # what the server told the user (an error would be here)
+
+    @client.feature(types.WINDOW_SHOW_MESSAGE)
+    def on_message(params: types.ShowMessageParams) -> None:
+        shown.append(params.message)
+
     client.text_document_did_open(types.DidOpenTextDocumentParams(
         types.TextDocumentItem(uri=uri, language_id="rmv", version=1, text=text)))  # fmt: skip
     await _until(lambda: 1 in published)
@@ -157,6 +163,7 @@ async def run(edits: int) -> dict[str, Any]:
         "change_p95_ms": percentile(changes, 0.95) * ms,
         "completion_p50_ms": percentile(completions, 0.5) * ms,
         "completion_p95_ms": percentile(completions, 0.95) * ms, **memory, **in_process,
+        "server_messages": shown[:5], "server_message_count": len(shown),
         "change_p99_ms": percentile(changes, 0.99) * ms, "change_max_ms": max(changes) * ms,
         "first_two_ms": [round(c * ms, 1) for c in changes[:2]],
         "pausing_keys": len(pausing), "pause_s": PAUSE,
@@ -245,6 +252,9 @@ def main(argv: list[str] | None = None) -> int:
           f"property's bound), didChange -> diagnostics p50 / p95 / p99 / max: "
           f"{figures['pausing_p50_ms']:.1f} / {figures['pausing_p95_ms']:.1f} / "
           f"{figures['pausing_p99_ms']:.1f} / {figures['pausing_max_ms']:.1f} ms")  # fmt: skip
+    if figures["server_message_count"]:
+        print(f"  the server showed {figures['server_message_count']} messages, the first: "
+              f"{figures['server_messages']}")  # fmt: skip
     print(f"  completion p50 / p95: {figures['completion_p50_ms']:.1f} / "
           f"{figures['completion_p95_ms']:.1f} ms")  # fmt: skip
     print(f"  server memory after 100 edits {figures['after_100_mb']:.0f} MB, after all "

@@ -20,6 +20,7 @@ from rmvdsl.util.cache import cache_folder, digest
 SEVERITY = {
     Severity.ERROR: types.DiagnosticSeverity.Error,
     Severity.WARNING: types.DiagnosticSeverity.Warning,
+    Severity.NOTE: types.DiagnosticSeverity.Information,  # a solver stage's finding
 }
 
 
