@@ -93,6 +93,15 @@ def lsp_latency(data: dict[str, Any]) -> str:
          f"{data['scratch_check_ms']:.0f} / {data['incremental_check_ms']:.0f} ms"],
         [f"didChange -> first diagnostics of that version, p50 / p95 ({data['edits']} edits)",
          f"{data['change_p50_ms']:.0f} / {data['change_p95_ms']:.0f} ms"],
+        ["the same, p99 / max; the first two keys after open",
+         f"{data['change_p99_ms']:.0f} / {data['change_max_ms']:.0f} ms; "
+         + " and ".join(f"{ms:.0f}" for ms in data["first_two_ms"]) + " ms"],
+        [f"a typist pausing {data['pause_s']} s between keys (past the debounce), "
+         f"{data['pausing_keys']} keys in a property's bound: p50 / p95 / p99 / max",
+         f"{data['pausing_p50_ms']:.0f} / {data['pausing_p95_ms']:.0f} / "
+         f"{data['pausing_p99_ms']:.0f} / {data['pausing_max_ms']:.0f} ms"],
+        ["messages the server showed the user (an error would be one)",
+         str(data["server_message_count"])],
         ["completion, p50 / p95",
          f"{data['completion_p50_ms']:.0f} / {data['completion_p95_ms']:.0f} ms"],
         [f"the server's memory after 100 edits / after {data['edits']}",
