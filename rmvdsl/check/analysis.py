@@ -24,6 +24,7 @@ from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
 from rmvdsl.lang.diagnostics import Diagnostic, Label, error, warning
 from rmvdsl.util.cache import default_cache, digest
+from rmvdsl.util.cancel import checkpoint
 
 
 @dataclass
@@ -74,6 +75,7 @@ class Analyzer:
         untaken = self.untaken_transitions(graphs)
         silent = self.never_emitted()  # once: it reads every transducer
         for name, decl in self.model.transducers.items():
+            checkpoint()  # the editor may stop here (rmvdsl.util.cancel)
             if name in self.broken:
                 continue
             facts = self.result.transducers[name]

@@ -33,6 +33,7 @@ from rmvdsl.logic.sat import Limits, satisfiable, valid
 from rmvdsl.logic.sat import conflict as smallest_conflict
 from rmvdsl.runtime.rmtld3 import facts as formula_facts
 from rmvdsl.util.cache import Cache, Layered, default_cache
+from rmvdsl.util.cancel import checkpoint
 
 # Redundancy costs one question per property over all the others (0.1-0.4 s each
 # with 20 to 40 properties): past this many properties it is skipped, as
@@ -108,6 +109,7 @@ class _PropertyAnalyzer(PropertyFindings):
         self.prefetch([self.single_questions(name, f) for name, f in self.compiled.items()])
         consistent_candidates = []
         for name, f in self.compiled.items():
+            checkpoint()  # the editor may stop here (rmvdsl.util.cancel)
             facts = PropertyFacts(f)
             self.report.facts[name] = facts
             if self.single(name, f, facts):

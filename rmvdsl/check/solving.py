@@ -16,6 +16,7 @@ import z3
 
 from rmvdsl.check.operators import number
 from rmvdsl.util.cache import default_cache, digest
+from rmvdsl.util.cancel import checkpoint
 
 SOLVER_TIMEOUT_MS = 2000
 PRESENT = "present "  # the prefix of a value's presence flag (rmvdsl.check.conditions)
@@ -93,6 +94,7 @@ def solve(
         solver = z3.Solver(ctx=context)
         solver.add(*(term.translate(context) for term in [*domains, *constraints]))
     solver.set("timeout", SOLVER_TIMEOUT_MS)
+    checkpoint()
     answer = solver.check()
     if answer == z3.unknown:
         return "unknown", ""  # a time limit: not an answer to keep
@@ -136,6 +138,7 @@ def round_values(solver: Any, symbols: dict[str, Any]) -> Any:
                 continue  # a float constant is no round value of an integer
             solver.push()
             solver.add(symbol == candidate)
+            checkpoint()
             if solver.check() == z3.sat:
                 found = solver.model()
                 solver.pop()

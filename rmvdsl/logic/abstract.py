@@ -24,6 +24,7 @@ import z3
 
 from rmvdsl.logic.system import System
 from rmvdsl.runtime.rmtld3 import facts
+from rmvdsl.util.cancel import checkpoint
 
 if TYPE_CHECKING:
     from rmvdsl.logic.limits import Limits
@@ -225,6 +226,7 @@ def refute(
         labels.append(label)
         solver.assert_and_track(refuter.encode(f, 1, at), label)
     solver.add(*refuter.axioms, *refuter.pinned_durations(), *refuter.system_axioms(names))
+    checkpoint()
     result = solver.check()
     if result == z3.unknown and solver.reason_unknown() in (
         "timeout",

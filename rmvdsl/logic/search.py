@@ -21,6 +21,7 @@ from rmvdsl.logic.system import System
 from rmvdsl.logic.terms import assert_all, conjunction, disjunction, implication, negation
 from rmvdsl.runtime.rmtld3 import Monitor, facts
 from rmvdsl.runtime.wording import counted
+from rmvdsl.util.cancel import checkpoint
 
 # The periodic witnesses (Question.periodic): at most this many propositions,
 # half periods, and segments replayed in all.
@@ -104,6 +105,7 @@ class Question:
         finally:
             trace.deadline = float("inf")
         assert_all(solver, trace.definitions)
+        checkpoint()
         result = solver.check()
         if result == z3.unknown:
             self.timed_out = True

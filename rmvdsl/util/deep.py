@@ -11,6 +11,7 @@ parser accepts, up to 1,000,000 nested levels.
 
 from __future__ import annotations
 
+import contextvars
 import ctypes
 import sys
 import threading
@@ -52,7 +53,12 @@ def deep(function: Callable[..., T], *args: object) -> T:
         previous = threading.stack_size()
         threading.stack_size(STACK_BYTES)
         try:
-            thread = threading.Thread(target=run, name=_THREAD_NAME, daemon=True)
+            # the caller's context variables hold on the deep stack too (a stage's
+            # stop condition: rmvdsl.util.cancel)
+            context = contextvars.copy_context()
+            thread = threading.Thread(
+                target=context.run, args=(run,), name=_THREAD_NAME, daemon=True
+            )
             thread.start()
         finally:
             threading.stack_size(previous)

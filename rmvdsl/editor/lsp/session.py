@@ -27,6 +27,7 @@ from rmvdsl.editor.workspace import (
     symbol_at,
 )
 from rmvdsl.lang.source import Span
+from rmvdsl.util.cancel import Cancelled, stoppable
 
 DEBOUNCE = 0.3  # seconds of quiet before the solver stages run
 # How long a request waits for the check of the text it was sent against (an
@@ -51,6 +52,7 @@ class State:
     solver_lane: ThreadPoolExecutor = field(default_factory=lambda: _lane("rmv-solver"))
     published: dict[str, set[str]] = field(default_factory=dict)  # root -> paths shown
     mentions: dict[str, tuple[CheckResult, list[Mention]]] = field(default_factory=dict)
+    stopped: int = 0  # solver stages stopped by a newer change
     # path -> done when the fast stages of its newest text have been published
     analysed: dict[str, asyncio.Future[None]] = field(default_factory=dict)
 
@@ -118,7 +120,7 @@ class RmvServer(LanguageServer):
         if waiter is None or waiter.done():
             waiter = state.analysed[path] = loop.create_future()
         try:
-            fast = functools.partial(self._check_if_newest, path, generation, False)
+            fast = functools.partial(self._check_if_newest, path, generation)
             result = await loop.run_in_executor(state.fast_lane, fast)
             if result is None or state.generation.get(path) != generation:
                 return
@@ -129,17 +131,34 @@ class RmvServer(LanguageServer):
         await asyncio.sleep(DEBOUNCE)
         if state.generation.get(path) != generation:
             return
-        full = functools.partial(self._check_if_newest, path, generation, True)
+        full = functools.partial(self._solve_if_newest, path, generation)
         result = await loop.run_in_executor(state.solver_lane, full)
         if result is not None and state.generation.get(path) == generation:
             self.publish(path, result)
 
-    def _check_if_newest(self, path: str, generation: int, solver: bool) -> CheckResult | None:
-        """A check of the document, unless a newer change overtook it while it
-        waited for a thread (a storm of edits queues one check each)."""
+    def _check_if_newest(self, path: str, generation: int) -> CheckResult | None:
+        """The fast stages of the document, unless a newer change overtook it while
+        it waited for the lane (a storm of edits queues one check each)."""
         if self.state.generation.get(path) != generation:
             return None
-        return self.state.workspace.check(path, solver=solver)
+        return self.state.workspace.check(path, solver=False)
+
+    def _solve_if_newest(self, path: str, generation: int) -> CheckResult | None:
+        """The solver stages of the document's text, stopped at their next solver
+        call once a newer change arrives: their answer would be thrown away, and
+        meanwhile they would slow the newer text's fast stages."""
+
+        def overtaken() -> bool:
+            return self.state.generation.get(path) != generation
+
+        if overtaken():
+            return None
+        with stoppable(overtaken):
+            try:
+                return self.state.workspace.check(path, solver=True)
+            except Cancelled:
+                self.state.stopped += 1
+                return None
 
     def publish(self, root: str, result: CheckResult) -> None:
         """The diagnostics of a check, per file (an import's show in that file)."""
