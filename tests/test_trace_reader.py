@@ -12,7 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from rmvdsl.logic import traces
+from rmvdsl.logic import trace_chunks, traces
 from rmvdsl.logic.trace_lines import TraceError
 from rmvdsl.logic.traces import TraceStream, read_trace, scaled
 
@@ -107,9 +107,9 @@ def test_the_long_time_search_is_the_same_on_every_python(text):
     """3.10's `re` has no possessive quantifier: its form must find the same."""
     import re
 
-    portable = traces._INEXACT.pattern.replace("[0-9.]*+", r"(?=([0-9.]*))\1")
-    assert bool(re.search(portable, text)) == bool(traces._INEXACT.search(text))
+    portable = trace_chunks._INEXACT.pattern.replace("[0-9.]*+", r"(?=([0-9.]*))\1")
+    assert bool(re.search(portable, text)) == bool(trace_chunks._INEXACT.search(text))
     digits = sum(c.isdigit() for c in text)
-    assert bool(traces._INEXACT.search(text)) == (
+    assert bool(trace_chunks._INEXACT.search(text)) == (
         "e" in text.lower() or digits + ("." in text) >= 16
     )

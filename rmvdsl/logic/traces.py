@@ -32,18 +32,15 @@ import codecs
 import json
 import operator
 import re
-import sys
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from fractions import Fraction
 from itertools import groupby, islice
-from operator import itemgetter
 from typing import Any, BinaryIO
-
-import msgspec
 
 from rmvdsl.grammar.formula import TIME_UNITS
 from rmvdsl.lang.numbers import exact_or_quotient
+from rmvdsl.logic.trace_chunks import SCALE, ChunkDecoder, Record, float_scaled
 from rmvdsl.logic.trace_lines import NAME, LineReader, TraceError, load_json
 
 
@@ -60,49 +57,9 @@ class TraceFile:
         return TIME_UNITS[self.unit]
 
 
-SCALE = 10**9  # a stream's times: whole billionths of the trace's unit
 CHUNK = 1 << 20  # bytes read at a time
 _DECIMAL = r"(-?(?:0|[1-9][0-9]{0,14})(?:\.[0-9]{1,9})?)"  # exact in billionths, in range
 _FAST_CSV = re.compile(rf"^[ \t]*{_DECIMAL}[ \t]*,[ \t]*([A-Za-z_][A-Za-z0-9_]*)[ \t\r]*$", re.M)
-# A time a float may not hold exactly: 16 or more digits, or an exponent. (A decimal
-# of at most 15 significant digits is its float's shortest repr, and floats order
-# as the decimals they were read from, ties apart.) The number is taken whole, then
-# looked back on: possessively where the `re` module can (3.11), twice as fast.
-_WHOLE_NUMBER = "[0-9.]*+" if sys.version_info >= (3, 11) else r"(?=([0-9.]*))\1"
-_INEXACT = re.compile(rf'"t"[ \t\r]*:[ \t\r]*-?{_WHOLE_NUMBER}(?:[eE]|(?<=[0-9.]{{16}}))')
-
-
-class _Plain(msgspec.Struct, forbid_unknown_fields=True):
-    """A sample naming one state, keys in any order: what nearly every line of a
-    trace is, decoded a chunk at a time. `props` or `end` present: not plain."""
-
-    t: float
-    state: str
-    props: msgspec.UnsetType = msgspec.UNSET
-    end: msgspec.UnsetType = msgspec.UNSET
-
-
-class _Record(msgspec.Struct, forbid_unknown_fields=True):
-    """Any record of the fast reader: a chunk that is not all plain samples is
-    taken one record at a time, and a record of another shape still (a time
-    written as a string, say) sends the chunk to the full reader."""
-
-    t: float
-    state: str | None = None
-    props: list[str] | None = None
-    end: bool | None = None
-    unit: str | None = None
-
-
-_DECODERS = {
-    (shape, strict): msgspec.json.Decoder(
-        msgspec.defstruct(shape.__name__, [], bases=(shape,), forbid_unknown_fields=strict)
-    )
-    for shape in (_Plain, _Record)
-    for strict in (True, False)
-}
-_UNKNOWN = re.compile(r"unknown field `(.*)` - at `\$\[(\d+)\]")
-
 StateKey = str | tuple[str, ...]  # one proposition's name, or the list a `props` line names
 
 
@@ -116,26 +73,6 @@ def _decimal_scaled(text: str) -> int:
     """A decimal the fast reader matched (at most 9 decimals) in billionths."""
     whole, _, fraction = text.partition(".")
     return int(whole + fraction.ljust(9, "0"))
-
-
-def _float_scaled(value: float) -> int | Fraction:
-    """A time the fast reader took as a float, in billionths: its shortest repr is
-    the decimal written (at most 15 digits, so exact)."""
-    text = repr(value)
-    whole, _, fraction = text.partition(".")
-    if "e" in text or len(fraction) > 9:
-        return scaled(exact_or_quotient(text))
-    return int(whole + fraction.ljust(9, "0"))
-
-
-def _line_of(lines: str, index: int) -> int:
-    """The line (from 1) of the index-th non-blank line of `lines`."""
-    for number, raw in enumerate(lines.split("\n"), 1):
-        if raw.strip():
-            if index == 0:
-                return number
-            index -= 1
-    return 1
 
 
 def _is_csv(path: str, text: str) -> bool:
@@ -186,7 +123,7 @@ class TraceStream:
         self.notes: list[str] = []
         self._states: dict[StateKey, frozenset[str]] = {}  # of the common lines
         self._current: frozenset[str] | None = None  # the state of the last sample
-        self._strict = True  # until a field the trace does not use is noted
+        self._chunks = ChunkDecoder(self._reader)
         self._peek_unit()
 
     @property
@@ -259,7 +196,7 @@ class TraceStream:
                     yield from self._fast_pairs(pairs, before, lines)
                     return
             else:
-                decoded = self._decoded(lines, count, before)
+                decoded = self._chunks.decode(lines, count, before)
                 if decoded is not None:
                     plain, records = decoded
                     if plain:
@@ -269,31 +206,6 @@ class TraceStream:
                     return
         for index, raw in enumerate(lines.split("\n")[:count]):
             yield from self._full_line(before + index + 1, raw)
-
-    def _decoded(
-        self, lines: str, count: int, before: int
-    ) -> tuple[bool, list[Any]] | None:
-        """The chunk's records, one per line, in any key order, with any extra fields
-        (the first one noted), and whether all are plain samples; None where a line
-        is blank or holds a record of another shape, or a time a float may not hold
-        exactly."""
-        if "\\u" in lines or _INEXACT.search(lines):
-            return None
-        for shape in (_Plain, _Record):
-            while True:
-                try:
-                    records = _DECODERS[shape, self._strict].decode_lines(lines)
-                except msgspec.ValidationError as error:
-                    found = _UNKNOWN.search(str(error))
-                    if not self._strict or found is None:
-                        break  # another shape
-                    self._strict = False
-                    self._reader.ignore(found[1], before + _line_of(lines, int(found[2])))
-                    continue
-                except msgspec.DecodeError:
-                    return None
-                return (shape is _Plain, records) if len(records) == count else None
-        return None
 
     def _fast_plain(
         self, records: list[Any], before: int, lines: str
@@ -311,20 +223,20 @@ class TraceStream:
             or not all(map(operator.lt, times, islice(times, 1, None)))
             or not all(NAME.fullmatch(name) for name in new)
         ):
-            general = _DECODERS[_Record, self._strict].decode_lines(lines)  # rare: decoded again
+            general = self._chunks.records(lines)  # rare: decoded again
             yield from self._fast_records(general, before, lines)
             return
         for name in new:
             states[name] = frozenset((name,))
         current = self._current
-        for name, run in groupby(zip(times, names, strict=True), itemgetter(1)):
+        for name, run in groupby(zip(times, names, strict=True), operator.itemgetter(1)):
             state = states[name]
             if state is not current and state != current:
                 value = next(run)[0]
                 if current is None:
                     self.first = exact_or_quotient(repr(value))
                 current = state
-                yield _float_scaled(value), state
+                yield float_scaled(value), state
         self._current = current
         self._settle(times[-1], len(times))
 
@@ -357,11 +269,11 @@ class TraceStream:
                 if current is None:
                     self.first = exact_or_quotient(repr(value))
                 current = state
-                yield _float_scaled(value), state
+                yield float_scaled(value), state
         self._settle(last, taken)
         self._current = current
 
-    def _new_state(self, record: _Record) -> frozenset[str] | None:
+    def _new_state(self, record: Record) -> frozenset[str] | None:
         """The state of a plain sample naming a state not seen before, if its names
         are propositions' (else the full reader reports them)."""
         if record.end is not None or record.unit is not None:
