@@ -21,11 +21,23 @@ class Compare(Evaluated):
         super().__init__()
         self.op, self.left, self.right = op, left, right
         self.bodies = _term_nodes(left) + _term_nodes(right)
+        self.integrals: dict[int, Integral] = {}  # during an update: id(signal) ->
         self.future = max([window + body.future for window, body in self.bodies] or [0])
         self.past = max([body.past for _, body in self.bodies] or [0])
 
     def children(self) -> list[Node]:
         return [body for _, body in self.bodies]
+
+    def update(self, start: Any) -> None:
+        """Each duration read during the update is two lookups in its body's
+        integral, built once: reading it by walking the window made an update cost
+        the square of the changes inside the window (a flood of changes within a
+        4 s window took minutes)."""
+        self.integrals = {id(body.signal): Integral(body.signal) for _, body in self.bodies}
+        try:
+            super().update(start)
+        finally:
+            self.integrals = {}
 
     def breakpoints(self, start: Any) -> set[Any]:
         found = set()
@@ -40,8 +52,8 @@ class Compare(Evaluated):
         return found
 
     def _crossings(self, a: Any, b: Any) -> list[Any]:
-        (la, ha), (lb, hb) = _term(self.left, a), _term(self.right, a)
-        (la2, ha2), (lb2, hb2) = _term(self.left, b), _term(self.right, b)
+        (la, ha), (lb, hb) = self._term(self.left, a), self._term(self.right, a)
+        (la2, ha2), (lb2, hb2) = self._term(self.left, b), self._term(self.right, b)
         found = []
         for f_a, f_b in ((ha - lb, ha2 - lb2), (la - hb, la2 - hb2)):
             if (f_a < 0 < f_b) or (f_b < 0 < f_a):
@@ -49,7 +61,19 @@ class Compare(Evaluated):
         return found
 
     def value_at(self, t: Any) -> int:
-        return compare(self.op, _term(self.left, t), _term(self.right, t))
+        return compare(self.op, self._term(self.left, t), self._term(self.right, t))
+
+    def _term(self, term: Any, t: Any) -> tuple[Any, Any]:
+        kind = term[0]
+        if kind == "num":
+            return term[1], term[1]
+        if kind == "dur":
+            signal = term[2].signal
+            integral = self.integrals.get(id(signal))
+            if integral is None:  # read outside an update
+                return duration(signal, t, t + term[1])
+            return integral.duration(t, t + term[1])
+        return arithmetic(kind, self._term(term[1], t), self._term(term[2], t))
 
 
 def compare(op: str, left: tuple[Any, Any], right: tuple[Any, Any]) -> int:
@@ -82,15 +106,6 @@ def _term_nodes(term: Any) -> list[tuple[Any, Node]]:
     return _term_nodes(term[1]) + _term_nodes(term[2])
 
 
-def _term(term: Any, t: Any) -> tuple[Any, Any]:
-    kind = term[0]
-    if kind == "num":
-        return term[1], term[1]
-    if kind == "dur":
-        return duration(term[2].signal, t, t + term[1])
-    return arithmetic(kind, _term(term[1], t), _term(term[2], t))
-
-
 def arithmetic(kind: str, left: tuple[Any, Any], right: tuple[Any, Any]) -> tuple[Any, Any]:
     """`add`, `sub` or `mul` of two intervals (docs/semantics.md)."""
     if kind == "add":
@@ -99,6 +114,51 @@ def arithmetic(kind: str, left: tuple[Any, Any], right: tuple[Any, Any]) -> tupl
         return left[0] - right[1], left[1] - right[0]
     products = [x * y for x in left for y in right]
     return min(products), max(products)
+
+
+class Integral:
+    """How long a signal is surely and possibly true from its first breakpoint up
+    to each breakpoint: the duration over any window is then a difference, exact
+    (times are ints, Fractions or exact half-integer floats)."""
+
+    __slots__ = ("possibly", "signal", "surely")
+
+    def __init__(self, signal: Signal) -> None:
+        self.signal = signal
+        starts, opens = signal.starts, signal.opens
+        self.surely: list[Any] = [0]
+        self.possibly: list[Any] = [0]
+        surely = possibly = 0
+        for i in range(len(starts) - 1):
+            length = starts[i + 1] - starts[i]
+            if opens[i] == TRUE:
+                surely += length
+                possibly += length
+            elif opens[i] == UNKNOWN:
+                possibly += length
+            self.surely.append(surely)
+            self.possibly.append(possibly)
+
+    def duration(self, low: Any, high: Any) -> tuple[Any, Any]:
+        """What `duration(signal, low, high)` gives, in two lookups."""
+        if not low < high:
+            return 0, 0
+        signal = self.signal
+        i, j = signal.index(low), signal.index(high)
+        opens, starts = signal.opens, signal.starts
+        surely = self.surely[j] - self.surely[i]
+        possibly = self.possibly[j] - self.possibly[i]
+        if opens[j] != FALSE:  # the part of high's segment before high
+            inside = high - starts[j]
+            possibly += inside
+            if opens[j] == TRUE:
+                surely += inside
+        if opens[i] != FALSE:  # less the part of low's segment before low
+            outside = low - starts[i]
+            possibly -= outside
+            if opens[i] == TRUE:
+                surely -= outside
+        return surely, possibly
 
 
 def duration(signal: Signal, low: Any, high: Any) -> tuple[Any, Any]:
