@@ -17,6 +17,7 @@ import pytest
 from conftest import ROOT, per_property
 
 from rmvdsl.check import check
+from rmvdsl.host.monitor import BATCH
 from rmvdsl.ir import lower
 from rmvdsl.targets import kapacitor, ros2
 
@@ -396,6 +397,39 @@ def test_messages_the_reader_loses_are_counted(workspace, tmp_path):
     # "1 message ... read it" or "N messages ... read them", said once
     lost = r"\d+ messages? lost before the monitor could read (it|them)"
     assert len(re.findall(lost, seen["log"])) == 1, seen["log"]
+
+
+FLOOD = 2_000
+
+
+def test_a_flood_is_bounded_by_the_queues(workspace, tmp_path):
+    """2,000 messages as fast as one rclpy publisher sends them into a monitor whose
+    queue holds 500: every message is read or counted lost, the node holds no more
+    than its queue and the batch it feeds (the peak in /diagnostics), keeps deciding,
+    and its memory during the flood stays within 20 MB of before it."""
+    # 1 kHz of stamps, Fast for 50 ms of every 100: the queues are what is tested
+    sent = [_publish("/vehicle/twist", _twist_cdr(START + k * 10**6, 20.0 + 10 * (k % 100 < 50)))
+            for k in range(FLOOD)]  # fmt: skip
+    flood = [step for k in range(200, FLOOD, 600) for step in (*sent[k : k + 600], ["rss"])]
+    seen = _drive(workspace, {
+        "monitor": [_executable(workspace, "std_braking", "monitor"), "--ros-args",
+                    "-p", "queue_depth:=500", "-p", "diagnostics_period:=0.2"],
+        "publishers": {"/vehicle/twist": TWIST},
+        "steps": [*sent[:200], ["settle"], ["rss"], *flood, ["settle"], ["rss"]], "pace": 0,
+    }, tmp_path, rosenv.DOMAIN + 11)  # fmt: skip
+    counters = seen["diagnostics"]["rmv_monitor: monitor"]
+    lost = int(counters.get("lost messages: /vehicle/twist", "0"))
+    peak, bound = (int(n) for n in counters["messages held, most"].split(" of "))
+    before, after = seen["rss"][0], max(seen["rss"])
+    print(
+        f"read {counters['messages']}, lost {lost}; held at most {peak} of {bound}; "
+        f"RSS {before / 1024:.1f} MB before, at most {after / 1024:.1f} MB during"
+    )
+    assert int(counters["messages"]) + lost == FLOOD
+    assert bound == 500 + BATCH and 0 < peak <= bound  # the queue, and the batch being fed
+    assert after - before < 20 * 1024, seen["rss"]
+    assert any(json.loads(v)["property"] == "NeverStops" for v in seen["verdicts"])
+    assert seen["code"] == 0
 
 
 def test_hostile_traffic_is_counted_and_the_node_keeps_deciding(workspace, tmp_path):

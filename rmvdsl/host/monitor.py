@@ -70,8 +70,10 @@ class Monitor:
         self.taking = threading.Lock()
         self.received = 0
         self.unfed = 0
+        self.unfed_peak = 0  # the most taken and not yet fed at once: the queue's use
+        self.queue_depth = max(queue_depth, 1)
         self.fed = 0  # the worker's: the receipt time of the newest message fed
-        self.inbox: queue.Queue[Item | None] = queue.Queue(maxsize=max(queue_depth, 1))
+        self.inbox: queue.Queue[Item | None] = queue.Queue(maxsize=self.queue_depth)
         self.worker = threading.Thread(target=self.work, name="rmv-runtime", daemon=True)
 
     def start(self) -> None:
@@ -86,6 +88,7 @@ class Monitor:
         with self.taking:
             now = self.received = max(self.clock(), self.received + 1)
             self.unfed += 1
+            self.unfed_peak = max(self.unfed_peak, self.unfed)
         self.inbox.put((now, topic, message, info))
 
     def work(self) -> None:
@@ -194,6 +197,8 @@ class Monitor:
             found.append(Status(NODE_NAME, f"alert {alert.name}", ALERT_LEVELS[level], level))
         counters = {k: str(v) for k, v in sorted(self.runtime.counters.items())}
         counters.update(percentiles("verdict latency", self.latencies))
+        # read and not yet fed: the queue's `queue_depth` and the batch being fed
+        counters["messages held, most"] = f"{self.unfed_peak} of {self.queue_depth + BATCH}"
         found.append(Status(NODE_NAME, "monitor", OK, "running", counters))
         return found
 

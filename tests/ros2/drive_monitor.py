@@ -46,6 +46,13 @@ def message_class(name: str) -> Any:
     return getattr(importlib.import_module(f"{package}.msg"), type_name)
 
 
+def rss_kib(pid: int) -> int:
+    for line in Path(f"/proc/{pid}/status").read_text(encoding="ascii").splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1])
+    return 0
+
+
 class Player:
     def __init__(self, scenario: dict[str, Any]) -> None:
         self.node = Node("player")
@@ -68,6 +75,8 @@ class Player:
         }
         self.clock = self.node.create_publisher(Clock, "/clock", 10)
         self.intruders: list[subprocess.Popen[str]] = []
+        self.monitor_pid = 0
+        self.rss: list[int] = []  # the monitor's resident KiB at each "rss" step
 
     def intrude(self, kind: str, topic: str) -> None:
         intruder = subprocess.Popen(
@@ -147,6 +156,9 @@ class Player:
             if step[0] == "intruder":
                 self.intrude(*step[1:])
                 continue
+            if step[0] == "rss":
+                self.rss.append(rss_kib(self.monitor_pid))
+                continue
             if step[0] == "settle":  # until the monitor has counted all sent so far
                 self.wait_for(lambda n=published: self.counted() >= n, "the monitor to settle")
                 continue
@@ -173,6 +185,7 @@ def main(scenario_path: str) -> int:
     ]
     rclpy.init()
     player = Player(scenario)
+    player.monitor_pid = monitor.pid
     late: dict[str, list[str]] = {}
     try:
         for topic, publisher in player.publishers.items():
@@ -205,7 +218,7 @@ def main(scenario_path: str) -> int:
         player.node.destroy_node()
         rclpy.shutdown()
     print(json.dumps({"verdicts": player.verdicts, "diagnostics": player.statuses,
-                      "waits": player.waits, "late": late, "log": log,
+                      "waits": player.waits, "late": late, "log": log, "rss": player.rss,
                       "code": monitor.returncode,
                       "others": [p.returncode for p in others]}))  # fmt: skip
     return 0
