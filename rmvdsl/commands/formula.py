@@ -22,7 +22,7 @@ if TYPE_CHECKING:
 def run_eval(args: argparse.Namespace) -> int:
     from rmvdsl.lang.numbers import NumberError, exact_or_quotient
     from rmvdsl.logic import evaluate as ev
-    from rmvdsl.logic.traces import SCALE
+    from rmvdsl.logic.trace_chunks import SCALE
 
     try:
         at = exact_or_quotient(args.at)

@@ -92,15 +92,25 @@ class ChunkDecoder:
         return _DECODERS[Record, self.strict].decode_lines(lines)
 
 
+def scaled(t: Fraction) -> int | Fraction:
+    """A time in billionths of its unit: an int where that is exact."""
+    value = t * SCALE
+    return value.numerator if value.denominator == 1 else value
+
+
+def decimal_scaled(text: str) -> int:
+    """A decimal of at most 9 decimals, no exponent, in billionths."""
+    whole, _, fraction = text.partition(".")
+    return int(whole + fraction.ljust(9, "0"))
+
+
 def float_scaled(value: float) -> int | Fraction:
     """A time the fast reader took as a float, in billionths: its shortest repr is
     the decimal written (at most 15 digits, so exact)."""
     text = repr(value)
-    whole, _, fraction = text.partition(".")
-    if "e" in text or len(fraction) > 9:
-        exact = exact_or_quotient(text) * SCALE
-        return exact.numerator if exact.denominator == 1 else exact
-    return int(whole + fraction.ljust(9, "0"))
+    if "e" in text or len(text.partition(".")[2]) > 9:
+        return scaled(exact_or_quotient(text))
+    return decimal_scaled(text)
 
 
 def _line_of(lines: str, index: int) -> int:

@@ -40,7 +40,13 @@ from typing import Any, BinaryIO
 
 from rmvdsl.grammar.formula import TIME_UNITS
 from rmvdsl.lang.numbers import exact_or_quotient
-from rmvdsl.logic.trace_chunks import SCALE, ChunkDecoder, Record, float_scaled
+from rmvdsl.logic.trace_chunks import (
+    ChunkDecoder,
+    Record,
+    decimal_scaled,
+    float_scaled,
+    scaled,
+)
 from rmvdsl.logic.trace_lines import NAME, LineReader, TraceError, load_json
 
 
@@ -61,18 +67,6 @@ CHUNK = 1 << 20  # bytes read at a time
 _DECIMAL = r"(-?(?:0|[1-9][0-9]{0,14})(?:\.[0-9]{1,9})?)"  # exact in billionths, in range
 _FAST_CSV = re.compile(rf"^[ \t]*{_DECIMAL}[ \t]*,[ \t]*([A-Za-z_][A-Za-z0-9_]*)[ \t\r]*$", re.M)
 StateKey = str | tuple[str, ...]  # one proposition's name, or the list a `props` line names
-
-
-def scaled(t: Fraction) -> int | Fraction:
-    """A time in billionths of its unit: an int where that is exact."""
-    value = t * SCALE
-    return value.numerator if value.denominator == 1 else value
-
-
-def _decimal_scaled(text: str) -> int:
-    """A decimal the fast reader matched (at most 9 decimals) in billionths."""
-    whole, _, fraction = text.partition(".")
-    return int(whole + fraction.ljust(9, "0"))
 
 
 def _is_csv(path: str, text: str) -> bool:
@@ -318,7 +312,7 @@ class TraceStream:
                 if current is None:
                     self.first = exact_or_quotient(text)
                 current = state
-                yield _decimal_scaled(text), state
+                yield decimal_scaled(text), state
         self._current = current
         self.samples += len(pairs)
 

@@ -32,6 +32,7 @@ from typing import Any
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
+from drive_soak import rss_kib  # this folder: the scripts run from it
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
@@ -44,13 +45,6 @@ DEADLINE = 30.0  # seconds for discovery and for each wait: discovery is racy on
 def message_class(name: str) -> Any:
     package, _, type_name = name.split("/")
     return getattr(importlib.import_module(f"{package}.msg"), type_name)
-
-
-def rss_kib(pid: int) -> int:
-    for line in Path(f"/proc/{pid}/status").read_text(encoding="ascii").splitlines():
-        if line.startswith("VmRSS:"):
-            return int(line.split()[1])
-    return 0
 
 
 class Player:

@@ -52,7 +52,6 @@ class State:
     solver_lane: ThreadPoolExecutor = field(default_factory=lambda: _lane("rmv-solver"))
     published: dict[str, set[str]] = field(default_factory=dict)  # root -> paths shown
     mentions: dict[str, tuple[CheckResult, list[Mention]]] = field(default_factory=dict)
-    stopped: int = 0  # solver stages stopped by a newer change
     # path -> done when the fast stages of its newest text have been published
     analysed: dict[str, asyncio.Future[None]] = field(default_factory=dict)
 
@@ -157,7 +156,6 @@ class RmvServer(LanguageServer):
             try:
                 return self.state.workspace.check(path, solver=True)
             except Cancelled:
-                self.state.stopped += 1
                 return None
 
     def publish(self, root: str, result: CheckResult) -> None:
