@@ -652,25 +652,44 @@ def _collect(
     return seen
 
 
-def test_the_alert_handler_publishes_any_alert_text_as_data(tmp_path):
-    """The kapacitor target's publish handler, run as Kapacitor's `.exec` runs it:
-    an alert whose text would break out of a shell arrives on the topic as written."""
+def test_the_alert_handler_spools_what_nobody_acknowledges(tmp_path):
+    """The kapacitor target's publish handler, run as Kapacitor's `.exec` runs it.
+    With no ROS graph listening, alerts wait in a spool of at most 300 bytes: the
+    oldest beyond it is dropped and counted. The first run a subscriber hears
+    delivers the count, the waiting alerts and its own, in order; an alert whose
+    text would break out of a shell arrives as written; a spool that cannot be
+    written leaves the alert published without it."""
     spec = lower(check(str(HERE.parent / "fixtures" / "kapacitor" / "hostile.rmv")))
     texts, _ = kapacitor.files(spec, tmp_path / "build")
     handler = tmp_path / "publish_alert.py"
     handler.write_text(texts["handlers/publish_alert.py"], encoding="utf-8")
-    message = "it's \"bad\" $(touch /tmp/pwned); `id` \\ '''\nnext line \U0001f697"
-    alert = tmp_path / "alert.json"
-    alert.write_text(json.dumps({"id": "A", "message": message, "level": "WARNING"}))
-    run = rosenv.run(
-        [rosenv.python(), str(HERE / "drive_alert_handler.py"), str(handler), str(alert),
-         "/rmv/alerts"],
-        rosenv.DOMAIN + 6, None, timeout=120,
-    )  # fmt: skip
+    hostile = "it's \"bad\" $(touch /tmp/pwned); `id` \\ '''\nnext line \U0001f697"
+    waiting = [f"alert {k}: " + "x" * 100 for k in range(3)]
+    spool = ["--spool", str(tmp_path / "spool" / "alerts.json")]
+    small = [*spool, "--spool-bytes", "300", "--match-timeout", "0.5"]
+    (tmp_path / "file").write_text("a file, not a folder")
+    unusable = ["--spool", str(tmp_path / "file" / "alerts.json")]
+    runs = [
+        *({"alert": {"message": text}, "listen": False, "args": small} for text in waiting),
+        {"alert": {"id": "A", "message": hostile, "level": "WARNING"}, "listen": True,
+         "args": spool},
+        {"alert": {"message": "after"}, "listen": True, "args": spool},
+        {"alert": {"message": "unspooled"}, "listen": True, "args": unusable},
+    ]  # fmt: skip
+    scenario = tmp_path / "alerts.json"
+    scenario.write_text(json.dumps({"handler": str(handler), "topic": "/rmv/alerts",
+                                    "runs": runs}))  # fmt: skip
+    run = rosenv.run([rosenv.python(), str(HERE / "drive_alert_handler.py"), str(scenario)],
+                     rosenv.DOMAIN + 6, None, timeout=240)  # fmt: skip
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
     seen = json.loads(run.stdout)
-    assert seen["code"] == 0, seen["output"]
-    assert seen["received"] == [message]
+    assert [r["code"] for r in seen["runs"]] == [3, 3, 3, 0, 0, 0], seen["runs"]
+    outputs = [r["output"] for r in seen["runs"]]
+    assert "1 alert waits in" in outputs[0] and "2 alerts wait in" in outputs[2], outputs
+    assert "cannot be used" in outputs[5], outputs[5]
+    assert "the spool holds at most 300 bytes: the oldest alert is dropped" in outputs[2]
+    notice = "rmv: 1 alert was lost on /rmv/alerts: nobody acknowledged them and the spool was full"
+    assert seen["received"] == [notice, *waiting[1:], hostile, "after", "unspooled"]
 
 
 def test_the_first_hour_live(workspace, tmp_path):

@@ -2,10 +2,12 @@
 alert as JSON on standard input, the topic as an argument. Inside a private network
 namespace (tests/test_ros2.py starts it through rosenv):
 
-    python drive_alert_handler.py HANDLER ALERT_JSON_FILE TOPIC
+    python drive_alert_handler.py SCENARIO_JSON
 
-Prints JSON: the messages a subscriber received on TOPIC, and the handler's exit
-code and output.
+The scenario names the handler, the topic and the runs: each an alert, the
+handler's extra arguments, and whether a subscriber listens on the topic from that
+run on (once one listens it stays). Prints JSON: each run's exit code and output, and the messages
+the subscriber received, in order.
 """
 
 from __future__ import annotations
@@ -13,32 +15,55 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import tempfile
 import time
+from typing import Any
 
 import rclpy
-from rclpy.qos import DurabilityPolicy, QoSProfile
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
 
 
+def run_handler(node: Any, scenario: dict[str, Any], alert: Any, args: list[str]) -> dict[str, Any]:
+    """One handler process, the node spun while it runs (its subscriber must answer)."""
+    command = [sys.executable, scenario["handler"], "--topic", scenario["topic"], *args]
+    with tempfile.TemporaryFile() as out:  # read once it ended: a pipe could fill
+        run = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=out,
+                               stderr=subprocess.STDOUT)  # fmt: skip
+        assert run.stdin is not None
+        run.stdin.write(json.dumps(alert).encode())
+        run.stdin.close()
+        deadline = time.monotonic() + 60
+        while run.poll() is None and time.monotonic() < deadline:
+            rclpy.spin_once(node, timeout_sec=0.05)
+        run.wait(timeout=30)
+        out.seek(0)
+        output = out.read().decode(errors="replace")
+    return {"code": run.returncode, "output": output}
+
+
 def main() -> None:
-    handler, alert_file, topic = sys.argv[1:4]
+    with open(sys.argv[1], encoding="utf-8") as file:
+        scenario = json.load(file)
     rclpy.init()
     node = rclpy.create_node("alert_listener")
     received: list[str] = []
-    qos = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-    node.create_subscription(String, topic, lambda m: received.append(m.data), qos)
-    with open(alert_file, "rb") as alert:
-        run = subprocess.Popen(
-            [sys.executable, handler, "--topic", topic], stdin=alert,
-            stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-        )  # fmt: skip
-        deadline = time.monotonic() + 30
-        while (run.poll() is None or not received) and time.monotonic() < deadline:
-            rclpy.spin_once(node, timeout_sec=0.05)
-        output = run.communicate(timeout=30)[0].decode(errors="replace")
+    qos = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
+                     durability=DurabilityPolicy.TRANSIENT_LOCAL)  # fmt: skip
+    listening = False
+    runs = []
+    for step in scenario["runs"]:
+        if step["listen"] and not listening:
+            node.create_subscription(String, scenario["topic"], lambda m: received.append(m.data),
+                                     qos)  # fmt: skip
+            listening = True
+        runs.append(run_handler(node, scenario, step["alert"], step.get("args", [])))
+    end = time.monotonic() + 1.0  # the last messages may still be in flight
+    while time.monotonic() < end:
+        rclpy.spin_once(node, timeout_sec=0.05)
     node.destroy_node()
     rclpy.try_shutdown()
-    print(json.dumps({"received": received, "code": run.returncode, "output": output}))
+    print(json.dumps({"runs": runs, "received": received}))
 
 
 if __name__ == "__main__":

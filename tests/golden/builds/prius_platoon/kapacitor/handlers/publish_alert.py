@@ -6,55 +6,174 @@ The alert's text never reaches a command line or a shell: Kapacitor passes the
 alert as data on standard input, and the topic and message come as arguments fixed
 in the TICKscript.
 
+An alert no subscriber acknowledges (no ROS graph, no listener yet) is not lost: it
+waits in a spool file, and the next run publishes every waiting alert, in order,
+before its own. The spool holds at most --spool-bytes; beyond that the oldest
+alerts are dropped and counted, and the next delivery publishes the count first.
+Kapacitor logs each run's exit code and standard error: 0 delivered, 1 the input
+is not an alert, 3 spooled (nobody acknowledged it), 4 lost (nobody acknowledged it
+and the spool cannot be written).
+
     python3 publish_alert.py --topic /rmv/alerts [--message TEXT] < alert.json
 """
 
 from __future__ import annotations
 
 import argparse
+import fcntl
 import json
+import os
 import sys
 import time
+from pathlib import Path
 
 import rclpy
 from rclpy.duration import Duration
-from rclpy.qos import DurabilityPolicy, QoSProfile
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
 
-# How long to wait for a subscriber to match before publishing anyway, and for the
-# subscribers to acknowledge the message before the process ends.
+# How long to wait for a subscriber to match, and for every subscriber to
+# acknowledge what was published before the process ends.
 MATCH_TIMEOUT = 5.0
 ACK_TIMEOUT = 2.0
+SPOOL_BYTES = 1_000_000
+EXIT_DELIVERED, EXIT_BAD_INPUT, EXIT_SPOOLED, EXIT_LOST = 0, 1, 3, 4
+
+
+def spool_path(topic: str) -> Path:
+    """The default spool of a topic: beside this handler, one file per topic."""
+    name = topic.strip("/").replace("/", "__") or "root"
+    return Path(__file__).resolve().parent / "spool" / f"{name}.json"
+
+
+def load(path: Path) -> dict:
+    """The waiting alerts and the count dropped; a damaged spool starts anew, said."""
+    try:
+        state = json.loads(path.read_text(encoding="utf-8"))
+        if isinstance(state.get("alerts"), list) and isinstance(state.get("lost"), int):
+            return state
+        raise ValueError("not a spool")
+    except FileNotFoundError:
+        pass
+    except (OSError, ValueError, AttributeError) as exc:
+        print(f"publish_alert: {path} is damaged ({exc}); it is started anew", file=sys.stderr)
+    return {"alerts": [], "lost": 0}
+
+
+def save(path: Path, state: dict) -> None:
+    """Written whole, then renamed: a crash leaves the old spool or the new."""
+    part = path.with_suffix(".part")
+    part.write_text(json.dumps(state), encoding="utf-8")
+    os.replace(part, path)
+
+
+def bound(state: dict, limit: int) -> None:
+    """Drop the oldest alerts, counted, until the spool fits in `limit` bytes (the
+    newest alert is always kept)."""
+    dropped = 0
+    while len(state["alerts"]) > 1 and len(json.dumps(state).encode()) > limit:
+        state["alerts"].pop(0)
+        state["lost"] += 1
+        dropped += 1
+    if dropped:
+        print(
+            f"publish_alert: the spool holds at most {limit} bytes: the oldest "
+            f"{'alert is' if dropped == 1 else f'{dropped} alerts are'} dropped "
+            f"({state['lost']} lost since the last delivery)",
+            file=sys.stderr,
+        )
+
+
+def deliver(topic: str, texts: list[str], match_timeout: float) -> bool:
+    """Publish `texts` in order once a subscriber matches; True when every
+    subscriber acknowledged all of them."""
+    rclpy.init()
+    node = rclpy.create_node("rmv_alert_publisher")
+    try:
+        # transient_local: a subscriber that matches after the publication still gets it
+        qos = QoSProfile(
+            depth=len(texts),
+            reliability=ReliabilityPolicy.RELIABLE,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL,
+        )
+        publisher = node.create_publisher(String, topic, qos)
+        deadline = time.monotonic() + match_timeout
+        while publisher.get_subscription_count() == 0:
+            if time.monotonic() >= deadline:
+                return False
+            rclpy.spin_once(node, timeout_sec=0.05)
+        for text in texts:
+            publisher.publish(String(data=text))
+        return publisher.wait_for_all_acked(Duration(seconds=ACK_TIMEOUT))
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+
+
+def lost_notice(topic: str, lost: int) -> str:
+    alerts = "1 alert was" if lost == 1 else f"{lost} alerts were"
+    return f"rmv: {alerts} lost on {topic}: nobody acknowledged them and the spool was full"
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description="publish a Kapacitor alert on ROS 2")
     parser.add_argument("--topic", required=True)
     parser.add_argument("--message", help="publish this text instead of the alert's")
+    parser.add_argument("--spool", type=Path, help="the spool file (default: spool/ beside this)")
+    parser.add_argument("--spool-bytes", type=int, default=SPOOL_BYTES)
+    parser.add_argument("--match-timeout", type=float, default=MATCH_TIMEOUT)
     args = parser.parse_args()
     try:
         alert = json.load(sys.stdin)
     except json.JSONDecodeError as exc:
         print(f"publish_alert: the alert on standard input is not JSON: {exc}", file=sys.stderr)
-        return 1
+        return EXIT_BAD_INPUT
+    if not isinstance(alert, dict):
+        print("publish_alert: the alert on standard input is not a JSON object", file=sys.stderr)
+        return EXIT_BAD_INPUT
     text = args.message if args.message is not None else str(alert.get("message", ""))
-    rclpy.init()
-    node = rclpy.create_node("rmv_alert_publisher")
+    path = args.spool or spool_path(args.topic)
     try:
-        # transient_local: a subscriber that matches after the publication still gets it
-        publisher = node.create_publisher(
-            String, args.topic, QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        return spooled(args, text, path)
+    except OSError as exc:  # the spool's folder is not writable, the disk is full
+        print(
+            f"publish_alert: the spool {path} cannot be used ({exc.strerror or exc}); "
+            "the alert is published without it",
+            file=sys.stderr,
         )
-        deadline = time.monotonic() + MATCH_TIMEOUT
-        while publisher.get_subscription_count() == 0 and time.monotonic() < deadline:
-            rclpy.spin_once(node, timeout_sec=0.05)
-        publisher.publish(String(data=text))
-        # reliable delivery: the message has arrived once every subscriber acked it
-        publisher.wait_for_all_acked(Duration(seconds=ACK_TIMEOUT))
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+        if deliver(args.topic, [text], args.match_timeout):
+            return EXIT_DELIVERED
+        print(
+            f"publish_alert: no subscriber of {args.topic} acknowledged the alert within "
+            f"{args.match_timeout:g} s: it is lost",
+            file=sys.stderr,
+        )
+        return EXIT_LOST
+
+
+def spooled(args: argparse.Namespace, text: str, path: Path) -> int:
+    """Deliver the spool's alerts and this one, or keep them all for the next run."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    # One run at a time per spool: Kapacitor may start the next before this ends.
+    with open(path.with_suffix(".lock"), "w", encoding="utf-8") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        state = load(path)
+        state["alerts"].append(text)
+        bound(state, args.spool_bytes)
+        save(path, state)
+        lost = state["lost"]
+        notice = [lost_notice(args.topic, lost)] if lost else []
+        if deliver(args.topic, notice + state["alerts"], args.match_timeout):
+            save(path, {"alerts": [], "lost": 0})
+            return EXIT_DELIVERED
+        count = len(state["alerts"])
+        waiting = "1 alert waits" if count == 1 else f"{count} alerts wait"
+        print(
+            f"publish_alert: no subscriber of {args.topic} acknowledged the alert within "
+            f"{args.match_timeout:g} s; {waiting} in {path}",
+            file=sys.stderr,
+        )
+        return EXIT_SPOOLED
 
 
 if __name__ == "__main__":
