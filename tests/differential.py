@@ -111,11 +111,15 @@ def make_case(seed: int) -> Case:
     maker = SpecMaker(rng)
     lines = [f"system diff{seed}", "ros humble"]
     topics, variables = {}, {}
+    # Declared rates from a generator of their own: the other choices stay as they were.
+    rated = random.Random(seed + 10**6)
     for index in range(rng.randint(2, 4)):
         kind = rng.choice(sorted(ROS_TYPES))
         ros_name = f"/t{index}"
         topics[ros_name] = kind
-        lines.append(f'topic t{index}: std_msgs/{kind} = "{ros_name}"')
+        qos = f" qos {{ max_rate = {rated.choice(['2Hz', '4Hz', '0.5Hz'])} }}"
+        lines.append(f'topic t{index}: std_msgs/{kind} = "{ros_name}"'
+                     + (qos if rated.random() < 0.3 else ""))  # fmt: skip
         lines.append(f"var V{index} = t{index}.data")
         maker.kinds[f"V{index}"] = kind
         variables[f"V{index}"] = ros_name

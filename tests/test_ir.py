@@ -159,8 +159,10 @@ def test_every_default_comes_from_the_registry(tmp_path):
     spec = _minimal(tmp_path)
     topic = spec.topics[0]
     for key, setting in builtins.block("qos").settings.items():
-        # `time` is the topic's time source; the rest are ROS 2 QoS settings
-        value = topic.time_source if key == "time" else getattr(topic.qos, key)
+        # `time` is the topic's time source, `max_rate` its declared rate; the rest
+        # are ROS 2 QoS settings
+        own = {"time": topic.time_source, "max_rate": topic.max_rate}
+        value = own[key] if key in own else getattr(topic.qos, key)
         assert value == setting.default, key
     prop = spec.properties[0]
     assert prop.rate is builtins.setting("property", "rate").default is None

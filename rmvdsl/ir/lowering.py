@@ -144,6 +144,7 @@ class Lowering(Reactions):
     def topic(self, decl: ast.TopicDecl) -> ir.Topic:
         qos = self.settings("qos", decl.qos)
         time_source = qos.pop("time")
+        max_rate = qos.pop("max_rate")
         return ir.Topic(
             name=decl.name.name,
             ros_name=decl.path.value,
@@ -152,6 +153,7 @@ class Lowering(Reactions):
             time_source=time_source,
             origin=self.origin(decl.name),
             doc=decl.doc,
+            max_rate=max_rate,
         )
 
     def messages(self, roots: Iterable[str]) -> tuple[ir.Message, ...]:

@@ -337,6 +337,8 @@ BLOCKS: dict[str, Block] = {
         _s("liveliness_lease", "time", None, "the liveliness lease duration", "none"),
         _s("time", "names", "receipt", "a message's time: when it arrived (`receipt`) or "
            "its `header.stamp` (`header`)", "`receipt`", choices=("receipt", "header")),
+        _s("max_rate", "rate", None, "the most messages a second the topic is declared to "
+           "carry: each message past it is counted and reported (it is still read)", "none"),
     ),
     "alert": _block(
         "alert",

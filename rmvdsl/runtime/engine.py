@@ -20,7 +20,7 @@ from collections.abc import Callable, Iterable
 from fractions import Fraction
 from typing import Any
 
-from rmvdsl.runtime import fields, influx
+from rmvdsl.runtime import fields, influx, rates
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.alerts import LEVELS, AlertState, kapacitor_level
 from rmvdsl.runtime.dataflow import (
@@ -103,6 +103,7 @@ class Runtime(Reporting):
         topic_names = {t.name: t.ros_name for t in spec.topics}
         self.topic_origin = {t.ros_name: t.origin for t in spec.topics}
         self.stamped = fields.stamped_topics(spec.topics)
+        self.rates = rates.limits(spec.topics)
         skipped = frozenset(skip)  # variables the input cannot give (the replay checked)
         for variable in spec.variables:
             variables = self.by_topic.setdefault(topic_names[variable.topic], [])
@@ -144,6 +145,9 @@ class Runtime(Reporting):
         """One message of a ROS topic received at `time` (integer nanoseconds); a
         topic with `time = header` takes its time from the message's stamp."""
         self.counters["messages"] += 1
+        limit = self.rates.get(topic)
+        if limit is not None and limit.exceeded(time):
+            self.over_rate(time, topic, limit.words())
         if topic not in self.by_topic:
             self.counters["messages on topics the spec does not read"] += 1
             return

@@ -107,6 +107,15 @@ class Reporting:
         self._input_lost(time, topic, f"messages stamped ahead dropped: {topic}", 1, text)
         self._unknown_from(topic, time)
 
+    def over_rate(self, time: int, topic: str, limit: str) -> None:
+        """A message past the topic's declared `max_rate` (received at `time`): it
+        is read as any other; the count says the topic is flooded."""
+        text = (
+            f"{topic}: more messages than its max_rate ({limit}): each one past it is "
+            "counted, and still read"
+        )
+        self._input_lost(time, topic, f"messages over max_rate: {topic}", 1, text)
+
     def _unknown_from(self, topic: str, time: int, since_last: bool = False) -> None:
         """The topic unknown from `time` (a receipt time), or from its last message
         (`since_last`, or a `time = header` topic: its times are stamps, another
@@ -138,8 +147,8 @@ class Reporting:
     def _input_lost(
         self, time: int, topic: str, counter: str, count: int, text: str, origin: str = ""
     ) -> None:
-        """Input the runtime could not use: always counted, reported once per
-        counter (a topic's, or a variable's)."""
+        """Input the runtime could not use, or that breaks what the spec declares:
+        always counted, reported once per counter (a topic's, or a variable's)."""
         self.counters[counter] += count
         if counter not in self.reported:
             self.reported.add(counter)

@@ -18,7 +18,7 @@ from collections.abc import Iterable
 from fractions import Fraction
 from typing import Any
 
-from rmvdsl.runtime import influx
+from rmvdsl.runtime import influx, rates
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.dataflow import Condition, Item, Node, RawEvent, Transducer, WindowedEvent
 from rmvdsl.runtime.properties import PropertyMonitor
@@ -47,6 +47,8 @@ def reach(spec: ir.Spec) -> int:
             )
             windows.append(span + 2 * event.window.interval + every)
     longest = max(horizons, default=Fraction(0)) + max(windows, default=Fraction(0))
+    # A declared max_rate counts messages over a window of its own.
+    longest = max([longest, *(rates.window(t.max_rate) for t in spec.topics if t.max_rate)])
     return influx.nanoseconds(longest) + 1
 
 
@@ -80,6 +82,7 @@ def _runtime(runtime: Any, back: int) -> tuple[Any, ...]:
         sorted(runtime.current_states.items()),
         sorted(runtime.last_on.items()),
         sorted(runtime.reported),
+        sorted((topic, limit.state()) for topic, limit in runtime.rates.items()),
         sorted((repr(e), reason) for e, reason in runtime.intrusions.items()),
         sorted(_waiting(topic, waiting) for topic, waiting in runtime.until_next.items()),
         [(a.level, _mapping(a.current)) for a in runtime.alerts],

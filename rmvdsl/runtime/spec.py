@@ -143,6 +143,7 @@ class Topic:
     time_source: str  # receipt: the time the message arrived
     origin: str
     doc: str
+    max_rate: Fraction | None = None  # Hz: more is counted (runtime/rates.py)
 
 
 # ---- variables ----
