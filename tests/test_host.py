@@ -397,3 +397,22 @@ def test_publishers_of_another_type_are_reported_once_and_shown_while_there():
     assert watch.look(mixed)[1] == []  # said once
     status, said = watch.look(mixed[:1])
     assert (status.level, said) == ("ok", []) and status.values["publishers of another type"] == "0"
+
+
+def test_the_nodes_use_their_discovery_profile_unless_told_otherwise(tmp_path, monkeypatch):
+    """Fast DDS reads the package's profile (announcements every 0.25 s) unless the
+    user names a profile, chooses another middleware or keeps one in the folder."""
+    from rmvdsl.host.packaged import DISCOVERY_PROFILE, use_discovery_profile
+
+    monkeypatch.chdir(tmp_path)
+    environ: dict[str, str] = {}
+    path = use_discovery_profile(environ)
+    assert path is not None and path.endswith(DISCOVERY_PROFILE)
+    assert environ == {"FASTDDS_DEFAULT_PROFILES_FILE": path}
+    for chosen in ({"FASTDDS_DEFAULT_PROFILES_FILE": "mine.xml"},
+                   {"FASTRTPS_DEFAULT_PROFILES_FILE": "mine.xml"},
+                   {"RMW_IMPLEMENTATION": "rmw_cyclonedds_cpp"}):  # fmt: skip
+        assert use_discovery_profile(dict(chosen)) is None
+    assert use_discovery_profile({"RMW_IMPLEMENTATION": "rmw_fastrtps_dynamic_cpp"})
+    (tmp_path / "DEFAULT_FASTDDS_PROFILES.xml").write_text("<dds/>")
+    assert use_discovery_profile({}) is None

@@ -6,6 +6,7 @@ generated package's node modules only call `monitor_main`, `intrusion_main` or
 from __future__ import annotations
 
 import importlib
+import os
 import signal
 import threading
 import time
@@ -30,7 +31,7 @@ from std_msgs.msg import String
 from rmvdsl.host import collector, intrusion, monitor
 from rmvdsl.host.actions import NodeActions
 from rmvdsl.host.gaps import TypeWatch
-from rmvdsl.host.packaged import load_spec, package, with_time_sources
+from rmvdsl.host.packaged import load_spec, package, use_discovery_profile, with_time_sources
 from rmvdsl.host.status import ERROR, OK, STALE, WARN, Status, fill_diagnostics
 from rmvdsl.runtime import spec as ir
 
@@ -264,6 +265,7 @@ class CollectorNode(Node):
 
 def run(make: Callable[[ir.Spec], Node], finish: Callable[[Any], None] | None = None) -> None:
     """Spin a node until SIGINT or SIGTERM, then let it finish and destroy it."""
+    use_discovery_profile(os.environ)
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
     node = make(load_spec())
     stop = threading.Event()

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import jinja2
 
+from rmvdsl.host.packaged import DISCOVERY_PROFILE
 from rmvdsl.runtime import spec as ir
 from rmvdsl.targets import TargetError
 from rmvdsl.targets.embed import embedded
@@ -118,13 +119,14 @@ def ament_package(
     (package.xml, setup.py, the launch file, the spec, and copies of the runtime
     and of the host)."""
     name = package.name
-    context = {"package": package, "spec": package.spec, **context}
+    context = {"package": package, "spec": package.spec, "profile": DISCOVERY_PROFILE, **context}
     rendered = {
         "package.xml": "package.xml.j2",
         "setup.py": "setup.py.j2",
         "setup.cfg": "setup.cfg.j2",
         f"resource/{name}": "resource.j2",
         f"{name}/__init__.py": "init.py.j2",
+        f"{name}/{DISCOVERY_PROFILE}": "fastdds_discovery.xml.j2",
         package.launch: "launch/nodes.launch.py.j2",
         **templates,
     }

@@ -8,7 +8,7 @@ setup(
     name=PACKAGE,
     version="0.1.0",
     packages=[PACKAGE, f"{PACKAGE}.rmv_runtime", f"{PACKAGE}.rmv_host"],
-    package_data={PACKAGE: ["spec.json"]},
+    package_data={PACKAGE: ["spec.json", "fastdds_discovery.xml"]},
     data_files=[
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml", "README.md"]),
