@@ -548,11 +548,11 @@ def test_a_soak_with_nodes_coming_and_going(specs, workspace, tmp_path, rmv):
     latencies = seen["latencies"]
     print(f"{len(seen['sent'])} messages, {len(seen['verdicts'])} verdict segments, rogues "
           f"reported after {latencies} s")  # fmt: skip
-    # Every rogue reported while it is there (4 s). The goal is 2 s, which a quiet
-    # machine keeps (bench_ros2.py --soak); under the suite's load on 2 cores one
-    # report in five took longer in a CI run, so the test holds the 4 s.
+    # Every rogue reported within 2 s (docs/ros2.md, "Discovery": before the nodes
+    # announced themselves every 0.25 s, one report in five under the suite's load
+    # took up to 3.3 s).
     assert len(latencies) >= seconds // 14 and all(
-        latency is not None and latency <= 4.0 for latency in latencies
+        latency is not None and latency <= 2.0 for latency in latencies
     ), latencies  # fmt: skip
     recording = tmp_path / "sent"
     _record(recording, [tuple(m) for m in seen["sent"]], [stamp for stamp, _ in seen["sent"]])
