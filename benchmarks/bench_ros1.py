@@ -19,6 +19,13 @@ counters: none lost, none late, none damaged).
 
     python benchmarks/bench_ros1.py [--seconds 100] [--count 5000]
     python benchmarks/bench_ros1.py --json benchmarks/results/ros1.json
+
+`--soak SECONDS` runs only the soak on ROS 1 (tests/ros1/drive_soak.py on
+tests/ros1/soak.rmv's nodes; the test suite runs 60 s of it), judged as
+bench_ros2.py's: allowed nodes coming and going, rogues injected, verdicts against a
+replay of what was sent, memory after warm-up:
+
+    python benchmarks/bench_ros1.py --soak 600 --json benchmarks/results/soak_ros1.json
 """
 
 from __future__ import annotations
@@ -112,12 +119,41 @@ def _bare(mode: str) -> str:
     return json.dumps([rosenv1.python(), str(LOAD), "bare", mode])
 
 
+def _soak(seconds: float, out: str | None) -> int:
+    """tests/ros1/drive_soak.py for `seconds` on tests/ros1/soak.rmv's nodes: its
+    figures (bench_ros2.judge) printed, and written to `out`."""
+    sys.path.insert(0, str(ROOT / "tests"))
+    from fleet_recordings import sent_bag
+
+    rosenv1.python()
+    with tempfile.TemporaryDirectory(prefix="rmv-bench-soak1-") as folder:
+        root = Path(folder)
+        os.environ["RMV_CACHE_DIR"] = str(root / "cache")
+        spec = ROOT / "tests" / "ros1" / "soak.rmv"
+        package = root / "soak1"
+        target("ros1").build(lower(check(str(spec))), package, {})
+        logs = root / "logs"
+        logs.mkdir()
+        print(f"soak on ROS 1: {seconds:g} s ...", file=sys.stderr, flush=True)
+        command = [rosenv1.python(), str(ROOT / "tests" / "ros1" / "drive_soak.py"), str(logs),
+                   str(package), str(seconds)]  # fmt: skip
+        run = rosenv1.run(command, root / "home", timeout=seconds + 300)
+        if run.returncode != 0:
+            raise SystemExit(run.stderr[-4000:])
+        seen = json.loads(run.stdout)
+        recording = sent_bag(root / "sent", seen["sent"])
+        return bench_ros2.report(bench_ros2.judge(seconds, seen, spec, recording), out)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--count", type=int, default=5_000, help="messages for the rate")
     parser.add_argument("--seconds", type=float, default=100.0, help="of the thesis workload")
     parser.add_argument("--json", help="write the figures to this file")
+    parser.add_argument("--soak", type=float, metavar="SECONDS", help="run only the soak")
     args = parser.parse_args(argv)
+    if args.soak:
+        return _soak(args.soak, args.json)
 
     total = 8
     _progress(0, total, "the ROS 1 venv, the packages, the bag")

@@ -44,6 +44,7 @@ import argparse
 import base64
 import json
 import os
+import statistics
 import sys
 import tempfile
 from pathlib import Path
@@ -129,8 +130,6 @@ def _workspace(root: Path) -> Path:
 
 def _soak(seconds: float, out: str | None) -> int:
     """The soak for `seconds`: its figures printed, and written to `out`."""
-    import subprocess
-
     rosenv.python()
     with tempfile.TemporaryDirectory(prefix="rmv-bench-soak-") as folder:
         root = Path(folder)
@@ -148,34 +147,49 @@ def _soak(seconds: float, out: str | None) -> int:
         seen = json.loads(run.stdout)
         recording = root / "sent"
         _write_twists(recording, seen["sent"])
-        replay = subprocess.run(
-            [sys.executable, "-m", "rmvdsl.cli", "replay", str(spec), str(recording), "--format",
-             "jsonl"], capture_output=True, text=True,
-        )  # fmt: skip
+        return report(judge(seconds, seen, spec, recording), out)
+
+
+def judge(seconds: float, seen: dict[str, Any], spec: Path, recording: Path) -> dict[str, Any]:
+    """The figures of a soak (tests/ros2/drive_soak.py's or tests/ros1/drive_soak.py's
+    JSON), its verdicts compared with `rmv replay SPEC RECORDING` of what it sent."""
+    import subprocess
+
+    replay = subprocess.run(
+        [sys.executable, "-m", "rmvdsl.cli", "replay", str(spec), str(recording), "--format",
+         "jsonl"], capture_output=True, text=True,
+    )  # fmt: skip
     from_replay = [json.loads(line) for line in replay.stdout.splitlines()
                    if '"kind": "verdict"' in line]  # fmt: skip
     from_node = [json.loads(v) for v in seen["verdicts"]]
-    same = _by_property(from_node) == _by_property(from_replay)
     false_alarms = [text for text in seen["reports"] if "/rogue" not in text]
     latencies = seen["latencies"]
     rss = seen["rss"]
     warm = rss[len(rss) // 4]
     growth = [rss[-1][i] / warm[i] - 1 for i in (1, 2)]
-    figures = {
+    return {
         "seconds": seconds, "messages_sent": len(seen["sent"]),
-        "verdict_segments": len(from_node), "verdicts_equal_replay": same,
+        "verdict_segments": len(from_node),
+        "verdicts_equal_replay": _by_property(from_node) == _by_property(from_replay),
         "false_alarms": len(false_alarms), "rogues": len(latencies),
         "rogue_latency_max_s": max((x for x in latencies if x is not None), default=None),
+        "rogue_latency_median_s": statistics.median(x for x in latencies if x is not None)
+        if any(x is not None for x in latencies) else None,
         "rogues_unreported": sum(1 for x in latencies if x is None),
         "rss_kib_after_warmup": {"monitor": [warm[1], rss[-1][1]],
                                  "intrusion": [warm[2], rss[-1][2]]},
         "rss_growth": {"monitor": round(growth[0], 4), "intrusion": round(growth[1], 4)},
         "exit_codes": seen["codes"],
     }  # fmt: skip
+
+
+def report(figures: dict[str, Any], out: str | None) -> int:
+    """Print the soak's figures, write them to `out`; 1 when the soak failed."""
     print(json.dumps(figures, indent=2))
     if out:
         Path(out).write_text(json.dumps(figures, indent=2) + "\n", encoding="utf-8")
-    good = same and not false_alarms and figures["rogues_unreported"] == 0
+    good = (figures["verdicts_equal_replay"] and not figures["false_alarms"]
+            and figures["rogues_unreported"] == 0)  # fmt: skip
     return 0 if good else 1
 
 

@@ -87,3 +87,11 @@ def fleet(folder: Path, count: int, messages: int = 40, seed: int = 0) -> list[P
         write(folder / f"run{index:04d}", KINDS[index % 3], speeds(seed + index, messages))
         for index in range(count)
     ]
+
+
+def sent_bag(path: Path, sent: list[list[float]]) -> Path:
+    """What a soak sent (stamp, speed), 20 a second from START, as a ROS 1 bag logged
+    at the stamps (tests/ros1/drive_soak.py)."""
+    step = 10**9 // 20
+    assert [int(stamp) for stamp, _ in sent] == [START + k * step for k in range(len(sent))]
+    return write(path, "bag", [speed for _, speed in sent], step_ns=step)

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import http.server
 import json
+import socket
 import threading
 from fractions import Fraction
 from typing import Any, ClassVar
@@ -416,3 +417,38 @@ def test_the_nodes_use_their_discovery_profile_unless_told_otherwise(tmp_path, m
     assert use_discovery_profile({"RMW_IMPLEMENTATION": "rmw_fastrtps_dynamic_cpp"})
     (tmp_path / "DEFAULT_FASTDDS_PROFILES.xml").write_text("<dds/>")
     assert use_discovery_profile({}) is None
+
+
+def test_a_connection_to_a_peer_that_is_gone_waits_longer_than_a_live_sneak(tmp_path):
+    """ROS 1: an inbound connection no registration accounts for is judged after
+    UNREGISTERED_GRACE when its publisher's XML-RPC server answers (a live peer
+    that skipped the master), after GONE_GRACE when it does not (a node that
+    stopped, whose subscriber keeps retrying: the soak found it reported as a
+    sneak). A stand-in master and two stand-in nodes, over real XML-RPC."""
+    from xmlrpc.server import SimpleXMLRPCServer
+
+    from rmvdsl.host import ros1_graph
+
+    def serve(functions: dict) -> str:
+        server = SimpleXMLRPCServer(("127.0.0.1", 0), logRequests=False, allow_none=True)
+        for name, function in functions.items():
+            server.register_function(function, name)
+        threading.Thread(target=server.serve_forever, daemon=True).start()
+        return f"http://127.0.0.1:{server.server_address[1]}/"
+
+    sneak = serve({"getPid": lambda caller: [1, "", 4711]})
+    with socket.socket() as probe:  # a port nothing listens on: a node that is gone
+        probe.bind(("127.0.0.1", 0))
+        gone = f"http://127.0.0.1:{probe.getsockname()[1]}/"
+    connections = [[1, sneak, "i", "TCPROS", "/cmd", True, ""],
+                   [2, gone, "i", "TCPROS", "/cmd", True, ""]]  # fmt: skip
+    reader = serve({"getBusInfo": lambda caller: [1, "", connections]})
+    master = serve({
+        "getSystemState": lambda caller: [1, "", [[], [["/cmd", ["/reader"]]], []]],
+        "lookupNode": lambda caller, node: [1, "", reader],
+    })  # fmt: skip
+    graph = ros1_graph.read(master, "/rmv_intrusion")
+    found = {s.node_name: s for s in graph.unregistered}
+    assert set(found) == {ros1_graph.address(sneak), ros1_graph.address(gone)}
+    assert found[ros1_graph.address(sneak)].grace == intrusion.UNREGISTERED_GRACE
+    assert found[ros1_graph.address(gone)].grace == intrusion.GONE_GRACE

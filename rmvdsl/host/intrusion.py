@@ -27,6 +27,11 @@ UNKNOWN_GRACE = 3.0
 # that starts connects just after registering, so for a moment either looks
 # unregistered to a poll that reads the master and the nodes one after the other.
 UNREGISTERED_GRACE = 1.0
+# ... unless the peer it names no longer answers: a node that stopped, whose
+# connection its subscriber keeps retrying for a while (rospy backs off up to 32 s),
+# carries nothing. It is judged only if that lasts this long (a peer that closed its
+# XML-RPC server yet still sends is caught all the same, later).
+GONE_GRACE = 5.0
 # A registered ROS 1 node that does not answer is stale once it has not answered
 # this long: a node that stops closes its XML-RPC server around the time it
 # unregisters, so one poll may catch it between the two.
@@ -43,6 +48,7 @@ class Seen:
     node_name: str
     gid: bytes
     registered: bool = True  # False: a connection the ROS 1 master never heard of
+    answering: bool = True  # False: the unregistered peer's XML-RPC server does not answer
 
     @property
     def node(self) -> str:
@@ -56,7 +62,7 @@ class Seen:
     def grace(self) -> float:
         """Seconds it must stay as it is before it is judged (0: judged at once)."""
         if not self.registered:
-            return UNREGISTERED_GRACE
+            return UNREGISTERED_GRACE if self.answering else GONE_GRACE
         return UNKNOWN_GRACE if self.node_name == UNKNOWN_NODE else 0.0
 
 

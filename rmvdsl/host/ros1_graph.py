@@ -15,6 +15,7 @@ the topic.
 
 from __future__ import annotations
 
+import dataclasses
 import http.client
 import xmlrpc.client
 from collections.abc import Iterable
@@ -97,7 +98,7 @@ def read(master_uri: str, caller: str, timeout: float = TIMEOUT) -> Graph:
     for (topic, role), names in sorted(registered.items()):
         for node in sorted(names):
             graph.registered.append(Seen(topic, role, *split_name(node), node.encode()))
-    graph.unregistered = _unregistered(registered, uris, buses)
+    graph.unregistered = _answering(caller, _unregistered(registered, uris, buses), timeout)
     return graph
 
 
@@ -149,7 +150,7 @@ def _unregistered(
             if direction == "i":
                 if address(peer) in publishers.get(topic, set()):
                     continue
-                name, role = address(peer), "publisher"
+                name, role = peer, "publisher"  # its XML-RPC URI, named by its address
             elif direction == "o":
                 if peer in registered.get((topic, "subscriber"), set()):
                     continue
@@ -158,3 +159,31 @@ def _unregistered(
                 continue
             found[(topic, role, name)] = Seen(topic, role, "", name, name.encode(), False)
     return [found[key] for key in sorted(found)]
+
+
+def _answering(caller: str, seen: list[Seen], timeout: float) -> list[Seen]:
+    """The unregistered peers, each publisher's (named by its XML-RPC URI) asked
+    whether it is still there and named by its address: a stopped node's
+    connection, which its subscriber retries for a while, is told from a live
+    peer that skipped the master."""
+    uris = sorted({s.node_name for s in seen if s.role == "publisher"})
+
+    def answers(uri: str) -> bool:
+        try:
+            _call(proxy(uri, timeout).getPid, caller)
+            return True
+        except (OSError, xmlrpc.client.Error, MasterError, ValueError):
+            return False
+
+    live = {}
+    if uris:
+        with ThreadPoolExecutor(max_workers=min(16, len(uris))) as pool:
+            live = dict(zip(uris, pool.map(answers, uris), strict=True))
+    found = []
+    for endpoint in seen:
+        if endpoint.role == "publisher":
+            name = address(endpoint.node_name)
+            endpoint = dataclasses.replace(endpoint, node_name=name, gid=name.encode(),
+                                           answering=live[endpoint.node_name])  # fmt: skip
+        found.append(endpoint)
+    return found

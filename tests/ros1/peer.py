@@ -1,8 +1,10 @@
 """A ROS 1 node for the intrusion tests: `peer.py NAME publisher|subscriber TOPIC`
 publishes geometry_msgs/Twist at 20 Hz on TOPIC, or subscribes to it, until
-SIGINT or SIGTERM; `peer.py NAME sneak TOPIC SUBSCRIBER` advertises TOPIC,
-unregisters it from the master, and hands its address straight to SUBSCRIBER
-(its `publisherUpdate`), which connects though the master never says so."""
+SIGINT or SIGTERM; `peer.py NAME quiet TOPIC` advertises TwistStamped on it and
+sends nothing (the soak's publishers that come and go); `peer.py NAME sneak TOPIC
+SUBSCRIBER` advertises TOPIC, unregisters it from the master, and hands its address
+straight to SUBSCRIBER (its `publisherUpdate`), which connects though the master
+never says so."""
 
 from __future__ import annotations
 
@@ -13,7 +15,7 @@ import xmlrpc.client
 
 import rosgraph
 import rospy
-from geometry_msgs.msg import Twist
+from geometry_msgs.msg import Twist, TwistStamped
 
 
 def main() -> None:
@@ -24,6 +26,9 @@ def main() -> None:
         signal.signal(number, lambda *_: stop.set())
     if role == "subscriber":
         rospy.Subscriber(topic, Twist, lambda _: None)
+        stop.wait()
+    elif role == "quiet":  # advertises the soak's type and sends nothing
+        rospy.Publisher(topic, TwistStamped, queue_size=10)
         stop.wait()
     else:
         publisher = rospy.Publisher(topic, Twist, queue_size=10)

@@ -32,10 +32,10 @@ from typing import Any
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from drive_soak import rss_kib  # this folder: the scripts run from it
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
+from soaking import rss_kib  # this folder: the scripts run from it
 from std_msgs.msg import String
 
 INTRUDER = Path(__file__).resolve().parent / "intruder.py"
