@@ -171,7 +171,8 @@ def judge(seconds: float, seen: dict[str, Any], spec: Path, recording: Path) -> 
         "seconds": seconds, "messages_sent": len(seen["sent"]),
         "verdict_segments": len(from_node),
         "verdicts_equal_replay": _by_property(from_node) == _by_property(from_replay),
-        "false_alarms": len(false_alarms), "rogues": len(latencies),
+        "false_alarms": len(false_alarms), "false_alarm_reports": false_alarms[:10],
+        "rogues": len(latencies),
         "rogue_latency_max_s": max((x for x in latencies if x is not None), default=None),
         "rogue_latency_median_s": statistics.median(x for x in latencies if x is not None)
         if any(x is not None for x in latencies) else None,

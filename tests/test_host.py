@@ -452,3 +452,55 @@ def test_a_connection_to_a_peer_that_is_gone_waits_longer_than_a_live_sneak(tmp_
     assert set(found) == {ros1_graph.address(sneak), ros1_graph.address(gone)}
     assert found[ros1_graph.address(sneak)].grace == intrusion.UNREGISTERED_GRACE
     assert found[ros1_graph.address(gone)].grace == intrusion.GONE_GRACE
+
+
+def test_a_departed_endpoint_s_connection_is_still_that_endpoint():
+    """ROS 1: the soak found a publisher that never writes keeping a connection to
+    a subscriber that had left, and subscribers retrying a publisher that had
+    stopped, each reported as skipping the master. A connection of an endpoint the
+    master listed in an earlier poll is that endpoint still, by its name, while it
+    lasts (an allowed one stays allowed, a refused one refused); one the master
+    never listed is a peer that skipped it."""
+    from xmlrpc.server import SimpleXMLRPCServer
+
+    from rmvdsl.host import ros1_graph
+
+    def serve(functions: dict) -> str:
+        server = SimpleXMLRPCServer(("127.0.0.1", 0), logRequests=False, allow_none=True)
+        for name, function in functions.items():
+            server.register_function(function, name)
+        threading.Thread(target=server.serve_forever, daemon=True).start()
+        return f"http://127.0.0.1:{server.server_address[1]}/"
+
+    talker = serve({"getPid": lambda caller: [1, "", 1]})  # a publisher that left
+    quiet_connections = [[1, "/listener", "o", "TCPROS", "/cmd", True, ""]]
+    reader_connections = [[2, talker, "i", "TCPROS", "/cmd", True, ""]]
+    quiet = serve({"getBusInfo": lambda caller: [1, "", quiet_connections]})
+    reader = serve({"getBusInfo": lambda caller: [1, "", reader_connections]})
+    uris = {"/quiet": quiet, "/reader": reader, "/talker": talker, "/listener": quiet}
+    listed = [[["/cmd", ["/quiet", "/talker"]]], [["/cmd", ["/reader", "/listener"]]], []]
+    left = [[["/cmd", ["/quiet"]]], [["/cmd", ["/reader"]]], []]
+    state = list(listed)
+    master = serve({
+        "getSystemState": lambda caller: [1, "", state],
+        "lookupNode": lambda caller, node: [1, "", uris[node]] if node in uris
+                                           else [-1, "unknown node", ""],
+    })  # fmt: skip
+
+    def endpoints(graph: ros1_graph.Graph) -> set[tuple[str, str, bool]]:
+        return {(s.node, s.role, s.registered) for s in graph.registered + graph.unregistered}
+
+    graph = ros1_graph.Reader(master, "/rmv_intrusion")
+    everyone = endpoints(graph.read())
+    assert ("/talker", "publisher", True) in everyone and (
+        "/listener",
+        "subscriber",
+        True,
+    ) in everyone
+    state[:] = left  # talker and listener left; their connections linger
+    assert endpoints(graph.read()) == everyone
+    assert endpoints(graph.read()) == everyone
+    reader_connections.clear()  # the talker's connection ends: the talker is gone
+    assert ("/talker", "publisher", True) not in endpoints(graph.read())
+    never = ros1_graph.Reader(master, "/rmv_intrusion").read()
+    assert {(s.node, s.role) for s in never.unregistered} == {("/listener", "subscriber")}

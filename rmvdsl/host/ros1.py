@@ -173,12 +173,12 @@ class IntrusionNode:
         own = (rospy.get_name(), str(parameter("monitor_node", "/" + monitor.NODE_NAME)))
         self.watch = intrusion.IntrusionWatch(spec, node_actions(spec), own, ros_version=1)
         self.diagnostics = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=10)
-        self.master = rosgraph.get_master_uri()
+        self.graph = ros1_graph.Reader(rosgraph.get_master_uri(), rospy.get_name())
         self.unreachable = False
 
     def poll(self) -> None:
         try:
-            graph = ros1_graph.read(self.master, rospy.get_name())
+            graph = self.graph.read()
         except ros1_graph.MasterError as error:
             if not self.unreachable:
                 rospy.logerr(str(error))

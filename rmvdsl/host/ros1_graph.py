@@ -42,6 +42,42 @@ class Graph:
     registered: list[Seen] = field(default_factory=list)
     unregistered: list[Seen] = field(default_factory=list)
     stale: list[str] = field(default_factory=list)
+    # What the master listed, as a connection names it: (topic, "publisher", the
+    # publisher's address) and (topic, "subscriber", the subscriber's name); each
+    # with the node's name.
+    listed: dict[tuple[str, str, str], str] = field(default_factory=dict)
+
+
+class Reader:
+    """The graph, poll after poll. A connection of an endpoint the master listed in
+    an earlier poll and no longer lists is that endpoint still, judged by its name,
+    while the connection lasts: a node leaving, a subscriber retrying a publisher
+    that stopped, a publisher that never writes again and so never notices that its
+    subscriber left. None of them skipped the master; an endpoint the spec refused
+    stays refused until its last connection ends."""
+
+    def __init__(self, master_uri: str, caller: str, timeout: float = TIMEOUT) -> None:
+        self.master_uri, self.caller, self.timeout = master_uri, caller, timeout
+        # listed now, or departed and still connected: key -> the node's name
+        self.listed: dict[tuple[str, str, str], str] = {}
+
+    def read(self) -> Graph:
+        graph = read(self.master_uri, self.caller, self.timeout)
+        departed, unregistered = {}, []
+        for seen in graph.unregistered:
+            node = self.listed.get(key := _key(seen))
+            if node is None:
+                unregistered.append(seen)
+                continue
+            departed[key] = node
+            graph.registered.append(Seen(seen.topic, seen.role, *split_name(node), node.encode()))
+        graph.unregistered = unregistered
+        self.listed = {**graph.listed, **departed}
+        return graph
+
+
+def _key(seen: Seen) -> tuple[str, str, str]:
+    return seen.topic, seen.role, seen.node_name
 
 
 class _Transport(xmlrpc.client.Transport):
@@ -98,6 +134,8 @@ def read(master_uri: str, caller: str, timeout: float = TIMEOUT) -> Graph:
     for (topic, role), names in sorted(registered.items()):
         for node in sorted(names):
             graph.registered.append(Seen(topic, role, *split_name(node), node.encode()))
+            named = address(uris[node]) if role == "publisher" and node in uris else node
+            graph.listed[(topic, role, named)] = node
     graph.unregistered = _answering(caller, _unregistered(registered, uris, buses), timeout)
     return graph
 
