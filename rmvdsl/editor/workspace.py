@@ -133,48 +133,62 @@ class Completion:
 
 def _enclosing_block(before: str) -> str | None:
     """The kind of block the cursor is in (`database`, `qos`, `property`, ...):
-    the word that opens the line of the innermost unclosed `{`."""
+    the word that opens the line of the innermost unclosed `{` (`before`: the
+    declaration up to the cursor). It jumps from brace to brace."""
     depth = 0
-    for index in range(len(before) - 1, -1, -1):
-        char = before[index]
-        if char == "}":
+    index = len(before)
+    while True:
+        index = max(before.rfind("{", 0, index), before.rfind("}", 0, index))
+        if index < 0:
+            return None
+        if before[index] == "}":
             depth += 1
-        elif char == "{":
-            if depth == 0:
-                line = before[before.rfind("\n", 0, index) + 1 : index]
-                if re.search(r"\bqos\s*$", line):
-                    return "qos"
-                opener = _OPENER.match(line)
-                return opener.group(1) if opener else None
-            depth -= 1
-    return None
+            continue
+        if depth == 0:
+            line = before[before.rfind("\n", 0, index) + 1 : index]
+            if re.search(r"\bqos\s*$", line):
+                return "qos"
+            opener = _OPENER.match(line)
+            return opener.group(1) if opener else None
+        depth -= 1
 
 
-def completions(result: CheckResult | None, text: str, offset: int) -> list[Completion]:
+def completions(
+    result: CheckResult | None, text: str, offset: int, path: str | None = None
+) -> list[Completion]:
     """What may be written at `offset`, from the most specific context out: a
     setting's values after `key =` and the settings of the block at a line's start;
     message types after `topic Name:`; a message's fields after `topic.` segment by
     segment; else what the grammar accepts there (its keywords and, where a name
-    may stand, the names in scope and InfluxQL's functions)."""
-    word = _WORD_TAIL.search(text, 0, offset)
+    may stand, the names in scope and InfluxQL's functions). `path`: the file the
+    text is of, whose last scan is then reused (an editor's)."""
+    from rmvdsl.grammar.parser import scan_file
+    from rmvdsl.grammar.scanner import scan
+
+    word = _WORD_TAIL.search(text, text.rfind("\n", 0, offset) + 1, offset)
     start = word.start() if word else offset
-    before = text[:start]
-    line = before[before.rfind("\n") + 1 :]
-    settings = _block_settings(before, line)
+    scanned = scan_file(path, text) if path is not None else scan(text[:start])
+    # The declaration the cursor is in (blocks never span two). A chunk starting
+    # at `start` is the word being completed: what came before decides, as a scan
+    # of the text before it says.
+    chunk = max((c for c, _ in scanned.chunks if c < start), default=0)
+    line_start = text.rfind("\n", 0, start) + 1
+    line = text[line_start:start]
+    settings = _block_settings(text[chunk:start], line)
     if settings is not None:
         return settings
-    if _MESSAGE_TYPE.match(text[before.rfind("\n") + 1 : offset]):
+    if _MESSAGE_TYPE.match(text[line_start:offset]):
         return _message_types(result)
-    path = _FIELD_PATH.search(line)
-    if path is not None and result is not None and path.group(1) in result.model.topics:
-        return _fields(result, path.group(1), path.group(2))
-    return _grammar_completions(result, text, start)
+    field_path = _FIELD_PATH.search(line)
+    if field_path is not None and result is not None and field_path.group(1) in result.model.topics:
+        return _fields(result, field_path.group(1), field_path.group(2))
+    return _grammar_completions(result, text, chunk, start)
 
 
-def _block_settings(before: str, line: str) -> list[Completion] | None:
+def _block_settings(declaration: str, line: str) -> list[Completion] | None:
     from rmvdsl.lang import builtins
 
-    block = _enclosing_block(before)
+    block = _enclosing_block(declaration)
     settings = builtins.BLOCKS.get(block) if block else None
     if settings is None:
         return None
@@ -220,16 +234,17 @@ def _fields(result: CheckResult, topic: str, path: str) -> list[Completion]:
     return found
 
 
-def _grammar_completions(result: CheckResult | None, text: str, start: int) -> list[Completion]:
+def _grammar_completions(
+    result: CheckResult | None, text: str, chunk: int, start: int
+) -> list[Completion]:
     from rmvdsl.grammar.grammars import accepted_words
-    from rmvdsl.grammar.scanner import TOP_LEVEL_KEYWORDS, scan
+    from rmvdsl.grammar.scanner import TOP_LEVEL_KEYWORDS
     from rmvdsl.lang import builtins
 
-    chunk = max((c for c, _ in scan(text[:start]).chunks if c <= start), default=0)
     accepted = accepted_words(text, chunk, start)
     words, names = accepted if accepted is not None else (frozenset(), True)
     line = text[text.rfind("\n", 0, start) + 1 : start]
-    if not line and _enclosing_block(text[:start]) is None:
+    if not line and _enclosing_block(text[chunk:start]) is None:
         # A line's first word outside blocks starts a new declaration (the scanner's
         # rule), whatever the declaration before it lacks.
         words |= TOP_LEVEL_KEYWORDS
@@ -242,7 +257,8 @@ def _grammar_completions(result: CheckResult | None, text: str, start: int) -> l
                   for f in builtins.FUNCTIONS.values()]  # fmt: skip
     if result is not None:
         kinds = _NAMES_IN.get(opener.group(1) if opener else "")
-        found += [Completion(s.name, s.kind.value, s.kind.described())
+        labels = {kind: (kind.value, kind.described()) for kind in Kind}
+        found += [Completion(s.name, *labels[s.kind])
                   for s in result.model.symbols.values()
                   if kinds is None or s.kind in kinds]  # fmt: skip
     return found

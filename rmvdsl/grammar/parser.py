@@ -96,8 +96,14 @@ _LAST_SCANS: Bounded[str, tuple[str, ScanResult]] = Bounded(64)
 
 
 def _scanned(source: SourceFile) -> ScanResult:
-    scanned = scan(source.text, _LAST_SCANS.get(source.path))
-    _LAST_SCANS.put(source.path, (source.text, scanned))
+    return scan_file(source.path, source.text)
+
+
+def scan_file(path: str, text: str) -> ScanResult:
+    """The scan of a file's text, from its last scan (the parse of an editor's
+    previous keystroke, or its completion's): only what an edit changed is scanned."""
+    scanned = scan(text, _LAST_SCANS.get(path))
+    _LAST_SCANS.put(path, (text, scanned))
     return scanned
 
 

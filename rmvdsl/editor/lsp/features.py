@@ -123,7 +123,7 @@ def register(server: RmvServer) -> None:
                 detail=c.detail,
                 documentation=c.doc or None,
             )
-            for c in completions(result, document.source, offset)
+            for c in completions(result, document.source, offset, document.path)
         ]
         return types.CompletionList(is_incomplete=False, items=items)
 
