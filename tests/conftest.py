@@ -1,5 +1,6 @@
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
@@ -100,3 +101,28 @@ def per_property(verdicts: list[dict]) -> dict[str, list[dict]]:
     for verdict in verdicts:
         out.setdefault(verdict["property"], []).append(verdict)
     return out
+
+
+def assert_soaked(seen: dict, seconds: float, replayed: str) -> None:
+    """What a soak (tests/ros2/drive_soak.py, tests/ros1/drive_soak.py) must show:
+    every report names a rogue; every rogue reported within 2 s; the node's verdict
+    segments those of `replayed` (`rmv replay --format jsonl` of what was sent); both
+    nodes' memory grown less than 10% after the first quarter."""
+    assert seen["codes"] == [0, 0], seen.get("log", "")
+    assert seen["reports"] and all("/rogue" in text for text in seen["reports"]), seen["reports"]
+    latencies = seen["latencies"]
+    print(f"{len(seen['sent'])} messages, {len(seen['verdicts'])} verdict segments, rogues "
+          f"reported after {latencies} s")  # fmt: skip
+    assert len(latencies) >= seconds // 14 and all(
+        latency is not None and latency <= 2.0 for latency in latencies
+    ), latencies  # fmt: skip
+    from_replay = [json.loads(line) for line in replayed.splitlines() if '"verdict"' in line]
+    from_node = [json.loads(v) for v in seen["verdicts"]]
+    assert per_property(from_node) == per_property(from_replay)
+    rss = seen["rss"]
+    warm = rss[len(rss) // 4]
+    for index in (1, 2):  # the monitor, the intrusion node
+        growth = rss[-1][index] / warm[index] - 1
+        print(f"RSS of node {index}: {warm[index]} KiB at {warm[0]} s, {rss[-1][index]} KiB at "
+              f"{rss[-1][0]} s ({growth:+.1%})")  # fmt: skip
+        assert growth < 0.10, rss

@@ -425,25 +425,16 @@ def test_a_connection_to_a_peer_that_is_gone_waits_longer_than_a_live_sneak(tmp_
     that skipped the master), after GONE_GRACE when it does not (a node that
     stopped, whose subscriber keeps retrying: the soak found it reported as a
     sneak). A stand-in master and two stand-in nodes, over real XML-RPC."""
-    from xmlrpc.server import SimpleXMLRPCServer
-
     from rmvdsl.host import ros1_graph
 
-    def serve(functions: dict) -> str:
-        server = SimpleXMLRPCServer(("127.0.0.1", 0), logRequests=False, allow_none=True)
-        for name, function in functions.items():
-            server.register_function(function, name)
-        threading.Thread(target=server.serve_forever, daemon=True).start()
-        return f"http://127.0.0.1:{server.server_address[1]}/"
-
-    sneak = serve({"getPid": lambda caller: [1, "", 4711]})
+    sneak = _serve({"getPid": lambda caller: [1, "", 4711]})
     with socket.socket() as probe:  # a port nothing listens on: a node that is gone
         probe.bind(("127.0.0.1", 0))
         gone = f"http://127.0.0.1:{probe.getsockname()[1]}/"
     connections = [[1, sneak, "i", "TCPROS", "/cmd", True, ""],
                    [2, gone, "i", "TCPROS", "/cmd", True, ""]]  # fmt: skip
-    reader = serve({"getBusInfo": lambda caller: [1, "", connections]})
-    master = serve({
+    reader = _serve({"getBusInfo": lambda caller: [1, "", connections]})
+    master = _serve({
         "getSystemState": lambda caller: [1, "", [[], [["/cmd", ["/reader"]]], []]],
         "lookupNode": lambda caller, node: [1, "", reader],
     })  # fmt: skip
@@ -461,27 +452,18 @@ def test_a_departed_endpoint_s_connection_is_still_that_endpoint():
     master listed in an earlier poll is that endpoint still, by its name, while it
     lasts (an allowed one stays allowed, a refused one refused); one the master
     never listed is a peer that skipped it."""
-    from xmlrpc.server import SimpleXMLRPCServer
-
     from rmvdsl.host import ros1_graph
 
-    def serve(functions: dict) -> str:
-        server = SimpleXMLRPCServer(("127.0.0.1", 0), logRequests=False, allow_none=True)
-        for name, function in functions.items():
-            server.register_function(function, name)
-        threading.Thread(target=server.serve_forever, daemon=True).start()
-        return f"http://127.0.0.1:{server.server_address[1]}/"
-
-    talker = serve({"getPid": lambda caller: [1, "", 1]})  # a publisher that left
+    talker = _serve({"getPid": lambda caller: [1, "", 1]})  # a publisher that left
     quiet_connections = [[1, "/listener", "o", "TCPROS", "/cmd", True, ""]]
     reader_connections = [[2, talker, "i", "TCPROS", "/cmd", True, ""]]
-    quiet = serve({"getBusInfo": lambda caller: [1, "", quiet_connections]})
-    reader = serve({"getBusInfo": lambda caller: [1, "", reader_connections]})
+    quiet = _serve({"getBusInfo": lambda caller: [1, "", quiet_connections]})
+    reader = _serve({"getBusInfo": lambda caller: [1, "", reader_connections]})
     uris = {"/quiet": quiet, "/reader": reader, "/talker": talker, "/listener": quiet}
     listed = [[["/cmd", ["/quiet", "/talker"]]], [["/cmd", ["/reader", "/listener"]]], []]
     left = [[["/cmd", ["/quiet"]]], [["/cmd", ["/reader"]]], []]
     state = list(listed)
-    master = serve({
+    master = _serve({
         "getSystemState": lambda caller: [1, "", state],
         "lookupNode": lambda caller, node: [1, "", uris[node]] if node in uris
                                            else [-1, "unknown node", ""],
@@ -504,3 +486,15 @@ def test_a_departed_endpoint_s_connection_is_still_that_endpoint():
     assert ("/talker", "publisher", True) not in endpoints(graph.read())
     never = ros1_graph.Reader(master, "/rmv_intrusion").read()
     assert {(s.node, s.role) for s in never.unregistered} == {("/listener", "subscriber")}
+
+
+def _serve(functions: dict) -> str:
+    """An XML-RPC server on loopback answering `functions` (a stand-in ROS 1 master
+    or node), in a thread of its own; its URI."""
+    from xmlrpc.server import SimpleXMLRPCServer
+
+    server = SimpleXMLRPCServer(("127.0.0.1", 0), logRequests=False, allow_none=True)
+    for name, function in functions.items():
+        server.register_function(function, name)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    return f"http://127.0.0.1:{server.server_address[1]}/"

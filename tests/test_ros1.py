@@ -13,7 +13,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
-from conftest import ROOT, per_property
+from conftest import ROOT, assert_soaked, per_property
 from fleet_recordings import sent_bag
 
 from rmvdsl.check import check
@@ -361,21 +361,6 @@ def test_a_soak_with_nodes_coming_and_going_on_ros1(tmp_path, rmv):
     package = _build(spec, tmp_path / "soak1")
     seen = _drive("drive_soak.py", str(package), str(seconds), home=tmp_path / "run",
                   timeout=seconds + 240)  # fmt: skip
-    assert seen["codes"] == [0, 0], seen["log"]
-    assert seen["reports"] and all("/rogue" in text for text in seen["reports"]), seen["reports"]
-    latencies = seen["latencies"]
-    print(f"{len(seen['sent'])} messages, {len(seen['verdicts'])} verdict segments, rogues "
-          f"reported after {latencies} s")  # fmt: skip
-    assert len(latencies) >= seconds // 14 and all(
-        latency is not None and latency <= 2.0 for latency in latencies
-    ), latencies  # fmt: skip
     bag = sent_bag(tmp_path / "sent", seen["sent"])
     replay = rmv("replay", str(spec), str(bag), "--format", "jsonl")
-    from_replay = [json.loads(line) for line in replay.out.splitlines() if '"verdict"' in line]
-    from_node = [json.loads(v) for v in seen["verdicts"]]
-    assert per_property(from_node) == per_property(from_replay)
-    rss = seen["rss"]
-    warm = rss[len(rss) // 4]
-    for index in (1, 2):  # the monitor, the intrusion node
-        growth = rss[-1][index] / warm[index] - 1
-        assert growth < 0.10, rss
+    assert_soaked(seen, seconds, replay.out)

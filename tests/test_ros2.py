@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from conftest import ROOT, per_property
+from conftest import ROOT, assert_soaked, per_property
 
 from rmvdsl.check import check
 from rmvdsl.host.monitor import BATCH
@@ -543,29 +543,12 @@ def test_a_soak_with_nodes_coming_and_going(specs, workspace, tmp_path, rmv):
     run = rosenv.soak(workspace, tmp_path, seconds, rosenv.DOMAIN + 9)
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-6000:]
     seen = json.loads(run.stdout)
-    assert seen["codes"] == [0, 0]
-    assert seen["reports"] and all("/rogue" in text for text in seen["reports"]), seen["reports"]
-    latencies = seen["latencies"]
-    print(f"{len(seen['sent'])} messages, {len(seen['verdicts'])} verdict segments, rogues "
-          f"reported after {latencies} s")  # fmt: skip
-    # Every rogue reported within 2 s (docs/ros2.md, "Discovery": before the nodes
-    # announced themselves every 0.25 s, one report in five under the suite's load
-    # took up to 3.3 s).
-    assert len(latencies) >= seconds // 14 and all(
-        latency is not None and latency <= 2.0 for latency in latencies
-    ), latencies  # fmt: skip
+    # Every rogue within 2 s (docs/ros2.md, "Discovery": before the nodes announced
+    # themselves every 0.25 s, one report in five under the suite's load took 3.3 s).
     recording = tmp_path / "sent"
     _record(recording, [tuple(m) for m in seen["sent"]], [stamp for stamp, _ in seen["sent"]])
     replay = rmv("replay", str(specs["soak"]), str(recording), "--format", "jsonl")
-    from_node = [json.loads(v) for v in seen["verdicts"]]
-    assert per_property(from_node) == per_property(_verdicts(replay.out))
-    rss = seen["rss"]
-    warm = rss[len(rss) // 4]
-    for index in (1, 2):  # the monitor, the intrusion node
-        growth = rss[-1][index] / warm[index] - 1
-        print(f"RSS of node {index}: {warm[index]} KiB at {warm[0]} s, {rss[-1][index]} KiB at "
-              f"{rss[-1][0]} s ({growth:+.1%})")  # fmt: skip
-        assert growth < 0.10, rss
+    assert_soaked(seen, seconds, replay.out)
 
 
 def test_generated_python_is_lint_clean_and_names_are_quoted(specs, tmp_path):
