@@ -13,8 +13,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
-from conftest import ROOT, assert_soaked, per_property
-from fleet_recordings import sent_bag
+from conftest import ROOT, per_property
 
 from rmvdsl.check import check
 from rmvdsl.ir import lower
@@ -347,20 +346,3 @@ def test_the_kapacitor_collector_on_ros1_stores_every_message(tmp_path):
     status = seen["status"]
     assert status["messages"] == str(sum(recorded[t] for t in spec_topics)), status
     assert not [k for k in status if "dropped" in k or "lost" in k or "damaged" in k], status
-
-
-def test_a_soak_with_nodes_coming_and_going_on_ros1(tmp_path, rmv):
-    """The ROS 2 soak on ROS 1 (tests/ros1/drive_soak.py; 60 s, RMV_SOAK_SECONDS):
-    an /allowed_N publisher or a /listener_N subscriber starts or stops every 2 s, a
-    /rogue publisher comes every 10 s for 4 s. No allowed node is ever reported;
-    every rogue is, within 2 s of the master listing it; the node's verdicts are
-    those of a replay of what was sent; the nodes' memory stays flat after the
-    first quarter."""
-    seconds = float(os.environ.get("RMV_SOAK_SECONDS", "60"))
-    spec = HERE / "soak.rmv"
-    package = _build(spec, tmp_path / "soak1")
-    seen = _drive("drive_soak.py", str(package), str(seconds), home=tmp_path / "run",
-                  timeout=seconds + 240)  # fmt: skip
-    bag = sent_bag(tmp_path / "sent", seen["sent"])
-    replay = rmv("replay", str(spec), str(bag), "--format", "jsonl")
-    assert_soaked(seen, seconds, replay.out)

@@ -17,6 +17,7 @@ from typing import Any
 
 import pytest
 from conftest import ROOT, assert_soaked, per_property
+from fleet_recordings import sent_bag
 
 from rmvdsl.check import check
 from rmvdsl.host.monitor import BATCH
@@ -533,13 +534,16 @@ def test_intruders_are_reported_within_two_seconds(workspace, tmp_path):
     assert seen["code"] == 0, seen["log"]
 
 
-def test_a_soak_with_nodes_coming_and_going(specs, workspace, tmp_path, rmv):
-    """60 s (RMV_SOAK_SECONDS; benchmarks/bench_ros2.py --soak runs 10 minutes): a
-    /player publisher or a /listener subscriber starts or stops every 2 s, a rogue
-    publisher comes every 10 s for 4 s. No allowed node is ever reported; every
-    rogue is; the node's verdicts are those of a replay of what was sent; the
-    nodes' memory stays flat after the first quarter."""
+def test_soaks_with_nodes_coming_and_going_on_ros2_and_ros1(specs, workspace, tmp_path, rmv):
+    """60 s (RMV_SOAK_SECONDS; bench_ros2.py --soak and bench_ros1.py --soak run 10
+    minutes) on ROS 2 and, at the same time (each is a minute of wall clock, light on
+    the processor), on ROS 1 (tests/ros1/drive_soak.py). An allowed publisher or
+    subscriber starts or stops every 2 s, a rogue publisher comes every 10 s for
+    4 s. No allowed node is ever reported; every rogue is, within 2 s; the nodes'
+    verdicts are those of a replay of what was sent; their memory stays flat after
+    the first quarter."""
     seconds = float(os.environ.get("RMV_SOAK_SECONDS", "60"))
+    ros1 = _start_ros1_soak(tmp_path / "ros1", seconds)
     run = rosenv.soak(workspace, tmp_path, seconds, rosenv.DOMAIN + 9)
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-6000:]
     seen = json.loads(run.stdout)
@@ -549,6 +553,33 @@ def test_a_soak_with_nodes_coming_and_going(specs, workspace, tmp_path, rmv):
     _record(recording, [tuple(m) for m in seen["sent"]], [stamp for stamp, _ in seen["sent"]])
     replay = rmv("replay", str(specs["soak"]), str(recording), "--format", "jsonl")
     assert_soaked(seen, seconds, replay.out)
+    seen1, spec1 = _finish_ros1_soak(*ros1)
+    bag = sent_bag(tmp_path / "ros1" / "sent", seen1["sent"])
+    assert_soaked(seen1, seconds, rmv("replay", str(spec1), str(bag), "--format", "jsonl").out)
+
+
+def _start_ros1_soak(folder: Path, seconds: float) -> tuple[Any, Path, Path]:
+    """tests/ros1/drive_soak.py on tests/ros1/soak.rmv's rospy nodes, started."""
+    sys.path.insert(0, str(HERE.parent / "ros1"))
+    import rosenv1
+
+    from rmvdsl.targets import target
+
+    spec = HERE.parent / "ros1" / "soak.rmv"
+    package = folder / "soak1"
+    target("ros1").build(lower(check(str(spec))), package, {})
+    (folder / "logs").mkdir(parents=True)
+    command = [rosenv1.python(), str(HERE.parent / "ros1" / "drive_soak.py"),
+               str(folder / "logs"), str(package), str(seconds)]  # fmt: skip
+    return rosenv1.start(command, folder / "home", folder / "soak"), spec, folder / "soak"
+
+
+def _finish_ros1_soak(process: Any, spec: Path, out: Path) -> tuple[dict, Path]:
+    process.wait(timeout=600)
+    stdout = out.with_suffix(".stdout").read_text()
+    stderr = out.with_suffix(".stderr").read_text()
+    assert process.returncode == 0, stdout[-2000:] + stderr[-4000:]
+    return json.loads(stdout), spec
 
 
 def test_generated_python_is_lint_clean_and_names_are_quoted(specs, tmp_path):
