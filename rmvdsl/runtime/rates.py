@@ -16,8 +16,8 @@ from collections.abc import Iterable
 from fractions import Fraction
 
 from rmvdsl.runtime import spec as ir
-
-NS = 10**9
+from rmvdsl.runtime.records import NS
+from rmvdsl.runtime.values import exact_text
 
 
 class RateLimit:
@@ -50,13 +50,8 @@ class RateLimit:
 
     def words(self) -> str:
         """The declared limit as the spec's reader knows it: `20Hz: 20 in any 1 s`."""
-        seconds = Fraction(self.window_ns, NS)
-        shown = f"{float(seconds):g}" if seconds.denominator != 1 else str(seconds)
-        return f"{_hertz(self.hertz)}Hz: {self.allowed} in any {shown} s"
-
-
-def _hertz(hertz: Fraction) -> str:
-    return str(hertz.numerator) if hertz.denominator == 1 else f"{float(hertz):g}"
+        seconds = exact_text(Fraction(self.window_ns, NS))
+        return f"{exact_text(self.hertz)}Hz: {self.allowed} in any {seconds} s"
 
 
 def window(hertz: Fraction) -> Fraction:
