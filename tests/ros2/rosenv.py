@@ -10,6 +10,7 @@ rmvdsl's environment.
 
 from __future__ import annotations
 
+import fcntl
 import json
 import os
 import re
@@ -52,7 +53,19 @@ def made_venv(
 ) -> str:  # fmt: skip
     """The Python of `venv` with `wheels` installed, made once: a marker written last
     names them, so a changed list or an interrupted making makes it again. `base`
-    is the Python it is made from; `after(venv)` finishes it before the marker."""
+    is the Python it is made from; `after(venv)` finishes it before the marker.
+    Test workers running at once (pytest -n) take turns: one makes it, the others
+    wait on its lock and find it made."""
+    venv.parent.mkdir(parents=True, exist_ok=True)
+    with open(venv.with_name(venv.name + ".lock"), "w", encoding="utf-8") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        return _made_venv(venv, wheels, env, base, system_site, after)
+
+
+def _made_venv(
+    venv: Path, wheels: tuple[str, ...], env: dict[str, str], base: str,
+    system_site: bool, after: Callable[[Path], None] | None,
+) -> str:  # fmt: skip
     binary = venv / "bin" / "python"
     marker = venv / "rmvdsl-wheels.txt"
     wanted = "\n".join(wheels)
