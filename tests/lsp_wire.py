@@ -5,25 +5,80 @@ frames)."""
 
 from __future__ import annotations
 
+import io
 import json
+import os
 import queue
 import subprocess
 import threading
 import time
+import traceback
 from pathlib import Path
 from typing import Any
 
 from conftest import RMV
 
 
+class InProcess:
+    """`rmv lsp`'s server (rmvdsl.editor.lsp.server.build) in a thread, over two
+    pipes, with what of a Popen the Wire reads: stdin, stdout, stderr, poll()."""
+
+    def __init__(self) -> None:
+        from rmvdsl.editor.lsp.server import build
+
+        to_server, from_client = os.pipe()
+        to_client, from_server = os.pipe()
+        self.stdin = os.fdopen(from_client, "wb")
+        self.stdout = os.fdopen(to_client, "rb")
+        self.said = io.BytesIO()  # how the thread ended, if not as asked
+        self.stderr = self  # read() blocks until the server ends, as a pipe would
+        self.returncode: int | None = None
+
+        def serve() -> None:
+            code = 0
+            with os.fdopen(to_server, "rb") as given, os.fdopen(from_server, "wb") as said:
+                try:
+                    build().start_io(given, said)
+                except SystemExit as end:  # `exit`, as `rmv lsp` would
+                    code = end.code if isinstance(end.code, int) else 1
+                except BaseException:  # the server's end, whatever it was, is the report
+                    code = 1
+                    self.said.write(traceback.format_exc().encode())
+            self.returncode = code
+
+        self.thread = threading.Thread(target=serve, name="rmv-lsp", daemon=True)
+        self.thread.start()
+
+    def poll(self) -> int | None:
+        return None if self.thread.is_alive() else self.returncode
+
+    def read(self) -> bytes:
+        self.thread.join()
+        return self.said.getvalue()
+
+    def wait(self, timeout: float | None = None) -> int:
+        self.thread.join(timeout)
+        if self.thread.is_alive():
+            raise subprocess.TimeoutExpired("rmv lsp (in process)", timeout or 0)
+        return self.returncode or 0
+
+    def kill(self) -> None:
+        self.stdin.close()  # the server reads the end of its input and stops
+
+
 class Wire:
     """One server process and what it sent, read by a thread of its own."""
 
-    def __init__(self, cwd: Path | None = None) -> None:
-        self.process = subprocess.Popen(
-            [*RMV, "lsp"], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE, cwd=cwd,
-        )  # fmt: skip
+    def __init__(self, cwd: Path | None = None, in_process: bool = False) -> None:
+        """`rmv lsp` as its own process, or (`in_process`) the same server in a
+        thread of this one: what the LSP fuzz target talks to, so that atheris's
+        coverage of rmvdsl's code guides it."""
+        pipe = subprocess.PIPE
+        self.process: Any = (
+            InProcess()
+            if in_process
+            else subprocess.Popen([*RMV, "lsp"], stdin=pipe, stdout=pipe, stderr=pipe, cwd=cwd)
+        )
         self.inbox: queue.Queue[dict[str, Any] | None] = queue.Queue()
         self.seen: list[dict[str, Any]] = []
         self.next_id = 0

@@ -34,8 +34,10 @@ UNREGISTERED_GRACE = 1.0
 GONE_GRACE = 5.0
 # A registered ROS 1 node that does not answer is stale once it has not answered
 # this long: a node that stops closes its XML-RPC server around the time it
-# unregisters, so one poll may catch it between the two.
-STALE_GRACE = 1.0
+# unregisters, so a poll may catch it between the two, and a busy machine stretches
+# that moment (and a live node's answer) past a second: with 1 s, one of twenty
+# nodes stopping beside a parallel test run was called stale.
+STALE_GRACE = 3.0
 
 
 @dataclass(frozen=True)

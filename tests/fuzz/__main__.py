@@ -106,12 +106,16 @@ def _result(name: str, output: str, code: int, seconds: float) -> dict[str, Any]
     runs = re.findall(r"Done (\d+) runs", output) or re.findall(r"#(\d+)\s", output)
     peak = re.findall(r"stat::peak_rss_mb:\s*(\d+)", output) or re.findall(r"rss: (\d+)Mb", output)
     hang = "libFuzzer: timeout" in output
+    # the code atheris instrumented that the inputs reached: edges, then features
+    coverage = re.findall(r"cov: (\d+) ft: (\d+)", output)
     artifact = re.findall(r"Test unit written to (\S+)", output)
     crashed = code != 0 and not hang
     return {
         "target": name, "engine": "atheris", "inputs": int(runs[-1]) if runs else 0,
         "crashes": int(crashed), "hangs": int(hang), "peak_rss_mb": int(peak[-1]) if peak else None,
         "seconds": round(seconds, 1), "artifact": artifact[-1] if artifact else None,
+        "edges": int(coverage[-1][0]) if coverage else None,
+        "features": int(coverage[-1][1]) if coverage else None,
         "output": output[-4000:] if (crashed or hang) else "",
     }  # fmt: skip
 

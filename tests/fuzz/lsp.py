@@ -1,14 +1,18 @@
-"""The LSP target: one `rmv lsp` process for the whole run, each input a sequence
+"""The LSP target: one `rmv lsp` server for the whole run, each input a sequence
 of what an editor (or a broken one) may send, read from the input's bytes: edits
 at any range, whole texts, requests at any position, cancellations, closes and
 opens, and raw frames. After each input every request must have its answer, and
-no answer may be an internal error (-32603) nor any message a server error: the
-server is a process of its own, so the fuzzer is guided by this harness's
-coverage only, not the server's."""
+no answer may be an internal error (-32603) nor any message a server error.
+
+The server is `rmv lsp`'s (rmvdsl.editor.lsp.server.build), run in a thread of
+the fuzzing process over two pipes: its code is instrumented as the harness's is,
+so atheris's coverage of the server guides the inputs. Its stdio process is what
+the edge tests and the editor clients' tests (tests/test_lsp*.py) talk to."""
 
 from __future__ import annotations
 
 import json
+import logging
 from pathlib import Path
 from typing import Any
 
@@ -52,7 +56,10 @@ class Bytes:
 def prepare(folder: Path) -> OneInput:
     from lsp_wire import Wire
 
-    wire = Wire(cwd=folder)
+    # The server's log reports each request it refused (bad params): written by
+    # the thousand, and judged here from the answers instead.
+    logging.getLogger("pygls").setLevel(logging.CRITICAL)
+    wire = Wire(cwd=folder, in_process=True)
     wire.initialize(folder)
     path = folder / "doc.rmv"
     seed = (EXAMPLES / "carla" / "abs.rmv").read_text(encoding="utf-8")
@@ -61,7 +68,8 @@ def prepare(folder: Path) -> OneInput:
 
     def one(data: bytes) -> None:
         if wire.process.poll() is not None:
-            raise Crash(f"the server ended ({wire.process.returncode}): {wire.stderr[-2000:]!r}")
+            said = wire.stderr[-2000:].decode(errors="replace")
+            raise Crash(f"the server ended ({wire.process.returncode}): {said}")
         mark, asked = len(wire.seen), []
         ops = Bytes(data)
         while ops.left():

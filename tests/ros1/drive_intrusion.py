@@ -105,7 +105,7 @@ def main() -> None:
             victim.send_signal(signal.SIGKILL)
             victim.wait()
             steps["victim killed"] = time.monotonic()
-            time.sleep(3.0)
+            time.sleep(5.0)  # past its stale grace (3 s) and a poll
         finally:
             for process in peers:
                 core.stop(process)
