@@ -9,9 +9,11 @@ import re
 
 import pytest
 from conftest import EXAMPLES
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from rmvdsl.check import check
-from rmvdsl.editor import workspace
+from rmvdsl.editor import ranking, workspace
 from rmvdsl.editor.workspace import completions
 from rmvdsl.grammar.scanner import scan
 
@@ -69,3 +71,57 @@ def test_the_enclosing_block_is_found_within_the_declaration(spec):
         chunk = max((c for c, _ in scan(text[:start]).chunks if c < start), default=0)
         found = workspace._enclosing_block(text[chunk:start])
         assert found == _walked_block(text[:start]), offset
+
+
+# ---- what of a long list an editor is sent (rmvdsl.editor.ranking) ----
+
+
+def test_a_short_list_is_sent_whole_for_the_editor_to_filter():
+    labels = ["event", "var", "Speed", "mean"]
+    assert ranking.shortlist(labels, labels, "Sp") == (labels, False)
+
+
+def test_a_long_list_sends_the_best_matches_of_the_word_and_asks_to_be_asked_again():
+    labels = ["event", "every", *(f"V{n}" for n in range(2000)), "average_V1"]
+    sent, cut = ranking.shortlist(labels, labels, "V1")
+    assert cut and len(sent) == ranking.LIMIT
+    assert sent[:12] == ["V1", *(f"V1{d}" for d in range(10)), "V100"]
+    assert "event" not in sent  # no V then 1 in it
+    assert "average_V1" not in sent  # 1,111 names start with V1
+    # lower case finds the names too, after any written as typed
+    sent, _ = ranking.shortlist(labels, labels, "v1")
+    assert sent[:2] == ["V1", "V10"]
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.lists(st.text("aAbB_1", min_size=1, max_size=5), max_size=30),
+    st.text("aAbB1", max_size=3),
+    st.integers(1, 20),
+)
+def test_nothing_that_matches_better_is_left_out(labels, word, limit):
+    sent, cut = ranking.shortlist(labels, labels, word, limit)
+    if not cut:
+        assert sent == labels
+        return
+    assert len(labels) > limit and len(sent) <= limit
+    assert all(_in_order(word.lower(), s.lower()) for s in sent)
+    matching = [label for label in labels if _in_order(word.lower(), label.lower())]
+    if len(matching) <= limit:
+        assert sorted(sent) == sorted(matching)
+    # those starting with the word as typed come first, the shorter first
+    starting = sorted((label for label in labels if label.startswith(word)), key=len)
+    head = min(len(starting), limit)
+    assert sent[:head] == starting[:head]
+
+
+def _in_order(letters: str, label: str) -> bool:
+    rest = iter(label)
+    return all(letter in rest for letter in letters)
+
+
+def test_the_typed_word_is_the_name_written_before_the_cursor():
+    text = "event E when Sp\n  V1"
+    assert ranking.typed_word(text, 15) == "Sp"
+    assert ranking.typed_word(text, 16) == ""
+    assert ranking.typed_word(text, len(text)) == "V1"

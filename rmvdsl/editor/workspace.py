@@ -19,6 +19,7 @@ from rmvdsl.check import CheckResult, check
 from rmvdsl.check.loader import read_text
 from rmvdsl.check.model import BOOLEAN_KINDS, EVENT_KINDS, PROPOSITION_KINDS, Kind, Model, Symbol
 from rmvdsl.editor.mentions import Mention
+from rmvdsl.editor.ranking import typed_word
 from rmvdsl.lang.source import SourceFile, Span
 
 __all__ = [
@@ -118,7 +119,6 @@ _SETTING_VALUE = re.compile(r"^\s*(\w+)\s*=\s*$")
 _MESSAGE_TYPE = re.compile(r"^\s*topic\s+\w+\s*:\s*[\w/]*$")
 _FIELD_PATH = re.compile(r"\b([A-Za-z_]\w*)((?:\.[A-Za-z_]\w*(?:\[[^\]\n]*\])?)*)\.$")
 _SEGMENT = re.compile(r"\.([A-Za-z_]\w*)(\[[^\]\n]*\])?")
-_WORD_TAIL = re.compile(r"[A-Za-z0-9_]*\Z")
 # Where InfluxQL's functions may be called.
 _WITH_FUNCTIONS = frozenset({"event", "alert", "var"})
 
@@ -165,8 +165,7 @@ def completions(
     from rmvdsl.grammar.parser import scan_file
     from rmvdsl.grammar.scanner import scan
 
-    word = _WORD_TAIL.search(text, text.rfind("\n", 0, offset) + 1, offset)
-    start = word.start() if word else offset
+    start = offset - len(typed_word(text, offset))
     scanned = scan_file(path, text) if path is not None else scan(text[:start])
     # The declaration the cursor is in (blocks never span two). A chunk starting
     # at `start` is the word being completed: what came before decides, as a scan

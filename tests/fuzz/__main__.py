@@ -91,7 +91,8 @@ def _run_all(names: list[str], args: argparse.Namespace) -> list[dict[str, Any]]
             said = output.read()
             output.close()
             shutil.rmtree(scratch, ignore_errors=True)  # libFuzzer's exit skips the child's
-            done.append(_result(name, said, process.returncode, time.monotonic() - started))
+            result = _result(name, said, process.returncode, time.monotonic() - started)
+            done.append({**result, "hang_limit_s": _hang_limit(name, args.timeout)})
     return sorted(done, key=lambda r: names.index(r["target"]))
 
 
@@ -144,6 +145,7 @@ def _child(args: argparse.Namespace) -> int:
     from fuzz.mutating import run_hypothesis
 
     prepare = target.prepare if target else _lsp_prepare
+    args.timeout = _hang_limit(args.target, args.timeout)
     result = run_hypothesis(args.target, prepare(_folder(scratch / "work")), seeds, args)
     print("RMV-FUZZ-RESULT " + json.dumps(result), flush=True)
     return 0 if result["crashes"] == result["hangs"] == 0 else 1
@@ -173,7 +175,8 @@ def _with_atheris(
     if not seeds:
         (corpus / "seed").write_bytes(b"\x00" * 8 + b"\x03\x10\x05\x07\x03\x20\x10\x04")
     artifacts = _folder(known.REGRESSIONS / args.target)
-    flags = [f"-runs={args.runs}", f"-timeout={max(1, round(args.timeout))}",
+    hang = max(1, round(_hang_limit(args.target, args.timeout)))
+    flags = [f"-runs={args.runs}", f"-timeout={hang}",
              "-rss_limit_mb=4096", "-print_final_stats=1", "-max_len=8192",
              f"-artifact_prefix={artifacts}/", str(corpus)]  # fmt: skip
     if args.seconds:
@@ -187,6 +190,12 @@ def _with_atheris(
     return 0
 
 
+def _hang_limit(name: str, timeout: float) -> float:
+    """Seconds over which an input of target `name` counts as a hang."""
+    target = _target(name)
+    return timeout * (target.patience if target else 1.0)
+
+
 def _dict_escaped(word: str) -> str:
     """A libFuzzer dictionary entry's text: printable ASCII but the quote and the
     backslash as is, every other byte as \\xNN."""
@@ -196,14 +205,22 @@ def _dict_escaped(word: str) -> str:
 
 
 def _import_everything() -> None:
-    """rmv's modules, imported inside the instrumentation (the CLI imports each
-    command's module only when it runs)."""
+    """Every module of rmvdsl, imported inside the instrumentation: atheris
+    instruments a module when it is first imported, and the CLI imports what a
+    command needs only when it runs (the checker, the runtime, the readers), which
+    is after the instrumentation has ended. The modules of the ROS hosts import
+    rclpy or rospy, which only a ROS node's environment has."""
     import importlib
+    import pkgutil
 
-    from rmvdsl.cli import COMMANDS
+    import rmvdsl
 
-    for module, _ in COMMANDS.values():
-        importlib.import_module(f"rmvdsl.commands.{module}")
+    for module in pkgutil.walk_packages(rmvdsl.__path__, "rmvdsl."):
+        try:
+            importlib.import_module(module.name)
+        except ImportError:
+            if not module.name.startswith("rmvdsl.host."):
+                raise
 
 
 def _folder(path: Path) -> Path:

@@ -11,6 +11,7 @@ from rmvdsl.check.model import Kind, Model, Symbol
 from rmvdsl.editor.lsp import convert
 from rmvdsl.editor.lsp.session import RmvServer
 from rmvdsl.editor.mentions import describe, same
+from rmvdsl.editor.ranking import shortlist, typed_word
 from rmvdsl.editor.workspace import (
     TOKEN_TYPES,
     completions,
@@ -116,6 +117,9 @@ def register(server: RmvServer) -> None:
         # typing. Only a document with no check yet waits for its first.
         result = ls.state.results.get(document.path) or await ls.analysed(params.text_document.uri)
         offset = convert.offset_at(document, params.position)
+        found = completions(result, document.source, offset, document.path)
+        word = typed_word(document.source, offset)
+        sent, cut = shortlist(found, [c.label for c in found], word)
         items = [
             types.CompletionItem(
                 label=c.label,
@@ -123,9 +127,9 @@ def register(server: RmvServer) -> None:
                 detail=c.detail,
                 documentation=c.doc or None,
             )
-            for c in completions(result, document.source, offset, document.path)
+            for c in sent
         ]
-        return types.CompletionList(is_incomplete=False, items=items)
+        return types.CompletionList(is_incomplete=cut, items=items)
 
     @server.feature(types.TEXT_DOCUMENT_RENAME)
     async def rename_symbol(
