@@ -47,7 +47,8 @@ def main(argv: list[str] | None = None) -> int:
         print(_line(result))
     if args.json:
         total = {k: sum(r[k] for r in results) for k in ("inputs", "crashes", "hangs")}
-        document = {"engine": results[0]["engine"] if results else None, "targets": results,
+        document = {"command": "python -m tests.fuzz " + " ".join(argv or sys.argv[1:]),
+                    "engine": results[0]["engine"] if results else None, "targets": results,
                     "total": total, "timeout_s": args.timeout}  # fmt: skip
         args.json.write_text(json.dumps(document, indent=2) + "\n", encoding="utf-8")
     return 0 if all(r["crashes"] == r["hangs"] == 0 for r in results) else 1
