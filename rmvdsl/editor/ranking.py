@@ -30,11 +30,12 @@ def typed_word(text: str, offset: int) -> str:
 def shortlist(
     items: Sequence[T], labels: Sequence[str], word: str, limit: int = LIMIT
 ) -> tuple[list[T], bool]:
-    """`items` (labelled `labels`) as sent for `word`, at most `limit`, and whether the editor must
-    ask again as the word grows (the list was cut). Cut lists hold the labels in
-    which the word's letters appear in order, whatever their case (what editors
-    match), those starting with the word first, then the shorter: of `V1` typed in
-    600 names `V0`..`V599`, `V1` itself, then `V10`..`V19`, then `V100`..."""
+    """`items` (labelled `labels`) as sent for `word`, at most `limit`, and
+    whether the editor must ask again as the word grows (the list was cut). Cut
+    lists hold the labels in which the word's letters appear in order, whatever
+    their case (what editors match), those starting with the word first, then the
+    shorter: of `V1` typed among 2,000 names `V0`..`V1999`, `V1` itself, then
+    `V10`..`V19`, then `V100`..."""
     if len(items) <= limit:
         return list(items), False
     wanted = word.lower()
