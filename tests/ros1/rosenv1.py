@@ -67,8 +67,10 @@ def run(command: list[str], home: Path, timeout: float = 300) -> subprocess.Comp
 def start(command: list[str], home: Path, out: Path) -> subprocess.Popen[str]:
     """Start `command` isolated, with ROS 1's variables, its output to the files
     `out`.stdout and `out`.stderr (a pipe nobody reads while it runs could fill)."""
-    stdout = out.with_suffix(".stdout").open("w")
-    stderr = out.with_suffix(".stderr").open("w")
-    return subprocess.Popen(
-        isolated(command), env=environment(home), stdout=stdout, stderr=stderr, text=True
-    )
+    with (
+        out.with_suffix(".stdout").open("w") as stdout,
+        out.with_suffix(".stderr").open("w") as stderr,
+    ):  # the child keeps its own copies
+        return subprocess.Popen(
+            isolated(command), env=environment(home), stdout=stdout, stderr=stderr, text=True
+        )

@@ -21,21 +21,24 @@ from rmvdsl.editor.lsp.session import RmvServer
 SWITCH_INTERVAL = 0.0005  # seconds
 
 
-def build() -> RmvServer:
-    """The server with every feature registered."""
+def build(own_process: bool = False) -> RmvServer:
+    """The server with every feature registered. `own_process`: the process is the
+    server's alone (`rmv lsp`), so the server may tune the whole interpreter's
+    garbage collector; not when it runs beside other code (the LSP fuzz target)."""
     server = RmvServer()
 
     @server.feature(types.TEXT_DOCUMENT_DID_OPEN)
     async def did_open(ls: RmvServer, params: types.DidOpenTextDocumentParams) -> None:
         await ls.refresh(params.text_document.uri)
-        # What a first check built (parsed declarations, message definitions) lives
-        # as long as the document: kept out of the collector's full sweeps, which
-        # otherwise stall one keystroke in twenty by 50 ms on a 2,000-line spec.
-        # Unfrozen first, so what earlier documents left behind is collected, not
-        # kept for ever. (Only `rmv lsp`'s own process builds this server.)
-        gc.unfreeze()
-        gc.collect()
-        gc.freeze()
+        if own_process:
+            # What a first check built (parsed declarations, message definitions)
+            # lives as long as the document: kept out of the collector's full
+            # sweeps, which otherwise stall one keystroke in twenty by 50 ms on a
+            # 2,000-line spec. Unfrozen first, so what earlier documents left behind
+            # is collected, not kept for ever.
+            gc.unfreeze()
+            gc.collect()
+            gc.freeze()
 
     @server.feature(types.TEXT_DOCUMENT_DID_CHANGE)
     async def did_change(ls: RmvServer, params: types.DidChangeTextDocumentParams) -> None:
@@ -68,4 +71,4 @@ def main() -> None:
     # waits until the holder's switch interval ends, at every read and write of a
     # request. 5 ms by default; at 0.5 ms a request typed beside a check waits less.
     sys.setswitchinterval(SWITCH_INTERVAL)
-    build().start_io()
+    build(own_process=True).start_io()
