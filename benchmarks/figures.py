@@ -199,6 +199,27 @@ def sat_requirements(data: dict[str, Any]) -> str:
     return _table(header, rows)
 
 
+def timescales(data: dict[str, Any]) -> str:
+    rows = []
+    for row in data["results"]:
+        ours, discrete, dense = row["rmv eval"], row["reelay discrete"], row["reelay dense"]
+        rows.append([
+            row["pattern"], f"{row['rows']:,}", f"{ours['cpu_s']:.2f}",
+            f"{discrete['cpu_s']:.2f}", f"{dense['cpu_s']:.2f}",
+            f"{ours['cpu_s'] / discrete['cpu_s']:.2f}x", f"{ours['cpu_s'] / dense['cpu_s']:.2f}x",
+            f"{ours['peak_mb']:.0f} / {discrete['peak_mb']:.0f} / {dense['peak_mb']:.0f}",
+            f"{row['false rows']} ({row['rows false in dense time']})",
+        ])  # fmt: skip
+    note = (
+        f"Bounds {data['lower']} and {data['upper']}; CPU seconds of each whole process "
+        f"(user and system), best of {data['repeat']}:\n\n"
+    )
+    header = ["pattern", "rows", "rmv eval", "reelay discrete", "reelay dense",
+              "/ discrete", "/ dense", "peak MB (ours / discrete / dense)",
+              "false rows (in dense time)"]  # fmt: skip
+    return note + _table(header, rows)
+
+
 # block name -> (results file, renderer)
 BLOCKS: dict[str, tuple[str, Callable[[dict[str, Any]], str]]] = {
     "monitor-per-sample": ("monitor.json", monitor_per_sample),
@@ -211,6 +232,7 @@ BLOCKS: dict[str, tuple[str, Callable[[dict[str, Any]], str]]] = {
     "check-scaling": ("check.json", check_scaling),
     "sat-families": ("sat.json", sat_families),
     "sat-requirements": ("sat.json", sat_requirements),
+    "timescales": ("timescales.json", timescales),
 }
 
 

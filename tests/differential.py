@@ -145,6 +145,7 @@ def make_case(seed: int) -> Case:
         formula = rng.choice([
             f"not ({a} and {b})", f"always[<=1s] not {a}", f"{a} -> {b}", f"not {a}",
             f"eventually[<=1s] {a}", f"duration[1s]({a}) < 0.5s", f"{a} or not {b}",
+            f"{a} -> once {b}", f"historically not {a}", f"{a} since {b}",
         ])  # fmt: skip
         settings = []
         if rng.random() < 0.2:

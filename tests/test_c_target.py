@@ -61,6 +61,8 @@ def random_formula(rng: random.Random, names: list[str], depth: int) -> Any:
         return (kind, sub(), sub())
     if kind in ("until", "since"):
         left = ("const", True) if rng.random() < 0.3 else sub()
+        if kind == "since" and rng.random() < 0.25:  # no bound: once, historically, since
+            return (kind, "<=", None, left, sub())
         return (kind, rng.choice(["<", "<=", "="]), random_bound(rng), left, sub())
     duration = ("dur", random_bound(rng, positive=True), sub())
     constant = ("num", Fraction(rng.randint(0, 10)))

@@ -1,5 +1,5 @@
 """The online monitor agrees with the reference evaluator at every time point, on
-random formulas (nesting up to 5, bounds up to 100) and random traces, fed in one
+random formulas (nesting up to 5, bounds up to 100 or none on `since`) and random traces, fed in one
 go or cut anywhere: a cut trace's true/false verdicts are final."""
 
 from __future__ import annotations
@@ -31,6 +31,7 @@ def formulas(depth: int = 5) -> st.SearchStrategy:
         sub.map(lambda f: ("not", f)),
         st.tuples(st.sampled_from(["and", "or"]), sub, sub),
         st.tuples(st.sampled_from(["until", "since"]), OPS, BOUNDS, sub, sub),
+        st.tuples(st.just("since"), st.just("<="), st.none(), sub, sub),  # no bound
         st.tuples(
             st.just("cmp"),
             st.sampled_from(["<", "<=", ">", ">=", "==", "!="]),
@@ -133,7 +134,9 @@ def _nodes(formula) -> list:
 
 
 def windows(depth: int = 4) -> st.SearchStrategy:
-    """`eventually` and `once` (one sweep in the monitor) nested with the rest."""
+    """`eventually`, `once` and `since` with a window (each one sweep in the monitor)
+    nested with the rest: `always` and `historically` make isolated points, which
+    end windows where they lie."""
     leaf = st.sampled_from(PROPS).map(lambda p: ("prop", p))
     if depth == 0:
         return leaf
@@ -148,6 +151,7 @@ def windows(depth: int = 4) -> st.SearchStrategy:
         st.tuples(st.sampled_from(["and", "or"]), sub, sub),
         window,
         dual.map(lambda f: ("not", f)),
+        st.tuples(st.just("since"), OPS, bounds, sub, sub),
     )
 
 
@@ -237,3 +241,196 @@ def test_a_late_sample_is_revised_from_the_history_kept():
     # `a` is unknown from 3 on: the verdict is unknown from just after 2 (its horizon).
     revised = [s for s in swept if s[4] == "unknown (revised: late input)"]
     assert (Fraction(2), Fraction(4), False, True) in [s[:4] for s in revised]
+
+
+def _bounded(formula, bound: Fraction):
+    """The formula with every `since` that has no bound given `bound` instead."""
+    if not isinstance(formula, tuple):
+        return formula
+    if formula[0] == "since" and formula[2] is None:
+        return ("since", "<=", bound, _bounded(formula[3], bound), _bounded(formula[4], bound))
+    return tuple(_bounded(part, bound) for part in formula)
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(formulas(4), traces(), st.randoms(use_true_random=False))
+def test_no_bound_is_a_bound_past_the_trace_for_input_in_any_order(formula, trace, random):
+    """On a trace shorter than B, `since` with no bound and `since[<=B]` are the same
+    formula: fed the same samples out of order (within the lateness), the constant
+    memory node and the windowed one give the same verdicts."""
+    samples = list(zip(trace.times, trace.states, strict=True))
+    random.shuffle(samples)
+
+    def run(f) -> list:
+        monitor = Monitor(f, lateness=trace.end)
+        for t, s in samples:
+            monitor.step(t, s)
+        monitor.end(trace.end)
+        return merge(monitor.verdicts())  # after the end, a bound expires and none does
+
+    assert run(formula) == run(_bounded(formula, trace.end + 1))
+
+
+@pytest.mark.parametrize(
+    "formula",
+    [
+        ("since", "<=", None, ("prop", "a"), ("prop", "b")),
+        ("not", ("since", "<=", None, ("const", True), ("not", ("prop", "a")))),  # historically
+        ("until", "<", 50, ("prop", "a"), ("since", "<=", None, ("const", True), ("prop", "b"))),
+    ],
+)
+def test_no_bound_keeps_memory_constant(formula):
+    """100,000 changes: what the monitor holds does not grow with the trace."""
+    monitor = Monitor(formula)
+    sizes = []
+    for block in range(20):
+        samples = [(block * 50_000 + t * 10, frozenset("ab"[: t % 3])) for t in range(5_000)]
+        monitor.feed(samples)
+        list(monitor.verdicts())
+        sizes.append(monitor.memory())
+    assert max(sizes) < 2_000, sizes
+    assert max(sizes[5:]) <= 2 * min(sizes[5:]) + 20, sizes
+
+
+def _pointed(depth: int) -> st.SearchStrategy:
+    """Formulas whose values have isolated points: `always[<c] p` holds at the start
+    of a stretch of p exactly c long only, `once[=c] p` at the end of one."""
+    small = st.integers(1, 3).map(Fraction)
+    prop = st.sampled_from(PROPS).map(lambda p: ("prop", p))
+    if depth == 0:
+        return prop
+    sub = _pointed(depth - 1)
+    always = st.tuples(small, sub).map(
+        lambda c: ("not", ("until", "<", c[0], ("const", True), ("not", c[1])))
+    )
+    at = st.tuples(st.just("since"), st.just("="), small, st.just(("const", True)), sub)
+    return st.one_of(prop, always, at, sub.map(lambda f: ("not", f)))
+
+
+@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    st.tuples(st.just("since"), st.sampled_from(["<", "<="]), st.integers(1, 3).map(Fraction),
+              _pointed(2), _pointed(2)),
+    st.lists(st.tuples(st.integers(1, 3), st.sets(st.sampled_from(PROPS))), min_size=1,
+             max_size=8),
+)  # fmt: skip
+def test_windowed_since_over_isolated_points(formula, steps):
+    """`phi since[<T] psi` in one sweep: where psi holds at an isolated point and phi
+    from there on, the window ends exactly T after it (open or closed), on traces
+    whose stretches are as long as the bounds."""
+    times, states, t = [], [], Fraction(0)
+    for gap, state in steps:
+        times.append(t)
+        states.append(frozenset(state))
+        t += gap
+    trace = Trace(times, states, t)
+    assert monitored(formula, trace, trace.end, False) == Reference(trace).segments(formula)
+
+
+def test_windowed_since_ends_its_window_after_an_isolated_point():
+    """`a` on [0, 1) makes `always[<1] a` true at 0 only; with b throughout, `b
+    since[<3]` it holds on [0, 3): at 3 the point is 3 back, outside a `<` window."""
+    psi = ("not", ("until", "<", 1, ("const", True), ("not", ("prop", "a"))))
+    formula = ("since", "<", 3, ("prop", "b"), psi)
+    trace = Trace([Fraction(0), Fraction(1)], [frozenset("ab"), frozenset("b")], Fraction(12))
+    got = monitored(formula, trace, trace.end, False)
+    assert got == Reference(trace).segments(formula)
+    assert got[0][:4] == (0, 3, True, False)
+
+
+@pytest.mark.parametrize("read_between", [False, True])
+def test_once_exactly_shifts_a_pulse_whatever_the_updates(read_between):
+    """`once[=2] a` over a pulse of a at 3 is true at 5 alone, whether or not the
+    verdicts are read (and the monitor updated) at 5 itself: the shifted point is
+    then where an update starts."""
+    monitor = Monitor(("since", "=", 2, ("const", True), ("prop", "a")))
+    monitor.step(0, set())
+    monitor.step(3, set(), {"a"})
+    monitor.step(5, set())
+    if read_between:
+        list(monitor.verdicts())
+    monitor.step(7, set())
+    monitor.end(10)
+    true = [s[:4] for s in merge(monitor.verdicts()) if s[4] == "true"]
+    assert true == [(5, 5, True, True)]
+
+
+def test_a_window_that_starts_at_the_origin_is_open_there():
+    """Found by the C target's random cases: `a since[<4] b` over a pulse of b at the
+    first instant, a throughout, holds on [0, 4): at 4 the pulse is 4 back, outside a
+    `<` window, although the window starts at the origin (the pointwise evaluation
+    took such a window as closed)."""
+    from rmvdsl.runtime import rmtld3
+
+    def run() -> list:
+        monitor = Monitor(("since", "<", 4, ("prop", "a"), ("prop", "b")))
+        monitor.step(0, {"a"}, {"b"})
+        monitor.step(8, {"a"})
+        monitor.end(10)
+        return merge(monitor.verdicts())
+
+    swept = run()
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(rmtld3.Temporal, "update", rmtld3.Evaluated.update)
+        assert run() == swept
+    assert swept[0] == (0, 4, True, False, "true")
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    st.one_of(
+        st.tuples(st.just("since"), st.sampled_from(["<", "<="]), st.integers(1, 4).map(Fraction),
+                  _pointed(0), _pointed(0)),
+        st.tuples(st.just("since"), st.sampled_from(["<", "<="]), st.integers(1, 4).map(Fraction),
+                  _pointed(2), _pointed(2)),
+        windows(3),
+    ),
+    st.lists(st.tuples(st.integers(1, 3), st.sets(st.sampled_from(PROPS))), min_size=1,
+             max_size=10),
+)  # fmt: skip
+def test_verdicts_read_after_every_sample_equal_the_reference(formula, steps):
+    """Reading the verdicts after every sample updates the monitor from each
+    sample's time: a `since` with a window then starts each update from what it
+    carried over (the latest witness before the sample), never from the window's
+    start."""
+    monitor, segments, times, states, t = Monitor(formula), [], [], [], Fraction(0)
+    for gap, state in steps:
+        times.append(t)
+        states.append(frozenset(state))
+        monitor.step(t, state)
+        segments += monitor.verdicts()
+        t += gap
+    monitor.end(t)
+    segments += monitor.verdicts()
+    assert merge(segments) == Reference(Trace(times, states, t)).segments(formula)
+
+
+def test_a_witness_just_before_an_update_ends_a_closed_window_open():
+    """b holds on [0, 1): read after every sample, `a since[<=2] b` is updated from 1
+    with its latest witness carried over, b just before 1, never at 1 itself: true
+    on [0, 3), false at 3."""
+    monitor, segments = Monitor(("since", "<=", 2, ("prop", "a"), ("prop", "b"))), []
+    for t, state in ((0, "ab"), (1, "a"), (2, "a"), (5, "")):
+        monitor.step(t, set(state))
+        segments += monitor.verdicts()
+    monitor.end(6)
+    segments += monitor.verdicts()
+    assert merge(segments) == [(0, 3, True, False, "true"), (3, 6, True, False, "false")]
+
+
+def test_a_witness_is_not_carried_over_a_point_where_phi_fails():
+    """phi (`not always[<1] c`, c on [1, 2)) fails at 1 alone: b on [0, 1) is then no
+    witness for any later time, whichever update carries it over."""
+    always = ("not", ("until", "<", 1, ("const", True), ("not", ("prop", "c"))))
+    formula = ("since", "<=", 5, ("not", always), ("prop", "b"))
+    samples = [(0, "b"), (1, "c"), (2, ""), (3, ""), (4, "a"), (5, "")]
+    monitor, segments = Monitor(formula), []
+    for t, state in samples:
+        monitor.step(t, set(state))
+        segments += monitor.verdicts()
+    monitor.end(8)
+    segments += monitor.verdicts()
+    times = [Fraction(t) for t, _ in samples]
+    trace = Trace(times, [frozenset(s) for _, s in samples], Fraction(8))
+    assert merge(segments) == Reference(trace).segments(formula)
+    assert merge(segments) == [(0, 1, True, False, "true"), (1, 8, True, False, "false")]

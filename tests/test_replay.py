@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import re
+import shutil
 import subprocess
 import sys
 from fractions import Fraction
@@ -696,3 +697,42 @@ def test_two_bags_with_two_versions_of_a_type_decode_each_with_its_own(rmv, tmp_
         ("false", 1_700_000_010, 1_700_000_012),
     ]
     assert result.code == 1
+
+
+def test_past_operators_with_no_bound_over_a_recording(rmv, recordings, tmp_path):
+    """`once`, `historically` and `since` with no bound, replayed end to end over the
+    example's recordings: the verdicts of each equal those of the same formula with
+    a bound longer than the recording, and the three recording formats agree."""
+    text = (EXAMPLES / "carla" / "abs.rmv").read_text(encoding="utf-8")
+    text = text[: text.index("/// Formula 3.1")]
+    formulas = {
+        "BrakedBeforeStop": "Stopped -> once{} HardBraking",
+        "NeverAbs": "historically{} not AntiLockBrake",
+        "CalmSinceStop": "(not HardBraking) since{} StopReached",
+    }
+    outputs = {}
+    for bound in ("", "[<=1000s]"):
+        folder = tmp_path / ("long" if bound else "none")
+        shutil.copytree(EXAMPLES / "carla" / "msg", folder / "msg")
+        lines = [f"property {name}: {formula.format(bound)}" for name, formula in formulas.items()]
+        (folder / "spec.rmv").write_text(text + "\n".join(lines) + "\n", encoding="utf-8")
+        for recording in ("braking.bag", "braking_db3", "braking_mcap"):
+            result = rmv("replay", str(folder / "spec.rmv"), str(recordings / recording),
+                         "--format", "jsonl")  # fmt: skip
+            assert result.code in (0, 1), result.err
+            outputs[bound, recording] = [
+                (r["property"], r["verdict"], r["from"], r["to"], r["bounds"])
+                for r in _records(result.out) if r["kind"] == "verdict"
+            ]  # fmt: skip
+    first = outputs["", "braking.bag"]
+    assert {name for name, *_ in first} == set(formulas)
+    assert all(found == first for found in outputs.values())
+    # the car brakes hard before each stop, ABS never engages, and from each stop
+    # (12.5 s, 23 s) until the next hard braking (18.1 s) it is calm
+    by_name = {
+        n: [(v, f - START, t - START) for m, v, f, t, _ in first if m == n] for n in formulas
+    }
+    assert [v for v, *_ in by_name["BrakedBeforeStop"]] == ["true"]
+    assert [v for v, *_ in by_name["NeverAbs"]] == ["true"]
+    calm = [(f, t) for v, f, t in by_name["CalmSinceStop"] if v == "true"]
+    assert calm[:2] == [(Fraction("12.5"), Fraction("18.1")), (23, calm[1][1])]

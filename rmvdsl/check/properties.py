@@ -31,6 +31,7 @@ from rmvdsl.logic.compile import CompileError, compile_formula
 from rmvdsl.logic.parallel import Question, answer_all, implied_all
 from rmvdsl.logic.sat import Limits, satisfiable, valid
 from rmvdsl.logic.sat import conflict as smallest_conflict
+from rmvdsl.logic.system import System
 from rmvdsl.runtime.rmtld3 import facts as formula_facts
 from rmvdsl.util.cache import Cache, Layered, default_cache
 from rmvdsl.util.cancel import checkpoint
@@ -126,7 +127,11 @@ class _PropertyAnalyzer(PropertyFindings):
         return self.report
 
     def sampling(self, name: str) -> str:
-        """How the property's monitor reads the trace: its `rate`, or "" (every change)."""
+        """How the property's monitor reads the trace: its `rate`, or "" (every change).
+        A monitor started late by its trigger reads a past of its own: it is compared
+        with no other."""
+        if self.starts_late(name):
+            return f"trigger {name}"
         decl = self.model.properties[name]
         rate = next((s.value for s in decl.settings if s.key.name == "rate"), None)
         return str(rate.hertz) if isinstance(rate, ast.RateLit) else ""
@@ -139,11 +144,29 @@ class _PropertyAnalyzer(PropertyFindings):
                 self.cache.memory[key] = answer.as_json()
 
     def single_questions(self, name: str, f: Any) -> list[Question]:
-        """What `single` and `vacuity` ask of one property, on this system."""
-        questions: list[Question] = [([f], self.system), ([("not", f)], self.system)]
+        """What `single` and `vacuity` ask of one property, on its system."""
+        system = self.system_for(name)
+        questions: list[Question] = [([f], system), ([("not", f)], system)]
         decl = self.model.properties[name]
-        questions.extend(([a], self.system) for _, a in self.antecedents(decl))
+        questions.extend(([a], system) for _, a in self.antecedents(decl))
         return questions
+
+    def starts_late(self, name: str) -> bool:
+        """A property under a trigger whose formula looks back: its monitor starts
+        when the trigger holds, and its past begins there (docs/runtime.md), in
+        whatever state the system is then."""
+        decl = self.model.properties[name]
+        trigger = next((s.value for s in decl.settings if s.key.name == "trigger"), None)
+        return (
+            isinstance(trigger, ast.NameValue)
+            and trigger.ident.name != "always"
+            and formula_facts(self.compiled[name]).has_past
+        )
+
+    def system_for(self, name: str) -> System:
+        """The traces a property's monitor reads: from the start of the system, or,
+        started late, from any state on."""
+        return self.system.from_any_state() if self.starts_late(name) else self.system
 
     def antecedents(self, decl: ast.PropertyDecl) -> list[tuple[fm.Binary, Any]]:
         """The implications of a property, each with its antecedent compiled (once:
@@ -215,11 +238,12 @@ class _PropertyAnalyzer(PropertyFindings):
         """The questions on one property; True when it can hold and can fail."""
         decl = self.model.properties[name]
         where = decl.name.span
-        facts.satisfiable = answer = satisfiable([f], self.system, self.limits, self.cache)
+        system = self.system_for(name)
+        facts.satisfiable = answer = satisfiable([f], system, self.limits, self.cache)
         if answer.value == NO:
             pure = satisfiable([f], None, self.limits, self.cache)
             if pure.value != NO:  # exact on this system, whatever pure logic says
-                self.add(self.impossible(decl, pure.witness))
+                self.add(self.impossible(decl, pure.witness, system))
             else:
                 self.add(
                     error(
@@ -237,13 +261,13 @@ class _PropertyAnalyzer(PropertyFindings):
             if answer.timed_out:
                 self.add(self.undecided(decl, "can hold", answer))
             return False
-        facts.valid = validity = valid(f, self.system, self.limits, self.cache)
+        facts.valid = validity = valid(f, system, self.limits, self.cache)
         vacuous = self.vacuity(decl)
         if validity.value == YES and vacuous:
             return False  # the vacuous implication says why
         if validity.value == YES:
             scope = ""
-            if self.system.relevant(set(formula_facts(f).propositions)):
+            if system.relevant(set(formula_facts(f).propositions)):
                 pure = valid(f, None, self.limits, self.cache)
                 scope = "" if pure.value == YES else " of this system"
             self.add(
@@ -264,8 +288,9 @@ class _PropertyAnalyzer(PropertyFindings):
     def vacuity(self, decl: ast.PropertyDecl) -> bool:
         """Report implications whose antecedent never holds; True if there are any."""
         found = False
+        system = self.system_for(decl.name.name)
         for node, antecedent in self.antecedents(decl):
-            answer = satisfiable([antecedent], self.system, self.limits, self.cache)
+            answer = satisfiable([antecedent], system, self.limits, self.cache)
             if answer.value != NO:
                 continue
             found = True

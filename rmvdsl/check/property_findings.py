@@ -22,10 +22,12 @@ class PropertyFindings:
     system: System
     compiled: dict[str, Any]
 
-    def impossible(self, decl: ast.PropertyDecl, pure: Witness | None) -> Diagnostic:
+    def impossible(
+        self, decl: ast.PropertyDecl, pure: Witness | None, system: System
+    ) -> Diagnostic:
         """RMV511, with a trace of pure logic where the property holds, if found."""
         names = set(formula_facts(self.compiled[decl.name.name]).propositions)
-        machines = [m.name for m in self.system.relevant(names)]
+        machines = [m.name for m in system.relevant(names)]
         because = (
             "the transducer"
             + ("s " if len(machines) > 1 else " ")
@@ -35,12 +37,13 @@ class PropertyFindings:
         )
         if machines:
             help = (
-                "a transducer is in one state at a time, starts in its initial state and "
-                "moves only along its transitions; check the states the property names"
+                "a transducer is in one state at a time, never in one its initial state "
+                "cannot reach, and moves only along its transitions; check the states the "
+                "property names"
             )
         else:
-            events = sorted(n for n in names if n in self.system.never) or sorted(
-                {n for pair in self.system.exclusive for n in pair if n in names}
+            events = sorted(n for n in names if n in system.never) or sorted(
+                {n for pair in system.exclusive for n in pair if n in names}
             )
             help = (
                 "no values of the variables make "

@@ -32,8 +32,11 @@ def system_of(
         moves = frozenset(
             (t.source.name, t.dest.name) for t in decl.transitions if t.source.name != t.dest.name
         )
-        initial = decl.initial.name if decl.initial is not None else None
-        machines.append(Machine(name, states, initial, moves))
+        # No initial state: at the input's first instant a transducer already takes
+        # the transitions enabled then (docs/semantics.md, "Instants"), so a run's
+        # first state is any the initial one reaches; those it cannot reach never
+        # hold (below).
+        machines.append(Machine(name, states, None, moves))
         # States the initial one cannot reach never hold (the refutation does not
         # follow transitions, so it is told).
         facts = analysis.transducers.get(name) if analysis is not None else None

@@ -141,7 +141,8 @@ class PropertyTypes(ExpressionTypes):
         except CompileError:
             return None  # a bound without a unit or a bad term: the names stage said so
         found = facts(compiled)
-        return compiled, Horizon(Fraction(found.future), Fraction(found.past))
+        past = None if found.past == float("inf") else Fraction(found.past)
+        return compiled, Horizon(Fraction(found.future), past, Fraction(found.reach))
 
 
 def _sums(term: fm.Term) -> Iterator[fm.Arith]:

@@ -19,11 +19,12 @@ class Horizon:
     """How far a property looks into the future and the past, in seconds."""
 
     future: Fraction
-    past: Fraction
+    past: Fraction | None  # None: back to the trace's start (a past operator with no bound)
+    kept: Fraction  # the history a monitor keeps for it: finite even when past is None
 
     @property
     def total(self) -> Fraction:
-        return self.future + self.past
+        return self.kept
 
 
 @dataclass

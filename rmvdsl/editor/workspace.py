@@ -329,7 +329,8 @@ def _property_lines(result: CheckResult, name: str) -> list[str]:
     lines = []
     if result.types is not None and name in result.types.horizons:
         horizon = result.types.horizons[name]
-        lines.append(f"horizon: {float(horizon.future):g} s ahead, {float(horizon.past):g} s back")
+        back = "to the start" if horizon.past is None else f"{float(horizon.past):g} s"
+        lines.append(f"horizon: {float(horizon.future):g} s ahead, {back} back")
     facts = result.properties.facts.get(name) if result.properties is not None else None
     if facts is not None:
         for what, answer in (("can hold", facts.satisfiable), ("always holds", facts.valid)):

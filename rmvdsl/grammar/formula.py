@@ -13,6 +13,10 @@ from fractions import Fraction
 
 from rmvdsl.lang.source import NO_SPAN, Span
 
+# The temporal operators that look ahead: with no bound, a verdict could wait for
+# ever, so they need one; the past ones may go without.
+FUTURE = frozenset({"until", "eventually", "always"})
+
 # Time units and their length in seconds, exact.
 TIME_UNITS: dict[str, Fraction] = {
     "ns": Fraction(1, 10**9),

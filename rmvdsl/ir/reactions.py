@@ -62,14 +62,14 @@ class Reactions:
         found = facts(compiled)
         values = self.settings("property", decl.settings)
         window = values["window"]
-        horizon = Fraction(found.future) + Fraction(found.past)
+        horizon = Fraction(found.reach)  # the history kept: finite with no bound too
         return ir.Property(
             name=decl.name.name,
             text=printer.formula(formula),
             formula=compiled,
             propositions=tuple(found.propositions),
             horizon_future=Fraction(found.future),
-            horizon_past=Fraction(found.past),
+            horizon_past=None if found.past == float("inf") else Fraction(found.past),
             rate=values["rate"],
             trigger=values["trigger"],
             window=horizon if window == builtins.DERIVED else window,

@@ -208,12 +208,14 @@ versioned, so credentials are taken from the environment instead:
     ),
     (
         "RMV212",
-        "temporal operator without a time bound",
-        """RMTLD3 is a bounded logic: `until`, `since`, `eventually`, `always`, `once`
-and `historically` need a bound such as `[<10s]`, `[<=10s]` or `[=10s]`, so that
-a monitor can decide them with finite memory.
+        "future operator without a time bound",
+        """The operators that look ahead, `until`, `eventually` and `always`, need a
+bound such as `[<10s]`, `[<=10s]` or `[=10s]`: without one a verdict could wait
+for ever. The past operators `since`, `once` and `historically` may go without
+one; they then read the whole trace so far, in constant memory.
 
-    HardBraking -> eventually[<=10s] Stopped""",
+    HardBraking -> eventually[<=10s] Stopped
+    Stopped -> once Started""",
     ),
     (
         "RMV213",
@@ -612,11 +614,11 @@ piece of the formula.""",
         "property impossible for this system",
         """The formula is satisfiable in pure logic (the note shows a trace), but not on
 the traces this spec can produce: a transducer is in exactly one of its states at
-a time, starts in its initial state and changes only along its transitions; events
-whose conditions exclude each other never hold together. So the monitor reports a
-violation on every run. Typical cause: a property that needs two states of one
-transducer at once (`eventually[<5s] (Stopped and HardBraking)`), or a state the
-initial state cannot reach in time.""",
+a time, never in one its initial state cannot reach, and changes only along its
+transitions; events whose conditions exclude each other never hold together. So
+the monitor reports a violation on every run. Typical cause: a property that needs
+two states of one transducer at once (`eventually[<5s] (Stopped and HardBraking)`),
+or a move the transitions do not allow.""",
     ),
     (
         "RMV512",

@@ -84,9 +84,12 @@ class Refuter:
 
     def define(self, f: Any, predicate: Any, polarity: int) -> None:
         kind, op, bound, phi, psi = f
-        bound = z3.RealVal(str(Fraction(bound)))
         at, witness, between = self.variable("e"), self.variable("w"), self.variable("u")
-        if kind == "until":
+        if bound is None:  # a `since` with no bound: any witness from time 0 on
+            window = z3.And(witness >= 0, witness <= at)
+            span = z3.And(witness < between, between <= at)
+        elif kind == "until":
+            bound = z3.RealVal(str(Fraction(bound)))
             window = {
                 "<": z3.And(at <= witness, witness < at + bound),
                 "<=": z3.And(at <= witness, witness <= at + bound),
@@ -94,6 +97,7 @@ class Refuter:
             }[op]
             span = z3.And(at <= between, between < witness)
         else:
+            bound = z3.RealVal(str(Fraction(bound)))
             window = z3.And(
                 witness >= 0,
                 {

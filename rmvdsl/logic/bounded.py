@@ -126,8 +126,10 @@ class BoundedTrace(TemporalEncoding):
         if kind in ("and", "or"):
             return set(self.points(f[1])) | set(self.points(f[2]))
         if kind in ("until", "since"):
-            shift = -f[2] if kind == "until" else f[2]
             children = set(self.points(f[3])) | set(self.points(f[4]))
+            if f[2] is None:  # a `since` with no bound changes with its children only
+                return children
+            shift = -f[2] if kind == "until" else f[2]
             extra = {(0, Fraction(f[2]))} if kind == "since" else set()
             return children | {(b, o + shift) for b, o in children} | extra
         pieces = self._term_points(f[2]) | self._term_points(f[3])

@@ -92,13 +92,22 @@ class TemporalEncoding:
             )
         return or_(*options)
 
+    def _window(self, at: Time, bound: Any) -> Time | None:
+        """Where a `since` window begins; None when it has no bound (from time 0)."""
+        return None if bound is None else self.shifted(at, -Fraction(bound))
+
+    def _after_begin(self, begin: Time | None, c: Time, strict: bool) -> Bool:
+        if begin is None:
+            return True
+        return self.less(begin, c) if strict else self.less_equal(begin, c)
+
     def since(self, f: Any, at: Time) -> Bool:
         _, op, bound, phi, psi = f
-        begin = self.shifted(at, -Fraction(bound))
+        begin = self._window(at, bound)
         started = self.less_equal(ZERO, at)
         if bound == 0:
             return and_(started, self.value(psi, at))
-        if op == "=":
+        if op == "=" and begin is not None:  # (with no bound, op is "<=")
             return and_(
                 started,
                 self.less_equal(ZERO, begin),
@@ -106,20 +115,21 @@ class TemporalEncoding:
                 self.holds_on(phi, begin, at, False, True),
             )
         options = [and_(started, self.value(psi, at))]
-        candidates = self.points(phi) | self.points(psi) | {ZERO, begin}
+        candidates = self.points(phi) | self.points(psi) | {ZERO}
+        candidates |= set() if begin is None else {begin}
         for c in candidates:
             after_start = self.less_equal(ZERO, c)
             before = self.less(c, at)
             if after_start is False or before is False:
                 continue
-            in_window = self.less(begin, c) if op == "<" else self.less_equal(begin, c)
+            in_window = self._after_begin(begin, c, op == "<")
             upto = self.holds_on(phi, c, at, False, True)
             options.append(and_(after_start, before, in_window, self.value(psi, c), upto))
             options.append(
                 and_(
                     after_start,
                     before,
-                    self.less_equal(begin, c),
+                    self._after_begin(begin, c, False),
                     self.value(psi, c, True),
                     upto,
                 )
@@ -128,11 +138,11 @@ class TemporalEncoding:
 
     def since_plus(self, f: Any, at: Time) -> Bool:
         _, op, bound, phi, psi = f
-        begin = self.shifted(at, -Fraction(bound))
+        begin = self._window(at, bound)
         started = self.less_equal(ZERO, at)
         now = self.value(phi, at, True)
         if op == "=" or bound == 0:
-            if bound == 0:
+            if bound == 0 or begin is None:
                 return and_(started, self.value(psi, at, True))
             return and_(
                 self.less_equal(ZERO, begin),
@@ -141,7 +151,8 @@ class TemporalEncoding:
                 now,
             )
         options = [and_(started, self.value(psi, at, True))]
-        candidates = self.points(phi) | self.points(psi) | {ZERO, begin}
+        candidates = self.points(phi) | self.points(psi) | {ZERO}
+        candidates |= set() if begin is None else {begin}
         for c in candidates:
             after_start = self.less_equal(ZERO, c)
             if after_start is False:
@@ -153,7 +164,12 @@ class TemporalEncoding:
                 )  # (c, at] is empty when c is now
                 options.append(
                     and_(
-                        after_start, at_most_now, self.less(begin, c), self.value(psi, c), upto, now
+                        after_start,
+                        at_most_now,
+                        self._after_begin(begin, c, True),
+                        self.value(psi, c),
+                        upto,
+                        now,
                     )
                 )
             before = self.less(c, at)
@@ -162,7 +178,7 @@ class TemporalEncoding:
                     and_(
                         after_start,
                         before,
-                        self.less_equal(begin, c),
+                        self._after_begin(begin, c, False),
                         self.value(psi, c, True),
                         self.holds_on(phi, c, at, False, True),
                         now,

@@ -72,12 +72,15 @@ class _Compiler:
         raise CompileError(f"not a formula: {node!r}", node)
 
     def temporal(self, node: fm.Temporal) -> Any:
-        if node.bound is None:
+        bound: Any = None  # a past operator with no bound: the whole trace so far
+        op = "<="
+        if node.bound is None and node.op in fm.FUTURE:
             raise CompileError(f"`{node.op}` needs a time bound", node)
-        bound = self.time(node.bound.value, node)
-        if bound < 0:
-            raise CompileError("a time bound must not be negative", node)
-        op = node.bound.op
+        if node.bound is not None:
+            bound = self.time(node.bound.value, node)
+            if bound < 0:
+                raise CompileError("a time bound must not be negative", node)
+            op = node.bound.op
         body = self.formula(node.right)
         true = f.TRUE
         match node.op:

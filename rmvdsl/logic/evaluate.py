@@ -29,12 +29,12 @@ class Evaluation:
     beyond: list[Segment] = field(default_factory=list)  # after the trace's end
     memory: int = 0  # breakpoints held at the end
     horizon: Fraction = Fraction(0)  # ahead plus back, in trace units
-    nodes: int = 0
+    nodes: int = 0  # lists kept: one per subformula, two for a `since` (Monitor.lists)
 
     def bound(self) -> str:
         """The static memory bound (docs/semantics.md)."""
         return (
-            f"at most {counted(self.nodes, 'subformula')} x "
+            f"at most {counted(self.nodes, 'list')} x "
             f"(2 x (horizon {exact_text(self.horizon)} + 1)"
             f" x state changes per time unit + {BATCH + 3}) breakpoints"
         )
@@ -77,7 +77,7 @@ def run(formula: Any, trace: TraceFile) -> Evaluation:
         monitor.beyond(),
         monitor.memory(),
         Fraction(monitor.horizon),
-        len(monitor.order),
+        monitor.lists(),
     )
 
 
@@ -110,7 +110,7 @@ class Streamed:
             [_unscaled(s) for s in monitor.beyond()],
             monitor.memory(),
             Fraction(monitor.horizon) / SCALE,
-            len(monitor.order),
+            monitor.lists(),
         )
 
 

@@ -72,8 +72,10 @@ class Reference:
         if kind in ("and", "or"):
             return set(self.points(f[1])) | set(self.points(f[2]))
         if kind in ("until", "since"):
-            shift = -f[2] if kind == "until" else f[2]
             children = set(self.points(f[3])) | set(self.points(f[4]))
+            if f[2] is None:  # a `since` with no bound changes with its children only
+                return children
+            shift = -f[2] if kind == "until" else f[2]
             extra = {self.trace.start + f[2]} if kind == "since" else set()
             return children | {p + shift for p in children} | extra
         return self._compare_points(f)
@@ -160,7 +162,7 @@ class Reference:
 
     def _since(self, f: Any, t: Fraction) -> int:
         _, op, bound, phi, psi = f
-        begin = t - bound
+        begin = self.trace.start - 1 if bound is None else t - bound  # no bound: from the start
         low = max(begin, self.trace.start)
         if low > t:
             return FALSE

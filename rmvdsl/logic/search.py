@@ -268,7 +268,7 @@ def _half_periods(formulas: Sequence[Any]) -> list[Fraction]:
     stack = list(formulas)
     while stack:
         node = stack.pop()
-        if node[0] in ("until", "since") and node[2] > 0:
+        if node[0] in ("until", "since") and node[2] is not None and node[2] > 0:
             bounds.add(Fraction(node[2]))
         elif node[0] == "dur" and node[1] > 0:
             bounds.add(Fraction(node[1]))

@@ -2,8 +2,8 @@
 
 The propositions of a property are transducer states and boolean events. A trace
 of the system respects its transducers: a transducer is in exactly one of its
-states at any time, starts in its initial state, and changes state only along one
-of its transitions. Events whose conditions can never hold together never hold
+states at any time, and changes state only along one of its transitions (where it
+starts is given when known: `initial`). Events whose conditions can never hold together never hold
 together; an event whose condition can never hold never holds. Only facts that
 are certain go here: what is left out only makes the questions more permissive.
 """
@@ -70,6 +70,12 @@ class System:
 
     def key(self) -> str:
         return self._key
+
+    def from_any_state(self) -> System:
+        """The system with its transducers starting in any of their states: the
+        traces it has from any time on, as a monitor started then sees them."""
+        machines = tuple(Machine(m.name, m.states, None, m.moves) for m in self.transducers)
+        return System(machines, self.exclusive, self.never)
 
     def relevant(self, names: set[str]) -> tuple[Machine, ...]:
         """The transducers owning any of these names, in their order."""

@@ -12,22 +12,25 @@ from rmvdsl.lang.source import Span
 def check_formula(
     formula: fm.Formula | fm.Term, time_unit: str | None, text: str | None = None
 ) -> list[Diagnostic]:
-    """Bounds present, with a unit (or a time unit for bare numbers), and positive.
-    `text`: the source the spans point into, to underline keywords exactly."""
+    """Bounds present on the future operators (the past ones may go without: they
+    read the trace so far, in constant memory), with a unit (or a time unit for bare
+    numbers), and positive. `text`: the source the spans point into, to underline
+    keywords exactly."""
     found: list[Diagnostic] = []
     for node in fm.walk(formula):
         if isinstance(node, fm.Temporal):
-            if node.bound is None:
+            if node.bound is None and node.op in fm.FUTURE:
                 found.append(
                     error(
                         "RMV212",
                         f"`{node.op}` needs a time bound",
                         keyword_span(node, text),
                         label="unbounded",
-                        help=f"write e.g. `{node.op}[<=10s]`",
+                        help=f"write e.g. `{node.op}[<=10s]`; only the past operators "
+                        "(`since`, `once`, `historically`) may go without",
                     )
                 )
-            else:
+            elif node.bound is not None:
                 found += check_time(node.bound.value, time_unit)
         elif isinstance(node, fm.Duration):
             found += check_time(node.window, time_unit)

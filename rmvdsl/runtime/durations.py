@@ -24,6 +24,7 @@ class Compare(Evaluated):
         self.integrals: dict[int, Integral] = {}  # during an update: id(signal) ->
         self.future = max([window + body.future for window, body in self.bodies] or [0])
         self.past = max([body.past for _, body in self.bodies] or [0])
+        self.reach = max([body.reach for _, body in self.bodies] or [0])
 
     def children(self) -> list[Node]:
         return [body for _, body in self.bodies]

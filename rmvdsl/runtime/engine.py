@@ -247,10 +247,12 @@ class Runtime(Reporting):
             # holds until the next: the stretch widens by the lead on both sides.
             lead = seconds(reach[name] + (monitor.period or 0))
             low = max(seconds(first) - lead - monitor.future, seconds(self.started))
-            after = lead + monitor.past
-            high = None if last is None else seconds(last) + after
+            # With no bound back, every later verdict reads the gap: unknown for
+            # the rest of the run (docs/runtime.md, "Lost, damaged and stamped-ahead input").
+            after = None if monitor.past is None else lead + monitor.past
+            high = None if last is None or after is None else seconds(last) + after
             interval = self.segments.unknown(name, low, high)
-            if last is None:
+            if last is None and after is not None:
                 self.until_next.setdefault(topic, []).append((interval, after))
 
     def _reach(self, topic: str) -> dict[str, int]:

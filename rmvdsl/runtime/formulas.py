@@ -56,7 +56,7 @@ class Until(NamedTuple):
 class Since(NamedTuple):
     tag: str
     op: str
-    bound: Time
+    bound: Time | None  # None: no bound, the whole trace so far
     left: Formula
     right: Formula
 
@@ -123,7 +123,8 @@ def binary(tag: str, left: Any, right: Any) -> Any:
     return NODES[tag](tag, left, right)
 
 
-def temporal(tag: str, op: str, bound: Time, left: Formula, right: Formula) -> Formula:
+def temporal(tag: str, op: str, bound: Time | None, left: Formula, right: Formula) -> Formula:
+    """`bound` None: a `since` over the whole trace so far (`until` has a bound)."""
     node: Formula = NODES[tag](tag, op, bound, left, right)
     return node
 
@@ -171,9 +172,12 @@ def from_lists(value: list[Any], number: Any = Fraction) -> Any:
             continue
         tag = current[0]
         parts = [done[id(c)] if isinstance(c, list) else c for c in current[1:]]
-        if tag in ("until", "since", "dur", "num"):
-            index = 1 if tag in ("until", "since") else 0
-            parts[index] = _plain(number(parts[index]))
+        index = 1 if tag in ("until", "since") else 0
+        if tag in ("until", "since", "dur", "num") and index < len(parts):
+            if parts[index] is not None:
+                parts[index] = _plain(number(parts[index]))
+            elif tag != "since":  # only `since` may have no bound
+                raise ValueError(f"`{tag}` needs a bound: {str(current)[:60]}")
         try:
             done[id(current)] = NODES[tag](tag, *parts)
         except TypeError:

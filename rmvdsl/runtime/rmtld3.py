@@ -5,6 +5,7 @@ Formulas come as nested tuples (`rmvdsl.logic.compile` makes them):
 
     ("prop", name)  ("const", bool)  ("not", f)  ("and", f, g)  ("or", f, g)
     ("until", op, T, f, g)  ("since", op, T, f, g)        op: "<", "<=", "="
+    ("since", "<=", None, f, g): since with no bound, over the whole trace so far
     ("cmp", op, a, b)   op: "<", "<=", ">", ">=", "==", "!="
     terms: ("num", v)  ("dur", T, f)  ("add", a, b)  ("sub", a, b)  ("mul", a, b)
 
@@ -37,12 +38,12 @@ from rmvdsl.runtime.signal import (
     Signal,
     _plain,
 )
-from rmvdsl.runtime.temporal import Binary, Const, Evaluated, Node, Not, Prop, Temporal
+from rmvdsl.runtime.temporal import Binary, Const, Evaluated, Ever, Node, Not, Prop, Temporal
 
 # The formula's parts, defined beside this module, read through it.
 __all__ = [
     "BATCH", "FALSE", "NAMES", "TRUE", "UNKNOWN", "Binary", "Compare", "Const",
-    "Evaluated", "Facts", "Monitor", "Node", "Not", "Prop", "Segment", "Signal",
+    "Evaluated", "Ever", "Facts", "Monitor", "Node", "Not", "Prop", "Segment", "Signal",
     "Temporal", "arithmetic", "build", "compare", "continues", "duration", "extended",
     "facts", "merge", "merged",
 ]  # fmt: skip
@@ -64,6 +65,10 @@ def build(formula: Any, props: dict[str, Prop]) -> Node:
         return Binary(kind, build(formula[1], props), build(formula[2], props))
     if kind in ("until", "since"):
         left, right = build(formula[3], props), build(formula[4], props)
+        if formula[2] is None:
+            if kind == "until":
+                raise ValueError("`until` needs a bound")
+            return Ever(left, right)
         return Temporal(kind, formula[1], _plain(formula[2]), left, right)
     if kind == "cmp":
         return Compare(formula[1], _build_term(formula[2], props), _build_term(formula[3], props))
@@ -116,7 +121,9 @@ class Monitor:
         self.props: dict[str, Prop] = {}
         self.root = build(formula, self.props)
         self.order = _order(self.root)
-        self.horizon = self.root.future + self.root.past
+        # What the nodes read, ahead and back: history older than this is dropped
+        # (a `since` with no bound keeps what it needs in constant memory).
+        self.horizon = self.root.future + self.root.reach
         self.lateness = lateness
         self.start: Any = None
         self.known: Any = None  # the input is known on [start, known)
@@ -254,7 +261,7 @@ class Monitor:
         self.state = self.written_state = state
         for node in self.order:
             node.reset(t)
-            if isinstance(node, Temporal):
+            if isinstance(node, Temporal | Ever):
                 node.origin = t
 
     def _recompute(self) -> None:
@@ -284,11 +291,11 @@ class Monitor:
         # them after a sample late by up to one more horizon (`_late_sample`).
         keep = self.known - 2 * self.horizon - 1
         for node in self.order:
-            node.signal.drop_before(min(keep, self.emitted) if node is self.root else keep)
+            node.forget_before(min(keep, self.emitted) if node is self.root else keep)
 
     def _update_nodes(self, changed: Any) -> None:
         for node in self.order:
-            if isinstance(node, Evaluated | Not | Binary):
+            if isinstance(node, Evaluated | Not | Binary | Ever):
                 begin = changed - node.future
                 node.update(begin if begin > self.start else self.start)
 
@@ -373,25 +380,39 @@ class Monitor:
             return "unknown"
         return NAMES[self.root.signal.at(t)]
 
+    def signals(self) -> list[Signal]:
+        """Every signal the nodes keep: one each, two for a `since` with no bound."""
+        kept = [node.signal for node in self.order]
+        return kept + [node.pending for node in self.order if isinstance(node, Ever)]
+
+    def lists(self) -> int:
+        """How many lists of breakpoints the nodes keep: a signal each, and for a
+        `since` its witnesses (with a window) or what is pending (with none)."""
+        return len(self.order) + sum(
+            1 for n in self.order if isinstance(n, Ever) or getattr(n, "kind", "") == "since"
+        )
+
     def memory(self) -> int:
         """Breakpoints held over all nodes: bounded by the horizon, not the trace."""
-        return sum(len(node.signal.starts) for node in self.order) + len(self.pending)
+        carried = sum(len(n.witnesses.times) for n in self.order if isinstance(n, Temporal))
+        return sum(len(signal.starts) for signal in self.signals()) + carried + len(self.pending)
 
 
 class Facts(NamedTuple):
     """What one walk over a compiled formula finds (docs/semantics.md, "horizon")."""
 
     future: Any  # how far it looks ahead
-    past: Any  # how far it looks back
+    past: Any  # how far it looks back (infinite under a `since` with no bound)
     propositions: tuple[str, ...]  # left to right, each once
     has_past: bool  # a `since` (or `once`, `historically`) inside
+    reach: Any = 0  # how much history a monitor keeps for it, ahead and back (finite)
 
 
 def facts(formula: Any) -> Facts:
     """Horizon, propositions and past-ness in one traversal, by a loop (formulas can
     be 100,000 levels deep). The monitor's nodes compute the same horizon each for
     itself; a test keeps the two equal."""
-    done: dict[int, tuple[Any, Any, bool]] = {}
+    done: dict[int, tuple[Any, Any, bool, Any]] = {}
     names: dict[str, None] = {}
     stack: list[tuple[Any, bool]] = [(formula, False)]
     while stack:
@@ -407,12 +428,15 @@ def facts(formula: Any) -> Facts:
         future = max((p[0] for p in parts), default=0)
         past = max((p[1] for p in parts), default=0)
         backwards = node[0] == "since" or any(p[2] for p in parts)
+        reach = max((p[3] for p in parts), default=0)
         if node[0] == "until":
             future += node[2]
+        elif node[0] == "since" and node[2] is None:
+            past = _INFINITY
         elif node[0] == "since":
-            past += node[2]
+            past, reach = past + node[2], reach + node[2]
         elif node[0] == "dur":
             future += node[1]
-        done[id(node)] = (future, past, backwards)
-    future, past, backwards = done[id(formula)]
-    return Facts(future, past, tuple(names), backwards)
+        done[id(node)] = (future, past, backwards, reach)
+    future, past, backwards, reach = done[id(formula)]
+    return Facts(future, past, tuple(names), backwards, future + reach)

@@ -23,7 +23,7 @@ from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.dataflow import Condition, Item, Node, RawEvent, Transducer, WindowedEvent
 from rmvdsl.runtime.properties import PropertyMonitor
 from rmvdsl.runtime.records import NS
-from rmvdsl.runtime.rmtld3 import Monitor
+from rmvdsl.runtime.rmtld3 import Ever, Monitor, facts
 from rmvdsl.runtime.signal import Signal
 
 # Verdicts are compared from one nanosecond before the point from which both runs
@@ -38,7 +38,9 @@ class _Unmatched(Exception):
 def reach(spec: ir.Spec) -> int:
     """How far back from now anything the runtime computes reads (ns): the longest
     horizon plus the longest stretch a windowed query's runs read."""
-    horizons = [p.horizon_future + p.horizon_past for p in spec.properties]
+    # A property with no bound back keeps only a finite history (its window) and the
+    # value pending in its `since` nodes, which the seam key holds (`_monitor`).
+    horizons = [facts(p.formula).reach for p in spec.properties]
     windows = []
     for event in spec.events:
         if event.window is not None:
@@ -157,7 +159,10 @@ def _monitor(monitor: Monitor) -> tuple[Any, ...]:
     low = monitor.known - monitor.horizon - MARGIN
     signals = tuple(
         (name, _signal(prop.signal, low)) for name, prop in sorted(monitor.props.items())
-    )
+    ) + tuple(  # what each `since` with no bound carries over from before `low`
+        (index, _signal(node.pending, low))
+        for index, node in enumerate(monitor.order) if isinstance(node, Ever)
+    )  # fmt: skip
     return (
         max(monitor.start, low), monitor.known, monitor.written, monitor.emitted,
         monitor.emitted_point, sorted(monitor.state), sorted(monitor.written_state),

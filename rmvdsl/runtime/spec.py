@@ -273,7 +273,7 @@ class Property:
     formula: Any  # rmvdsl.runtime.formulas nodes, times in seconds
     propositions: tuple[str, ...]
     horizon_future: Fraction
-    horizon_past: Fraction
+    horizon_past: Fraction | None  # None: back to the trace's start (no bound)
     rate: Fraction | None  # Hz; None: every instant (exact segments)
     trigger: str  # `always`, or a state or boolean event
     window: Fraction

@@ -1,18 +1,20 @@
 """The nodes of a compiled RMTLD3 formula: constants, propositions, `not`,
-`and`/`or`, and the bounded temporal operators `until`/`since`, each recomputing
-its signal only from where new input can change it."""
+`and`/`or`, the bounded temporal operators `until`/`since` and `since` with no
+bound, each recomputing its signal only from where new input can change it."""
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from typing import Any
 
+from rmvdsl.runtime.covers import Levels, Witnesses, cover, since_levels, write
 from rmvdsl.runtime.signal import _INFINITY, FALSE, TRUE, UNKNOWN, Signal, _mid
 
 
 class Node:
     future: Any = 0  # how far the subformula looks ahead of the time it is evaluated at
-    past: Any = 0
+    past: Any = 0  # and back (infinite under a `since` with no bound)
+    reach: Any = 0  # how far back its update reads its children's signals (finite)
 
     def __init__(self) -> None:
         self.signal = Signal(0, UNKNOWN)
@@ -25,6 +27,10 @@ class Node:
 
     def children(self) -> list[Node]:
         return []
+
+    def forget_before(self, t: Any) -> None:
+        """Drop what no update reads any more: the signal before t."""
+        self.signal.drop_before(t)
 
 
 class Const(Node):
@@ -44,7 +50,7 @@ class Not(Node):
     def __init__(self, child: Node) -> None:
         super().__init__()
         self.child = child
-        self.future, self.past = child.future, child.past
+        self.future, self.past, self.reach = child.future, child.past, child.reach
 
     def children(self) -> list[Node]:
         return [self.child]
@@ -65,6 +71,7 @@ class Binary(Node):
         self.left, self.right = left, right
         self.future = max(left.future, right.future)
         self.past = max(left.past, right.past)
+        self.reach = max(left.reach, right.reach)
 
     def children(self) -> list[Node]:
         return [self.left, self.right]
@@ -114,7 +121,7 @@ class Evaluated(Node, ABC):
         points = sorted(p for p in self.breakpoints(start) if p > start)
         signal = self.signal
         signal.cut(start)
-        ends = [*points, (points[-1] if points else start) + self.future + self.past + 1]
+        ends = [*points, (points[-1] if points else start) + self.future + self.reach + 1]
         previous = start
         for point in ends:
             after = self.value_at(_mid(previous, point))
@@ -133,13 +140,24 @@ class Temporal(Evaluated):
         self.left, self.right = left, right
         future = max(left.future, right.future)
         past = max(left.past, right.past)
+        self.reach = max(left.reach, right.reach)
         if kind == "until":
             self.future, self.past = future + bound, past
         else:
             self.future, self.past = future, past + bound
+            self.reach += bound
         # `eventually` and `once` (true on the left): the value is the sup of psi
         # over the window, read from the segment lists in one slice.
         self.plain = isinstance(left, Const) and left.value == TRUE
+        self.witnesses = Witnesses()  # a `since` with a window: what it carries over
+
+    def reset(self, start: Any) -> None:
+        super().reset(start)
+        self.witnesses = Witnesses()
+
+    def forget_before(self, t: Any) -> None:
+        super().forget_before(t)
+        self.witnesses.forget_before(t)
 
     def children(self) -> list[Node]:
         return [self.left, self.right]
@@ -156,10 +174,32 @@ class Temporal(Evaluated):
         return found
 
     def update(self, start: Any) -> None:
-        if self.plain and self.op != "=" and (self.op == "<=" or self.bound > 0):
+        windowed = self.op != "=" and (self.op == "<=" or self.bound > 0)
+        if self.plain and self.op == "=":
+            self._shift(start)
+        elif self.plain and windowed:
             self._dilate(start)
+        elif self.kind == "since" and windowed:
+            left, right, closed = self.left.signal, self.right.signal, self.op == "<="
+            levels = since_levels(left, right, start, self.bound, closed, self.witnesses)
+            write(self.signal, start, levels)
         else:
             super().update(start)
+
+    def _shift(self, start: Any) -> None:
+        """`eventually[=T] psi` and `once[=T] psi`: psi shifted by T (`once` false
+        before T has passed since the origin)."""
+        psi, out = self.right.signal, self.signal
+        shift = self.bound if self.kind == "since" else -self.bound
+        out.cut(start)
+        begin = start
+        if self.kind == "since" and start < self.origin + self.bound:
+            out.append(start, FALSE, FALSE)
+            begin = self.origin + self.bound
+        i = psi.index(begin - shift)
+        out.append(begin, psi.at(begin - shift), psi.opens[i])
+        for k in range(i + 1, len(psi.starts)):
+            out.append(psi.starts[k] + shift, psi.points[k], psi.opens[k])
 
     def _dilate(self, start: Any) -> None:
         """`eventually` and `once` in one pass: each piece of psi (a point or an open
@@ -170,35 +210,21 @@ class Temporal(Evaluated):
         past = self.kind == "since"
         starts, points, opens = psi.starts, psi.points, psi.opens
         count = len(starts)
-        levels: tuple[list[list[Any]], list[list[Any]]] = ([], [])  # value >= 1, == 2
+        levels: Levels = ([], [])
         for k in range(psi.index(start - bound if past else start), count):
             at = starts[k]
             following = starts[k + 1] if k + 1 < count else _INFINITY
             if points[k]:
                 if past:
-                    _cover(levels, points[k], at, True, at + bound, closed)
+                    cover(levels, points[k], at, True, at + bound, closed)
                 else:
-                    _cover(levels, points[k], at - bound, closed, at, True)
+                    cover(levels, points[k], at - bound, closed, at, True)
             if opens[k]:
                 if past:
-                    _cover(levels, opens[k], at, False, following + bound, False)
+                    cover(levels, opens[k], at, False, following + bound, False)
                 else:
-                    _cover(levels, opens[k], at - bound, False, following, False)
-        signal = self.signal
-        signal.cut(start)
-        ends = {start}
-        for level in levels:
-            for low, _, high, _ in level:
-                if low > start:
-                    ends.add(low)
-                if start < high < _INFINITY:
-                    ends.add(high)
-        ones, twos = levels
-        one = two = 0  # the first interval of each level not yet behind t
-        for t in sorted(ends):
-            one, one_point, one_after = _covers(ones, one, t)
-            two, two_point, two_after = _covers(twos, two, t)
-            signal.append(t, one_point + two_point, one_after + two_after)
+                    cover(levels, opens[k], at - bound, False, following, False)
+        write(self.signal, start, levels)
 
     def value_at(self, t: Any) -> int:
         if self.op == "<" and self.bound <= 0:
@@ -255,7 +281,7 @@ class Temporal(Evaluated):
             if begin < self.origin:
                 return FALSE
             return min(psi.at(begin), phi.infimum(begin, t, False, True))
-        low, low_closed = (begin, op == "<=") if begin > self.origin else (self.origin, True)
+        low, low_closed = (begin, op == "<=") if begin >= self.origin else (self.origin, True)
         if low > t or (low == t and not low_closed):
             return FALSE
         best = FALSE
@@ -281,37 +307,63 @@ class Temporal(Evaluated):
         return best
 
 
-def _cover(
-    levels: tuple[list[list[Any]], list[list[Any]]],
-    value: int,
-    low: Any,
-    low_closed: bool,
-    high: Any,
-    high_closed: bool,
-) -> None:
-    """Add an interval where the result is at least `value` (1 or 2) to the union of
-    each level it reaches. Intervals come with ordered lows and highs."""
-    for intervals in levels[:value]:
-        if intervals:
-            last = intervals[-1]
-            if low < last[2] or (low == last[2] and (low_closed or last[3])):
-                if high > last[2]:
-                    last[2], last[3] = high, high_closed
-                elif high == last[2]:
-                    last[3] = last[3] or high_closed
-                continue
-        intervals.append([low, low_closed, high, high_closed])
+class Ever(Node):
+    """`since` with no bound, and so `once` and `historically` with none: phi has held
+    since a time psi held, at any time back to the start. Constant memory: the value
+    at t follows from the value pending at an earlier time s and the children on
+    [s, t], so an update reads its children from where it starts and, before that,
+    only `pending`: at each time t, the best psi at t' < t with phi on (t', t)."""
 
+    origin: Any = 0
 
-def _covers(intervals: list[list[Any]], k: int, t: Any) -> tuple[int, int, int]:
-    """Whether the union covers t (1 or 0) and the instants just after t, moving the
-    cursor k past the intervals that end before; times come in increasing order."""
-    count = len(intervals)
-    while k < count and (intervals[k][2] < t or (intervals[k][2] == t and not intervals[k][3])):
-        k += 1
-    low = intervals[k] if k < count else None
-    point = int(low is not None and (low[0] < t or (low[0] == t and low[1])))
-    while k < count and intervals[k][2] <= t:
-        k += 1
-    after = int(k < count and intervals[k][0] <= t)
-    return k, point, after
+    def __init__(self, left: Node, right: Node) -> None:
+        super().__init__()
+        self.left, self.right = left, right
+        self.future = max(left.future, right.future)
+        self.past = _INFINITY
+        self.reach = max(left.reach, right.reach)
+        self.pending = Signal(0, FALSE)
+
+    def children(self) -> list[Node]:
+        return [self.left, self.right]
+
+    def reset(self, start: Any) -> None:
+        super().reset(start)
+        self.pending = Signal(start, FALSE)
+
+    def forget_before(self, t: Any) -> None:
+        super().forget_before(t)
+        self.pending.drop_before(t)
+
+    def update(self, start: Any) -> None:
+        """One walk over the children's breakpoints from `start` on. At a point p
+        the value is psi(p), or what was pending with phi(p); on the open interval
+        after it, psi there, or the value at p with phi there; and what is pending
+        over that interval is the value at p or psi there, with phi there."""
+        phi, psi, out, pending = self.left.signal, self.right.signal, self.signal, self.pending
+        carried = pending.at(start) if start > self.origin else FALSE
+        out.cut(start)
+        pending.cut(start)
+        p_starts, p_points, p_opens = phi.starts, phi.points, phi.opens
+        q_starts, q_points, q_opens = psi.starts, psi.points, psi.opens
+        i, j = phi.index(start), psi.index(start)
+        p_count, q_count = len(p_starts), len(q_starts)
+        t = start
+        while True:
+            phi_at = p_points[i] if p_starts[i] == t else p_opens[i]
+            psi_at = q_points[j] if q_starts[j] == t else q_opens[j]
+            phi_after, psi_after = p_opens[i], q_opens[j]
+            value = max(min(carried, phi_at), psi_at)
+            carried_after = min(max(value, psi_after), phi_after)
+            out.append(t, value, max(min(value, phi_after), psi_after))
+            pending.append(t, carried, carried_after)
+            carried = carried_after
+            p_next = p_starts[i + 1] if i + 1 < p_count else _INFINITY
+            q_next = q_starts[j + 1] if j + 1 < q_count else _INFINITY
+            t = p_next if p_next < q_next else q_next
+            if t == _INFINITY:
+                return
+            if p_next == t:
+                i += 1
+            if q_next == t:
+                j += 1

@@ -33,7 +33,8 @@ COMPARE_OPS = {
 }
 MIRRORED = {"<": ">", ">": "<", "<=": ">=", ">=": "<=", "==": "==", "!=": "!="}
 KINDS = {"const": "K_CONST", "prop": "K_PROP", "not": "K_NOT", "and": "K_AND", "or": "K_OR",
-         "until": "K_UNTIL", "since": "K_SINCE", "cmp": "K_CMP"}  # fmt: skip
+         "until": "K_UNTIL", "since": "K_SINCE", "cmp": "K_CMP", "ever": "K_EVER",
+         "pending": "K_PENDING"}  # fmt: skip
 
 
 class Unsupported(ValueError):
@@ -52,7 +53,7 @@ class Node:
     bound: int = 0  # ticks: a temporal bound, or a duration's window
     constant: int = 0  # ticks: what a duration is compared with
     future: int = 0
-    past: int = 0
+    past: int = 0  # how far back its update reads its children: finite under `ever` too
     weight: int = 0  # how many shifted copies of the input's changes it can hold
     offset: int = 0
     cap: int = 0
@@ -165,6 +166,13 @@ def _add(item: Any, kids: list[int], nodes: list[Node], props: dict[str, int],
         a, b = nodes[kids[0]], nodes[kids[1]]
         nodes.append(Node(kind, left=kids[0], right=kids[1], future=max(a.future, b.future),
                           past=max(a.past, b.past), weight=a.weight + b.weight))  # fmt: skip
+    elif kind == "since" and item[2] is None:
+        # since with no bound: its pending signal is the node just before it
+        a, b = nodes[kids[0]], nodes[kids[1]]
+        weight, past = a.weight + b.weight, max(a.past, b.past)
+        nodes.append(Node("pending", past=past, weight=weight))
+        nodes.append(Node("ever", left=kids[0], right=kids[1], future=max(a.future, b.future),
+                          past=past, weight=weight))  # fmt: skip
     elif kind in ("until", "since"):
         nodes.append(_temporal(item, kids, nodes))
     else:

@@ -21,7 +21,7 @@ typedef char rmv_prius_platoon_fits[sizeof(rmv_prius_platoon_monitor) <= RMV_PRI
 #define RMV_U 1
 #define RMV_T 2
 
-enum { K_CONST, K_PROP, K_NOT, K_AND, K_OR, K_UNTIL, K_SINCE, K_CMP };
+enum { K_CONST, K_PROP, K_NOT, K_AND, K_OR, K_UNTIL, K_SINCE, K_CMP, K_EVER, K_PENDING };
 enum { OP_LT, OP_LE, OP_EQ, OP_GT, OP_GE, OP_NE };
 
 typedef struct {
@@ -35,7 +35,7 @@ typedef struct {
     int64_t bound;     /* temporal bound, or a duration's window (ticks) */
     int64_t constant;  /* a comparison's constant (ticks) */
     int64_t future;    /* how far the node looks ahead (ticks) */
-    int64_t past;
+    int64_t past;      /* how far back its update reads its children (ticks) */
     int32_t offset;    /* its slice of the pools */
     int32_t cap;
 } rmv_node;
@@ -335,7 +335,7 @@ static uint8_t rmv_since_at(const rmv_formula *f, const rmv_node *d, int64_t t) 
         if (begin < *f->origin) return RMV_F;
         return rmv_min(rmv_sig_at(&psi, begin), rmv_infimum(&phi, begin, t, 0, 1));
     }
-    if (begin > *f->origin) {
+    if (begin >= *f->origin) {  /* a window starting at the origin is still open there */
         low = begin;
         low_closed = d->op == OP_LE;
     } else {
@@ -495,6 +495,34 @@ static void rmv_update_binary(const rmv_formula *f, int32_t node, int64_t start)
     }
 }
 
+/* since with no bound (once, historically): the value at t follows from what was
+ * pending at an earlier time and the children since, so an update reads its
+ * children from `start` on and, before that, only the pending signal, kept in the
+ * node before it: at each time, the best psi at t' < t with phi on (t', t). */
+static void rmv_update_ever(const rmv_formula *f, int32_t node, int64_t start) {
+    const rmv_node *d = &f->nodes[node];
+    rmv_sig s = rmv_signal(f, node), pending = rmv_signal(f, node - 1);
+    rmv_sig phi = rmv_signal(f, d->left), psi = rmv_signal(f, d->right);
+    uint8_t carried = start > *f->origin ? rmv_sig_at(&pending, start) : RMV_F;
+    int32_t i = rmv_index(&phi, start), j = rmv_index(&psi, start);
+    int64_t t = start;
+    rmv_cut(&s, start);
+    rmv_cut(&pending, start);
+    for (;;) {
+        uint8_t value = rmv_max(rmv_min(carried, rmv_walk_at(&phi, i, t)), rmv_walk_at(&psi, j, t));
+        uint8_t carried_after = rmv_min(rmv_max(value, psi.op[j]), phi.op[i]);
+        int64_t a = i + 1 < *phi.n ? phi.at[i + 1] : RMV_FOREVER;
+        int64_t b = j + 1 < *psi.n ? psi.at[j + 1] : RMV_FOREVER;
+        rmv_append(&s, t, value, rmv_max(rmv_min(value, phi.op[i]), psi.op[j]));
+        rmv_append(&pending, t, carried, carried_after);
+        carried = carried_after;
+        t = a < b ? a : b;
+        if (t == RMV_FOREVER) return;
+        if (a == t) i++;
+        if (b == t) j++;
+    }
+}
+
 /* Recompute every node that reads input, children first, from where input
  * changed at `changed` can change it (no earlier than `first`). */
 static void rmv_update_nodes(const rmv_formula *f, int32_t count, int64_t changed,
@@ -511,6 +539,7 @@ static void rmv_update_nodes(const rmv_formula *f, int32_t count, int64_t change
         case K_UNTIL:
         case K_SINCE:
         case K_CMP: rmv_update_evaluated(f, node, start); break;
+        case K_EVER: rmv_update_ever(f, node, start); break;
         default: break;
         }
     }
@@ -671,7 +700,7 @@ static void rmv_begin(const rmv_view *v, int64_t t, const uint32_t *state,
     for (node = 0; node < v->def->node_count; node++) {
         rmv_sig s = rmv_signal(f, node);
         const rmv_node *d = &f->nodes[node];
-        rmv_reset(&s, t, d->kind == K_CONST ? d->value : RMV_U);
+        rmv_reset(&s, t, d->kind == K_CONST ? d->value : d->kind == K_PENDING ? RMV_F : RMV_U);
     }
 }
 

@@ -1,0 +1,250 @@
+"""The windowed past and future operators in one sweep each: the value at t is the
+highest level (1: not false, 2: true) for which t lies in a union of intervals, one
+interval per piece of psi (a point, or an open interval between two breakpoints),
+each the times whose window meets the piece (rmvdsl/runtime/temporal.py; the
+operators' meaning is docs/semantics.md). Standard library only."""
+
+from __future__ import annotations
+
+import bisect
+from typing import Any
+
+from rmvdsl.runtime.signal import _INFINITY, Signal
+
+Interval = list[Any]  # [low, low closed, high, high closed]
+Levels = tuple[list[Interval], list[Interval]]  # value >= 1, value == 2
+End = tuple[Any, bool]  # a time and whether it is included
+
+
+def cover(levels: Levels, value: int, low: Any, low_closed: bool, high: Any,
+          high_closed: bool) -> None:  # fmt: skip
+    """Add an interval where the result is at least `value` (1 or 2) to the union of
+    each level it reaches."""
+    for intervals in levels[:value]:
+        add(intervals, low, low_closed, high, high_closed)
+
+
+def add(intervals: list[Interval], low: Any, low_closed: bool, high: Any,
+        high_closed: bool) -> None:  # fmt: skip
+    """Add an interval to a union kept as disjoint intervals in order. Intervals come
+    with ordered lows and highs."""
+    if intervals:
+        last = intervals[-1]
+        if low < last[2] or (low == last[2] and (low_closed or last[3])):
+            if high > last[2]:
+                last[2], last[3] = high, high_closed
+            elif high == last[2]:
+                last[3] = last[3] or high_closed
+            return
+    intervals.append([low, low_closed, high, high_closed])
+
+
+def covers(intervals: list[Interval], k: int, t: Any) -> tuple[int, int, int]:
+    """Whether the union covers t (1 or 0) and the instants just after t, moving the
+    cursor k past the intervals that end before; times come in increasing order."""
+    count = len(intervals)
+    while k < count and (intervals[k][2] < t or (intervals[k][2] == t and not intervals[k][3])):
+        k += 1
+    low = intervals[k] if k < count else None
+    point = int(low is not None and (low[0] < t or (low[0] == t and low[1])))
+    while k < count and intervals[k][2] <= t:
+        k += 1
+    after = int(k < count and intervals[k][0] <= t)
+    return k, point, after
+
+
+def write(signal: Signal, start: Any, levels: Levels) -> None:
+    """The signal from `start` on: at each time, how many levels cover it."""
+    signal.cut(start)
+    ends = {start}
+    for level in levels:
+        for low, _, high, _ in level:
+            if low > start:
+                ends.add(low)
+            if start < high < _INFINITY:
+                ends.add(high)
+    ones, twos = levels
+    one = two = 0  # the first interval of each level not yet behind t
+    for t in sorted(ends):
+        one, one_point, one_after = covers(ones, one, t)
+        two, two_point, two_after = covers(twos, two, t)
+        signal.append(t, one_point + two_point, one_after + two_after)
+
+
+# ---- `phi since[<T] psi` and `phi since[<=T] psi` ----
+
+Witness = tuple[Any, bool] | None  # the latest t' (and whether it is attained), or none
+
+
+class Witnesses:
+    """What a `since` with a window carries over from before an update's start, at
+    each level: the latest t' before x where psi >= k with phi >= k on (t', x),
+    kept at every breakpoint of its operands (the standard past-time algorithm:
+    keep the last witness). An update then reads its operands from its start on
+    only, whatever the window's length."""
+
+    def __init__(self) -> None:
+        self.times: list[Any] = []
+        self.found: list[tuple[Witness, Witness]] = []
+
+    def cut(self, t: Any) -> None:
+        index = bisect.bisect_left(self.times, t)
+        del self.times[index:], self.found[index:]
+
+    def forget_before(self, t: Any) -> None:
+        index = bisect.bisect_right(self.times, t) - 1
+        if index > 0:
+            del self.times[:index], self.found[:index]
+
+    def at(self, x: Any, phi: Signal, psi: Signal) -> tuple[Witness, Witness]:
+        index = bisect.bisect_right(self.times, x) - 1
+        if index < 0:
+            return None, None
+        p = self.times[index]
+        if p == x:
+            return self.found[index]
+        return _carried(self.found[index], p, phi, psi)
+
+
+def _carried(found: tuple[Witness, Witness], p: Any, phi: Signal,
+             psi: Signal) -> tuple[Witness, Witness]:  # fmt: skip
+    """The witnesses just after p (on the open interval to the next breakpoint)."""
+    return _step(found, phi.at(p), phi.right_of(p), psi.at(p), psi.right_of(p), p)
+
+
+def _step(found: tuple[Witness, Witness], phi_at: int, phi_after: int, psi_at: int,
+          psi_after: int, p: Any) -> tuple[Witness, Witness]:  # fmt: skip
+    """From the witnesses at p to those just after it: psi there is its own witness
+    (not attained: `_NOW`), else psi at p, else what p carried, each only while phi
+    holds on."""
+    out: list[Witness] = []
+    for level, witness in zip((1, 2), found, strict=True):
+        if phi_after < level:
+            out.append(None)
+        elif psi_after >= level:
+            out.append((_NOW, False))
+        elif psi_at >= level:
+            out.append((p, True))
+        else:
+            out.append(witness if phi_at >= level else None)
+    return out[0], out[1]
+
+
+_NOW = object()  # a witness at x itself, not attained: psi holds just before x
+
+
+def since_levels(phi: Signal, psi: Signal, start: Any, bound: Any, closed: bool,
+                 memo: Witnesses) -> Levels:  # fmt: skip
+    """At level k, t is covered where psi >= k at some t' in the window with
+    phi >= k on (t', t]. What came before `start` covers, at each level, from start
+    to a bound past the latest witness, while phi holds (`memo`); a piece of psi
+    from start on covers itself (t' = t) and the times after it, up to a bound past
+    its end, while phi holds from its last instant. The end of phi's run is read
+    from a table built once per update: the sweep is linear in the breakpoints
+    since `start`, whatever the bound."""
+    levels: Levels = ([], [])
+    first = psi.index(start)
+    base = phi.index(start)
+    carried = memo.at(start, phi, psi) if start > psi.starts[0] else (None, None)
+    _remember(memo, phi, psi, start, carried)
+    starts, points, opens = psi.starts, psi.points, psi.opens
+    count = len(starts)
+    for level, intervals in zip((1, 2), levels, strict=True):
+        after_point, after_open = _runs(phi, base, level)
+        witness = carried[level - 1]
+        if witness is not None:  # t' before start, phi on (t', start): and from start on
+            when = start if witness[0] is _NOW else witness[0]
+            run = _run_at(phi, base, start, level, after_point, after_open)
+            if run:
+                high = _earlier((when + bound, closed and witness[1]), run)
+                if high[0] > start or (high[0] == start and high[1]):
+                    add(intervals, start, True, *high)
+        for k in range(first, count):
+            at = starts[k]
+            following = starts[k + 1] if k + 1 < count else _INFINITY
+            if points[k] >= level and at >= start:  # t' = at: phi on (at, t]
+                run = after_open[phi.index(at) - base]
+                high = _earlier((at + bound, closed), run) if run else (at, True)
+                add(intervals, at, True, *high)
+            if opens[k] >= level:  # t' just before `following`: phi on (following - e, t]
+                run = None
+                if following != _INFINITY:
+                    run = _run_from(phi, base, following, level, after_point, after_open)
+                high = _earlier((following + bound, False), run) if run else (following, False)
+                add(intervals, max(at, start), at < start, *high)
+    return levels
+
+
+def _remember(memo: Witnesses, phi: Signal, psi: Signal, start: Any,
+              carried: tuple[Witness, Witness]) -> None:  # fmt: skip
+    """The witnesses at every breakpoint of phi and psi from `start` on, in one walk
+    over both."""
+    memo.cut(start)
+    p_starts, p_points, p_opens = phi.starts, phi.points, phi.opens
+    q_starts, q_points, q_opens = psi.starts, psi.points, psi.opens
+    i, j = phi.index(start), psi.index(start)
+    p_count, q_count = len(p_starts), len(q_starts)
+    times, witnesses = memo.times, memo.found
+    t, found = start, carried
+    while True:
+        times.append(t)
+        witnesses.append(found)
+        phi_at = p_points[i] if p_starts[i] == t else p_opens[i]
+        psi_at = q_points[j] if q_starts[j] == t else q_opens[j]
+        after = _step(found, phi_at, p_opens[i], psi_at, q_opens[j], t)
+        p_next = p_starts[i + 1] if i + 1 < p_count else _INFINITY
+        q_next = q_starts[j + 1] if j + 1 < q_count else _INFINITY
+        t = p_next if p_next < q_next else q_next
+        if t == _INFINITY:
+            return
+        if p_next == t:
+            i += 1
+        if q_next == t:
+            j += 1
+        found = tuple(  # type: ignore[assignment]
+            (t, False) if w is not None and w[0] is _NOW else w for w in after
+        )
+
+
+def _runs(phi: Signal, base: int, level: int) -> tuple[list[End | None], list[End | None]]:
+    """For each breakpoint of phi from `base` on: how far phi >= level holds from the
+    point on (`after_point`) and from the open interval after it on (`after_open`),
+    as the last time t for which it holds on all of (x, t]; None: not even there."""
+    starts, points, opens = phi.starts, phi.points, phi.opens
+    count = len(starts) - base
+    after_point: list[End | None] = [None] * count
+    after_open: list[End | None] = [None] * count
+    following: End | None = (_INFINITY, False)  # what holds from the next point on
+    for m in range(count - 1, -1, -1):
+        index = base + m
+        if opens[index] >= level:
+            after_open[m] = following if following else (starts[index + 1], False)
+        if points[index] >= level:
+            after_point[m] = after_open[m] or (starts[index], True)
+        following = after_point[m]
+    return after_point, after_open
+
+
+def _run_from(phi: Signal, base: int, at: Any, level: int, after_point: list[End | None],
+              after_open: list[End | None]) -> End | None:  # fmt: skip
+    """How far phi >= level holds from just before `at` on (None: not at `at`)."""
+    index = phi.index(at)
+    if phi.starts[index] == at:  # the open interval before it, then the point
+        before = phi.opens[index - 1] if index > 0 else phi.opens[index]
+        return after_point[index - base] if before >= level else None
+    return after_open[index - base]
+
+
+def _run_at(phi: Signal, base: int, at: Any, level: int, after_point: list[End | None],
+            after_open: list[End | None]) -> End | None:  # fmt: skip
+    """How far phi >= level holds from `at`, the point included, on."""
+    index = phi.index(at)
+    if phi.starts[index] == at:
+        return after_point[index - base]
+    return after_open[index - base]
+
+
+def _earlier(a: End, b: End) -> End:
+    if a[0] != b[0]:
+        return a if a[0] < b[0] else b
+    return a[0], a[1] and b[1]
