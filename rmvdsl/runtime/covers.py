@@ -9,7 +9,7 @@ from __future__ import annotations
 import bisect
 from typing import Any
 
-from rmvdsl.runtime.signal import _INFINITY, Signal
+from rmvdsl.runtime.signal import _INFINITY, Signal, pieces
 
 Interval = list[Any]  # [low, low closed, high, high closed]
 Levels = tuple[list[Interval], list[Interval]]  # value >= 1, value == 2
@@ -180,30 +180,20 @@ def _remember(memo: Witnesses, phi: Signal, psi: Signal, start: Any,
     """The witnesses at every breakpoint of phi and psi from `start` on, in one walk
     over both."""
     memo.cut(start)
-    p_starts, p_points, p_opens = phi.starts, phi.points, phi.opens
-    q_starts, q_points, q_opens = psi.starts, psi.points, psi.opens
-    i, j = phi.index(start), psi.index(start)
-    p_count, q_count = len(p_starts), len(q_starts)
-    times, witnesses = memo.times, memo.found
-    t, found = start, carried
-    while True:
-        times.append(t)
-        witnesses.append(found)
-        phi_at = p_points[i] if p_starts[i] == t else p_opens[i]
-        psi_at = q_points[j] if q_starts[j] == t else q_opens[j]
-        after = _step(found, phi_at, p_opens[i], psi_at, q_opens[j], t)
-        p_next = p_starts[i + 1] if i + 1 < p_count else _INFINITY
-        q_next = q_starts[j + 1] if j + 1 < q_count else _INFINITY
-        t = p_next if p_next < q_next else q_next
-        if t == _INFINITY:
-            return
-        if p_next == t:
-            i += 1
-        if q_next == t:
-            j += 1
-        found = tuple(  # type: ignore[assignment]
-            (t, False) if w is not None and w[0] is _NOW else w for w in after
-        )
+    after: tuple[Witness, Witness] = carried
+    for t, phi_at, phi_after, psi_at, psi_after in pieces(phi, psi, start):
+        # what held just after the previous breakpoint, with psi there a witness at t
+        found = carried if t == start else _at(after, t)
+        memo.times.append(t)
+        memo.found.append(found)
+        after = _step(found, phi_at, phi_after, psi_at, psi_after, t)
+
+
+def _at(after: tuple[Witness, Witness], t: Any) -> tuple[Witness, Witness]:
+    """The witnesses at t from those on the open interval before it: psi held there
+    up to t, so t is the latest witness, not attained."""
+    first, second = ((t, False) if w is not None and w[0] is _NOW else w for w in after)
+    return first, second
 
 
 def _runs(phi: Signal, base: int, level: int) -> tuple[list[End | None], list[End | None]]:

@@ -388,9 +388,9 @@ class Monitor:
     def lists(self) -> int:
         """How many lists of breakpoints the nodes keep: a signal each, and for a
         `since` its witnesses (with a window) or what is pending (with none)."""
-        return len(self.order) + sum(
-            1 for n in self.order if isinstance(n, Ever) or getattr(n, "kind", "") == "since"
-        )
+        since = [n for n in self.order if isinstance(n, Temporal) and n.kind == "since"]
+        pending = [n for n in self.order if isinstance(n, Ever)]
+        return len(self.order) + len(since) + len(pending)
 
     def memory(self) -> int:
         """Breakpoints held over all nodes: bounded by the horizon, not the trace."""

@@ -5,6 +5,7 @@ library only."""
 from __future__ import annotations
 
 import bisect
+from collections.abc import Iterator
 from fractions import Fraction
 from typing import Any
 
@@ -41,6 +42,33 @@ def _plain(value: Any) -> Any:
     if type(value) is Fraction and value.denominator == 1:
         return value.numerator
     return value
+
+
+def pieces(a: Signal, b: Signal, start: Any) -> Iterator[tuple[Any, int, int, int, int]]:
+    """One walk over two signals from `start` on: at `start` and at each breakpoint
+    of either, the time, a's value there and just after, and b's."""
+    a_starts, a_points, a_opens = a.starts, a.points, a.opens
+    b_starts, b_points, b_opens = b.starts, b.points, b.opens
+    i, j = a.index(start), b.index(start)
+    a_count, b_count = len(a_starts), len(b_starts)
+    t = start
+    while True:
+        yield (
+            t,
+            a_points[i] if a_starts[i] == t else a_opens[i],
+            a_opens[i],
+            b_points[j] if b_starts[j] == t else b_opens[j],
+            b_opens[j],
+        )
+        a_next = a_starts[i + 1] if i + 1 < a_count else _INFINITY
+        b_next = b_starts[j + 1] if j + 1 < b_count else _INFINITY
+        t = a_next if a_next < b_next else b_next
+        if t == _INFINITY:
+            return
+        if a_next == t:
+            i += 1
+        if b_next == t:
+            j += 1
 
 
 class Signal:

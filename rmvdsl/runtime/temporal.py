@@ -8,7 +8,7 @@ from abc import ABC, abstractmethod
 from typing import Any
 
 from rmvdsl.runtime.covers import Levels, Witnesses, cover, since_levels, write
-from rmvdsl.runtime.signal import _INFINITY, FALSE, TRUE, UNKNOWN, Signal, _mid
+from rmvdsl.runtime.signal import _INFINITY, FALSE, TRUE, UNKNOWN, Signal, _mid, pieces
 
 
 class Node:
@@ -344,26 +344,9 @@ class Ever(Node):
         carried = pending.at(start) if start > self.origin else FALSE
         out.cut(start)
         pending.cut(start)
-        p_starts, p_points, p_opens = phi.starts, phi.points, phi.opens
-        q_starts, q_points, q_opens = psi.starts, psi.points, psi.opens
-        i, j = phi.index(start), psi.index(start)
-        p_count, q_count = len(p_starts), len(q_starts)
-        t = start
-        while True:
-            phi_at = p_points[i] if p_starts[i] == t else p_opens[i]
-            psi_at = q_points[j] if q_starts[j] == t else q_opens[j]
-            phi_after, psi_after = p_opens[i], q_opens[j]
+        for t, phi_at, phi_after, psi_at, psi_after in pieces(phi, psi, start):
             value = max(min(carried, phi_at), psi_at)
             carried_after = min(max(value, psi_after), phi_after)
             out.append(t, value, max(min(value, phi_after), psi_after))
             pending.append(t, carried, carried_after)
             carried = carried_after
-            p_next = p_starts[i + 1] if i + 1 < p_count else _INFINITY
-            q_next = q_starts[j + 1] if j + 1 < q_count else _INFINITY
-            t = p_next if p_next < q_next else q_next
-            if t == _INFINITY:
-                return
-            if p_next == t:
-                i += 1
-            if q_next == t:
-                j += 1
