@@ -91,6 +91,8 @@ class SpecMaker:
         if rng.random() < 0.3:
             op = rng.choice(["+", "-", "*"])
             left = f"{name} {op} {rng.choice(CONSTANTS[kind])}"
+        if rng.random() < 0.2:  # the transformations z3 computes exactly
+            left = f"{rng.choice(['abs', 'floor', 'ceil', 'round', 'sqrt'])}({left})"
         same = [v for v, k in self.kinds.items() if k == kind and v != name]
         right = rng.choice(same) if same and rng.random() < 0.25 else rng.choice(CONSTANTS[kind])
         return f"{left} {rng.choice(COMPARISONS)} {right}"

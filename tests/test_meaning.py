@@ -283,3 +283,33 @@ def test_one_json_rule_for_exact_times(rmv, tmp_path):
     segments = json.loads(result.out)["segments"]
     assert [s["to"] for s in segments] == ["1/3", 1]
     assert json.loads(to_json({"t": Fraction(1, 3)})) == {"t": "1/3"}
+
+
+def test_a_condition_may_transform_the_values_it_reads(tmp_path):
+    """`abs`, `round`, `sqrt`... in a condition apply to the newest values (the
+    runtime stopped with "cannot evaluate Call here"), the checker's model is the
+    runtime's (abs and sqrt are exact: `Far` and `Near` exclude each other,
+    RMV512), and a missing value stays missing through them."""
+    result = _checked(
+        tmp_path,
+        "event Far when abs(A) > 3 and sqrt(abs(B)) >= 2\n"
+        "event Near when abs(A) < 2 or abs(B) < 2\nevent Third when round(B / 3) = 0\n"
+        "event Small when not (abs(A) > 3)\n"
+        "property Apart: not (Far and Near)\nproperty NotSmall: not Small\n",
+    )
+    assert _codes(result) == ["RMV512"], result.diagnostics  # Apart: true on every trace
+    messages = [(NS, "/b", 4), (NS + NS // 2, "/a", -4), (2 * NS, "/a", -9), (2 * NS + 1, "/b", 1)]
+    records = _records(result, messages)
+    changes = [(str(r["time"]), r["name"], r["value"]) for r in records if r["kind"] == "event"]
+    assert ("3/2", "Far", True) in changes and ("2000000001/1000000000", "Far", False) in changes
+    assert ("2000000001/1000000000", "Near", True) in changes
+    assert [c for c in changes if c[1] == "Third"] == [("2000000001/1000000000", "Third", True)]
+    # Small would hold before /a publishes if `not` made a missing value true.
+    assert not [c for c in changes if c[1] == "Small" and c[2]]
+    assert _verdicts(records, "Apart") == _verdicts(records, "NotSmall") == {"true"}
+
+
+def test_a_condition_over_a_series_names_the_value_event_it_needs(tmp_path):
+    result = _checked(tmp_path, "event Slope when derivative(A) > 1\nproperty P: not Slope\n")
+    (found,) = [d for d in result.diagnostics if d.code == "RMV321"]
+    assert "`event SlopeDerivative = derivative(A)`" in (found.help or "")

@@ -7,11 +7,12 @@ from collections.abc import Callable, Iterable
 from fractions import Fraction
 
 from rmvdsl.check.model import EVENT_KINDS, Kind, Model, Symbol
-from rmvdsl.grammar import ast
+from rmvdsl.grammar import ast, printer
 from rmvdsl.grammar import formula as fm
 from rmvdsl.lang import builtins
 from rmvdsl.lang.diagnostics import Diagnostic, did_you_mean, error, warning
 from rmvdsl.lang.source import Span
+from rmvdsl.runtime.functions import STREAMS
 
 INFLUX_FUNCTIONS = builtins.FUNCTIONS
 FILL_NAMES = builtins.FILLS
@@ -68,13 +69,37 @@ class EventChecks:
         nodes = self.check_expression(decl.expr, allowed)
         calls = [n for n in nodes if isinstance(n, ast.Call)]
         seen: dict[str, ast.Clause] = {}
+        conditions = [call for call in calls if decl.boolean and decl.clause("group") is None]
         for clause in decl.clauses:
             first = seen.setdefault(clause.kind, clause)
             if first is not clause:
                 self.once_only(f"the `{clause.kind}` clause of `{decl.name.name}`", clause, first)
-            nodes += self.check_clause(clause, allowed)
+            found = self.check_clause(clause, allowed)
+            if clause.kind == "where":
+                conditions += [n for n in found if isinstance(n, ast.Call)]
+            nodes += found
         self.event_reads[id(decl)] = [n.ident for n in nodes if isinstance(n, ast.NameRef)]
-        self.check_query_shape(decl, calls)
+        if self.check_series_in_condition(decl, conditions):
+            self.check_query_shape(decl, calls)
+
+    def check_series_in_condition(self, decl: ast.EventDecl, calls: list[ast.Call]) -> bool:
+        """A condition is evaluated over the newest value of each name it reads, so it
+        may transform a value (`abs(V) > 3`) but not a series of points (RMV321);
+        `calls`: those of its conditions. Whether it was fine."""
+        for call in calls:
+            name = call.func.name
+            if name in STREAMS:
+                event = decl.name.name + name.title().replace("_", "")
+                self.report_shape(
+                    call.func.span,
+                    f"`{name}` in a condition of `{decl.name.name}` needs a series of "
+                    "points, and a condition reads the newest value of each name",
+                    "a transformation of a series",
+                    f"declare it as a value event, `event {event} = "
+                    f"{printer.expression(call)}`, and compare `{event}`",
+                )
+                return False
+        return True
 
     def check_query_shape(self, decl: ast.EventDecl, calls: list[ast.Call]) -> None:
         """What InfluxQL refuses in a continuous query, and the runtime cannot run:

@@ -20,10 +20,20 @@ import z3
 
 from rmvdsl.check.lowering import NotLowered, lower_expr
 from rmvdsl.check.model import Model
-from rmvdsl.check.operators import apply, as_bool, constant, negate, number
+from rmvdsl.check.operators import (
+    apply,
+    as_bool,
+    constant,
+    is_float,
+    negate,
+    number,
+    transform,
+    undefined_at,
+)
 from rmvdsl.check.solving import PRESENT, names_in, solve
 from rmvdsl.check.types import TypeInfo
 from rmvdsl.runtime import spec as ir
+from rmvdsl.runtime.functions import ELEMENTWISE
 from rmvdsl.runtime.values import INTEGER_RANGES, literal
 
 _ORDERS = ("<", "<=", ">", ">=")
@@ -203,8 +213,24 @@ class Conditions:
                 return Term(negate(operand.value), operand.present)
             case ir.Binary():
                 return self.binary(node)
+            case ir.Call() if node.function in ELEMENTWISE:
+                return self.call(node)
         # A function of the data: a value of its own, of its type's sort.
         return self.free(text(node), _sort_kind(node.type.kind))
+
+    def call(self, node: ir.Call) -> Term:
+        """A transformation of one value (`abs(V)`): exact where z3 computes it, else
+        a value of its own (named by its text, which a witness prints); no value
+        where the runtime has none."""
+        arguments = [self.expr(a) for a in node.args]
+        value = transform(node.function, arguments[0].value)
+        if value is None:
+            value = self.free(text(node), "float", may_be_absent=False).value
+        present = z3.And(*(a.present for a in arguments))
+        if is_float(value):
+            undefined = undefined_at(value, [a.value for a in arguments])
+            present = z3.And(present, z3.Not(undefined))
+        return Term(value, z3.simplify(present))
 
     def name(self, ref: ir.Ref) -> Term:
         name = ref.name

@@ -139,3 +139,30 @@ def _fmod(left: Any, right: Any) -> Any:
     )
     nan = z3.fpNaN(FLOAT)
     return z3.If(z3.Or(z3.fpIsZero(right), z3.fpIsInf(left)), nan, moved)
+
+
+# Transformations z3's floating-point theory computes exactly: IEEE's roundings and
+# square root are correctly rounded, as Go's math and Python's math module are.
+_ROUNDINGS = {"ceil": z3.RTP(), "floor": z3.RTN(), "round": z3.RNA()}
+
+
+def transform(name: str, value: Any) -> Any | None:
+    """`name(value)` as `rmvdsl.runtime.functions.elementwise` computes it before it
+    reads a NaN as absent, or None where z3 has no exact model (`sin`, `pow`)."""
+    if name == "abs":
+        if is_int(value):
+            return z3.If(value < 0, -value, value)  # -INT_MIN wraps to itself
+        return z3.fpAbs(to_float(value))
+    if name in _ROUNDINGS:
+        return value if is_int(value) else z3.fpRoundToIntegral(_ROUNDINGS[name], value)
+    if name == "sqrt":
+        return z3.fpSqrt(ROUNDING, to_float(value))
+    return None
+
+
+def undefined_at(result: Any, arguments: list[Any]) -> Any:
+    """Where a transformation's float result is no value (the runtime's MISSING):
+    NaN, or infinite from finite arguments (Python's math raises there: `log(0)`,
+    `exp(1000)`)."""
+    finite = [z3.Not(z3.Or(z3.fpIsInf(a), z3.fpIsNaN(a))) for a in map(to_float, arguments)]
+    return z3.Or(z3.fpIsNaN(result), z3.And(z3.fpIsInf(result), *finite))

@@ -537,7 +537,15 @@ shapes (so does the runtime, which computes events exactly as InfluxDB does):
     event D = mean(Velocity) + Brake group by time(1s)   // Brake raw beside an aggregate
     event G = mean(Velocity) group by time(2s) resample for 1s   // a run reads < a window
     event E = mean(Velocity) * 3.6 group by time(1s)     // ok
-    event F = derivative(Velocity, 1s)                   // ok: over the raw points""",
+    event F = derivative(Velocity, 1s)                   // ok: over the raw points
+
+A condition (`event H when ...`, a `where` clause) reads the newest value of each
+name: it may transform a value, `abs(Velocity) > 3`, but a transformation of a
+series needs the points themselves:
+
+    event H when derivative(Velocity) < -5               // declare the series first:
+    event Slope = derivative(Velocity)                   // ok
+    event H when Slope < -5                              // ok""",
     ),
     (
         "RMV322",

@@ -11,11 +11,13 @@ from typing import Any
 
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime import values
+from rmvdsl.runtime.functions import ELEMENTWISE, elementwise
 from rmvdsl.runtime.series import MISSING
 
 
 def evaluate(expr: ir.Expr, lookup: Callable[[str], Any]) -> Any:
-    """The value of an expression with no function calls, or MISSING when a name it
+    """The value of an expression whose only calls are transformations of one value
+    (`abs`, `round`, `sqrt`...), or MISSING when a name it
     reads has no value. MISSING is SQL's null, read as "unknown" (docs/semantics.md,
     "Absent values"): arithmetic and comparisons with it are MISSING, `not MISSING`
     is MISSING, and `and`/`or` are Kleene's (`false and MISSING` is false, `true or
@@ -55,7 +57,24 @@ def _compile(expr: ir.Expr) -> Evaluator:
             return lambda lookup: unary(op, operand(lookup))
         case ir.Binary():
             return _compile_binary(expr, _compile(expr.left), _compile(expr.right))
+        case ir.Call() if expr.function in ELEMENTWISE:
+            return _compile_call(expr)
     raise ValueError(f"cannot evaluate {type(expr).__name__} here")
+
+
+def _compile_call(call: ir.Call) -> Evaluator:
+    """A transformation of the values read at this instant (`abs(V) > 3`): the
+    checker lets a condition apply no other function (RMV321)."""
+    name, operand = call.function, _compile(call.args[0])
+    if len(call.args) == 1:
+        return lambda lookup: elementwise(name, operand(lookup), None)
+    second = _compile(call.args[1])  # a constant, or atan2's x
+
+    def apply(lookup: Callable[[str], Any]) -> Any:
+        other = second(lookup)
+        return MISSING if other is MISSING else elementwise(name, operand(lookup), other)
+
+    return apply
 
 
 def _constant(value: Any) -> Evaluator:

@@ -148,6 +148,12 @@ def multi(name: str, points: list[tuple[int, Any]], n: int, seed: int) -> list[t
 
 
 MULTI = frozenset({"top", "bottom", "distinct", "sample"})
+# The transformations of one value (`elementwise`): a condition may apply them to
+# the newest values it reads; the others (STREAMS) need a series of points.
+ELEMENTWISE = frozenset(
+    {"abs", "ceil", "floor", "round", "pow", "log", "atan2", "sqrt", "exp", "ln", "log2",
+     "log10", "sin", "cos", "tan", "asin", "acos", "atan"}
+)  # fmt: skip
 _MATH: dict[str, Callable[..., float]] = {
     "sqrt": math.sqrt, "exp": math.exp, "ln": math.log, "log2": math.log2,
     "log10": math.log10, "sin": math.sin, "cos": math.cos, "tan": math.tan,
@@ -163,7 +169,7 @@ def elementwise(name: str, value: Any, second: Any) -> Any:
     try:
         result: Any
         if name == "abs":
-            result = abs(value)
+            result = values.wrap(abs(value)) if values.is_int(value) else abs(value)
         elif name in ("ceil", "floor", "round"):
             result = _rounding(name, value)
         elif name == "pow":
@@ -182,15 +188,19 @@ def elementwise(name: str, value: Any, second: Any) -> Any:
 
 
 def _rounding(name: str, value: Any) -> Any:
-    if values.is_int(value):
-        return value
-    if math.isnan(value) or math.isinf(value):
+    """Go's math.Ceil, Floor and Round (halves away from zero) on a double: exact,
+    and a zero keeps the operand's sign (`ceil(-0.5)` is -0.0), as IEEE's
+    roundToIntegral does; an integer is itself."""
+    if values.is_int(value) or math.isnan(value) or math.isinf(value):
         return value
     if name == "ceil":
-        return float(math.ceil(value))
-    if name == "floor":
-        return float(math.floor(value))
-    return float(math.floor(abs(value) + 0.5)) * (1.0 if value >= 0 else -1.0)  # Go's Round
+        result = float(math.ceil(value))
+    elif name == "floor":
+        result = float(math.floor(value))
+    else:
+        whole = float(math.trunc(value))  # value - whole is exact: no `value + 0.5`
+        result = whole + math.copysign(1.0, value) if abs(value - whole) >= 0.5 else whole
+    return math.copysign(result, value) if result == 0 else result
 
 
 class Stream:
