@@ -37,7 +37,7 @@ def compile_driver(
     (driver,) = folder.glob("rmv_*_replay.c")
     program = folder / f"{driver.stem}_{Path(cc or 'cc').name}"
     flags = [*STRICT, *(SANITIZERS if sanitize else [optimize])]
-    sources = [str(driver), str(driver).replace("_replay.c", ".c")]
+    sources = [str(driver), str(driver).replace("_replay.c", ".c"), "-lm"]
     done = subprocess.run([cc or compiler() or "cc", *flags, "-o", str(program), *sources],
                           capture_output=True, text=True)  # fmt: skip
     assert done.returncode == 0, done.stderr[-4000:]

@@ -313,3 +313,23 @@ def test_a_condition_over_a_series_names_the_value_event_it_needs(tmp_path):
     result = _checked(tmp_path, "event Slope when derivative(A) > 1\nproperty P: not Slope\n")
     (found,) = [d for d in result.diagnostics if d.code == "RMV321"]
     assert "`event SlopeDerivative = derivative(A)`" in (found.help or "")
+
+
+def test_a_transducer_reads_what_it_emits_at_the_same_instant(tmp_path):
+    """`emit X` then `on X`: the pulse enables the next step of the same instant
+    (the runtime took it at a later batch, out of order with later instants)."""
+    result = _checked(
+        tmp_path,
+        "event E when A > 0\nevent F when B > 0\n"
+        "transducer T {\n    states S0, S1, S2\n    initial S0\n"
+        "    S0 -> S1 on E emit X\n    S1 -> S2 on X\n    S2 -> S0 on F\n}\n"
+        "property P: not S1\n",
+    )
+    assert "RMV220" not in _codes(result), result.diagnostics
+    tenth = NS // 10
+    messages = [(NS, "/a", 1), (NS + tenth, "/a", 0), (NS + 2 * tenth, "/b", 1)]
+    messages += [(NS + 3 * tenth, "/b", 0), (NS + 4 * tenth, "/a", 2)]
+    records = _records(result, messages)
+    states = [(str(r["time"]), r["state"]) for r in records if r["kind"] == "state"]
+    assert states[1:] == [("1", "S2"), ("6/5", "S0"), ("7/5", "S2")], states
+    assert _verdicts(records, "P") == {"true"}

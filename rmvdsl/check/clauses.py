@@ -297,38 +297,60 @@ class EventChecks:
         return nodes
 
     def check_event_cycles(self) -> None:
-        events = self.model.events
-        dependencies = {
-            name: [i for i in self.event_reads[id(decl)] if i.name in events]
-            for name, decl in events.items()
+        """Events and transducers that read each other in a cycle (RMV220): an
+        event reading what a transducer emits depends on the transducer, and a
+        transducer on the events of its transitions (the runtime computes each once
+        per instant, after what it reads)."""
+        model = self.model
+        emitter = {
+            name: owner
+            for owner, decl in model.transducers.items()
+            for transition in decl.transitions
+            if transition.output is not None
+            for name in [transition.output.name]
         }
+
+        def node_of(ident: ast.Ident) -> list[ast.Ident]:
+            if ident.name in model.events:
+                return [ident]
+            owner = emitter.get(ident.name)
+            return [] if owner is None else [ast.Ident(owner, ident.span)]
+
+        dependencies = {
+            name: [n for i in self.event_reads[id(decl)] for n in node_of(i)]
+            for name, decl in model.events.items()
+        }
+        for name, decl in model.transducers.items():
+            # What it emits itself it reads within its own steps (docs/semantics.md).
+            found = (n for t in decl.transitions for n in node_of(t.input))
+            dependencies[name] = [n for n in found if n.name != name]
         state: dict[str, int] = {}  # 1: on the current path, 2: done
         for name in dependencies:
-            self._visit_event(name, dependencies, state, [])
+            self._visit_event(name, dependencies, state, [name])
 
     def _visit_event(
         self,
         name: str,
         deps: dict[str, list[ast.Ident]],
         state: dict[str, int],
-        path: list[ast.Ident],
+        path: list[str],
     ) -> None:
+        """`path`: the names from the first visited to `name`."""
         if state.get(name) == 2:
             return
         state[name] = 1
         for ident in deps[name]:
             if state.get(ident.name) == 1:
-                cycle = [*(i.name for i in path), name, ident.name]
-                start = cycle.index(ident.name)
+                cycle = [*path[path.index(ident.name) :], ident.name]
                 self.report(
                     error(
                         "RMV220",
-                        "events defined in a cycle: " + " -> ".join(cycle[start:]),
+                        "events defined in a cycle: " + " -> ".join(cycle),
                         ident.span,
                         label=f"`{name}` uses `{ident.name}`, which depends on `{name}`",
-                        help="an event can only use variables and events defined without it",
+                        help="an event or transducer can only use what is defined without it",
                     )
                 )
             elif state.get(ident.name) is None:
-                self._visit_event(ident.name, deps, state, [*path, ident])
+                self._visit_event(ident.name, deps, state, [*path, ident.name])
         state[name] = 2

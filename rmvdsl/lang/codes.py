@@ -275,7 +275,15 @@ of `0.5ns` would be 0 ns long, and no run could execute it.""",
     event B = mean(A) + 1     // error: A -> B -> A
 
 Each event is computed from variables and events computed before it, so the
-definitions must form no cycle.""",
+definitions must form no cycle. A transducer counts: it reads the events of its
+transitions, and an event reading what it emits reads it.
+
+    event Echo when Moving or Bounced
+    transducer Bouncer {
+        states Up, Down
+        initial Up
+        Up -> Down on Echo emit Bounced   // error: Echo -> Bouncer -> Echo
+    }""",
     ),
     (
         "RMV221",

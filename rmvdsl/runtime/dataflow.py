@@ -140,9 +140,11 @@ class Condition(Node):
                     pulses.append(name)  # raised and released at this instant: a pulse
                 self.current[name] = value
             for name in pulses:
-                self.current[name] = True
+                # each pulse read as true once, over the instant's other values; then
+                # its own value again (false, unless raised once more after it)
+                final, self.current[name] = self.current[name], True
                 self._set(time, emit)
-                self.current[name] = False
+                self.current[name] = final
             self._set(time, emit)
         self.final = bound
 
@@ -157,13 +159,17 @@ class Transducer(Node):
     """Level-triggered: at every instant an input changes, the transition of the
     current state whose input holds is taken (the first declared); then the new
     state's transitions are tried at the same instant, each transition at most once
-    per instant. Emitted events hold at that instant only."""
+    per instant. Emitted events hold at that instant only: one it reads itself
+    enables its later steps of the same instant."""
 
     def __init__(self, transducer: ir.Transducer) -> None:
         super().__init__()
         self.transducer = transducer
         self.name = transducer.name
-        self.reads = tuple(dict.fromkeys(t.input for t in transducer.transitions))
+        # What it emits itself holds at once within its steps, not as an input later.
+        self.own = frozenset(transducer.emits)
+        inputs = dict.fromkeys(t.input for t in transducer.transitions)
+        self.reads = tuple(name for name in inputs if name not in self.own)
         self.writes = (transducer.name, *transducer.emits)
         self.state = transducer.initial
         self.held: dict[str, bool] = {}
@@ -196,6 +202,8 @@ class Transducer(Node):
             if transition.emit is not None:
                 emit(time, transition.emit, True, self.name)
                 emit(time, transition.emit, False, self.name)
+                if transition.emit in self.own:
+                    pulsed = pulsed | {transition.emit}  # a pulse at this instant
         # In exactly one state at every instant: the one the instant's steps end in
         # (states passed through within it hold at no time).
         if self.state != before:

@@ -36,12 +36,13 @@ def _build(spec: ir.Spec, out: Path | None, options: Mapping[str, str | None]) -
     folder = folder_output("c", out)
     rate = _rate(options.get("max_rate"))
     try:
-        written, size = generate.build(spec, folder, rate)
+        written, system = generate.build(spec, folder, rate)
     except generate.Unsupported as exc:
         raise TargetError(f"the c target cannot build this spec:\n{exc}") from None
     summary = (
         f"wrote the c target to {folder} ({counted(len(written), 'file')}; the monitor"
-        f" holds at most {counted(size, 'byte')})"
+        f" holds at most {counted(generate.memory_bytes(system), 'byte')};"
+        f" {generate.flow_summary(system.flow)})"
     )
     return Built(tuple(written), summary)
 
@@ -55,7 +56,8 @@ def _findings(spec: ir.Spec) -> list[Finding]:
 
 TARGET = Target(
     name="c",
-    summary="C99 monitors of the properties: static memory, no malloc, a replay driver",
+    summary="C99 monitors of the properties and the events and transducers they read: static"
+    " memory, no malloc, a replay driver",
     docs="docs/c.md",
     output="folder",
     build=_build,

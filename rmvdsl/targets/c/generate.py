@@ -5,8 +5,8 @@ a Makefile and a CMakeLists.txt (docs/c.md)."""
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable
-from dataclasses import dataclass
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, replace
 from fractions import Fraction
 from pathlib import Path
 from typing import Any
@@ -14,6 +14,8 @@ from typing import Any
 import jinja2
 
 from rmvdsl.runtime import spec as ir
+from rmvdsl.runtime.wording import counted
+from rmvdsl.targets.c.dataflow import Flow, flow_of
 from rmvdsl.targets.c.model import (
     BATCH,
     KINDS,
@@ -122,11 +124,15 @@ class CProperty:
     pool_offset: int = 0
 
 
+PROPERTIES_ONLY = Flow(reason="a system of properties alone")
+
+
 @dataclass(frozen=True)
 class CSystem:
     name: str
     properties: tuple[CProperty, ...]
     propositions: tuple[str, ...]
+    flow: Flow = PROPERTIES_ONLY  # the events and transducers, in C
 
     @property
     def identifier(self) -> str:
@@ -164,7 +170,8 @@ def system_of(spec: ir.Spec, max_rate: Fraction | None = None) -> CSystem:
             "\n".join(f"{origin}: {message}" if origin else message for origin, message in problems)
         )
     compiled = [_compiled_property(p, max_rate) for p in spec.properties]
-    return laid_out(spec.system.name, compiled)
+    system = laid_out(spec.system.name, compiled)
+    return replace(system, flow=flow_of(spec, system.propositions))
 
 
 def problems_of(spec: ir.Spec, max_rate: Fraction | None = None) -> list[tuple[str, str]]:
@@ -235,7 +242,20 @@ def memory_bytes(system: CSystem) -> int:
     run = 96  # sizeof(rmv_run) is 88 on LP64 targets
     tail = 40  # the callback, its context, the base time and the counters
     arrays = padded(4 * nodes) + padded(8 * pool) + 2 * padded(pool) + padded(4 * bits)
-    return padded(run * count) + arrays + padded(8 * BATCH * count) + padded(8 * scratch) + tail
+    total = padded(run * count) + arrays + padded(8 * BATCH * count) + padded(8 * scratch) + tail
+    return total + (_flow_bytes(system.flow, padded) if system.flow.compiled else 0)
+
+
+def _flow_bytes(flow: Flow, padded: Callable[[int], int]) -> int:
+    """The monitor's fields that compute from values (monitor.h.j2), each padded."""
+    values = max(1, len(flow.sources))
+    flags = max(1, len(flow.flags))
+    transducers = max(1, len(flow.transducers))
+    transitions = max(1, sum(len(t.transitions) for t in flow.transducers))
+    return (
+        2 * padded(8 * values) + 2 * padded(values) + 3 * padded(flags) + padded(transitions)
+        + 2 * padded(4 * transducers) + 3 * padded(4 * flow.log) + 40
+    )  # fmt: skip
 
 
 def files(system: CSystem, source: str = "") -> dict[str, str]:
@@ -265,6 +285,9 @@ def files(system: CSystem, source: str = "") -> dict[str, str]:
         "bits": sum((SETS + 2 * BATCH) * p.words for p in system.properties),
         "held": BATCH * len(system.properties),
         "scratch": max(scratch_size(p.formula) for p in system.properties),
+        "flow": system.flow,
+        "value_ids": identifiers(s.name for s in system.flow.sources),
+        "transitions": sum(len(t.transitions) for t in system.flow.transducers),
     }
     env = environment()
     return {
@@ -276,8 +299,8 @@ def files(system: CSystem, source: str = "") -> dict[str, str]:
     }
 
 
-def build(spec: ir.Spec, out: Path, max_rate: Fraction | None = None) -> tuple[list[Path], int]:
-    """Write the build into `out`; the paths written and the monitor's bytes."""
+def build(spec: ir.Spec, out: Path, max_rate: Fraction | None = None) -> tuple[list[Path], CSystem]:
+    """Write the build into `out`; the paths written and what was built."""
     system = system_of(spec, max_rate)
     written = []
     origin = spec.properties[0].origin.rsplit(":", 2)[0]  # the spec file that declares them
@@ -286,4 +309,14 @@ def build(spec: ir.Spec, out: Path, max_rate: Fraction | None = None) -> tuple[l
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(text, encoding="utf-8")
         written.append(path)
-    return written, memory_bytes(system)
+    return written, system
+
+
+def flow_summary(flow: Flow) -> str:
+    """What `rmv build` says of the events and transducers."""
+    if not flow.compiled:
+        where = f" (at {flow.where})" if flow.where else ""
+        return f"the host gives the propositions: {flow.reason}{where}"
+    events = counted(len(flow.conditions), "event")
+    transducers = counted(len(flow.transducers), "transducer")
+    return f"it computes {events} and {transducers} from {counted(len(flow.sources), 'value')}"

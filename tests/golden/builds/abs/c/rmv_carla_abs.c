@@ -909,6 +909,360 @@ static const char *const PROPOSITION_NAMES[4] = {
     "StopReached",
 };
 
+/* ---- from values: the boolean events and transducers (docs/c.md, "From values") ----
+ *
+ * One instant at a time, as the runtime's dataflow runs it (rmvdsl/runtime/
+ * dataflow.py): each node in dependency order reads the items the nodes before it
+ * wrote at this instant (a boolean name turning true or false, a transducer's new
+ * state), in the order they were written. */
+
+/* An int64 from its two's complement bits, without an implementation-defined cast. */
+static int64_t rmv_i64(uint64_t bits) {
+    return bits <= (uint64_t)INT64_MAX ? (int64_t)bits : -(int64_t)(~bits) - 1;
+}
+static int64_t rmv_neg(int64_t a) { return rmv_i64((uint64_t)0 - (uint64_t)a); }
+
+typedef uint8_t (*rmv_carla_abs_holds)(const rmv_carla_abs_monitor *m, int32_t on);
+
+typedef struct {
+    int32_t flag;         /* the event's boolean name */
+    int32_t reads_first;  /* its boolean inputs in READS */
+    int32_t reads_count;
+    rmv_carla_abs_holds holds;
+} rmv_carla_abs_condition;
+
+#ifndef RMV_FLOW_TYPES
+#define RMV_FLOW_TYPES
+typedef struct { int32_t source, dest, input, emit; } rmv_transition;
+typedef struct { int32_t first, count, initial; } rmv_transducer;
+typedef struct { int32_t flag, transducer, state; } rmv_origin;  /* a proposition's */
+typedef struct { int32_t transducer, index; } rmv_step_of;  /* a node of the order */
+#endif
+
+/* Each condition's boolean inputs, by name index. */
+static const int32_t READS[1] = {
+    0
+};
+
+/* VehicleStopped: 1 where its condition is true (`on`: a boolean name read as
+ * true, for an input that pulsed). */
+static uint8_t rmv_carla_abs_holds_0(const rmv_carla_abs_monitor *m, int32_t on) {
+    const uint8_t p0 = (uint8_t)(m->has[0]);
+    const double v0 = m->val[0].f;
+    const uint8_t p1 = (uint8_t)(p0 && 1);
+    const uint8_t v1 = (uint8_t)(v0 < (0x1.999999999999ap-4));
+    (void)m;
+    (void)on;
+    return (uint8_t)(p1 && v1);
+}
+
+/* Accelerating: 1 where its condition is true (`on`: a boolean name read as
+ * true, for an input that pulsed). */
+static uint8_t rmv_carla_abs_holds_1(const rmv_carla_abs_monitor *m, int32_t on) {
+    const uint8_t p0 = (uint8_t)(m->has[3]);
+    const double v0 = m->val[3].f;
+    const uint8_t p1 = (uint8_t)(p0 && 1);
+    const uint8_t v1 = (uint8_t)(v0 > (0x1.999999999999ap-3));
+    const uint8_t p2 = (uint8_t)(m->has[2]);
+    const uint8_t v2 = m->val[2].b;
+    const uint8_t p3 = (uint8_t)(p2 && 1);
+    const uint8_t v3 = (uint8_t)(v2 == 0);
+    const uint8_t p4 = (uint8_t)(((p1 && !v1) || (p3 && !v3)) || (p1 && p3));
+    const uint8_t v4 = !((p1 && !v1) || (p3 && !v3));
+    (void)m;
+    (void)on;
+    return (uint8_t)(p4 && v4);
+}
+
+/* BrakeReleased: 1 where its condition is true (`on`: a boolean name read as
+ * true, for an input that pulsed). */
+static uint8_t rmv_carla_abs_holds_2(const rmv_carla_abs_monitor *m, int32_t on) {
+    const uint8_t p0 = (uint8_t)(m->has[1]);
+    const double v0 = m->val[1].f;
+    const uint8_t p1 = (uint8_t)(p0 && 1);
+    const uint8_t v1 = (uint8_t)(v0 < (0x1.999999999999ap-4));
+    const uint8_t p2 = (uint8_t)(m->has[0]);
+    const double v2 = m->val[0].f;
+    const uint8_t p3 = (uint8_t)(p2 && 1);
+    const uint8_t v3 = (uint8_t)(v2 > (0x1.999999999999ap-4));
+    const uint8_t p4 = (uint8_t)(((p1 && !v1) || (p3 && !v3)) || (p1 && p3));
+    const uint8_t v4 = !((p1 && !v1) || (p3 && !v3));
+    (void)m;
+    (void)on;
+    return (uint8_t)(p4 && v4);
+}
+
+/* HardBrake: 1 where its condition is true (`on`: a boolean name read as
+ * true, for an input that pulsed). */
+static uint8_t rmv_carla_abs_holds_3(const rmv_carla_abs_monitor *m, int32_t on) {
+    const uint8_t p0 = (uint8_t)(m->has[1]);
+    const double v0 = m->val[1].f;
+    const uint8_t p1 = (uint8_t)(p0 && 1);
+    const uint8_t v1 = (uint8_t)(v0 > (0x1.999999999999ap-1));
+    const uint8_t p2 = (uint8_t)(m->has[4]);
+    const double v2 = m->val[4].f;
+    const uint8_t p3 = (uint8_t)(1);
+    const int64_t v3 = rmv_neg(INT64_C(5));
+    const uint8_t p4 = (uint8_t)(p2 && p3);
+    const uint8_t v4 = (uint8_t)(v2 < (double)v3);
+    const uint8_t p5 = (uint8_t)(((p1 && !v1) || (p4 && !v4)) || (p1 && p4));
+    const uint8_t v5 = !((p1 && !v1) || (p4 && !v4));
+    const uint8_t p6 = (uint8_t)(m->has[0]);
+    const double v6 = m->val[0].f;
+    const uint8_t p7 = (uint8_t)(p6 && 1);
+    const uint8_t v7 = (uint8_t)(v6 > (0x1.999999999999ap-4));
+    const uint8_t p8 = (uint8_t)(((p5 && !v5) || (p7 && !v7)) || (p5 && p7));
+    const uint8_t v8 = !((p5 && !v5) || (p7 && !v7));
+    (void)m;
+    (void)on;
+    return (uint8_t)(p8 && v8);
+}
+
+/* AbsEngaged: 1 where its condition is true (`on`: a boolean name read as
+ * true, for an input that pulsed). */
+static uint8_t rmv_carla_abs_holds_4(const rmv_carla_abs_monitor *m, int32_t on) {
+    const uint8_t p0 = (uint8_t)(m->has[1]);
+    const double v0 = m->val[1].f;
+    const uint8_t p1 = (uint8_t)(p0 && 1);
+    const uint8_t v1 = (uint8_t)(v0 > (0x1.999999999999ap-1));
+    const uint8_t p2 = (uint8_t)(m->has[4]);
+    const double v2 = m->val[4].f;
+    const uint8_t p3 = (uint8_t)(1);
+    const int64_t v3 = rmv_neg(INT64_C(2));
+    const uint8_t p4 = (uint8_t)(p2 && p3);
+    const uint8_t v4 = (uint8_t)(v2 > (double)v3);
+    const uint8_t p5 = (uint8_t)(((p1 && !v1) || (p4 && !v4)) || (p1 && p4));
+    const uint8_t v5 = !((p1 && !v1) || (p4 && !v4));
+    const uint8_t p6 = (uint8_t)(m->has[0]);
+    const double v6 = m->val[0].f;
+    const uint8_t p7 = (uint8_t)(p6 && 1);
+    const uint8_t v7 = (uint8_t)(v6 > (double)INT64_C(1));
+    const uint8_t p8 = (uint8_t)(((p5 && !v5) || (p7 && !v7)) || (p5 && p7));
+    const uint8_t v8 = !((p5 && !v5) || (p7 && !v7));
+    (void)m;
+    (void)on;
+    return (uint8_t)(p8 && v8);
+}
+
+static const rmv_carla_abs_condition CONDITIONS[5] = {
+    { 2, 0, 0, rmv_carla_abs_holds_0 },  /* VehicleStopped */
+    { 3, 0, 0, rmv_carla_abs_holds_1 },  /* Accelerating */
+    { 4, 0, 0, rmv_carla_abs_holds_2 },  /* BrakeReleased */
+    { 0, 0, 0, rmv_carla_abs_holds_3 },  /* HardBrake */
+    { 1, 0, 0, rmv_carla_abs_holds_4 },  /* AbsEngaged */
+};
+
+static const rmv_transition TRANSITIONS[7] = {
+    /* Braking: 0 Cruising, 1 HardBraking, 2 AntiLockBrake, 3 Stopped */
+    { 0, 1, 0, -1 },
+    { 1, 2, 1, -1 },
+    { 2, 1, 0, -1 },
+    { 1, 3, 2, 5 },
+    { 2, 3, 2, 5 },
+    { 1, 0, 4, -1 },
+    { 3, 0, 3, -1 },
+};
+
+static const rmv_transducer TRANSDUCERS[1] = {
+    { 0, 7, 0 },  /* Braking */
+};
+
+/* Where each proposition comes from: a boolean name, or a transducer's state. */
+static const rmv_origin ORIGINS[4] = {
+    { -1, 0, 1 },  /* HardBraking */
+    { -1, 0, 2 },  /* AntiLockBrake */
+    { -1, 0, 3 },  /* Stopped */
+    { 5, -1, -1 },  /* StopReached */
+};
+
+/* The events and transducers in dependency order. */
+static const rmv_step_of ORDER[6] = {
+    { 0, 0 },
+    { 0, 1 },
+    { 0, 2 },
+    { 0, 3 },
+    { 0, 4 },
+    { 1, 0 },
+};
+
+static const char *const VALUE_NAMES[5] = {
+    "Velocity",
+    "BrakePedal",
+    "HandBrake",
+    "GasPedal",
+    "EderivativeVelocity",
+};
+
+static const char VALUE_KINDS[5] = {
+    'f',  /* float */
+    'f',  /* float */
+    'b',  /* bool */
+    'f',  /* float */
+    'f',  /* float */
+};
+
+static void rmv_carla_abs_log(rmv_carla_abs_monitor *m, int32_t name, int32_t value) {
+    if (m->logged < RMV_CARLA_ABS_LOG) {  /* never full: the log is sized for an instant */
+        m->log_name[m->logged] = name;
+        m->log_value[m->logged] = value;
+        m->logged++;
+    }
+}
+
+static void rmv_carla_abs_flag(rmv_carla_abs_monitor *m, int32_t flag, uint8_t value) {
+    if (m->flag[flag] != value) {
+        m->flag[flag] = value;
+        rmv_carla_abs_log(m, flag, value);
+    }
+}
+
+static int rmv_carla_abs_reads(const rmv_carla_abs_condition *c, int32_t name) {
+    int32_t k;
+    for (k = 0; k < c->reads_count; k++)
+        if (READS[c->reads_first + k] == name) return 1;
+    return 0;
+}
+
+/* A boolean event: evaluated once with each input that pulsed at this instant (true,
+ * then false) read as true, then over the instant's values. */
+static void rmv_carla_abs_condition_at(rmv_carla_abs_monitor *m, const rmv_carla_abs_condition *c) {
+    int32_t k, count = 0, end = m->logged;
+    for (k = 0; k < c->reads_count; k++) m->raised[READS[c->reads_first + k]] = 0;
+    for (k = 0; k < end; k++) {
+        int32_t name = m->log_name[k];
+        if (name >= RMV_CARLA_ABS_FLAGS || !rmv_carla_abs_reads(c, name)) continue;
+        if (m->log_value[k]) m->raised[name] = 1;
+        else if (m->raised[name]) m->pulses[count++] = name;
+    }
+    for (k = 0; k < count; k++) rmv_carla_abs_flag(m, c->flag, c->holds(m, m->pulses[k]));
+    rmv_carla_abs_flag(m, c->flag, c->holds(m, -1));
+}
+
+static int rmv_carla_abs_is_input(const rmv_transducer *d, int32_t name) {
+    int32_t k;
+    for (k = 0; k < d->count; k++)
+        if (TRANSITIONS[d->first + k].input == name) return 1;
+    return 0;
+}
+
+/* A transducer, when an input changed at this instant: the first declared
+ * transition of its state whose input holds (or pulsed), then those of the new
+ * state, each at most once; an event it emits and reads itself pulses at once. */
+static void rmv_carla_abs_transducer_at(rmv_carla_abs_monitor *m, int32_t j) {
+    const rmv_transducer *d = &TRANSDUCERS[j];
+    int32_t k, index, before = m->state[j], touched = 0;
+    for (k = 0; k < d->count; k++) m->raised[TRANSITIONS[d->first + k].input] = 0;
+    for (k = 0; k < m->logged; k++) {
+        int32_t name = m->log_name[k];
+        if (name >= RMV_CARLA_ABS_FLAGS || !rmv_carla_abs_is_input(d, name)) continue;
+        touched = 1;
+        if (m->log_value[k]) m->raised[name] = 1;
+    }
+    if (!touched) return;
+    memset(m->taken + d->first, 0, (size_t)d->count);
+    for (;;) {
+        const rmv_transition *t = NULL;
+        for (index = 0; index < d->count; index++) {
+            t = &TRANSITIONS[d->first + index];
+            if (m->taken[d->first + index] || t->source != m->state[j]) continue;
+            if (m->flag[t->input] || m->raised[t->input]) break;
+        }
+        if (index == d->count || t == NULL) break;
+        m->taken[d->first + index] = 1;
+        m->state[j] = t->dest;
+        if (t->emit >= 0) {
+            rmv_carla_abs_log(m, t->emit, 1);
+            rmv_carla_abs_log(m, t->emit, 0);
+            m->flag[t->emit] = 0;
+            /* what it reads itself holds at this instant for its later steps */
+            if (rmv_carla_abs_is_input(d, t->emit)) m->raised[t->emit] = 1;
+        }
+    }
+    if (m->state[j] != before) rmv_carla_abs_log(m, RMV_CARLA_ABS_FLAGS + j, m->state[j]);
+}
+
+/* The propositions after the instant, and those that held at it only (true, then
+ * false), as the runtime's property monitors read its items. Whether any changed. */
+static int rmv_carla_abs_propositions(const rmv_carla_abs_monitor *m, rmv_carla_abs_input *in) {
+    int32_t p, k, touched = 0;
+    memset(in, 0, sizeof *in);
+    for (p = 0; p < RMV_CARLA_ABS_PROPOSITIONS; p++) {
+        const rmv_origin *o = &ORIGINS[p];
+        int32_t name = o->flag >= 0 ? o->flag : RMV_CARLA_ABS_FLAGS + o->transducer;
+        int32_t state = o->flag >= 0 ? 0 : m->state_before[o->transducer];
+        uint8_t now = o->flag >= 0 ? m->flag_before[o->flag] : state == o->state, rises = 0;
+        for (k = 0; k < m->logged; k++)
+            if (m->log_name[k] == name && m->log_value[k] == (o->flag >= 0 ? 1 : o->state))
+                rises = 1;
+        for (k = 0; k < m->logged; k++) {
+            if (m->log_name[k] != name) continue;
+            touched = 1;
+            if (o->flag >= 0 ? !m->log_value[k] : state == o->state) {
+                if (now && rises) in->pulses[p] = 1;
+                now = 0;
+            }
+            if (o->flag >= 0 ? m->log_value[k] : m->log_value[k] == o->state) now = 1;
+            state = m->log_value[k];
+        }
+        in->holds[p] = now;
+    }
+    return touched;
+}
+
+/* The instant the samples at next_t make: its values, then every node. */
+static void rmv_carla_abs_instant(rmv_carla_abs_monitor *m) {
+    rmv_carla_abs_input in;
+    int32_t k;
+    for (k = 0; k < RMV_CARLA_ABS_VALUES; k++) {
+        if (!m->next_set[k]) continue;
+        m->val[k] = m->next_val[k];
+        m->has[k] = 1;
+        m->next_set[k] = 0;
+    }
+    memcpy(m->flag_before, m->flag, sizeof m->flag);
+    memcpy(m->state_before, m->state, sizeof m->state);
+    m->logged = 0;
+    for (k = 0; k < RMV_CARLA_ABS_STEPS; k++) {
+        if (ORDER[k].transducer) rmv_carla_abs_transducer_at(m, ORDER[k].index);
+        else rmv_carla_abs_condition_at(m, &CONDITIONS[ORDER[k].index]);
+    }
+    m->next_pending = 0;
+    if (rmv_carla_abs_propositions(m, &in) || !m->flow_started)
+        rmv_carla_abs_step(m, &in, m->next_t);
+    m->flow_started = 1;
+    m->flow_t = m->next_t;
+}
+
+void rmv_carla_abs_update(rmv_carla_abs_monitor *monitor, const rmv_carla_abs_sample *sample,
+                        int64_t time_ns) {
+    int32_t k;
+    if (monitor->next_pending && time_ns > monitor->next_t) rmv_carla_abs_instant(monitor);
+    if (!monitor->next_pending) {
+        if (monitor->flow_started && time_ns <= monitor->flow_t) {
+            monitor->late_samples++;
+            return;
+        }
+        monitor->next_pending = 1;
+        monitor->next_t = time_ns;
+    } else if (time_ns < monitor->next_t) {
+        monitor->late_samples++;
+        return;
+    }
+    for (k = 0; k < RMV_CARLA_ABS_VALUES; k++) {
+        if (!sample->set[k]) continue;
+        monitor->next_val[k] = sample->value[k];
+        monitor->next_set[k] = 1;
+    }
+}
+
+uint32_t rmv_carla_abs_late_samples(const rmv_carla_abs_monitor *monitor) {
+    return monitor->late_samples;
+}
+
+const char *rmv_carla_abs_value_name(int32_t value) { return VALUE_NAMES[value]; }
+
+char rmv_carla_abs_value_kind(int32_t value) { return VALUE_KINDS[value]; }
+
 static rmv_view rmv_view_of(rmv_carla_abs_monitor *m, int32_t property) {
     const rmv_property *def = &PROPERTIES[property];
     rmv_view v;
@@ -951,6 +1305,10 @@ void rmv_carla_abs_init(rmv_carla_abs_monitor *monitor, rmv_on_verdict on_verdic
     memset(monitor, 0, sizeof *monitor);
     monitor->on_verdict = on_verdict;
     monitor->context = context;
+    {
+        int32_t j;
+        for (j = 0; j < 1; j++) monitor->state[j] = TRANSDUCERS[j].initial;
+    }
 }
 
 void rmv_carla_abs_step(rmv_carla_abs_monitor *monitor, const rmv_carla_abs_input *input,
@@ -991,6 +1349,8 @@ void rmv_carla_abs_step(rmv_carla_abs_monitor *monitor, const rmv_carla_abs_inpu
 void rmv_carla_abs_advance(rmv_carla_abs_monitor *monitor, int64_t time_ns) {
     int32_t property;
     int64_t t;
+    if (monitor->next_pending && time_ns > monitor->next_t) rmv_carla_abs_instant(monitor);
+    if (monitor->next_pending) return;  /* the instant at time_ns may not be complete */
     if (!monitor->based || !rmv_ticks_of(monitor, time_ns, &t)) return;
     for (property = 0; property < RMV_CARLA_ABS_PROPERTIES; property++) {
         rmv_view v = rmv_view_of(monitor, property);
@@ -1001,6 +1361,10 @@ void rmv_carla_abs_advance(rmv_carla_abs_monitor *monitor, int64_t time_ns) {
 void rmv_carla_abs_end(rmv_carla_abs_monitor *monitor, int64_t time_ns) {
     int32_t property;
     int64_t t;
+    if (monitor->next_pending) {
+        if (time_ns < monitor->next_t) time_ns = monitor->next_t;
+        rmv_carla_abs_instant(monitor);
+    }
     if (!monitor->based) return;
     if (!rmv_ticks_of(monitor, time_ns, &t)) {
         if (time_ns < monitor->base) return;

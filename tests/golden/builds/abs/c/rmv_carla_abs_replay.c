@@ -4,6 +4,7 @@
  * Reads JSON Lines on standard input, one sample per line, times in seconds:
  *     {"t": 1.5, "props": ["HardBraking"], "pulses": ["StopReached"]}
  *     {"t": 2, "state": "Stopped"}
+ *     {"t": 2.5, "values": {"Velocity": 3.25}}   (the monitor computes the events)
  *     {"t": 9, "end": true}
  * and prints each verdict segment as `rmv replay --format jsonl` does. Exit status:
  * 0 no property false, 1 a property false somewhere, 2 unreadable input. */
@@ -253,11 +254,82 @@ static const char *read_names(const char *line, const char *p, uint8_t *set) {
     }
 }
 
+static int value_index(const char *name) {
+    int k;
+    for (k = 0; k < RMV_CARLA_ABS_VALUE_COUNT; k++)
+        if (strcmp(rmv_carla_abs_value_name(k), name) == 0) return k;
+    return -1;
+}
+
+/* A JSON number, NaN or an infinity (as Python's json writes them), as the value
+ * of its kind: an integer exactly, a float as strtod reads it (correctly rounded). */
+static const char *read_value(const char *line, const char *p, int k, rmv_carla_abs_sample *s) {
+    char kind = k < 0 ? 'f' : rmv_carla_abs_value_kind(k);
+    const char *start = p;
+    if (strncmp(p, "true", 4) == 0 || strncmp(p, "false", 5) == 0) {
+        if (kind != 'b' && k >= 0) fail(line, p, "expected a number");
+        if (k >= 0) s->value[k].b = (uint8_t)(*p == 't');
+        p += *p == 't' ? 4 : 5;
+    } else if (kind == 'b') {
+        fail(line, p, "expected true or false");
+    } else if (kind == 'i') {
+        uint64_t magnitude = 0;
+        int negative = *p == '-';
+        if (negative) p++;
+        if (!(*p >= '0' && *p <= '9')) fail(line, start, "expected an integer");
+        for (; *p >= '0' && *p <= '9'; p++) {
+            if (magnitude > ((uint64_t)INT64_MAX + 1 - (uint64_t)(*p - '0')) / 10)
+                fail(line, start, "integer out of the int64 range");
+            magnitude = magnitude * 10 + (uint64_t)(*p - '0');
+        }
+        if (*p == '.' || *p == 'e' || *p == 'E') fail(line, start, "expected an integer");
+        if (!negative && magnitude > (uint64_t)INT64_MAX)
+            fail(line, start, "integer out of the int64 range");
+        s->value[k].i = negative ? -(int64_t)(magnitude - 1) - 1 : (int64_t)magnitude;
+    } else {
+        char *end;
+        double number;
+        if (strncmp(p, "NaN", 3) == 0) {
+            end = (char *)p + 3;
+        } else if (strncmp(p, "Infinity", 8) == 0 || strncmp(p, "-Infinity", 9) == 0) {
+            end = (char *)p + (*p == '-' ? 9 : 8);
+        } else {
+            if (!(*p == '-' || (*p >= '0' && *p <= '9'))) fail(line, p, "expected a number");
+            (void)strtod(p, &end);
+            if (end == p) fail(line, p, "expected a number");
+        }
+        number = *p == 'N' ? strtod("nan", NULL) : *p == 'I' ? strtod("inf", NULL)
+               : strncmp(p, "-Infinity", 9) == 0 ? strtod("-inf", NULL) : strtod(p, NULL);
+        if (k >= 0) s->value[k].f = number;
+        p = end;
+    }
+    if (k >= 0) s->set[k] = 1;
+    return p;
+}
+
+/* {"name": value, ...}: a name the spec does not read is skipped. */
+static const char *read_values(const char *line, const char *p, rmv_carla_abs_sample *s) {
+    char name[4096];
+    if (*p != '{') fail(line, p, "expected an object of values");
+    p = skip_space(p + 1);
+    while (*p != '}') {
+        p = read_string(line, p, name, sizeof name);
+        p = skip_space(p);
+        if (*p++ != ':') fail(line, p - 1, "expected :");
+        p = read_value(line, skip_space(p), value_index(name), s);
+        p = skip_space(p);
+        if (*p == ',') p = skip_space(p + 1);
+        else if (*p != '}') fail(line, p, "expected , or }");
+    }
+    return p + 1;
+}
+
 int main(void) {
     static char line[LINE_MAX_BYTES];
     rmv_carla_abs_input input;
+    rmv_carla_abs_sample sample;
     int64_t newest = 0;
-    int started = 0, ended = 0;
+    int started = 0, ended = 0, has_values = 0, has_props = 0;
     int32_t property;
     rmv_carla_abs_init(&monitor, on_verdict, NULL);
     while (fgets(line, sizeof line, stdin)) {
@@ -270,6 +342,8 @@ int main(void) {
         if (!*p) continue;
         if (ended) fail(line, p, "a sample after the end");
         memset(&input, 0, sizeof input);
+        memset(&sample, 0, sizeof sample);
+        has_values = has_props = 0;
         if (*p++ != '{') fail(line, p - 1, "expected a JSON object");
         p = skip_space(p);
         while (*p != '}') {
@@ -282,13 +356,18 @@ int main(void) {
                 has_time = 1;
             } else if (strcmp(key, "state") == 0 || strcmp(key, "props") == 0) {
                 p = read_names(line, p, input.holds);
+                has_props = 1;
             } else if (strcmp(key, "pulses") == 0) {
                 p = read_names(line, p, input.pulses);
+                has_props = 1;
+            } else if (strcmp(key, "values") == 0) {
+                p = read_values(line, p, &sample);
+                has_values = 1;
             } else if (strcmp(key, "end") == 0 && strncmp(p, "true", 4) == 0) {
                 is_end = 1;
                 p += 4;
             } else {
-                fail(line, p, "unknown key: expected t, state, props, pulses or end");
+                fail(line, p, "unknown key: expected t, values, state, props, pulses or end");
             }
             p = skip_space(p);
             if (*p == ',') p = skip_space(p + 1);
@@ -299,9 +378,12 @@ int main(void) {
         if (started && t < newest) fail(line, line, "samples must come in time order");
         started = 1;
         newest = t;
+        if (has_values && has_props) fail(line, line, "a sample gives values or propositions, not both");
         if (is_end) {
             rmv_carla_abs_end(&monitor, t);
             ended = 1;
+        } else if (has_values) {
+            rmv_carla_abs_update(&monitor, &sample, t);
         } else {
             rmv_carla_abs_step(&monitor, &input, t);
         }

@@ -257,7 +257,7 @@ int main(void) {
     static char line[LINE_MAX_BYTES];
     rmv_prius_platoon_input input;
     int64_t newest = 0;
-    int started = 0, ended = 0;
+    int started = 0, ended = 0, has_values = 0, has_props = 0;
     int32_t property;
     rmv_prius_platoon_init(&monitor, on_verdict, NULL);
     while (fgets(line, sizeof line, stdin)) {
@@ -270,6 +270,7 @@ int main(void) {
         if (!*p) continue;
         if (ended) fail(line, p, "a sample after the end");
         memset(&input, 0, sizeof input);
+        has_values = has_props = 0;
         if (*p++ != '{') fail(line, p - 1, "expected a JSON object");
         p = skip_space(p);
         while (*p != '}') {
@@ -282,8 +283,10 @@ int main(void) {
                 has_time = 1;
             } else if (strcmp(key, "state") == 0 || strcmp(key, "props") == 0) {
                 p = read_names(line, p, input.holds);
+                has_props = 1;
             } else if (strcmp(key, "pulses") == 0) {
                 p = read_names(line, p, input.pulses);
+                has_props = 1;
             } else if (strcmp(key, "end") == 0 && strncmp(p, "true", 4) == 0) {
                 is_end = 1;
                 p += 4;
@@ -299,6 +302,7 @@ int main(void) {
         if (started && t < newest) fail(line, line, "samples must come in time order");
         started = 1;
         newest = t;
+        if (has_values && has_props) fail(line, line, "a sample gives values or propositions, not both");
         if (is_end) {
             rmv_prius_platoon_end(&monitor, t);
             ended = 1;

@@ -1,0 +1,362 @@
+"""The C target from values (docs/c.md, "From values"): the boolean events and
+transducers compiled to C give the Python runtime's verdicts on random specs and
+recordings, and on the example's recordings; what C cannot compute is said, and
+the propositions stay the input then."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+import random
+import subprocess
+from collections.abc import Iterable, Sequence
+from fractions import Fraction
+from pathlib import Path
+from typing import Any
+
+import pytest
+from c_harness import compile_driver, compiler, end_line, run_driver, segments_by_property, write
+from differential import COMPARISONS, CONSTANTS, ROS_TYPES, SpecMaker, make_recording
+
+from rmvdsl.check import check
+from rmvdsl.ir import lower
+from rmvdsl.runtime import engine
+from rmvdsl.runtime import spec as ir
+from rmvdsl.runtime.functions import ELEMENTWISE
+from rmvdsl.runtime.values import exact_text
+from rmvdsl.targets.c.generate import files, system_of
+
+pytestmark = pytest.mark.skipif(compiler() is None, reason="needs a C compiler (gcc)")
+
+NS = 10**9
+ANALYSIS = frozenset({"RMV500", "RMV505", "RMV510", "RMV511", "RMV514"})
+FORMULAS = [
+    "not ({a} and {b})", "always[<=1s] not {a}", "{a} -> {b}", "not {a}",
+    "eventually[<=1s] {a}", "duration[1s]({a}) < 0.5s", "{a} or not {b}",
+    "{a} -> once {b}", "historically not {a}", "{a} since {b}", "{a}",
+]  # fmt: skip
+
+
+class OperatorMaker(SpecMaker):
+    """SpecMaker's conditions, and sometimes an operator or a transformation the
+    C target computes on its own (`/`, `%`, bitwise, libm) compared with a constant."""
+
+    def atom(self) -> str:
+        rng = self.rng
+        numeric = sorted(v for v, t in self.kinds.items() if t != "Bool")
+        if not numeric or rng.random() < 0.6:
+            return super().atom()
+        name = rng.choice(numeric)
+        ints = self.kinds[name] != "Float64"
+        ops = ["/", "%", "+", "*", "-", *(["&", "|", "^"] if ints else [])]
+        calls = ["abs", "floor", "ceil", "round", "sqrt", "exp", "ln", "log2", "log10", "sin",
+                 "cos", "tan", "asin", "acos", "atan"]  # fmt: skip
+        roll = rng.random()
+        if roll < 0.4:
+            op = rng.choice(ops)
+            same = [v for v in numeric if op not in "&|^" or self.kinds[v] != "Float64"]
+            term = f"{name} {op} {rng.choice([*CONSTANTS[self.kinds[name]], *same])}"
+        elif roll < 0.55:
+            term = rng.choice([f"pow({name}, 2)", f"pow({name}, 0.5)", f"log({name}, 2)",
+                               f"log({name}, 1)", f"atan2({name}, -1.0)"])  # fmt: skip
+        else:
+            term = f"{rng.choice(calls)}({name})"
+        threshold = rng.choice(["0", "1", "-1", "0.5", "2.5", "100000000000000000000.0", "6"])
+        return f"({term}) {rng.choice(COMPARISONS)} {threshold}"
+
+
+def case_lines(rng: random.Random, k: int) -> tuple[list[str], dict[str, str]]:
+    """One random spec's declarations, its names prefixed `K<k>`: variables of each
+    ROS type, a value event sometimes (raw or over windows), boolean events (some
+    reading others and what a transducer emits), two transducers (the second on
+    what the first emits), properties."""
+    maker = OperatorMaker(rng)
+    lines, topics = [], {}
+    for i in range(rng.randint(1, 3)):
+        kind = rng.choice(sorted(ROS_TYPES))
+        topics[f"/k{k}t{i}"] = kind
+        lines += [f'topic k{k}t{i}: std_msgs/{kind} = "/k{k}t{i}"', f"var K{k}V{i} = k{k}t{i}.data"]
+        maker.kinds[f"K{k}V{i}"] = kind
+    numeric = sorted(v for v, t in maker.kinds.items() if t in ("Int32", "Float64"))
+    if numeric and rng.random() < 0.5:
+        if rng.random() < 0.5:
+            lines.append(f"event K{k}W = max({rng.choice(numeric)}) group by time(1s)")
+        else:
+            lines.append(f"event K{k}W = {rng.choice(numeric)} * 2")
+        maker.windowed.append(f"K{k}W")
+    for index in range(rng.randint(2, 4)):
+        lines.append(f"event K{k}E{index} when {maker.condition(2)}")
+        maker.events.append(f"K{k}E{index}")
+    base = list(maker.events)
+    emitted = [f"K{k}X{j}" for j in range(rng.randint(0, 2))]
+    states = [f"K{k}S{i}" for i in range(rng.randint(2, 3))]
+    transitions = set()
+    for _ in range(rng.randint(2, 5)):
+        emit = f" emit {rng.choice(emitted)}" if emitted and rng.random() < 0.5 else ""
+        # now and then on what it emits itself: a pulse for its later steps
+        source = rng.choice(emitted) if emitted and rng.random() < 0.15 else rng.choice(base)
+        transitions.add(f"{rng.choice(states)} -> {rng.choice(states)} on {source}{emit}")
+    for name in emitted:  # every emitted event is emitted somewhere
+        if not any(t.endswith(f"emit {name}") for t in transitions):
+            transitions.add(f"{rng.choice(states)} -> {rng.choice(states)} on "
+                            f"{rng.choice(base)} emit {name}")  # fmt: skip
+    lines += [f"transducer K{k}T {{", f"    states {', '.join(states)}", f"    initial {states[0]}"]
+    lines += [f"    {t}" for t in sorted(transitions)] + ["}"]
+    names = [*base, *states, *emitted]
+    derived = []
+    for index, name in enumerate(emitted):  # events over what T emits, and T's inputs
+        other = rng.choice(base)
+        derived.append(f"K{k}F{index}")
+        lines.append(f"event K{k}F{index} when {name} {rng.choice(['and', 'or'])} not {other}")
+    names += derived
+    if emitted and rng.random() < 0.6:
+        inputs = [*emitted, *derived]
+        lines += [f"transducer K{k}U {{", f"    states K{k}A, K{k}B", f"    initial K{k}A"]
+        lines += [f"    K{k}A -> K{k}B on {rng.choice(inputs)}",
+                  f"    K{k}B -> K{k}A on {rng.choice(inputs)}", "}"]  # fmt: skip
+        names += [f"K{k}A", f"K{k}B"]
+    for index in range(rng.randint(1, 3)):
+        formula = rng.choice(FORMULAS).format(a=rng.choice(names), b=rng.choice(names))
+        rate = " { rate = 10Hz }" if rng.random() < 0.2 else ""
+        lines.append(f"property K{k}P{index}: {formula}{rate}")
+    return lines, topics
+
+
+def batch_spec(seed: int, cases: int, folder: Path) -> tuple[ir.Spec, dict[str, str]]:
+    rng = random.Random(seed)
+    text = [f"system cflow{seed}", "ros humble"]
+    topics: dict[str, str] = {}
+    for k in range(cases):
+        lines, found = case_lines(rng, k)
+        text += lines
+        topics |= found
+    path = folder / f"cflow{seed}.rmv"
+    path.write_text("\n".join(text) + "\n", encoding="utf-8")
+    result = check(str(path), use_environment=False, solver=False)
+    errors = [
+        d for d in result.diagnostics if d.severity.name == "ERROR" and d.code not in ANALYSIS
+    ]
+    assert not errors, (errors, path.read_text())
+    kept = [d for d in result.diagnostics if d.code not in ANALYSIS]
+    return lower(dataclasses.replace(result, diagnostics=kept)), topics
+
+
+def value_lines(
+    spec: ir.Spec, messages: Sequence[tuple[int, str, Any]], end: int
+) -> tuple[list[str], list[dict]]:
+    """What the runtime's dataflow read while it ran over the messages (each
+    instant's variables and value events' points, from the run's start), as driver
+    lines, and the runtime's verdict records."""
+    end = max([end, *(time for time, _, _ in messages)])
+    runtime = engine.Runtime(spec, record=("variable", "event"))
+    runtime.start(NS // 2)
+    for time, topic, message in messages:
+        runtime.message(time, topic, message)
+    runtime.end(end)
+    records = runtime.records()
+    values = {v.name for v in spec.variables} | {e.name for e in spec.events if e.kind == "value"}
+    instants: dict[Fraction, dict[str, Any]] = {Fraction(1, 2): {}}
+    for record in records:
+        if record["kind"] in ("variable", "event") and record["name"] in values:
+            at = max(Fraction(record["time"]), Fraction(1, 2))
+            instants.setdefault(at, {})[record["name"]] = record["value"]
+    lines = [_values_line(t, instants[t]) for t in sorted(instants)]
+    return [*lines, end_line(Fraction(end, NS))], [r for r in records if r["kind"] == "verdict"]
+
+
+def _values_line(t: Fraction, values: dict[str, Any]) -> str:
+    return json.dumps({"t": "@", "values": values}).replace('"@"', exact_text(t))
+
+
+def _compare(program: Path, spec: ir.Spec, recordings: Iterable[list], where: str) -> int:
+    compared = 0
+    for index, messages in enumerate(recordings):
+        lines, verdicts = value_lines(spec, messages, 5 * NS)
+        status, records, errors = run_driver(program, lines)
+        assert status in (0, 1), errors
+        assert not [r for r in records if r.get("kind") == "counter"], records
+        got, expected = segments_by_property(records), segments_by_property(verdicts)
+        for name in expected:
+            found = got.get(name)
+            assert found == expected[name], (where, index, name, found, expected[name])
+        compared += len(expected)
+    return compared
+
+
+BATCHES = int(os.environ.get("RMV_C_FLOW_BATCHES", "6"))  # the long run: 100
+CASES = 12
+
+
+@pytest.mark.parametrize("batch", range(BATCHES))
+def test_random_specs_from_values_give_the_runtimes_verdicts(batch: int, tmp_path: Path) -> None:
+    """12 random specs composed into one system per batch (compiled once, with
+    ASan and UBSan), three recordings each (topics late or never, NaN, infinities,
+    uint64 above 2^63, several messages at one instant): every property's verdict
+    segments equal the runtime's."""
+    spec, topics = batch_spec(1000 + batch, CASES, tmp_path)
+    system = system_of(spec, Fraction(20))
+    assert system.flow.compiled, system.flow.reason
+    write(files(system), tmp_path / "out")
+    program = compile_driver(tmp_path / "out", sanitize=True)
+    rng = random.Random(batch)
+    recordings = [make_recording(rng, topics) for _ in range(3)]
+    assert _compare(program, spec, recordings, f"batch {batch}") >= CASES
+
+
+INTS = [0, 1, -1, 5, -7, 2**31 - 1, -(2**31)]
+WIDE = [2**63, 2**64 - 1, 5, 2**63 - 1]  # uint64: read as int64 (2^63 is INT64_MIN)
+FLOATS = [0.0, -0.0, 1.0, -2.5, 5.5, math.nan, math.inf, -math.inf, 1e300, 0.5, 1e-300]
+
+
+def test_every_operator_and_transformation_at_the_edges(tmp_path: Path) -> None:
+    """Each operator over ints, uint64s read as int64, doubles and a mix, and each
+    transformation, at edge values (signs, zeros, NaN, infinities, INT64_MIN):
+    where the result is below, at and above two thresholds, and where it has no
+    value, as the runtime says."""
+    terms = []
+    for op in ["+", "-", "*", "/", "%"]:
+        terms += [f"A {op} B", f"W {op} A", f"F {op} G", f"A {op} F"]
+    terms += [f"A {op} B" for op in "&|^"] + [f"W {op} A" for op in "&|^"]
+    for name in sorted(ELEMENTWISE):
+        if name in ("pow", "log", "atan2"):
+            terms += [f"{name}(F, 2)", f"{name}(A, 0.5)", f"{name}(G, -1)", f"{name}(F, 1)"]
+        else:
+            terms += [f"{name}(F)", f"{name}(A)", f"{name}(W)"]
+    lines = ["system edges", "ros humble"]
+    for topic, kind, var in (("a", "Int32", "A"), ("b", "Int32", "B"), ("w", "UInt64", "W"),
+                             ("f", "Float64", "F"), ("g", "Float64", "G")):  # fmt: skip
+        lines += [f'topic {topic}: std_msgs/{kind} = "/{topic}"', f"var {var} = {topic}.data"]
+    for k, term in enumerate(terms):
+        lines.append(f"event L{k} when ({term}) < {rng_threshold(k)}")
+        lines.append(f"event Z{k} when ({term}) = 0 or ({term}) > 5")
+        lines.append(f"event N{k} when not (({term}) = ({term}))")  # NaN, or no value: never
+        lines += [f"property PL{k}: L{k}", f"property PZ{k}: Z{k}", f"property PN{k}: not N{k}"]
+    path = tmp_path / "edges.rmv"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    result = check(str(path), use_environment=False, solver=False)
+    assert not [d for d in result.diagnostics if d.severity.name == "ERROR"], result.diagnostics
+    spec = lower(result)
+    system = system_of(spec, Fraction(20))
+    assert system.flow.compiled and system.flow.libm, system.flow.reason
+    write(files(system), tmp_path / "out")
+    program = compile_driver(tmp_path / "out", sanitize=True)
+    messages = []
+    for i in range(160):
+        time = NS + i * NS // 10
+        for topic, values in (("/a", INTS), ("/b", INTS[::-1]), ("/w", WIDE), ("/f", FLOATS),
+                              ("/g", FLOATS[3:] + FLOATS[:3])):  # fmt: skip
+            messages.append(
+                (time, topic, {"data": values[(i * 7 + len(topic) * i // 3) % len(values)]})
+            )
+    assert _compare(program, spec, [messages[5:]], "edges") == 3 * len(terms)
+
+
+def rng_threshold(k: int) -> str:
+    return ["0", "1", "-1", "0.5", "2.5"][k % 5]
+
+
+ROOT = Path(__file__).resolve().parent.parent
+RECORDINGS = sorted((ROOT / "examples" / "carla" / "recordings").iterdir())
+
+
+@pytest.mark.parametrize("recording", RECORDINGS, ids=lambda p: p.name)
+def test_the_example_from_values_prints_rmv_replays_verdicts(
+    recording: Path, tmp_path: Path
+) -> None:
+    """abs.rmv's variables and value events while `rmv replay` runs (the queries'
+    points, which the host computes), fed to the C build: its events, transducer
+    and properties give `rmv replay --format jsonl`'s verdict lines, byte for byte."""
+    from rmvdsl.runtime.records import to_json
+    from rmvdsl.tools.replay import replay
+
+    result = check(str(ROOT / "examples" / "carla" / "abs.rmv"), use_environment=False)
+    spec = lower(result)
+    records = list(replay(spec, [recording], record=("variable", "event")))
+    verdicts = [to_json(r) for r in records if r["kind"] == "verdict"]
+    start = min(Fraction(r["from"]) for r in records if r["kind"] == "verdict")
+    values = {v.name for v in spec.variables} | {e.name for e in spec.events if e.kind == "value"}
+    instants: dict[Fraction, dict[str, Any]] = {start: {}}
+    end = start
+    for record in records:
+        if record["kind"] in ("variable", "event") and record["name"] in values:
+            at = max(Fraction(record["time"]), start)
+            instants.setdefault(at, {})[record["name"]] = record["value"]
+        if record["kind"] == "verdict":
+            end = max(end, Fraction(record["to"]))
+    lines = [_values_line(t, instants[t]) for t in sorted(instants)] + [end_line(end)]
+    system = system_of(spec)
+    assert system.flow.compiled and len(system.flow.sources) == 5, system.flow.reason
+    write(files(system), tmp_path)
+    program = compile_driver(tmp_path, sanitize=True)
+    done = subprocess.run([str(program)], input="\n".join(lines) + "\n", capture_output=True,
+                          text=True)  # fmt: skip
+    printed = [line for line in done.stdout.splitlines() if '"kind": "verdict"' in line]
+    assert sorted(printed) == sorted(verdicts), done.stderr
+    assert done.returncode == (1 if any('"verdict": "false"' in v for v in verdicts) else 0)
+
+
+def test_what_c_cannot_compute_leaves_the_propositions_to_the_host(tmp_path: Path) -> None:
+    """Only what the properties read is compiled: a string compared by an event no
+    property reads costs nothing; once a property reads it, `rmv build` says the
+    host gives the propositions, and why, and the header has no `update`."""
+    head = (
+        f'system s\nros noetic\nmessages "{ROOT / "examples" / "carla" / "msg"}"\n'
+        'topic status: carla_msgs/CarlaEgoVehicleStatus = "/carla/hero/vehicle_status"\n'
+        "var Frame = status.header.frame_id\nvar V = status.velocity\n"
+        'event Map when Frame = "map"\nevent Fast when V > 10\n'
+        "property P: not Fast { rate = 10Hz }\n"
+    )
+    for extra, computes in (("", True), ("property Q: Map { rate = 10Hz }\n", False)):
+        spec = tmp_path / "s.rmv"
+        spec.write_text(head + extra)
+        out = tmp_path / ("computes" if computes else "host")
+        done = subprocess.run(["rmv", "build", "--target", "c", str(spec), "-o", str(out)],
+                              capture_output=True, text=True)  # fmt: skip
+        assert done.returncode == 0, done.stderr
+        if computes:
+            assert "it computes 1 event and 0 transducers from 1 value" in done.stdout
+        else:
+            assert "the host gives the propositions: variable Frame: a string;" in done.stdout
+            assert "s.rmv:5:5)" in done.stdout
+        assert ("rmv_s_update" in (out / "rmv_s.h").read_text()) == computes
+        compile_driver(out)
+
+
+def test_a_spec_of_integers_compiles_with_no_floating_point(tmp_path: Path) -> None:
+    """From integer and bool values (arithmetic, bitwise, `%`, abs, round), the
+    monitor needs no floating point and no libc but memcmp/memcpy/memmove/memset:
+    it compiles freestanding, and on x86-64 with -mgeneral-regs-only."""
+    import platform
+
+    spec_path = tmp_path / "ints.rmv"
+    spec_path.write_text(
+        'system ints\nros humble\ntopic a: std_msgs/Int64 = "/a"\ntopic b: std_msgs/Bool = "/b"\n'
+        "var A = a.data\nvar B = b.data\n"
+        "event Odd when A % 2 != 0 and not B\nevent Big when abs(A * 3 - 1) > 100 or (A & 7) = 5\n"
+        "event Round when round(A) ^ 1 = 0\n"
+        "transducer T {\n    states Low, High\n    initial Low\n"
+        "    Low -> High on Big emit Up\n    High -> Low on Odd\n}\n"
+        "property P: High -> once[<=2s] Up { rate = 10Hz }\nproperty Q: not Round { rate = 10Hz }\n"
+    )
+    spec = lower(check(str(spec_path), use_environment=False))
+    system = system_of(spec)
+    assert system.flow.compiled and not system.flow.floats and not system.flow.libm
+    write(files(system), tmp_path)
+    flags = ["-std=c99", "-O2", "-ffreestanding", "-Wall", "-Wextra", "-Wpedantic", "-Werror"]
+    if platform.machine() in ("x86_64", "AMD64"):
+        flags.append("-mgeneral-regs-only")
+    obj = tmp_path / "rmv_ints.o"
+    subprocess.run([compiler(), *flags, "-c", str(tmp_path / "rmv_ints.c"), "-o", str(obj)],
+                   check=True)  # fmt: skip
+    undefined = subprocess.run(["nm", "-u", str(obj)], capture_output=True, text=True,
+                               check=True).stdout.split()  # fmt: skip
+    assert {u for u in undefined if u != "U"} <= {"memcmp", "memmove", "memset", "memcpy"}
+    messages = [
+        (NS + i * NS // 10, "/a", {"data": i * 37 - 200}) if i % 3 else
+        (NS + i * NS // 10, "/b", {"data": i % 2 == 0})
+        for i in range(60)
+    ]  # fmt: skip
+    program = compile_driver(tmp_path, sanitize=True)
+    assert _compare(program, spec, [messages], "ints") == 2
