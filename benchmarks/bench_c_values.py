@@ -59,24 +59,11 @@ static void show(void *context, int32_t property, const rmv_segment *s) {
            (long long)s->to_ns, s->from_closed, s->to_closed, (int)s->value);
 }
 
-int main(int argc, char **argv) {
-    static rmv_carla_abs_monitor monitor;
-    FILE *in = fopen(argv[1], "rb");
-    long size, count, k;
-    unsigned char *data;
-    int64_t end;
-    struct timespec start, stop;
+/* Every instant of the file through the monitor, then its end. */
+static void run(rmv_carla_abs_monitor *monitor, const unsigned char *data, long count,
+                int64_t end) {
     const long record = 8 + 1 + RMV_CARLA_ABS_VALUES * 8;
-    (void)argc;
-    fseek(in, 0, SEEK_END);
-    size = ftell(in);
-    fseek(in, 0, SEEK_SET);
-    data = malloc((size_t)size);
-    if (fread(data, 1, (size_t)size, in) != (size_t)size) return 2;
-    count = (size - 8) / record;
-    memcpy(&end, data + size - 8, 8);
-    rmv_carla_abs_init(&monitor, NULL, NULL);
-    clock_gettime(CLOCK_MONOTONIC, &start);
+    long k;
     for (k = 0; k < count; k++) {
         const unsigned char *r = data + k * record;
         rmv_carla_abs_sample s;
@@ -87,29 +74,35 @@ int main(int argc, char **argv) {
             s.set[v] = (unsigned char)((r[8] >> v) & 1);
             memcpy(&s.value[v], r + 9 + 8 * v, 8);
         }
-        rmv_carla_abs_update(&monitor, &s, t);
+        rmv_carla_abs_update(monitor, &s, t);
     }
-    rmv_carla_abs_end(&monitor, end);
+    rmv_carla_abs_end(monitor, end);
+}
+
+int main(int argc, char **argv) {
+    static rmv_carla_abs_monitor timed, shown;
+    FILE *in = fopen(argv[1], "rb");
+    long size, count;
+    unsigned char *data;
+    int64_t end;
+    struct timespec start, stop;
+    (void)argc;
+    fseek(in, 0, SEEK_END);
+    size = ftell(in);
+    fseek(in, 0, SEEK_SET);
+    data = malloc((size_t)size);
+    if (fread(data, 1, (size_t)size, in) != (size_t)size) return 2;
+    count = (size - 8) / (8 + 1 + RMV_CARLA_ABS_VALUES * 8);
+    memcpy(&end, data + size - 8, 8);
+    rmv_carla_abs_init(&timed, NULL, NULL);
+    clock_gettime(CLOCK_MONOTONIC, &start);
+    run(&timed, data, count, end);
     clock_gettime(CLOCK_MONOTONIC, &stop);
     fprintf(stderr, "%.9f\n", (double)(stop.tv_sec - start.tv_sec)
             + (double)(stop.tv_nsec - start.tv_nsec) / 1e9);
-    {  /* the same run once more, its segments printed (outside the clock) */
-        static rmv_carla_abs_monitor again;
-        rmv_carla_abs_init(&again, show, NULL);
-        for (k = 0; k < count; k++) {
-            const unsigned char *r = data + k * record;
-            rmv_carla_abs_sample s;
-            int64_t t;
-            int v;
-            memcpy(&t, r, 8);
-            for (v = 0; v < RMV_CARLA_ABS_VALUES; v++) {
-                s.set[v] = (unsigned char)((r[8] >> v) & 1);
-                memcpy(&s.value[v], r + 9 + 8 * v, 8);
-            }
-            rmv_carla_abs_update(&again, &s, t);
-        }
-        rmv_carla_abs_end(&again, end);
-    }
+    /* the same run once more, its segments printed (outside the clock) */
+    rmv_carla_abs_init(&shown, show, NULL);
+    run(&shown, data, count, end);
     free(data);
     fclose(in);
     return 0;

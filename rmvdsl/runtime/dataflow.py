@@ -213,7 +213,7 @@ class Transducer(Node):
 # ---- consumers: properties and alerts ----
 
 
-def _dataflow(spec: ir.Spec) -> list[Node]:
+def dataflow_nodes(spec: ir.Spec) -> list[Node]:
     """Events and transducers as nodes, each after every node it reads."""
     nodes: dict[str, Node] = {}
     for event in spec.events:

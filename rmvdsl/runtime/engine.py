@@ -33,9 +33,9 @@ from rmvdsl.runtime.dataflow import (
     SpecError,
     Transducer,
     WindowedEvent,
-    _dataflow,
     _instants,
     _take,
+    dataflow_nodes,
     reaching,
 )
 from rmvdsl.runtime.intrusions import Endpoint, can_refuse, verdict_of
@@ -109,7 +109,7 @@ class Runtime(Reporting):
             variables = self.by_topic.setdefault(topic_names[variable.topic], [])
             if variable.name not in skipped:
                 variables.append((variable, fields.reader(variable)))
-        self.nodes = _dataflow(spec)
+        self.nodes = dataflow_nodes(spec)
         self.subscribers: dict[str, list[Node]] = {}
         for node in self.nodes:
             for name in node.reads:

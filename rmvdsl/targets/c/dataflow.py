@@ -14,6 +14,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from rmvdsl.runtime import spec as ir
+from rmvdsl.runtime.dataflow import Condition as RuntimeCondition
+from rmvdsl.runtime.dataflow import SpecError, dataflow_nodes
+from rmvdsl.runtime.dataflow import Transducer as RuntimeTransducer
 from rmvdsl.targets.c.cexpr import Compiler
 from rmvdsl.targets.c.model import Unsupported
 
@@ -136,7 +139,11 @@ class _Builder:
             transducers=tuple(transducers),
             order=tuple(order),
             propositions=tuple(self.proposition(name, transducers) for name in propositions),
-            log=_log_bound(spec, self.flag_ids, [c for c, _ in conditions]),
+            log=_log_bound(
+                [t for t in spec.transducers if t.name in self.needed],
+                self.flag_ids,
+                [c for c, _ in conditions],
+            ),
             helpers=frozenset().union(*(k.helpers for _, k in conditions)),
             floats=any(k.floats for _, k in conditions)
             or any(s.kind == "float" for s in self.source_list),
@@ -156,12 +163,8 @@ class _Builder:
         self,
     ) -> tuple[list[tuple[Condition, Compiler]], list[Transducer], list[tuple[str, int]]]:
         """Conditions and transducers in the runtime's dependency order."""
-        from rmvdsl.runtime.dataflow import Condition as RuntimeCondition
-        from rmvdsl.runtime.dataflow import SpecError, _dataflow
-        from rmvdsl.runtime.dataflow import Transducer as RuntimeTransducer
-
         try:
-            runtime_nodes = _dataflow(self.spec)
+            runtime_nodes = dataflow_nodes(self.spec)
         except SpecError as error:
             raise _Refused("", str(error)) from None
         events = {e.name: e for e in self.spec.events}
@@ -246,17 +249,18 @@ def _needed(spec: ir.Spec, propositions: tuple[str, ...]) -> frozenset[str]:
     return frozenset(found)
 
 
-def _log_bound(spec: ir.Spec, flag_ids: dict[str, int], conditions: list[Condition]) -> int:
+def _log_bound(
+    transducers: list[ir.Transducer], flag_ids: dict[str, int], conditions: list[Condition]
+) -> int:
     """The most items one instant writes: a transducer its state once and each
     emitting transition's pulse (a true item and a false one); a condition an item
     at each evaluation, one per pulse of the names it reads, and the last."""
     items: dict[int, int] = {}
-    transducers = [t for t in spec.transducers if t.emits and t.emits[0] in flag_ids]
     for transducer in transducers:
         for t in transducer.transitions:
             if t.emit is not None:
                 items[flag_ids[t.emit]] = items.get(flag_ids[t.emit], 0) + 2
-    total = sum(items.values()) + len(spec.transducers)
+    total = sum(items.values()) + len(transducers)
     for condition in conditions:  # in dependency order: what it reads is counted
         items[condition.flag] = 1 + sum(items.get(flag, 0) for flag in condition.reads)
         total += items[condition.flag]
