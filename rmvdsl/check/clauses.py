@@ -48,6 +48,12 @@ def _bare_reference(expr: ast.Node) -> ast.NameRef | None:
     return None
 
 
+def _field_or_constant(node: ast.Node) -> bool:
+    if isinstance(node, ast.UnaryOp) and node.op == "-":
+        return isinstance(node.operand, ast.NumberLit)
+    return isinstance(node, ast.NameRef | ast.NumberLit | ast.TimeLit)
+
+
 class EventChecks:
     """The names stage's checks of events (a part of NameChecker)."""
 
@@ -70,16 +76,19 @@ class EventChecks:
         calls = [n for n in nodes if isinstance(n, ast.Call)]
         seen: dict[str, ast.Clause] = {}
         conditions = [call for call in calls if decl.boolean and decl.clause("group") is None]
+        where: list[ast.Call] = []
         for clause in decl.clauses:
             first = seen.setdefault(clause.kind, clause)
             if first is not clause:
                 self.once_only(f"the `{clause.kind}` clause of `{decl.name.name}`", clause, first)
             found = self.check_clause(clause, allowed)
             if clause.kind == "where":
-                conditions += [n for n in found if isinstance(n, ast.Call)]
+                where += [n for n in found if isinstance(n, ast.Call)]
             nodes += found
         self.event_reads[id(decl)] = [n.ident for n in nodes if isinstance(n, ast.NameRef)]
-        if self.check_series_in_condition(decl, conditions):
+        if self.check_series_in_condition(decl, [*conditions, *where]) and self.check_where_calls(
+            decl, where
+        ):
             self.check_query_shape(decl, calls)
 
     def check_series_in_condition(self, decl: ast.EventDecl, calls: list[ast.Call]) -> bool:
@@ -99,6 +108,35 @@ class EventChecks:
                     f"{printer.expression(call)}`, and compare `{event}`",
                 )
                 return False
+        return True
+
+    def check_where_calls(self, decl: ast.EventDecl, calls: list[ast.Call]) -> bool:
+        """InfluxDB's WHERE applies a function to fields and constants only: over
+        anything else (`abs(x - 3)`) it matches no row, and it has no `log` with a
+        base (RMV321). `calls`: those of the `where` clause. Whether it was fine."""
+        for call in calls:
+            name = call.func.name
+            if name == "log":
+                value, base = (printer.expression(a) for a in call.args)
+                self.report_shape(
+                    call.func.span,
+                    f"InfluxDB's WHERE has no `log` with a base: `{printer.expression(call)}`"
+                    " is refused there",
+                    "refused by InfluxDB",
+                    f"divide natural logarithms: `ln({value}) / ln({base})`",
+                )
+                return False
+            for argument in call.args:
+                if not _field_or_constant(argument):
+                    self.report_shape(
+                        argument.span,
+                        f"InfluxDB's WHERE applies `{name}` to a field or a constant only: "
+                        f"`{printer.expression(call)}` matches no row there",
+                        "not a field or a constant",
+                        f"apply `{name}` to the value itself, as in `{name}(x) > 1`, or write"
+                        " the condition without it",
+                    )
+                    return False
         return True
 
     def check_query_shape(self, decl: ast.EventDecl, calls: list[ast.Call]) -> None:

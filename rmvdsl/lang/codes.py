@@ -553,7 +553,15 @@ series needs the points themselves:
 
     event H when derivative(Velocity) < -5               // declare the series first:
     event Slope = derivative(Velocity)                   // ok
-    event H when Slope < -5                              // ok""",
+    event H when Slope < -5                              // ok
+
+InfluxDB's WHERE applies a function to a field or a constant only, and has no
+`log` with a base:
+
+    event J = max(Speed) where abs(Speed - 3) > 1 group by time(1s)  // matches no row
+    event K = max(Speed) where abs(Speed) > 1 group by time(1s)      // ok
+    event L = max(Speed) where log(Speed, 2) > 1 group by time(1s)   // refused
+    event M = max(Speed) where ln(Speed) / ln(2) > 1 group by time(1s)  // ok""",
     ),
     (
         "RMV322",
