@@ -71,7 +71,7 @@ def case_lines(rng: random.Random, k: int) -> tuple[list[str], dict[str, str]]:
     """One random spec's declarations, its names prefixed `K<k>`: variables of each
     ROS type, a value event sometimes (raw or over windows), boolean events (some
     reading others and what a transducer emits), two transducers (the second on
-    what the first emits), properties."""
+    what the first emits), properties (some triggered by a state or an event)."""
     maker = OperatorMaker(rng)
     lines, topics = [], {}
     for i in range(rng.randint(1, 3)):
@@ -119,8 +119,12 @@ def case_lines(rng: random.Random, k: int) -> tuple[list[str], dict[str, str]]:
         names += [f"K{k}A", f"K{k}B"]
     for index in range(rng.randint(1, 3)):
         formula = rng.choice(FORMULAS).format(a=rng.choice(names), b=rng.choice(names))
-        rate = " { rate = 10Hz }" if rng.random() < 0.2 else ""
-        lines.append(f"property K{k}P{index}: {formula}{rate}")
+        settings = ["rate = 10Hz"] if rng.random() < 0.2 else []
+        if rng.random() < 0.3:  # started and stopped by a state or an event
+            settings.append(f"trigger = {rng.choice([*base, *states])}")
+        block = "".join(f"\n    {line}" for line in settings)
+        block = f" {{{block}\n}}" if settings else ""
+        lines.append(f"property K{k}P{index}: {formula}{block}")
     return lines, topics
 
 

@@ -122,6 +122,7 @@ class CProperty:
     bits_offset: int = 0
     held_offset: int = 0
     pool_offset: int = 0
+    trigger: int = -1  # the system proposition that starts and stops it; -1: always
 
 
 PROPERTIES_ONLY = Flow(reason="a system of properties alone")
@@ -139,17 +140,35 @@ class CSystem:
         return c_identifier(self.name)
 
 
-def laid_out(name: str, compiled: list[tuple[str, str, Formula, int]]) -> CSystem:
-    """Properties (name, text, sized formula, period) placed in the pools."""
+def laid_out(
+    name: str,
+    compiled: list[tuple[str, str, Formula, int]],
+    triggers: dict[str, str] | None = None,
+) -> CSystem:
+    """Properties (name, text, sized formula, period) placed in the pools;
+    `triggers`: a triggered property's trigger (a state or a boolean event)."""
     propositions: dict[str, int] = {}
     properties = []
     nodes = pool = bits = held = slots = 0
     for prop_name, text, formula, period in compiled:
         indexes = tuple(propositions.setdefault(p, len(propositions)) for p in formula.propositions)
         words = max(1, -(-len(indexes) // 32))
+        trigger = (triggers or {}).get(prop_name)
+        where = -1 if trigger is None else propositions.setdefault(trigger, len(propositions))
         properties.append(
             CProperty(
-                prop_name, text, formula, period, nodes, slots, indexes, words, bits, held, pool
+                prop_name,
+                text,
+                formula,
+                period,
+                nodes,
+                slots,
+                indexes,
+                words,
+                bits,
+                held,
+                pool,
+                where,
             )
         )
         nodes += len(formula.nodes)
@@ -170,7 +189,8 @@ def system_of(spec: ir.Spec, max_rate: Fraction | None = None) -> CSystem:
             "\n".join(f"{origin}: {message}" if origin else message for origin, message in problems)
         )
     compiled = [_compiled_property(p, max_rate) for p in spec.properties]
-    system = laid_out(spec.system.name, compiled)
+    triggers = {p.name: p.trigger for p in spec.properties if p.trigger != "always"}
+    system = laid_out(spec.system.name, compiled, triggers)
     return replace(system, flow=flow_of(spec, system.propositions))
 
 
@@ -191,8 +211,6 @@ def _compiled_property(
     prop: ir.Property, max_rate: Fraction | None
 ) -> tuple[str, str, Formula, int]:
     where = f"property {prop.name}"
-    if prop.trigger != "always":
-        raise Unsupported(f"{where}: `trigger = {prop.trigger}` (the C monitor runs always)")
     if prop.lateness:
         raise Unsupported(f"{where}: `lateness` (the C monitor takes samples in time order)")
     if prop.rate is None and max_rate is None:

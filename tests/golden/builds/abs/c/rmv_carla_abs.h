@@ -37,6 +37,7 @@ typedef struct {
     uint8_t opened;
     uint8_t overflow;
     uint8_t has_current;
+    uint8_t closed;  /* its trigger does not hold: no monitor runs */
     int32_t changes;
     int64_t start, known, written, emitted, next_tick;
     rmv_segment current;

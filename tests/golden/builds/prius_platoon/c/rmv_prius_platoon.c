@@ -559,6 +559,7 @@ typedef struct {
     int32_t pool_offset;  /* its slice of the breakpoint pools */
     int64_t horizon;      /* ticks: how far ahead plus how far back it looks */
     int64_t period;       /* ticks between samples at its rate; 0: every change */
+    int32_t trigger;      /* the proposition that starts and stops it; -1: always */
 } rmv_property;
 
 
@@ -807,32 +808,50 @@ static void rmv_ticks_before(const rmv_view *v, int64_t bound) {
     rmv_run *run = v->run;
     int64_t period = v->def->period, last;
     if (!period || !run->opened || run->next_tick >= bound) return;
-    rmv_sample(v, run->next_tick, rmv_set(v, B_TRUTH), rmv_set(v, B_PENDING));
+    if (!run->closed)  /* closed: the clock goes on, with nothing to sample */
+        rmv_sample(v, run->next_tick, rmv_set(v, B_TRUTH), rmv_set(v, B_PENDING));
     memset(rmv_set(v, B_PENDING), 0, (size_t)v->def->words * sizeof(uint32_t));
     last = run->next_tick + (bound - 2 - run->next_tick) / period * period;
-    if (last > run->next_tick) rmv_sample(v, last, rmv_set(v, B_TRUTH), rmv_set(v, B_NONE));
+    if (last > run->next_tick && !run->closed)
+        rmv_sample(v, last, rmv_set(v, B_TRUTH), rmv_set(v, B_NONE));
     run->next_tick = last + period;
 }
 
+/* Its trigger stopped holding at t (the ticks before t are sampled): every verdict
+ * up to t, and no monitor until it holds again (PropertyMonitor._close). */
+static void rmv_close(const rmv_view *v, int64_t t) {
+    rmv_run *run = v->run;
+    if (run->started) {
+        if (t > run->known) run->known = t;
+        rmv_flush(v, 1);
+    }
+    run->started = 0;
+    run->changes = 0;
+    run->closed = 1;
+}
+
 /* One instant of input for one property: its propositions' truth from t on (B_IN)
- * and the pulses at t (B_IN_PULSES). */
-static void rmv_instant(const rmv_view *v, int64_t t) {
+ * and the pulses at t (B_IN_PULSES); `trigger`: whether its trigger holds. */
+static void rmv_instant(const rmv_view *v, int64_t t, int trigger) {
     rmv_run *run = v->run;
     int32_t words = v->def->words, k;
     int64_t period = v->def->period;
-    if (!period) {
-        rmv_sample(v, t, rmv_set(v, B_IN), rmv_set(v, B_IN_PULSES));
-        return;
-    }
-    if (!run->opened) {  /* ticks at whole multiples of the period since time 0 */
+    if (period && !run->opened) {  /* ticks at whole multiples of the period since time 0 */
         int64_t ns = rmv_ns(v, t), every = period / 2;
         int64_t first = ns >= 0 ? (ns / every + (ns % every != 0)) * every : ns / every * every;
         run->opened = 1;
         run->next_tick = 2 * (first - v->base);
     }
     rmv_ticks_before(v, t);
+    if (!run->closed && !trigger) rmv_close(v, t);
+    else if (run->closed && trigger) run->closed = 0;  /* a monitor from t, or the next tick */
+    if (!period) {
+        if (!run->closed) rmv_sample(v, t, rmv_set(v, B_IN), rmv_set(v, B_IN_PULSES));
+        return;
+    }
     rmv_copy(rmv_set(v, B_TRUTH), rmv_set(v, B_IN), words);
-    for (k = 0; k < words; k++) rmv_set(v, B_PENDING)[k] |= rmv_set(v, B_IN_PULSES)[k];
+    if (!run->closed)
+        for (k = 0; k < words; k++) rmv_set(v, B_PENDING)[k] |= rmv_set(v, B_IN_PULSES)[k];
 }
 
 static void rmv_advance_to(const rmv_view *v, int64_t t) {
@@ -881,8 +900,8 @@ static const int32_t PROPOSITIONS[3] = {
 };
 
 static const rmv_property PROPERTIES[RMV_PRIUS_PLATOON_PROPERTIES] = {
-    { 0, 6, 0, 1, 1, 0, 0, 0, 40000000000, 400000000 },  /* LinkQuality */
-    { 6, 6, 1, 2, 1, 72, 32, 17321, 2000000000, 100000000 },  /* BrakeReaction */
+    { 0, 6, 0, 1, 1, 0, 0, 0, 40000000000, 400000000, -1 },  /* LinkQuality */
+    { 6, 6, 1, 2, 1, 72, 32, 17321, 2000000000, 100000000, -1 },  /* BrakeReaction */
 };
 
 static const char *const PROPERTY_NAMES[RMV_PRIUS_PLATOON_PROPERTIES] = {
@@ -935,9 +954,12 @@ static int rmv_ticks_of(rmv_prius_platoon_monitor *m, int64_t time_ns, int64_t *
 }
 
 void rmv_prius_platoon_init(rmv_prius_platoon_monitor *monitor, rmv_on_verdict on_verdict, void *context) {
+    int32_t property;
     memset(monitor, 0, sizeof *monitor);
     monitor->on_verdict = on_verdict;
     monitor->context = context;
+    for (property = 0; property < RMV_PRIUS_PLATOON_PROPERTIES; property++)
+        monitor->run[property].closed = PROPERTIES[property].trigger >= 0;
 }
 
 void rmv_prius_platoon_step(rmv_prius_platoon_monitor *monitor, const rmv_prius_platoon_input *input,
@@ -952,8 +974,9 @@ void rmv_prius_platoon_step(rmv_prius_platoon_monitor *monitor, const rmv_prius_
         uint32_t *sets = monitor->bits + def->bits_offset;
         uint32_t *in = sets + B_IN * def->words, *in_pulses = sets + B_IN_PULSES * def->words;
         rmv_view v;
+        int trigger = def->trigger < 0 || input->holds[def->trigger];
         /* the common case, a sample that repeats the state: time passes, no more */
-        if (!def->period && run->started && t >= run->known) {
+        if (!def->period && run->started && trigger && t >= run->known) {
             const uint32_t *state = sets + B_STATE * def->words;
             for (k = 0; k < def->prop_count; k++) {
                 int32_t p = indexes[k];
@@ -971,7 +994,7 @@ void rmv_prius_platoon_step(rmv_prius_platoon_monitor *monitor, const rmv_prius_
             if (input->pulses[indexes[k]]) in_pulses[k / 32] |= bit;
         }
         v = rmv_view_of(monitor, property);
-        rmv_instant(&v, t);
+        rmv_instant(&v, t, trigger);
     }
 }
 
