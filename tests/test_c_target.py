@@ -261,7 +261,7 @@ def assert_random_instants_agree(
     the property monitors and the C build."""
     from rmvdsl.targets.c.generate import system_of
 
-    names = sorted({n for p in spec.properties for n in p.propositions})
+    names = sorted({n for p in spec.properties for n in (*p.propositions, p.trigger)} - {"always"})
     rng = random.Random(7)
     start = 1_700_000_000 * NS
     monitors = [PropertyMonitor(p, start, frozenset()) for p in spec.properties]
@@ -287,6 +287,22 @@ def assert_random_instants_agree(
     _, records, errors = run_driver(compile_driver(out, sanitize=True), lines)
     assert segments_by_property(records) == expected, errors
     assert any(s[4] == "false" for v in expected.values() for s in v)  # the data decides something
+
+
+def test_triggered_properties_equal_the_property_monitors(tmp_path: Path) -> None:
+    """abs.rmv's properties, each triggered by a state or an event that comes and
+    goes (and pulses while the property is stopped), over random instants: the
+    property monitors' verdicts, activation by activation."""
+    import dataclasses
+
+    spec = spec_of(ROOT / "examples" / "carla" / "abs.rmv")
+    triggers = ["Cruising", "HardBraking", "StopReached", "AntiLockBrake"]
+    properties = tuple(
+        dataclasses.replace(p, trigger=triggers[k % len(triggers)])
+        for k, p in enumerate(spec.properties)
+    )
+    assert_random_instants_agree(dataclasses.replace(spec, properties=properties), None,
+                                 1_000_000, tmp_path)  # fmt: skip
 
 
 def test_input_faster_than_the_rate_is_counted_and_unknown_never_wrong(tmp_path: Path) -> None:
