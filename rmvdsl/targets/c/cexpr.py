@@ -12,6 +12,7 @@ functions of a series) raises Unsupported with the reason."""
 from __future__ import annotations
 
 import re
+from collections import Counter
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
@@ -209,11 +210,11 @@ class Compiler:
     def statements(self, result: str) -> list[str]:
         """The lines, then a cast to void of each temporary nothing reads (a
         comparison of a bool with a number is decided by the kinds alone)."""
-        text = "\n".join(self.lines) + "\n" + result
+        uses = Counter(re.findall(r"\b[pv]\d+\b", "\n".join([*self.lines, result])))
         unread = []
         for k in range(len(self.lines) // 2):
             for name in (f"p{k}", f"v{k}"):
-                if len(re.findall(rf"\b{name}\b", text)) < 2:
+                if uses[name] < 2:  # its declaration only
                     unread.append(f"(void){name};")
         return [*self.lines, *unread]
 
