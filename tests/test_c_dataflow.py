@@ -160,18 +160,25 @@ def value_lines(
         runtime.message(time, topic, message)
     runtime.end(end)
     records = runtime.records()
+    lines = driver_lines(spec, records, Fraction(1, 2), Fraction(end, NS))
+    return lines, [r for r in records if r["kind"] == "verdict"]
+
+
+def driver_lines(spec: ir.Spec, records: list[dict], start: Fraction, end: Fraction) -> list[str]:
+    """The variables' and value events' records of a run started at `start`, as the
+    driver's lines: one instant per time (a point stamped before the start takes
+    effect at it, as in the runtime), then the end."""
     values = {v.name for v in spec.variables} | {e.name for e in spec.events if e.kind == "value"}
-    instants: dict[Fraction, dict[str, Any]] = {Fraction(1, 2): {}}
+    instants: dict[Fraction, dict[str, Any]] = {start: {}}
     for record in records:
         if record["kind"] in ("variable", "event") and record["name"] in values:
-            at = max(Fraction(record["time"]), Fraction(1, 2))
+            at = max(Fraction(record["time"]), start)
             instants.setdefault(at, {})[record["name"]] = record["value"]
-    lines = [_values_line(t, instants[t]) for t in sorted(instants)]
-    return [*lines, end_line(Fraction(end, NS))], [r for r in records if r["kind"] == "verdict"]
-
-
-def _values_line(t: Fraction, values: dict[str, Any]) -> str:
-    return json.dumps({"t": "@", "values": values}).replace('"@"', exact_text(t))
+    lines = [
+        json.dumps({"t": "@", "values": instants[t]}).replace('"@"', exact_text(t))
+        for t in sorted(instants)
+    ]
+    return [*lines, end_line(end)]
 
 
 def _compare(program: Path, spec: ir.Spec, recordings: Iterable[list], where: str) -> int:
@@ -280,16 +287,8 @@ def test_the_example_from_values_prints_rmv_replays_verdicts(
     records = list(replay(spec, [recording], record=("variable", "event")))
     verdicts = [to_json(r) for r in records if r["kind"] == "verdict"]
     start = min(Fraction(r["from"]) for r in records if r["kind"] == "verdict")
-    values = {v.name for v in spec.variables} | {e.name for e in spec.events if e.kind == "value"}
-    instants: dict[Fraction, dict[str, Any]] = {start: {}}
-    end = start
-    for record in records:
-        if record["kind"] in ("variable", "event") and record["name"] in values:
-            at = max(Fraction(record["time"]), start)
-            instants.setdefault(at, {})[record["name"]] = record["value"]
-        if record["kind"] == "verdict":
-            end = max(end, Fraction(record["to"]))
-    lines = [_values_line(t, instants[t]) for t in sorted(instants)] + [end_line(end)]
+    end = max(Fraction(r["to"]) for r in records if r["kind"] == "verdict")
+    lines = driver_lines(spec, records, start, end)
     system = system_of(spec)
     assert system.flow.compiled and len(system.flow.sources) == 5, system.flow.reason
     write(files(system), tmp_path)

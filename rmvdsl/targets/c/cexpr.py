@@ -23,7 +23,8 @@ from rmvdsl.targets.c.model import Unsupported
 
 NUMERIC = ("int", "float")
 _COMPARE = {"=": "==", "!=": "!=", "<": "<", "<=": "<=", ">": ">", ">=": ">="}
-_INT_ARITHMETIC = {"+": "rmv_add", "-": "rmv_sub", "*": "rmv_mul", "%": "rmv_rem"}
+_INT_ARITHMETIC = {"+": "add", "-": "sub", "*": "mul", "%": "rem"}
+_INT_HELPERS = frozenset({"neg", "iabs", *_INT_ARITHMETIC.values()})
 _BITWISE = {"&": "&", "|": "|", "^": "^"}
 _LIBM = {"sqrt": "sqrt", "exp": "exp", "ln": "log", "log2": "log2", "log10": "log10",
          "sin": "sin", "cos": "cos", "tan": "tan", "asin": "asin", "acos": "acos",
@@ -67,6 +68,14 @@ class Compiler:
     floats: bool = False  # whether the condition computes with doubles
     libm: bool = False  # whether it calls <math.h>
     flags: list[int] = field(default_factory=list)  # the boolean names it reads
+
+    def helper(self, name: str) -> str:
+        """The engine's helper `rmv_<name>`, marked as used (the integer ones read
+        their result's bits through `rmv_i64`)."""
+        self.helpers.add(name)
+        if name in _INT_HELPERS:
+            self.helpers.add("i64")
+        return f"rmv_{name}"
 
     def temporary(self, kind: str, present: str, value: str) -> Value:
         index = len(self.lines) // 2
@@ -118,8 +127,7 @@ class Compiler:
         if node.op == "not":
             return self.temporary("bool", operand.present, f"(uint8_t)!{operand.value}")
         if operand.kind == "int":
-            self.helpers.add("neg")
-            return self.temporary("int", operand.present, f"rmv_neg({operand.value})")
+            return self.temporary("int", operand.present, f"{self.helper('neg')}({operand.value})")
         return self.temporary("float", operand.present, f"-{self.as_double(operand)}")
 
     def binary(self, node: ir.Binary) -> Value:
@@ -133,18 +141,14 @@ class Compiler:
         if op in _BITWISE:
             if left.kind == "bool":
                 return self.temporary("bool", both, f"(uint8_t)({left.value} {op} {right.value})")
-            self.helpers.add("i64")
-            value = f"rmv_i64((uint64_t){left.value} {op} (uint64_t){right.value})"
+            value = f"{self.helper('i64')}((uint64_t){left.value} {op} (uint64_t){right.value})"
             return self.temporary("int", both, value)
         if op == "/":
-            self.helpers.add("div")
-            value = f"rmv_div({self.as_double(left)}, {self.as_double(right)})"
+            value = f"{self.helper('div')}({self.as_double(left)}, {self.as_double(right)})"
             return self.temporary("float", both, value)
         if op in _INT_ARITHMETIC and left.kind == right.kind == "int":
-            self.helpers.add(_INT_ARITHMETIC[op].removeprefix("rmv_"))
-            return self.temporary(
-                "int", both, f"{_INT_ARITHMETIC[op]}({left.value}, {right.value})"
-            )
+            function = self.helper(_INT_ARITHMETIC[op])
+            return self.temporary("int", both, f"{function}({left.value}, {right.value})")
         if op == "%":  # C's fmod is NaN for a zero divisor or an infinite dividend
             self.libm = True
             value = f"fmod({self.as_double(left)}, {self.as_double(right)})"
@@ -184,8 +188,7 @@ class Compiler:
         first = arguments[0]
         present = " && ".join(a.present for a in arguments)
         if name == "abs" and first.kind == "int":
-            self.helpers.add("iabs")
-            return self.temporary("int", present, f"rmv_iabs({first.value})")
+            return self.temporary("int", present, f"{self.helper('iabs')}({first.value})")
         if name in _ROUNDING and first.kind == "int":
             return first
         self.libm = True
@@ -195,16 +198,14 @@ class Compiler:
         elif name in _ROUNDING:
             result = f"{_ROUNDING[name]}({doubles[0]})"
         elif name == "log":
-            self.helpers.add("log_base")
-            result = f"rmv_log_base({doubles[0]}, {doubles[1]})"
+            result = f"{self.helper('log_base')}({doubles[0]}, {doubles[1]})"
         elif name in ("pow", "atan2"):
             result = f"{name}({doubles[0]}, {doubles[1]})"
         else:
             result = f"{_LIBM[name]}({doubles[0]})"
-        self.helpers.add("defined")
         value = self.temporary("float", present, result)
         finite = " && ".join(f"isfinite({d})" for d in doubles)
-        defined = f"{value.present} && rmv_defined({value.value}, {finite})"
+        defined = f"{value.present} && {self.helper('defined')}({value.value}, {finite})"
         return self.temporary("float", defined, value.value)
 
     def statements(self, result: str) -> list[str]:
