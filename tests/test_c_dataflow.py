@@ -10,6 +10,7 @@ import json
 import math
 import os
 import random
+import shutil
 import subprocess
 from collections.abc import Iterable, Sequence
 from fractions import Fraction
@@ -67,6 +68,44 @@ class OperatorMaker(SpecMaker):
         return f"({term}) {rng.choice(COMPARISONS)} {threshold}"
 
 
+AGGREGATES = ["count", "sum", "mean", "min", "max", "first", "last", "spread", "stddev"]
+SERIES = ["derivative({})", "derivative({}, 100ms)", "non_negative_derivative({})",
+          "difference({})", "non_negative_difference({})", "cumulative_sum({})",
+          "elapsed({}, 1ms)"]  # fmt: skip
+FILLS = ["none", "null", "previous", "linear", "0", "1.5", "-3"]
+
+
+def random_query(rng: random.Random, numeric: list[str]) -> str:
+    """A value event the C target computes: raw with a streaming transformation
+    or arithmetic, or a continuous query of aggregates, transformations of the
+    series, `fill`, `where`, `limit`/`order`, resampling and offsets."""
+    x = rng.choice(numeric)
+    if rng.random() < 0.3:  # raw: one point per message
+        term = rng.choice([f"{x} * 2", f"abs({x})", *(f.format(x) for f in SERIES)])
+        where = f" where {x} > 0" if rng.random() < 0.2 else ""
+        return term + where
+    argument = rng.choice([x, x, f"{x} * 2", f"{x} + 1"])
+    term = f"{rng.choice(AGGREGATES)}({argument})"
+    if rng.random() < 0.4:
+        term = rng.choice(SERIES).format(term)
+    elif rng.random() < 0.2:  # two aggregates of one unit, joined window by window
+        term = f"{term} - {rng.choice(['min', 'max', 'last'])}({x})"
+    if rng.random() < 0.3:
+        term = f"{term} {rng.choice(['+', '-', '*', '/'])} {rng.choice(['2', '0.5', '3'])}"
+    offset = rng.choice(["", "", ", 100ms", ", 250ms"])
+    clauses = [f"group by time({rng.choice(['1s', '500ms', '300ms', '2s'])}{offset})"]
+    if rng.random() < 0.6:
+        clauses.append(f"fill {rng.choice(FILLS)}")
+    if rng.random() < 0.3:
+        every = rng.choice(["200ms", "1s", "3s"])
+        clauses.append(f"resample every {every}" + rng.choice(["", " for 2s", " for 4s"]))
+    if rng.random() < 0.2:
+        clauses.append(f"where {x} {rng.choice(['>', '<', '!='])} {rng.choice(['0', '1'])}")
+    if rng.random() < 0.15:
+        clauses.append(f"limit {rng.randint(1, 3)}" + rng.choice(["", " order desc"]))
+    return " ".join([term, *clauses])
+
+
 def case_lines(rng: random.Random, k: int) -> tuple[list[str], dict[str, str]]:
     """One random spec's declarations, its names prefixed `K<k>`: variables of each
     ROS type, a value event sometimes (raw or over windows), boolean events (some
@@ -77,15 +116,15 @@ def case_lines(rng: random.Random, k: int) -> tuple[list[str], dict[str, str]]:
     for i in range(rng.randint(1, 3)):
         kind = rng.choice(sorted(ROS_TYPES))
         topics[f"/k{k}t{i}"] = kind
-        lines += [f'topic k{k}t{i}: std_msgs/{kind} = "/k{k}t{i}"', f"var K{k}V{i} = k{k}t{i}.data"]
+        # its declared rate sizes the instants held for the windows (at most one
+        # message each 0.1 s: make_recording)
+        lines += [f'topic k{k}t{i}: std_msgs/{kind} = "/k{k}t{i}" qos {{', "    max_rate = 10Hz",
+                  "}", f"var K{k}V{i} = k{k}t{i}.data"]  # fmt: skip
         maker.kinds[f"K{k}V{i}"] = kind
-    numeric = sorted(v for v, t in maker.kinds.items() if t in ("Int32", "Float64"))
-    if numeric and rng.random() < 0.5:
-        if rng.random() < 0.5:
-            lines.append(f"event K{k}W = max({rng.choice(numeric)}) group by time(1s)")
-        else:
-            lines.append(f"event K{k}W = {rng.choice(numeric)} * 2")
-        maker.windowed.append(f"K{k}W")
+    numeric = sorted(v for v, t in maker.kinds.items() if t != "Bool")
+    for j in range(rng.randint(0, 2) if numeric else 0):
+        lines.append(f"event K{k}W{j} = {random_query(rng, numeric)}")
+        maker.windowed.append(f"K{k}W{j}")
     for index in range(rng.randint(2, 4)):
         lines.append(f"event K{k}E{index} when {maker.condition(2)}")
         maker.events.append(f"K{k}E{index}")
@@ -209,6 +248,7 @@ def test_random_specs_from_values_give_the_runtimes_verdicts(batch: int, tmp_pat
     spec, topics = batch_spec(1000 + batch, CASES, tmp_path)
     system = system_of(spec, Fraction(20))
     assert system.flow.compiled, system.flow.reason
+    assert not system.flow.hosted, system.flow.hosted  # every query computed in C
     write(files(system), tmp_path / "out")
     program = compile_driver(tmp_path / "out", sanitize=True)
     rng = random.Random(batch)
@@ -300,6 +340,77 @@ def test_the_example_from_values_prints_rmv_replays_verdicts(
     assert done.returncode == (1 if any('"verdict": "false"' in v for v in verdicts) else 0)
 
 
+@pytest.mark.parametrize("recording", RECORDINGS, ids=lambda p: p.name)
+def test_the_example_computes_its_query_from_the_topics_rate(
+    recording: Path, tmp_path: Path
+) -> None:
+    """abs.rmv with its status topic's rate declared (`max_rate = 20Hz`, what the
+    recordings carry): the C build computes EderivativeVelocity, a derivative of
+    windowed means filled with the previous value, from Velocity itself, and
+    prints `rmv replay`'s verdict lines byte for byte from the variables alone."""
+    from rmvdsl.runtime.records import to_json
+    from rmvdsl.tools.replay import replay
+
+    example = ROOT / "examples" / "carla"
+    shutil.copytree(example / "msg", tmp_path / "msg")
+    text = (example / "abs.rmv").read_text(encoding="utf-8")
+    declared = text.replace("    depth = 10\n", "    depth = 10\n    max_rate = 20Hz\n", 1)
+    assert declared != text
+    (tmp_path / "abs.rmv").write_text(declared, encoding="utf-8")
+    spec = lower(check(str(tmp_path / "abs.rmv"), use_environment=False))
+    records = list(replay(spec, [recording], record=("variable",)))
+    verdicts = [to_json(r) for r in records if r["kind"] == "verdict"]
+    assert not [r for r in records if str(r.get("name", "")).startswith("messages over")]
+    start = min(Fraction(r["from"]) for r in records if r["kind"] == "verdict")
+    end = max(Fraction(r["to"]) for r in records if r["kind"] == "verdict")
+    lines = driver_lines(spec, records, start, end)
+    assert "EderivativeVelocity" not in "".join(lines)  # the variables only
+    system = system_of(spec)
+    assert [q.name for q in system.flow.queries] == ["EderivativeVelocity"]
+    write(files(system), tmp_path / "out")
+    program = compile_driver(tmp_path / "out", sanitize=True)
+    done = subprocess.run([str(program)], input="\n".join(lines) + "\n", capture_output=True,
+                          text=True)  # fmt: skip
+    printed = [line for line in done.stdout.splitlines() if '"kind": "verdict"' in line]
+    assert sorted(printed) == sorted(verdicts), done.stderr
+    assert not [line for line in done.stdout.splitlines() if '"counter"' in line]
+
+
+def test_input_past_the_declared_rate_is_counted_and_unknown(tmp_path: Path) -> None:
+    """A topic declared at 2 Hz carrying 100 messages a second: the instants held
+    for the window and the query's rows overflow their pools. Each overflow is
+    counted (the driver's counter line), the verdicts up to it and the query's
+    lag after it are unknown, the program stays within its memory (ASan), and a
+    later stretch at the declared rate is decided again."""
+    path = tmp_path / "fast.rmv"
+    path.write_text(
+        'system fast\nros humble\ntopic a: std_msgs/Float64 = "/a" qos {\n    max_rate = 2Hz\n}\n'
+        "var A = a.data\nevent M = mean(A) group by time(1s)\nevent High when M > 2\n"
+        "property P: not High {\n    rate = 10Hz\n}\n",
+        encoding="utf-8",
+    )
+    spec = lower(check(str(path), use_environment=False, solver=False))
+    system = system_of(spec)
+    assert [q.name for q in system.flow.queries] == ["M"], system.flow.hosted
+    write(files(system), tmp_path / "out")
+    program = compile_driver(tmp_path / "out", sanitize=True)
+    fast = [(NS + k * NS // 100, 5.0) for k in range(300)]  # 1 s to 4 s: 100 Hz
+    slow = [(10 * NS + k * NS // 2, 0.0) for k in range(20)]  # 10 s to 20 s: 2 Hz
+    lines = [
+        json.dumps({"t": "@", "values": {"A": value}}).replace('"@"', exact_text(Fraction(t, NS)))
+        for t, value in fast + slow
+    ]
+    status, records, errors = run_driver(program, [*lines, end_line(Fraction(25))])
+    assert status in (0, 1), errors
+    counters = [r for r in records if r.get("kind") == "counter"]
+    assert any(r["name"].startswith("flow overflows") and r["value"] > 0 for r in counters)
+    # High holds from 1 s to 10 s (the windows' mean is 5): P is false there, so
+    # whatever is not unknown before 10 s would be wrong
+    segments = segments_by_property(records)["P"]
+    assert [s[4] for s in segments if s[0] < 10] == ["unknown"], segments
+    assert segments[-1][4] == "true" and segments[-1][0] < 11, segments
+
+
 def test_what_c_cannot_compute_leaves_the_propositions_to_the_host(tmp_path: Path) -> None:
     """Only what the properties read is compiled: a string compared by an event no
     property reads costs nothing; once a property reads it, `rmv build` says the
@@ -328,17 +439,22 @@ def test_what_c_cannot_compute_leaves_the_propositions_to_the_host(tmp_path: Pat
 
 
 def test_a_spec_of_integers_compiles_with_no_floating_point(tmp_path: Path) -> None:
-    """From integer and bool values (arithmetic, bitwise, `%`, abs, round), the
-    monitor needs no floating point and no libc but memcmp/memcpy/memmove/memset:
-    it compiles freestanding, and on x86-64 with -mgeneral-regs-only."""
+    """From integer and bool values (arithmetic, bitwise, `%`, abs, round, and
+    queries of integers: sums, counts, differences), the monitor needs no floating
+    point and no libc but memcmp/memcpy/memmove/memset: it compiles freestanding,
+    and on x86-64 with -mgeneral-regs-only."""
     import platform
 
     spec_path = tmp_path / "ints.rmv"
     spec_path.write_text(
-        'system ints\nros humble\ntopic a: std_msgs/Int64 = "/a"\ntopic b: std_msgs/Bool = "/b"\n'
+        'system ints\nros humble\ntopic a: std_msgs/Int64 = "/a" qos {\n    max_rate = 10Hz\n}\n'
+        'topic b: std_msgs/Bool = "/b" qos {\n    max_rate = 10Hz\n}\n'
         "var A = a.data\nvar B = b.data\n"
         "event Odd when A % 2 != 0 and not B\nevent Big when abs(A * 3 - 1) > 100 or (A & 7) = 5\n"
-        "event Round when round(A) ^ 1 = 0\n"
+        "event S = sum(A) - min(A) group by time(1s) fill previous\n"
+        "event C = cumulative_sum(count(A)) group by time(500ms) resample every 1s for 2s\n"
+        "event D = difference(A)\n"
+        "event Round when round(A) ^ 1 = 0 or S > 150 or D < 0 or C = 3\n"
         "transducer T {\n    states Low, High\n    initial Low\n"
         "    Low -> High on Big emit Up\n    High -> Low on Odd\n}\n"
         "property P: High -> once[<=2s] Up { rate = 10Hz }\nproperty Q: not Round { rate = 10Hz }\n"
@@ -346,6 +462,7 @@ def test_a_spec_of_integers_compiles_with_no_floating_point(tmp_path: Path) -> N
     spec = lower(check(str(spec_path), use_environment=False))
     system = system_of(spec)
     assert system.flow.compiled and not system.flow.floats and not system.flow.libm
+    assert len(system.flow.queries) == 3, system.flow.hosted
     write(files(system), tmp_path)
     flags = ["-std=c99", "-O2", "-ffreestanding", "-Wall", "-Wextra", "-Wpedantic", "-Werror"]
     if platform.machine() in ("x86_64", "AMD64"):

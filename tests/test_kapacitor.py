@@ -18,6 +18,7 @@ import dataclasses
 import json
 import math
 import os
+import random
 import re
 import subprocess
 import sys
@@ -266,6 +267,73 @@ def test_every_function_computes_in_influxdb_what_the_runtime_computes(server, t
             assert time == our_time and _same(value, our_value, ulps), (declarations, theirs, ours)
         compared += 1
     assert compared >= 44
+
+
+OVERFLOWING = [(1, 1e308), (1.5, 1e308), (2, 5.0), (2.5, 6.0), (3, -1e308), (3.5, 1e308),
+               (4, 1e200), (4.5, -1e200)]  # fmt: skip
+
+
+@pytest.mark.parametrize("index, function", enumerate(["sum", "stddev", "mean", "spread"]))
+def test_a_window_too_great_for_a_double_is_no_point_in_either(server, tmp_path, index, function):
+    """Windows whose value overflows to an infinity (a sum past 1.8e308, a square
+    of 1e200): InfluxDB writes no such point and still writes the run's others,
+    and so does the runtime (whose `stddev` once stopped on Python's OverflowError;
+    the C target's differential test found it)."""
+    end = 5 * NS
+    spec = _worked_spec(f"event E = {function}(x) group by time(1s)", 100 + index, tmp_path)
+    texts, _ = kapacitor.files(spec, tmp_path / "out")
+    iql = texts["influxdb.iql"]
+    for statement in statements(iql):
+        server.query(statement)
+    writer = lineproto.PointWriter(spec)
+    runtime = Runtime(spec)
+    lines = []
+    for time, value in OVERFLOWING:
+        point = writer.point(int(time * NS), "/t", {"data": value})
+        assert point is not None
+        lines.append(point[1])
+        runtime.message(int(time * NS), "/t", {"data": value})
+    runtime.end(end)
+    server.write(spec.database.name, lines)  # type: ignore[union-attr]
+    run_queries(server, spec, iql, 0, end - 1)
+    ours = [(int(Fraction(r["time"]) * NS), r["value"]) for r in runtime.records()
+            if r.get("name") == "E"]  # fmt: skip
+    theirs = stored(server, spec, "E", end)
+    assert len(ours) < 4 and theirs == ours
+
+
+@pytest.mark.parametrize("index, function", enumerate(["mean", "stddev", "sum", "spread"]))
+def test_sums_round_in_the_order_influxdb_adds(server, tmp_path, index, function):
+    """Thirty windows of 2 to 9 random doubles: every window's value is InfluxDB's
+    to the last bit. `mean` is the sum over the count (a running mean, which the
+    runtime once took, differs in about half of them); `stddev` subtracts a running
+    mean (the sum over the count differs in some)."""
+    rng = random.Random(3)
+    rows = [
+        (Fraction(second) + Fraction(k, 100), rng.uniform(-10, 10))
+        for second in range(1, 31)
+        for k in range(rng.randint(2, 9))
+    ]
+    end = 32 * NS
+    spec = _worked_spec(f"event E = {function}(x) group by time(1s)", 110 + index, tmp_path)
+    texts, _ = kapacitor.files(spec, tmp_path / "out")
+    iql = texts["influxdb.iql"]
+    for statement in statements(iql):
+        server.query(statement)
+    writer = lineproto.PointWriter(spec)
+    runtime = Runtime(spec)
+    lines = []
+    for time, value in rows:
+        point = writer.point(int(time * NS), "/t", {"data": value})
+        assert point is not None
+        lines.append(point[1])
+        runtime.message(int(time * NS), "/t", {"data": value})
+    runtime.end(end)
+    server.write(spec.database.name, lines)  # type: ignore[union-attr]
+    run_queries(server, spec, iql, 0, end - 1)
+    ours = [(int(Fraction(r["time"]) * NS), r["value"]) for r in runtime.records()
+            if r.get("name") == "E"]  # fmt: skip
+    assert len(ours) == 30 and stored(server, spec, "E", end) == ours
 
 
 def test_braking_events_in_influxdb_equal_the_replay(server, tmp_path):

@@ -199,7 +199,7 @@ class WindowedQuery:
         else:
             series = self._series(expr, selected, windows)
             found = series.items() if isinstance(series, dict) else ()
-            points = sorted((t, v) for t, v in found if v is not MISSING and not _nan(v))
+            points = sorted((t, v) for t, v in found if v is not MISSING and not _unstorable(v))
         if event.limit is not None:
             points = points[-event.limit :] if event.order == "desc" else points[: event.limit]
         return points
@@ -240,12 +240,13 @@ class WindowedQuery:
         return evaluate(expr, lambda name: MISSING)
 
     def _points(self, arg: ir.Expr, rows: list[Row]) -> list[tuple[int, Any]]:
-        """The values a function reads: a NaN is no point (InfluxDB refuses to store
-        one), so `min`, `max` and the rest skip it, as numpy's `nanmin` does."""
+        """The values a function reads: a NaN or an infinity is no point (InfluxDB
+        refuses to store one, and the collector leaves it out: lineproto), so `min`,
+        `max` and the rest skip it, as numpy's `nanmin` does."""
         out = []
         for row in rows:
             value = evaluate(arg, row.fields.get)
-            if value is not MISSING and not _nan(value):
+            if value is not MISSING and not _unstorable(value):
                 out.append((row.time, value))
         return out
 
@@ -283,8 +284,10 @@ class WindowedQuery:
         return out
 
 
-def _nan(value: Any) -> bool:
-    return isinstance(value, float) and math.isnan(value)
+def _unstorable(value: Any) -> bool:
+    """A NaN or an infinity: InfluxDB writes no such point (a run's other points
+    are written: checked against influxd)."""
+    return isinstance(value, float) and not math.isfinite(value)
 
 
 def _join(combine: Callable[[Any, Any], Any], left: Any, right: Any) -> Any:

@@ -68,6 +68,11 @@ class Compiler:
     floats: bool = False  # whether the condition computes with doubles
     libm: bool = False  # whether it calls <math.h>
     flags: list[int] = field(default_factory=list)  # the boolean names it reads
+    # Where a value and its presence are read: "m->" the monitor's newest, "r->" a
+    # query's row, or a series' slot.
+    has_at: str = "m->has[{}]"
+    value_at: str = "m->val[{}]"
+    count: int = 0  # temporaries so far
 
     def helper(self, name: str) -> str:
         """The engine's helper `rmv_<name>`, marked as used (the integer ones read
@@ -78,7 +83,8 @@ class Compiler:
         return f"rmv_{name}"
 
     def temporary(self, kind: str, present: str, value: str) -> Value:
-        index = len(self.lines) // 2
+        index = self.count
+        self.count += 1
         ctype = {"bool": "uint8_t", "int": "int64_t", "float": "double"}[kind]
         if kind == "float":
             self.floats = True
@@ -120,7 +126,9 @@ class Compiler:
             raise Unsupported(f"`{node.name}` (neither a value nor a boolean event)")
         index, kind = found
         member = {"bool": "b", "int": "i", "float": "f"}[kind]
-        return self.temporary(kind, f"m->has[{index}]", f"m->val[{index}].{member}")
+        return self.temporary(
+            kind, self.has_at.format(index), f"{self.value_at.format(index)}.{member}"
+        )
 
     def unary(self, node: ir.Unary) -> Value:
         operand = self.expr(node.operand)
@@ -213,7 +221,7 @@ class Compiler:
         comparison of a bool with a number is decided by the kinds alone)."""
         uses = Counter(re.findall(r"\b[pv]\d+\b", "\n".join([*self.lines, result])))
         unread = []
-        for k in range(len(self.lines) // 2):
+        for k in range(self.count):
             for name in (f"p{k}", f"v{k}"):
                 if uses[name] < 2:  # its declaration only
                     unread.append(f"(void){name};")

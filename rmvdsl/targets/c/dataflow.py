@@ -11,14 +11,17 @@ why, and the host gives the monitor the propositions instead."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from fractions import Fraction
 
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.dataflow import Condition as RuntimeCondition
 from rmvdsl.runtime.dataflow import SpecError, dataflow_nodes
 from rmvdsl.runtime.dataflow import Transducer as RuntimeTransducer
+from rmvdsl.runtime.series import nanoseconds
 from rmvdsl.targets.c.cexpr import Compiler
 from rmvdsl.targets.c.model import Unsupported
+from rmvdsl.targets.c.queries import Query, compile_query
 
 _KINDS = {"bool": "bool", "int": "int", "float": "float"}
 
@@ -80,6 +83,26 @@ class Flow:
     libm: bool = False
     reason: str = ""  # why there is no flow ("" when there is one)
     where: str = ""  # the declaration the reason is about
+    queries: tuple[Query, ...] = ()  # the value events it computes
+    hosted: tuple[tuple[str, str], ...] = ()  # value events the host gives: (name, why)
+    value_topics: tuple[int, ...] = ()  # each value's topic (a row is one topic's values)
+    value_computed: tuple[int, ...] = ()  # 1 for a query's point
+    topics: int = 1
+    pending: int = 2  # instants waiting for the queries' points, at most
+    slots: int = 1  # a run's windows, at most (scratch)
+    series: int = 1
+    rows: int = 1  # the windowed queries' rows, in all
+    written: int = 1
+    streams: int = 1
+    lag: int = 0  # ns: how far the queries' final points lag the input, at most
+
+    @property
+    def raw_queries(self) -> tuple[Query, ...]:
+        return tuple(q for q in self.queries if not q.windowed)
+
+    @property
+    def windowed_queries(self) -> tuple[Query, ...]:
+        return tuple(q for q in self.queries if q.windowed)
 
     @property
     def compiled(self) -> bool:
@@ -123,7 +146,8 @@ class _Builder:
             if event.name not in self.needed:
                 continue
             if event.kind == "value":
-                self.add_source(event.name, event.type, "value event", event.origin)
+                vtype = self.computed_type(event)
+                self.add_source(event.name, vtype, "value event", event.origin)
             elif event.window is not None:
                 raise _Refused(event.origin, f"event {event.name}: a condition over windows")
             else:
@@ -132,23 +156,73 @@ class _Builder:
             for name in transducer.emits if transducer.name in self.needed else ():
                 self.flag_ids.setdefault(name, len(self.flag_ids))
         conditions, transducers, order = self.nodes()
-        return Flow(
-            sources=tuple(self.source_list),
-            flags=tuple(self.flag_ids),
-            conditions=tuple(c for c, _ in conditions),
-            transducers=tuple(transducers),
-            order=tuple(order),
-            propositions=tuple(self.proposition(name, transducers) for name in propositions),
-            log=_log_bound(
-                [t for t in spec.transducers if t.name in self.needed],
-                self.flag_ids,
-                [c for c, _ in conditions],
+        queries, hosted = self.queries()
+        return _sized(
+            self.spec,
+            queries,
+            Flow(
+                sources=tuple(self.source_list),
+                flags=tuple(self.flag_ids),
+                conditions=tuple(c for c, _ in conditions),
+                transducers=tuple(transducers),
+                order=tuple(order),
+                propositions=tuple(self.proposition(name, transducers) for name in propositions),
+                log=_log_bound(
+                    [t for t in spec.transducers if t.name in self.needed],
+                    self.flag_ids,
+                    [c for c, _ in conditions],
+                ),
+                helpers=frozenset().union(*(k.helpers for _, k in conditions)),
+                floats=any(k.floats for _, k in conditions)
+                or any(s.kind == "float" for s in self.source_list),
+                libm=any(k.libm for _, k in conditions),
+                hosted=tuple(hosted),
+                value_topics=self.value_topics(),
+                topics=max(1, len(self.spec.topics) + len(self.source_list)),
             ),
-            helpers=frozenset().union(*(k.helpers for _, k in conditions)),
-            floats=any(k.floats for _, k in conditions)
-            or any(s.kind == "float" for s in self.source_list),
-            libm=any(k.libm for _, k in conditions),
         )
+
+    def value_topics(self) -> tuple[int, ...]:
+        """Each value's topic: a variable's own, each value event one of its own."""
+        topic_index = {t.name: k for k, t in enumerate(self.spec.topics)}
+        variables = {v.name: v for v in self.spec.variables}
+        out = []
+        for k, source in enumerate(self.source_list):
+            variable = variables.get(source.name)
+            out.append(topic_index[variable.topic] if variable else len(topic_index) + k)
+        return tuple(out)
+
+    def queries(self) -> tuple[list[Query], list[tuple[str, str]]]:
+        """The value events the monitor computes, and those whose points the host
+        gives, with why."""
+        variables = {v.name for v in self.spec.variables}
+        from_variables = {n: found for n, found in self.sources.items() if n in variables}
+        queries: list[Query] = []
+        hosted: list[tuple[str, str]] = []
+        streams = 0
+        for event in self.spec.events:
+            if event.name not in self.needed or event.kind != "value":
+                continue
+            try:
+                query = compile_query(event, self.sources[event.name][0], from_variables, streams)
+            except Unsupported as error:
+                hosted.append((event.name, str(error)))
+                continue
+            streams += query.streams
+            queries.append(query)
+        return queries, hosted
+
+    def computed_type(self, event: ir.Event) -> ir.ValueType:
+        """A value event's type, or, for a time or duration the monitor computes
+        (`elapsed`: whole units), the kind of what it computes."""
+        if event.type.kind in _KINDS:
+            return event.type
+        variables = {v.name for v in self.spec.variables}
+        sources = {n: found for n, found in self.sources.items() if n in variables}
+        try:
+            return replace(event.type, kind=compile_query(event, 0, sources, 0).kind)
+        except Unsupported:
+            return event.type
 
     def add_source(self, name: str, vtype: ir.ValueType, what: str, origin: str) -> None:
         kind = _KINDS.get(vtype.kind)
@@ -227,6 +301,72 @@ class _Builder:
             if name in transducer.states:
                 return Proposition(transducer=index, state=transducer.states.index(name))
         raise _Refused("", f"the proposition {name}")
+
+
+def _allowance(topic: ir.Topic, span: int) -> int:
+    """The most messages `topic` carries in any `span` ns, from its max_rate
+    (docs/runtime.md, "Declared rates": ceil(R x W) in any W = max(1 s, 1/R))."""
+    assert topic.max_rate is not None
+    window = max(Fraction(1), 1 / topic.max_rate)
+    return -(-topic.max_rate * window // 1) * (span // nanoseconds(window) + 1)
+
+
+def _sized(spec: ir.Spec, queries: list[Query], flow: Flow) -> Flow:
+    """The flow with its queries placed in the monitor's pools. A windowed query
+    holds back the instants until its points are final, and holds its rows: both
+    are bounded by the topics' max_rate, so each topic the flow reads needs one
+    (else the host gives the windowed queries' points)."""
+    topics = {t.name: t for t in spec.topics}
+    variables = {v.name: v for v in spec.variables}
+    names = [s.name for s in flow.sources]
+    read = {variables[n].topic for n in names if n in variables}
+    windowed = [q for q in queries if q.windowed]
+    hosted = list(flow.hosted)
+    missing = sorted(t for t in read if topics[t].max_rate is None)
+    others = [name for name, _ in hosted]
+    if windowed and (missing or others):
+        why = (
+            f"topic {missing[0]} declares no max_rate, which sizes the instants held "
+            "until a window's point is final"
+            if missing
+            else f"the host gives the points of {others[0]}, at no declared rate"
+        )
+        hosted += [(q.name, why) for q in windowed]
+        queries = [q for q in queries if not q.windowed]
+        windowed = []
+    placed: list[Query] = []
+    rows = written = reads = streams = 0
+    for query in queries:
+        if query.windowed:
+            mine = {variables[names[k]].topic for k in query.reads}
+            count = sum(_allowance(topics[t], query.lag + query.lookback) for t in mine) + 1
+            query = replace(query, rows=count, row_first=rows, written_first=written,
+                            reads_first=reads)  # fmt: skip
+            rows, written, reads = rows + count, written + query.written, reads + len(query.reads)
+        streams += query.streams
+        placed.append(query)
+    lag = max((q.lag for q in windowed), default=0)
+    pending = 2
+    if windowed:
+        pending += sum(_allowance(topics[t], lag) for t in read)
+        pending += sum(q.lag // q.interval + 2 for q in windowed)
+    computed = {q.name for q in placed}
+    return replace(
+        flow,
+        queries=tuple(placed),
+        hosted=tuple(hosted),
+        value_computed=tuple(int(n in computed) for n in names),
+        pending=pending,
+        lag=lag,
+        slots=max((q.slots for q in windowed), default=1),
+        series=max((q.series for q in windowed), default=1),
+        rows=max(1, rows),
+        written=max(1, written),
+        streams=max(1, streams),
+        helpers=flow.helpers.union(*(q.used.helpers for q in placed if q.used)),
+        floats=flow.floats or any(q.used and q.used.floats for q in placed),
+        libm=flow.libm or any(q.used and q.used.libm for q in placed),
+    )
 
 
 def _needed(spec: ir.Spec, propositions: tuple[str, ...]) -> frozenset[str]:

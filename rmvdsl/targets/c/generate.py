@@ -270,9 +270,19 @@ def _flow_bytes(flow: Flow, padded: Callable[[int], int]) -> int:
     flags = max(1, len(flow.flags))
     transducers = max(1, len(flow.transducers))
     transitions = max(1, sum(len(t.transitions) for t in flow.transducers))
+    row = 8 + padded(values) + 8 * values
+    queries = max(1, len(flow.windowed_queries))
+    windowed = (
+        flow.pending * row + 8 + flow.rows * row + 2 * padded(4 * queries) + 8 * flow.written * 2
+        + padded(4 * queries) + 8 * queries + padded(queries)
+        + flow.series * (padded(flow.slots) + 8 * flow.slots)
+        + 5 * 8 * flow.slots + padded(flow.slots)
+    ) if flow.windowed_queries else 0  # fmt: skip
+    raw = 32 * flow.streams if flow.raw_queries else 0
     return (
         2 * padded(8 * values) + 2 * padded(values) + 3 * padded(flags) + padded(transitions)
-        + 2 * padded(4 * transducers) + 3 * padded(4 * flow.log) + 40
+        + 2 * padded(4 * transducers) + 3 * padded(4 * flow.log) + 56
+        + windowed + raw
     )  # fmt: skip
 
 
@@ -337,4 +347,9 @@ def flow_summary(flow: Flow) -> str:
         return f"the host gives the propositions: {flow.reason}{where}"
     events = counted(len(flow.conditions), "event")
     transducers = counted(len(flow.transducers), "transducer")
-    return f"it computes {events} and {transducers} from {counted(len(flow.sources), 'value')}"
+    given = len(flow.sources) - len(flow.queries)
+    computed = f", {counted(len(flow.queries), 'query', 'queries')}" if flow.queries else ""
+    text = f"it computes {events}{computed} and {transducers} from {counted(given, 'value')}"
+    for name, why in flow.hosted:
+        text += f"; the host gives the points of {name}: {why}"
+    return text

@@ -1228,15 +1228,70 @@ static int rmv_carla_abs_propositions(const rmv_carla_abs_monitor *m, rmv_carla_
     return touched;
 }
 
-/* The instant the samples at next_t make: its values, then every node. */
-static void rmv_carla_abs_instant(rmv_carla_abs_monitor *m) {
+/* ---- from values: the value events the monitor computes (docs/c.md, "Queries") ----
+ *
+ * As rmvdsl/runtime/influx.py computes them. A raw query gives a point for each
+ * row (a topic's values at one time). A windowed query is a continuous query:
+ * it runs every `every` over the range InfluxDB's continuous querier gives it,
+ * a later run overwrites the points of an earlier one, and a point is final once
+ * no later run covers its window; the instants before the time every point is
+ * final wait in `pending` (each query's lag is bounded, so is the queue, from the
+ * topics' max_rate). */
+
+typedef rmv_carla_abs_value rmv_value;
+typedef rmv_carla_abs_row rmv_row;
+
+static void rmv_carla_abs_instant(rmv_carla_abs_monitor *m, const rmv_row *values);
+
+
+/* Whether the monitor computes the value (a query's point): an update ignores it. */
+static const uint8_t VALUE_COMPUTED[RMV_CARLA_ABS_VALUES] = {
+    0, 0, 0, 0, 0
+};
+
+
+
+/* The instant gathered at next_t is complete: its raw queries' points, its rows
+ * for the windowed queries, then it waits among the pending instants. */
+static void rmv_carla_abs_complete(rmv_carla_abs_monitor *m) {
+    rmv_row instant;
+    int32_t k;
+    instant.t = m->next_t;
+    if (!m->gathered) m->first_t = instant.t;
+    memcpy(instant.has, m->next_set, sizeof instant.has);
+    memcpy(instant.val, m->next_val, sizeof instant.val);
+    memset(m->next_set, 0, sizeof m->next_set);
+    m->next_pending = 0;
+    m->gathered = 1;
+    m->gathered_t = instant.t;
+    (void)k;
+    rmv_carla_abs_instant(m, &instant);  /* no window: nothing to wait for */
+}
+
+/* Every pending instant before the time the queries' points are final, when the
+ * input before `bound` is in; that time. */
+static int64_t rmv_carla_abs_flow_to(rmv_carla_abs_monitor *m, int64_t bound) {
+    (void)m;
+    return bound;  /* every instant is computed when it is complete */
+}
+
+/* The input ends at `end`: every query runs until its windows are final (the
+ * points before `end` + 1 ns kept, as the runtime drains them), then every
+ * pending instant. */
+static void rmv_carla_abs_flow_end(rmv_carla_abs_monitor *m, int64_t end) {
+    (void)end;
+    rmv_carla_abs_flow_to(m, INT64_MAX);
+}
+
+/* An instant: its values, then every node, then the properties. */
+static void rmv_carla_abs_instant(rmv_carla_abs_monitor *m, const rmv_row *values) {
     rmv_carla_abs_input in;
     int32_t k;
+    const int recovering = 0;
     for (k = 0; k < RMV_CARLA_ABS_VALUES; k++) {
-        if (!m->next_set[k]) continue;
-        m->val[k] = m->next_val[k];
+        if (!values->has[k]) continue;
+        m->val[k] = values->val[k];
         m->has[k] = 1;
-        m->next_set[k] = 0;
     }
     memcpy(m->flag_before, m->flag, sizeof m->flag);
     memcpy(m->state_before, m->state, sizeof m->state);
@@ -1245,19 +1300,21 @@ static void rmv_carla_abs_instant(rmv_carla_abs_monitor *m) {
         if (ORDER[k].transducer) rmv_carla_abs_transducer_at(m, ORDER[k].index);
         else rmv_carla_abs_condition_at(m, &CONDITIONS[ORDER[k].index]);
     }
-    m->next_pending = 0;
-    if (rmv_carla_abs_propositions(m, &in) || !m->flow_started)
-        rmv_carla_abs_step(m, &in, m->next_t);
+    if (rmv_carla_abs_propositions(m, &in) || !m->flow_started || recovering)
+        rmv_carla_abs_step(m, &in, values->t);
     m->flow_started = 1;
-    m->flow_t = m->next_t;
+    m->flow_t = values->t;
 }
 
 void rmv_carla_abs_update(rmv_carla_abs_monitor *monitor, const rmv_carla_abs_sample *sample,
                         int64_t time_ns) {
     int32_t k;
-    if (monitor->next_pending && time_ns > monitor->next_t) rmv_carla_abs_instant(monitor);
+    if (monitor->next_pending && time_ns > monitor->next_t) {
+        rmv_carla_abs_complete(monitor);
+        rmv_carla_abs_flow_to(monitor, time_ns);
+    }
     if (!monitor->next_pending) {
-        if (monitor->flow_started && time_ns <= monitor->flow_t) {
+        if (monitor->gathered && time_ns <= monitor->gathered_t) {
             monitor->late_samples++;
             return;
         }
@@ -1268,7 +1325,7 @@ void rmv_carla_abs_update(rmv_carla_abs_monitor *monitor, const rmv_carla_abs_sa
         return;
     }
     for (k = 0; k < RMV_CARLA_ABS_VALUES; k++) {
-        if (!sample->set[k]) continue;
+        if (!sample->set[k] || VALUE_COMPUTED[k]) continue;
         monitor->next_val[k] = sample->value[k];
         monitor->next_set[k] = 1;
     }
@@ -1277,6 +1334,12 @@ void rmv_carla_abs_update(rmv_carla_abs_monitor *monitor, const rmv_carla_abs_sa
 uint32_t rmv_carla_abs_late_samples(const rmv_carla_abs_monitor *monitor) {
     return monitor->late_samples;
 }
+
+uint32_t rmv_carla_abs_flow_overflows(const rmv_carla_abs_monitor *monitor) {
+    return monitor->flow_overflows;
+}
+
+int rmv_carla_abs_value_computed(int32_t value) { return VALUE_COMPUTED[value]; }
 
 const char *rmv_carla_abs_value_name(int32_t value) { return VALUE_NAMES[value]; }
 
@@ -1372,8 +1435,9 @@ void rmv_carla_abs_step(rmv_carla_abs_monitor *monitor, const rmv_carla_abs_inpu
 void rmv_carla_abs_advance(rmv_carla_abs_monitor *monitor, int64_t time_ns) {
     int32_t property;
     int64_t t;
-    if (monitor->next_pending && time_ns > monitor->next_t) rmv_carla_abs_instant(monitor);
+    if (monitor->next_pending && time_ns > monitor->next_t) rmv_carla_abs_complete(monitor);
     if (monitor->next_pending) return;  /* the instant at time_ns may not be complete */
+    time_ns = rmv_carla_abs_flow_to(monitor, time_ns);  /* what the queries made final */
     if (!monitor->based || !rmv_ticks_of(monitor, time_ns, &t)) return;
     for (property = 0; property < RMV_CARLA_ABS_PROPERTIES; property++) {
         rmv_view v = rmv_view_of(monitor, property);
@@ -1386,8 +1450,9 @@ void rmv_carla_abs_end(rmv_carla_abs_monitor *monitor, int64_t time_ns) {
     int64_t t;
     if (monitor->next_pending) {
         if (time_ns < monitor->next_t) time_ns = monitor->next_t;
-        rmv_carla_abs_instant(monitor);
+        rmv_carla_abs_complete(monitor);
     }
+    rmv_carla_abs_flow_end(monitor, time_ns);
     if (!monitor->based) return;
     if (!rmv_ticks_of(monitor, time_ns, &t)) {
         if (time_ns < monitor->base) return;

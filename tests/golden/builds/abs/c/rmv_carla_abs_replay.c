@@ -257,7 +257,8 @@ static const char *read_names(const char *line, const char *p, uint8_t *set) {
 static int value_index(const char *name) {
     int k;
     for (k = 0; k < RMV_CARLA_ABS_VALUE_COUNT; k++)
-        if (strcmp(rmv_carla_abs_value_name(k), name) == 0) return k;
+        if (strcmp(rmv_carla_abs_value_name(k), name) == 0)
+            return rmv_carla_abs_value_computed(k) ? -1 : k;  /* the monitor's own: skipped */
     return -1;
 }
 
@@ -402,6 +403,10 @@ int main(void) {
     if (rmv_carla_abs_rejected(&monitor)) {
         printf("{\"kind\": \"counter\", \"name\": \"rejected: further than RMV_SPAN_NS from"
                " the first sample\", \"value\": %lu}\n", (unsigned long)rmv_carla_abs_rejected(&monitor));
+    }
+    if (rmv_carla_abs_flow_overflows(&monitor)) {
+        printf("{\"kind\": \"counter\", \"name\": \"flow overflows: input past the topics'"
+               " max_rate\", \"value\": %lu}\n", (unsigned long)rmv_carla_abs_flow_overflows(&monitor));
     }
     return any_false;
 }
