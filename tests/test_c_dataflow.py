@@ -68,7 +68,8 @@ class OperatorMaker(SpecMaker):
         return f"({term}) {rng.choice(COMPARISONS)} {threshold}"
 
 
-AGGREGATES = ["count", "sum", "mean", "min", "max", "first", "last", "spread", "stddev"]
+AGGREGATES = ["count", "sum", "mean", "min", "max", "first", "last", "spread", "stddev",
+              "median", "mode", "percentile", "integral"]  # fmt: skip
 SERIES = ["derivative({})", "derivative({}, 100ms)", "non_negative_derivative({})",
           "difference({})", "non_negative_difference({})", "cumulative_sum({})",
           "elapsed({}, 1ms)"]  # fmt: skip
@@ -85,10 +86,23 @@ def random_query(rng: random.Random, numeric: list[str]) -> str:
         where = f" where {x} > 0" if rng.random() < 0.2 else ""
         return term + where
     argument = rng.choice([x, x, f"{x} * 2", f"{x} + 1"])
-    term = f"{rng.choice(AGGREGATES)}({argument})"
+    if rng.random() < 0.15:  # several points a window
+        chosen = rng.choice([f"top({argument}, 2)", f"bottom({argument}, 1)",
+                             f"distinct({argument})"])  # fmt: skip
+        clauses = [f"group by time({rng.choice(['1s', '500ms', '2s'])})"]
+        if rng.random() < 0.3:
+            clauses.append(f"limit {rng.randint(1, 3)}" + rng.choice(["", " order desc"]))
+        return " ".join([chosen, *clauses])
+    function = rng.choice(AGGREGATES)
+    percent = (
+        f", {rng.choice(['0', '25', '50', '90', '100', '12.5'])}"
+        if function == "percentile"
+        else ""
+    )
+    term = f"{function}({argument}{percent})"
     if rng.random() < 0.4:
         term = rng.choice(SERIES).format(term)
-    elif rng.random() < 0.2:  # two aggregates of one unit, joined window by window
+    elif rng.random() < 0.2 and function != "integral":  # two of one unit, window by window
         term = f"{term} - {rng.choice(['min', 'max', 'last'])}({x})"
     if rng.random() < 0.3:
         term = f"{term} {rng.choice(['+', '-', '*', '/'])} {rng.choice(['2', '0.5', '3'])}"
@@ -235,7 +249,7 @@ def _compare(program: Path, spec: ir.Spec, recordings: Iterable[list], where: st
     return compared
 
 
-BATCHES = int(os.environ.get("RMV_C_FLOW_BATCHES", "6"))  # the long run: 100
+BATCHES = int(os.environ.get("RMV_C_FLOW_BATCHES", "10"))  # the long run: 60
 CASES = 12
 
 

@@ -12,16 +12,14 @@ why, and the host gives the monitor the propositions instead."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from fractions import Fraction
 
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.dataflow import Condition as RuntimeCondition
 from rmvdsl.runtime.dataflow import SpecError, dataflow_nodes
 from rmvdsl.runtime.dataflow import Transducer as RuntimeTransducer
-from rmvdsl.runtime.series import nanoseconds
 from rmvdsl.targets.c.cexpr import Compiler
 from rmvdsl.targets.c.model import Unsupported
-from rmvdsl.targets.c.queries import Query, compile_query
+from rmvdsl.targets.c.queries import Query, compile_query, placed
 
 _KINDS = {"bool": "bool", "int": "int", "float": "float"}
 
@@ -92,6 +90,8 @@ class Flow:
     slots: int = 1  # a run's windows, at most (scratch)
     series: int = 1
     rows: int = 1  # the windowed queries' rows, in all
+    row_most: int = 1  # the most rows one query holds (a window's values, sorted)
+    outs: int = 1  # the most points one run writes
     written: int = 1
     streams: int = 1
     lag: int = 0  # ns: how far the queries' final points lag the input, at most
@@ -157,29 +157,38 @@ class _Builder:
                 self.flag_ids.setdefault(name, len(self.flag_ids))
         conditions, transducers, order = self.nodes()
         queries, hosted = self.queries()
-        return _sized(
-            self.spec,
-            queries,
-            Flow(
-                sources=tuple(self.source_list),
-                flags=tuple(self.flag_ids),
-                conditions=tuple(c for c, _ in conditions),
-                transducers=tuple(transducers),
-                order=tuple(order),
-                propositions=tuple(self.proposition(name, transducers) for name in propositions),
-                log=_log_bound(
-                    [t for t in spec.transducers if t.name in self.needed],
-                    self.flag_ids,
-                    [c for c, _ in conditions],
-                ),
-                helpers=frozenset().union(*(k.helpers for _, k in conditions)),
-                floats=any(k.floats for _, k in conditions)
-                or any(s.kind == "float" for s in self.source_list),
-                libm=any(k.libm for _, k in conditions),
-                hosted=tuple(hosted),
-                value_topics=self.value_topics(),
-                topics=max(1, len(self.spec.topics) + len(self.source_list)),
+        place = placed(self.spec, queries, tuple(hosted), [s.name for s in self.source_list])
+        return Flow(
+            sources=tuple(self.source_list),
+            flags=tuple(self.flag_ids),
+            conditions=tuple(c for c, _ in conditions),
+            transducers=tuple(transducers),
+            order=tuple(order),
+            propositions=tuple(self.proposition(name, transducers) for name in propositions),
+            log=_log_bound(
+                [t for t in spec.transducers if t.name in self.needed],
+                self.flag_ids,
+                [c for c, _ in conditions],
             ),
+            value_topics=self.value_topics(),
+            topics=max(1, len(self.spec.topics) + len(self.source_list)),
+            queries=place.queries,
+            hosted=place.hosted,
+            value_computed=place.value_computed,
+            pending=place.pending,
+            lag=place.lag,
+            slots=place.slots,
+            series=place.series,
+            rows=place.rows,
+            row_most=place.row_most,
+            outs=place.outs,
+            written=place.written,
+            streams=place.streams,
+            helpers=place.helpers.union(*(k.helpers for _, k in conditions)),
+            floats=place.floats
+            or any(k.floats for _, k in conditions)
+            or any(s.kind == "float" for s in self.source_list),
+            libm=place.libm or any(k.libm for _, k in conditions),
         )
 
     def value_topics(self) -> tuple[int, ...]:
@@ -301,72 +310,6 @@ class _Builder:
             if name in transducer.states:
                 return Proposition(transducer=index, state=transducer.states.index(name))
         raise _Refused("", f"the proposition {name}")
-
-
-def _allowance(topic: ir.Topic, span: int) -> int:
-    """The most messages `topic` carries in any `span` ns, from its max_rate
-    (docs/runtime.md, "Declared rates": ceil(R x W) in any W = max(1 s, 1/R))."""
-    assert topic.max_rate is not None
-    window = max(Fraction(1), 1 / topic.max_rate)
-    return -(-topic.max_rate * window // 1) * (span // nanoseconds(window) + 1)
-
-
-def _sized(spec: ir.Spec, queries: list[Query], flow: Flow) -> Flow:
-    """The flow with its queries placed in the monitor's pools. A windowed query
-    holds back the instants until its points are final, and holds its rows: both
-    are bounded by the topics' max_rate, so each topic the flow reads needs one
-    (else the host gives the windowed queries' points)."""
-    topics = {t.name: t for t in spec.topics}
-    variables = {v.name: v for v in spec.variables}
-    names = [s.name for s in flow.sources]
-    read = {variables[n].topic for n in names if n in variables}
-    windowed = [q for q in queries if q.windowed]
-    hosted = list(flow.hosted)
-    missing = sorted(t for t in read if topics[t].max_rate is None)
-    others = [name for name, _ in hosted]
-    if windowed and (missing or others):
-        why = (
-            f"topic {missing[0]} declares no max_rate, which sizes the instants held "
-            "until a window's point is final"
-            if missing
-            else f"the host gives the points of {others[0]}, at no declared rate"
-        )
-        hosted += [(q.name, why) for q in windowed]
-        queries = [q for q in queries if not q.windowed]
-        windowed = []
-    placed: list[Query] = []
-    rows = written = reads = streams = 0
-    for query in queries:
-        if query.windowed:
-            mine = {variables[names[k]].topic for k in query.reads}
-            count = sum(_allowance(topics[t], query.lag + query.lookback) for t in mine) + 1
-            query = replace(query, rows=count, row_first=rows, written_first=written,
-                            reads_first=reads)  # fmt: skip
-            rows, written, reads = rows + count, written + query.written, reads + len(query.reads)
-        streams += query.streams
-        placed.append(query)
-    lag = max((q.lag for q in windowed), default=0)
-    pending = 2
-    if windowed:
-        pending += sum(_allowance(topics[t], lag) for t in read)
-        pending += sum(q.lag // q.interval + 2 for q in windowed)
-    computed = {q.name for q in placed}
-    return replace(
-        flow,
-        queries=tuple(placed),
-        hosted=tuple(hosted),
-        value_computed=tuple(int(n in computed) for n in names),
-        pending=pending,
-        lag=lag,
-        slots=max((q.slots for q in windowed), default=1),
-        series=max((q.series for q in windowed), default=1),
-        rows=max(1, rows),
-        written=max(1, written),
-        streams=max(1, streams),
-        helpers=flow.helpers.union(*(q.used.helpers for q in placed if q.used)),
-        floats=flow.floats or any(q.used and q.used.floats for q in placed),
-        libm=flow.libm or any(q.used and q.used.libm for q in placed),
-    )
 
 
 def _needed(spec: ir.Spec, propositions: tuple[str, ...]) -> frozenset[str]:

@@ -276,7 +276,8 @@ def _flow_bytes(flow: Flow, padded: Callable[[int], int]) -> int:
         flow.pending * row + 8 + flow.rows * row + 2 * padded(4 * queries) + 8 * flow.written * 2
         + padded(4 * queries) + 8 * queries + padded(queries)
         + flow.series * (padded(flow.slots) + 8 * flow.slots)
-        + 5 * 8 * flow.slots + padded(flow.slots)
+        + 3 * 8 * flow.slots + 2 * 8 * flow.outs + padded(flow.slots)
+        + (20 * flow.row_most if "keep" in flow.helpers else 0)
     ) if flow.windowed_queries else 0  # fmt: skip
     raw = 32 * flow.streams if flow.raw_queries else 0
     return (
