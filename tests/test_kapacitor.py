@@ -224,6 +224,30 @@ def _worked_spec(declarations: str, index: int, tmp_path: Path) -> ir.Spec:
     return _spec_text(header + declarations + "\n", tmp_path, f"worked_{index}.rmv")
 
 
+def computed_by_both(
+    server: Influxd, spec: ir.Spec, iql: str, rows: list[tuple[Fraction, float]], end: int
+) -> tuple[list, list]:
+    """Event E's points in InfluxDB, after its continuous query's runs over `rows` of
+    topic /t written as the collector writes them, and the runtime's over the same
+    messages."""
+    for statement in statements(iql):
+        server.query(statement)
+    writer = lineproto.PointWriter(spec)
+    runtime = Runtime(spec)
+    lines = []
+    for time, value in rows:
+        point = writer.point(int(time * NS), "/t", {"data": value})
+        assert point is not None
+        lines.append(point[1])
+        runtime.message(int(time * NS), "/t", {"data": value})
+    runtime.end(end)
+    server.write(spec.database.name, lines)  # type: ignore[union-attr]
+    run_queries(server, spec, iql, 0, end - 1)
+    ours = [(int(Fraction(r["time"]) * NS), r["value"]) for r in runtime.records()
+            if r.get("name") == "E"]  # fmt: skip
+    return stored(server, spec, "E", end), ours
+
+
 def test_every_function_computes_in_influxdb_what_the_runtime_computes(server, tmp_path):
     """docs/runtime.md's worked example of every function: the event's points in
     InfluxDB, after its continuous query's runs, equal the runtime's."""
@@ -236,23 +260,7 @@ def test_every_function_computes_in_influxdb_what_the_runtime_computes(server, t
             # a raw event is no continuous query: the report says so
             assert any(line.startswith("event E: no `group by time") for line in report)
             continue
-        iql = texts["influxdb.iql"]
-        for statement in statements(iql):
-            server.query(statement)
-        writer = lineproto.PointWriter(spec)
-        runtime = Runtime(spec)
-        lines = []
-        for time, value in WORKED_INPUT:
-            point = writer.point(int(time * NS), "/t", {"data": value})
-            assert point is not None
-            lines.append(point[1])
-            runtime.message(int(time * NS), "/t", {"data": value})
-        runtime.end(end)
-        server.write(spec.database.name, lines)  # type: ignore[union-attr]
-        run_queries(server, spec, iql, 0, end - 1)
-        ours = [(int(Fraction(r["time"]) * NS), r["value"]) for r in runtime.records()
-                if r.get("name") == "E"]  # fmt: skip
-        theirs = stored(server, spec, "E", end)
+        theirs, ours = computed_by_both(server, spec, texts["influxdb.iql"], WORKED_INPUT, end)
         if expected.strip().startswith("any "):  # `sample` picks at random: each of
             # its points is a row of its window, at the row's own time, N at most
             rows = {(int(t * NS), v) for t, v in WORKED_INPUT}
@@ -279,26 +287,10 @@ def test_a_window_too_great_for_a_double_is_no_point_in_either(server, tmp_path,
     of 1e200): InfluxDB writes no such point and still writes the run's others,
     and so does the runtime (whose `stddev` once stopped on Python's OverflowError;
     the C target's differential test found it)."""
-    end = 5 * NS
     spec = _worked_spec(f"event E = {function}(x) group by time(1s)", 100 + index, tmp_path)
     texts, _ = kapacitor.files(spec, tmp_path / "out")
-    iql = texts["influxdb.iql"]
-    for statement in statements(iql):
-        server.query(statement)
-    writer = lineproto.PointWriter(spec)
-    runtime = Runtime(spec)
-    lines = []
-    for time, value in OVERFLOWING:
-        point = writer.point(int(time * NS), "/t", {"data": value})
-        assert point is not None
-        lines.append(point[1])
-        runtime.message(int(time * NS), "/t", {"data": value})
-    runtime.end(end)
-    server.write(spec.database.name, lines)  # type: ignore[union-attr]
-    run_queries(server, spec, iql, 0, end - 1)
-    ours = [(int(Fraction(r["time"]) * NS), r["value"]) for r in runtime.records()
-            if r.get("name") == "E"]  # fmt: skip
-    theirs = stored(server, spec, "E", end)
+    rows = [(Fraction(t), v) for t, v in OVERFLOWING]
+    theirs, ours = computed_by_both(server, spec, texts["influxdb.iql"], rows, 5 * NS)
     assert len(ours) < 4 and theirs == ours
 
 
@@ -314,26 +306,10 @@ def test_sums_round_in_the_order_influxdb_adds(server, tmp_path, index, function
         for second in range(1, 31)
         for k in range(rng.randint(2, 9))
     ]
-    end = 32 * NS
     spec = _worked_spec(f"event E = {function}(x) group by time(1s)", 110 + index, tmp_path)
     texts, _ = kapacitor.files(spec, tmp_path / "out")
-    iql = texts["influxdb.iql"]
-    for statement in statements(iql):
-        server.query(statement)
-    writer = lineproto.PointWriter(spec)
-    runtime = Runtime(spec)
-    lines = []
-    for time, value in rows:
-        point = writer.point(int(time * NS), "/t", {"data": value})
-        assert point is not None
-        lines.append(point[1])
-        runtime.message(int(time * NS), "/t", {"data": value})
-    runtime.end(end)
-    server.write(spec.database.name, lines)  # type: ignore[union-attr]
-    run_queries(server, spec, iql, 0, end - 1)
-    ours = [(int(Fraction(r["time"]) * NS), r["value"]) for r in runtime.records()
-            if r.get("name") == "E"]  # fmt: skip
-    assert len(ours) == 30 and stored(server, spec, "E", end) == ours
+    theirs, ours = computed_by_both(server, spec, texts["influxdb.iql"], rows, 32 * NS)
+    assert len(ours) == 30 and theirs == ours
 
 
 def test_braking_events_in_influxdb_equal_the_replay(server, tmp_path):

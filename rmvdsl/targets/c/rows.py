@@ -34,12 +34,14 @@ class Compiled:
         self.libm |= compiler.libm
 
 
+@dataclass
 class RowCompiler(Compiler):
-    """A raw query's expression over a row: the streaming transformations push
-    the row's value into their state (`m->stream[k]`) where it has one."""
+    """An expression over a query's row `r`: the streaming transformations (in a
+    raw query) push the row's value into their state, `m->stream[k]` from
+    `stream_first` on, where it has one."""
 
     stream_first: int = 0
-    streams: int = 0
+    streams: int = 0  # states so far
 
     def call(self, node: ir.Call) -> Value:
         if node.function not in STREAMS:
@@ -57,20 +59,17 @@ class RowCompiler(Compiler):
         self.streams += 1
         self.helpers |= {"push", "add", "sub", "i64"}
         name = f"q{self.count}"
-        value = f"({self.value_type}){{.{MEMBER[inner.kind]} = {inner.value}}}"
+        value = f"(rmv_value){{.{MEMBER[inner.kind]} = {inner.value}}}"
         unit = c_int(unit_of(node))
         self.lines.append(
-            f"const {self.maybe_type} {name} = {inner.present} ? rmv_push(&m->stream[{state}], "
-            f"'{code}', '{inner.kind[0]}', r->t, {value}, {unit}) : {self.none};"
+            f"const rmv_maybe {name} = {inner.present} ? rmv_push(&m->stream[{state}], "
+            f"'{code}', '{inner.kind[0]}', r->t, {value}, {unit}) : rmv_none();"
         )
         return self.temporary(out, f"{name}.has", f"{name}.v.{MEMBER[out]}")
 
-    value_type: str = ""
-    maybe_type: str = ""
-    none: str = ""
-
 
 def stream_kind(function: str, kind: str) -> str:
+    """The kind a streaming transformation gives of a `kind`."""
     if function in ("derivative", "non_negative_derivative"):
         return "float"
     if function == "elapsed":
@@ -79,14 +78,12 @@ def stream_kind(function: str, kind: str) -> str:
 
 
 def unit_of(call: ir.Call) -> int:
+    """A transformation's unit in ns (derivative's 1s, elapsed's 1ns by default)."""
     second = _second(call)
     return int(second) if second is not None else NS
 
 
 def row_compiler(sources: Mapping[str, tuple[int, str]], stream_first: int = 0) -> RowCompiler:
-    compiler = RowCompiler(sources, {}, has_at="r->has[{}]", value_at="r->val[{}]")
-    compiler.stream_first = stream_first
-    compiler.value_type = "rmv_value"
-    compiler.maybe_type = "rmv_maybe"
-    compiler.none = "rmv_none()"
-    return compiler
+    return RowCompiler(
+        sources, {}, has_at="r->has[{}]", value_at="r->val[{}]", stream_first=stream_first
+    )
