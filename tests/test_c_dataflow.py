@@ -425,6 +425,42 @@ def test_input_past_the_declared_rate_is_counted_and_unknown(tmp_path: Path) -> 
     assert segments[-1][4] == "true" and segments[-1][0] < 11, segments
 
 
+def test_check_names_each_query_the_host_gives_and_why(tmp_path: Path) -> None:
+    """`rmv check --target c` notes (RMV601) each value event the monitor leaves to
+    its host, at its declaration, with the fix where there is one: abs.rmv's
+    derivative for want of a declared rate; `sample` (its seeded choice) even with
+    one, and then the windows beside it. `rmv build` says the same."""
+    example = subprocess.run(
+        ["rmv", "check", "--target", "c", str(ROOT / "examples" / "carla" / "abs.rmv")],
+        capture_output=True, text=True, cwd=tmp_path,
+    )  # fmt: skip
+    assert example.returncode == 0, example.stderr
+    out = example.stdout + example.stderr
+    assert (
+        "note[RMV601]: the host gives the points of EderivativeVelocity: topic vehicle_status"
+        in out
+    )
+    assert "abs.rmv:60:7" in out and "help: declare how often the topic publishes" in out
+    path = tmp_path / "pick.rmv"
+    path.write_text(
+        'system pick\nros humble\ntopic a: std_msgs/Float64 = "/a" qos {\n    max_rate = 5Hz\n}\n'
+        "var A = a.data\nevent Some = sample(A, 2) group by time(1s)\n"
+        "event M = max(A) group by time(1s)\nevent High when Some > 1 or M > 2\n"
+        "property P: not High {\n    rate = 5Hz\n}\n",
+        encoding="utf-8",
+    )
+    picked = subprocess.run(["rmv", "check", "--target", "c", str(path)], capture_output=True,
+                            text=True)  # fmt: skip
+    out = picked.stdout + picked.stderr
+    assert "the host gives the points of Some: `sample`" in out and "pick.rmv:7:7" in out, out
+    # and so M, whose windows would hold instants back for points of no declared rate
+    assert "points of M: it holds instants back for its windows, and Some's points" in out, out
+    built = subprocess.run(["rmv", "build", "--target", "c", str(path), "-o", str(tmp_path / "o")],
+                           capture_output=True, text=True)  # fmt: skip
+    assert built.returncode == 0, built.stderr
+    assert "the host gives the points of Some: `sample`" in built.stdout + built.stderr
+
+
 def test_what_c_cannot_compute_leaves_the_propositions_to_the_host(tmp_path: Path) -> None:
     """Only what the properties read is compiled: a string compared by an event no
     property reads costs nothing; once a property reads it, `rmv build` says the

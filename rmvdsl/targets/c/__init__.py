@@ -49,9 +49,14 @@ def _build(spec: ir.Spec, out: Path | None, options: Mapping[str, str | None]) -
 
 def _findings(spec: ir.Spec) -> list[Finding]:
     generate = importlib.import_module("rmvdsl.targets.c.generate")
-    return [
+    errors = [
         Finding("error", origin, message, _HELP) for origin, message in generate.problems_of(spec)
     ]
+    notes = [
+        Finding("note", origin, what, fix or _HELP)
+        for origin, what, fix in generate.left_to_host(spec)
+    ]
+    return [*errors, *notes]
 
 
 TARGET = Target(

@@ -82,7 +82,7 @@ class Flow:
     reason: str = ""  # why there is no flow ("" when there is one)
     where: str = ""  # the declaration the reason is about
     queries: tuple[Query, ...] = ()  # the value events it computes
-    hosted: tuple[tuple[str, str], ...] = ()  # value events the host gives: (name, why)
+    hosted: tuple[tuple[str, str, str], ...] = ()  # the host gives: (event, why, origin)
     value_topics: tuple[int, ...] = ()  # each value's topic (a row is one topic's values)
     value_computed: tuple[int, ...] = ()  # 1 for a query's point
     topics: int = 1
@@ -201,13 +201,13 @@ class _Builder:
             out.append(topic_index[variable.topic] if variable else len(topic_index) + k)
         return tuple(out)
 
-    def queries(self) -> tuple[list[Query], list[tuple[str, str]]]:
+    def queries(self) -> tuple[list[Query], list[tuple[str, str, str]]]:
         """The value events the monitor computes, and those whose points the host
         gives, with why."""
         variables = {v.name for v in self.spec.variables}
         from_variables = {n: found for n, found in self.sources.items() if n in variables}
         queries: list[Query] = []
-        hosted: list[tuple[str, str]] = []
+        hosted: list[tuple[str, str, str]] = []
         streams = 0
         for event in self.spec.events:
             if event.name not in self.needed or event.kind != "value":
@@ -215,7 +215,7 @@ class _Builder:
             try:
                 query = compile_query(event, self.sources[event.name][0], from_variables, streams)
             except Unsupported as error:
-                hosted.append((event.name, str(error)))
+                hosted.append((event.name, str(error), event.origin))
                 continue
             streams += query.streams
             queries.append(query)

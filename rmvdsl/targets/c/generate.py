@@ -194,6 +194,22 @@ def system_of(spec: ir.Spec, max_rate: Fraction | None = None) -> CSystem:
     return replace(system, flow=flow_of(spec, system.propositions))
 
 
+def left_to_host(spec: ir.Spec) -> list[tuple[str, str, str]]:
+    """What the C monitor leaves to its host, (where, what, the fix) each: the
+    propositions, or the points of value events it does not compute."""
+    try:
+        flow = system_of(spec, Fraction(1)).flow  # any rate: the flow does not depend on it
+    except Unsupported:
+        return []
+    if not flow.compiled:
+        return [(flow.where, f"the host gives the propositions: {flow.reason}", "")]
+    rate = "declare how often the topic publishes: `max_rate = 20Hz` in its qos block"
+    return [
+        (origin, f"the host gives the points of {name}: {why}", rate if "max_rate" in why else "")
+        for name, why, origin in flow.hosted
+    ]
+
+
 def problems_of(spec: ir.Spec, max_rate: Fraction | None = None) -> list[tuple[str, str]]:
     """What the C target cannot build: (where, why) each."""
     if not spec.properties:
@@ -351,6 +367,6 @@ def flow_summary(flow: Flow) -> str:
     given = len(flow.sources) - len(flow.queries)
     computed = f", {counted(len(flow.queries), 'query', 'queries')}" if flow.queries else ""
     text = f"it computes {events}{computed} and {transducers} from {counted(given, 'value')}"
-    for name, why in flow.hosted:
-        text += f"; the host gives the points of {name}: {why}"
+    for name, why, origin in flow.hosted:
+        text += f"; the host gives the points of {name}: {why} (at {origin})"
     return text

@@ -55,6 +55,7 @@ class Query:
     written_first: int = 0
     reads_first: int = 0  # where its reads start in QUERY_READS
     used: Compiled | None = None  # the helpers, doubles and libm it needs
+    origin: str = ""  # its declaration
     multi: bool = False  # top, bottom, distinct: several points a window
     outs: int = 1  # the most points a run writes
 
@@ -80,7 +81,7 @@ def compile_query(
         query = raw_query(event, value, sources, stream_first, used)
     else:
         query = windowed_query(event, value, sources, used)
-    return replace(query, used=used)
+    return replace(query, used=used, origin=event.origin)
 
 
 def raw_query(
@@ -193,7 +194,7 @@ class Placement:
     """The queries placed in the monitor's pools (Flow's fields of the same names)."""
 
     queries: tuple[Query, ...]
-    hosted: tuple[tuple[str, str], ...]
+    hosted: tuple[tuple[str, str, str], ...]  # value events the host gives: why, where
     value_computed: tuple[int, ...]
     pending: int
     lag: int
@@ -212,7 +213,7 @@ class Placement:
 def placed(
     spec: ir.Spec,
     queries: list[Query],
-    hosted: tuple[tuple[str, str], ...],
+    hosted: tuple[tuple[str, str, str], ...],
     names: list[str],
 ) -> Placement:
     """The queries placed in the monitor's pools (`names`: the monitor's values). A
@@ -225,15 +226,16 @@ def placed(
     windowed = [q for q in queries if q.windowed]
     hosted_list = list(hosted)
     missing = sorted(t for t in read if topics[t].max_rate is None)
-    others = [name for name, _ in hosted_list]
+    others = [name for name, _, _ in hosted_list]
     if windowed and (missing or others):
         why = (
             f"topic {missing[0]} declares no max_rate, which sizes the instants held "
             "until a window's point is final"
             if missing
-            else f"the host gives the points of {others[0]}, at no declared rate"
+            else f"it holds instants back for its windows, and {others[0]}'s points, which "
+            "the host gives, come at no declared rate"
         )
-        hosted_list += [(q.name, why) for q in windowed]
+        hosted_list += [(q.name, why, q.origin) for q in windowed]
         queries = [q for q in queries if not q.windowed]
         windowed = []
     out: list[Query] = []
