@@ -44,9 +44,11 @@ def compile_driver(
     return program
 
 
-def run_driver(program: Path, lines: Iterable[str]) -> tuple[int, list[dict[str, Any]], str]:
+def run_driver(
+    program: Path, lines: Iterable[str], *args: str
+) -> tuple[int, list[dict[str, Any]], str]:
     """Exit status, the records printed, and standard error."""
-    done = subprocess.run([str(program)], input="".join(f"{line}\n" for line in lines),
+    done = subprocess.run([str(program), *args], input="".join(f"{line}\n" for line in lines),
                           capture_output=True, text=True, timeout=600)  # fmt: skip
     records = [
         json.loads(line, parse_float=lambda s: Fraction(s)) for line in done.stdout.splitlines()

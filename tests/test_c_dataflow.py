@@ -202,10 +202,10 @@ def batch_spec(seed: int, cases: int, folder: Path) -> tuple[ir.Spec, dict[str, 
 
 def value_lines(
     spec: ir.Spec, messages: Sequence[tuple[int, str, Any]], end: int
-) -> tuple[list[str], list[dict]]:
+) -> tuple[list[str], list[dict], list[dict]]:
     """What the runtime's dataflow read while it ran over the messages (each
     instant's variables and value events' points, from the run's start), as driver
-    lines, and the runtime's verdict records."""
+    lines, the runtime's verdict records and its value events' points."""
     end = max([end, *(time for time, _, _ in messages)])
     runtime = engine.Runtime(spec, record=("variable", "event"))
     runtime.start(NS // 2)
@@ -214,7 +214,19 @@ def value_lines(
     runtime.end(end)
     records = runtime.records()
     lines = driver_lines(spec, records, Fraction(1, 2), Fraction(end, NS))
-    return lines, [r for r in records if r["kind"] == "verdict"]
+    values = {e.name for e in spec.events if e.kind == "value"}
+    points = [r for r in records if r["kind"] == "event" and r["name"] in values]
+    return lines, [r for r in records if r["kind"] == "verdict"], points
+
+
+def last_points(points: Iterable[dict], names: set[str], start: Fraction) -> dict:
+    """Each point of `names` by (name, time), the last of one time, a time before
+    `start` taken at it (as the monitor takes it)."""
+    found: dict[tuple[str, Fraction], Any] = {}
+    for point in points:
+        if point["name"] in names:
+            found[(point["name"], max(Fraction(point["time"]), start))] = point["value"]
+    return found
 
 
 def driver_lines(spec: ir.Spec, records: list[dict], start: Fraction, end: Fraction) -> list[str]:
@@ -234,19 +246,38 @@ def driver_lines(spec: ir.Spec, records: list[dict], start: Fraction, end: Fract
     return [*lines, end_line(end)]
 
 
-def _compare(program: Path, spec: ir.Spec, recordings: Iterable[list], where: str) -> int:
+def _compare(
+    program: Path, spec: ir.Spec, recordings: Iterable[list], where: str, computed: set[str]
+) -> int:
+    """Every property's verdict segments, and every point of the value events the
+    monitor computes (`computed`), equal to the runtime's: the number compared."""
     compared = 0
     for index, messages in enumerate(recordings):
-        lines, verdicts = value_lines(spec, messages, 5 * NS)
-        status, records, errors = run_driver(program, lines)
+        lines, verdicts, points = value_lines(spec, messages, 5 * NS)
+        status, records, errors = run_driver(program, lines, *(["--points"] if computed else []))
         assert status in (0, 1), errors
         assert not [r for r in records if r.get("kind") == "counter"], records
         got, expected = segments_by_property(records), segments_by_property(verdicts)
         for name in expected:
             found = got.get(name)
             assert found == expected[name], (where, index, name, found, expected[name])
-        compared += len(expected)
+        ours = last_points((r for r in records if r["kind"] == "point"), computed, Fraction(1, 2))
+        theirs = last_points(points, computed, Fraction(1, 2))
+        for key in sorted(set(ours) | set(theirs)):
+            assert _same_value(ours.get(key), theirs.get(key)), (where, index, key, ours.get(key),
+                                                                 theirs.get(key))  # fmt: skip
+        compared += len(expected) + len(theirs)
     return compared
+
+
+def _same_value(ours: Any, theirs: Any) -> bool:
+    """Equal to the last bit, of one kind (a NaN is a NaN)."""
+    if isinstance(theirs, float) or isinstance(ours, float):
+        return (
+            isinstance(ours, (float, Fraction, int)) and isinstance(theirs, float)
+            and (float(ours) == theirs or (math.isnan(float(ours)) and math.isnan(theirs)))
+        )  # fmt: skip
+    return type(ours) is type(theirs) and ours == theirs
 
 
 BATCHES = int(os.environ.get("RMV_C_FLOW_BATCHES", "10"))  # the long run: 60
@@ -267,7 +298,8 @@ def test_random_specs_from_values_give_the_runtimes_verdicts(batch: int, tmp_pat
     program = compile_driver(tmp_path / "out", sanitize=True)
     rng = random.Random(batch)
     recordings = [make_recording(rng, topics) for _ in range(3)]
-    assert _compare(program, spec, recordings, f"batch {batch}") >= CASES
+    computed = {q.name for q in system.flow.queries}
+    assert _compare(program, spec, recordings, f"batch {batch}", computed) >= CASES
 
 
 INTS = [0, 1, -1, 5, -7, 2**31 - 1, -(2**31)]
@@ -315,7 +347,74 @@ def test_every_operator_and_transformation_at_the_edges(tmp_path: Path) -> None:
             messages.append(
                 (time, topic, {"data": values[(i * 7 + len(topic) * i // 3) % len(values)]})
             )
-    assert _compare(program, spec, [messages[5:]], "edges") == 3 * len(terms)
+    assert _compare(program, spec, [messages[5:]], "edges", set()) == 3 * len(terms)
+
+
+QUERY_TERMS = ["count({})", "sum({})", "mean({})", "min({})", "max({})", "first({})", "last({})",
+               "spread({})", "stddev({})", "median({})", "mode({})", "percentile({}, 50)",
+               "percentile({}, 90)", "integral({})", "derivative(mean({}))",
+               "difference(max({}))", "cumulative_sum(count({}))", "elapsed(last({}), 1ms)",
+               "non_negative_derivative(min({}), 100ms)", "top({}, 2)", "bottom({}, 2)",
+               "distinct({})", "median({})"]  # fmt: skip
+QUERY_CLAUSES = ["", " fill none", " fill previous resample every 2s for 5s",
+                 " fill linear resample every 2s for 5s", " fill 7 resample every 3s for 4s",
+                 " resample every 500ms for 3s limit 2 order desc", " limit 1",
+                 " where {} > 0 fill previous resample every 2s for 5s"]  # fmt: skip
+
+
+def test_every_query_function_gives_the_runtimes_points(tmp_path: Path) -> None:
+    """Every function a query computes in C, over a float, an int32 and a uint64
+    topic, with each fill (over runs of several windows, where it matters),
+    `limit`/`order desc` and `where`, and raw streaming ones: every point equals the
+    runtime's to the last bit (the values: gaps of empty windows, ties, a uint64
+    above 2^63, 1e308 and -1e308 whose sums and squares overflow, NaN, infinities,
+    signed zeros)."""
+    lines = ["system queries", "ros humble"]
+    topics = (("f", "Float64", "F"), ("a", "Int32", "A"), ("w", "UInt64", "W"))
+    for topic, kind, var in topics:
+        lines += [f'topic {topic}: std_msgs/{kind} = "/{topic}" qos {{', "    max_rate = 10Hz",
+                  "}", f"var {var} = {topic}.data"]  # fmt: skip
+    k = 0
+    for v, (_, _, var) in enumerate(topics):
+        for i, template in enumerate(QUERY_TERMS):
+            clauses = QUERY_CLAUSES[(i + 3 * v) % len(QUERY_CLAUSES)].format(var)
+            window = "group by time(1s)" if i % 3 else "group by time(500ms, 100ms)"
+            lines.append(f"event Q{k} = {template.format(var)} {window}{clauses}")
+            lines += [f"event H{k} when Q{k} > 1", f"property P{k}: not H{k} {{ rate = 10Hz }}"]
+            k += 1
+        for raw in ("derivative({})", "difference({})", "non_negative_difference({})",
+                    "cumulative_sum({})", "elapsed({}, 1ms)", "{} * 2 where {} > 0"):  # fmt: skip
+            lines.append(f"event Q{k} = {raw.format(var, var)}")
+            lines += [f"event H{k} when Q{k} > 1", f"property P{k}: not H{k} {{ rate = 10Hz }}"]
+            k += 1
+    path = tmp_path / "queries.rmv"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    result = check(str(path), use_environment=False, solver=False)
+    assert not [d for d in result.diagnostics if d.severity.name == "ERROR"], [
+        str(d) for d in result.diagnostics if d.severity.name == "ERROR"
+    ]
+    spec = lower(result)
+    system = system_of(spec)
+    computed = {q.name for q in system.flow.queries}
+    assert len(computed) == k and not system.flow.hosted, system.flow.hosted
+    write(files(system), tmp_path / "out")
+    program = compile_driver(tmp_path / "out", sanitize=True)
+    floats = [1.0, 1.0, -0.0, 0.0, 2.5, 1e308, 1e308, -1e308, math.nan, math.inf, 3.0, -2.0]
+    ints = [3, 3, -1, 7, 2**31 - 1, -(2**31), 0, 5, 5, 2]
+    # 1 and 2^53 + 1 the middle of one window: their median is exact only from their
+    # exact difference
+    wide = [1, 1, 2**53 + 1, 2**60, 2**63, 2**64 - 1, 5, 2**63 - 1, 3, 2**62]
+    messages = []
+    for i in range(120):  # 1 s to 13 s at 10 Hz, with a silent stretch (empty windows)
+        time = NS + i * NS // 10
+        if 40 <= i < 65:
+            continue
+        messages.append((time, "/f", {"data": floats[(i * 5) % len(floats)]}))
+        if i % 2:
+            messages.append((time, "/a", {"data": ints[(i * 3) % len(ints)]}))
+        if i % 3 == 0:
+            messages.append((time, "/w", {"data": wide[(i // 3) % len(wide)]}))
+    assert _compare(program, spec, [messages], "queries", computed) > k
 
 
 def rng_threshold(k: int) -> str:
@@ -529,7 +628,8 @@ def test_a_spec_of_integers_compiles_with_no_floating_point(tmp_path: Path) -> N
         for i in range(60)
     ]  # fmt: skip
     program = compile_driver(tmp_path, sanitize=True)
-    assert _compare(program, spec, [messages], "ints") == 2
+    computed = {q.name for q in system.flow.queries}
+    assert _compare(program, spec, [messages], "ints", computed) > 2
 
 
 def test_a_condition_of_thousands_of_terms_is_generated(tmp_path: Path) -> None:

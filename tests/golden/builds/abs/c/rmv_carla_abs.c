@@ -1292,6 +1292,7 @@ static void rmv_carla_abs_instant(rmv_carla_abs_monitor *m, const rmv_row *value
         if (!values->has[k]) continue;
         m->val[k] = values->val[k];
         m->has[k] = 1;
+        if (m->on_point && VALUE_COMPUTED[k]) m->on_point(m->point_context, k, values->t, &m->val[k]);
     }
     memcpy(m->flag_before, m->flag, sizeof m->flag);
     memcpy(m->state_before, m->state, sizeof m->state);
@@ -1340,6 +1341,12 @@ uint32_t rmv_carla_abs_flow_overflows(const rmv_carla_abs_monitor *monitor) {
 }
 
 int rmv_carla_abs_value_computed(int32_t value) { return VALUE_COMPUTED[value]; }
+
+void rmv_carla_abs_watch_points(rmv_carla_abs_monitor *monitor, rmv_carla_abs_on_point on_point,
+                              void *context) {
+    monitor->on_point = on_point;
+    monitor->point_context = context;
+}
 
 const char *rmv_carla_abs_value_name(int32_t value) { return VALUE_NAMES[value]; }
 

@@ -124,6 +124,11 @@ typedef struct {
 #define RMV_CARLA_ABS_STREAMS 1
 #define RMV_CARLA_ABS_QUERIES 1
 
+/* Called with each point of a value event the monitor computes, when its instant
+ * is computed (of several points at one time, the last). */
+typedef void (*rmv_carla_abs_on_point)(void *context, int32_t value, int64_t time_ns,
+                              const rmv_carla_abs_value *point);
+
 /* An instant's values (`has` 1 where one is given), or a query's row: one topic's. */
 typedef struct {
     int64_t t;
@@ -171,6 +176,8 @@ typedef struct {
     int64_t next_t, flow_t, gathered_t, first_t, lost_until;
     uint8_t next_pending, flow_started, gathered, lost;
     uint32_t late_samples, flow_overflows;
+    rmv_carla_abs_on_point on_point;
+    void *point_context;
 } rmv_carla_abs_monitor;
 
 /* Start empty; `on_verdict` (may be NULL) is called with each decided segment. */
@@ -193,6 +200,9 @@ uint32_t rmv_carla_abs_late_samples(const rmv_carla_abs_monitor *monitor);
 uint32_t rmv_carla_abs_flow_overflows(const rmv_carla_abs_monitor *monitor);
 /* 1 for a value event the monitor computes itself: update ignores it. */
 int rmv_carla_abs_value_computed(int32_t value);
+/* Have `on_point` called with each point the monitor computes (NULL: none). */
+void rmv_carla_abs_watch_points(rmv_carla_abs_monitor *monitor, rmv_carla_abs_on_point on_point,
+                              void *context);
 const char *rmv_carla_abs_value_name(int32_t value);
 char rmv_carla_abs_value_kind(int32_t value);  /* 'b' bool, 'i' integer, 'f' float */
 

@@ -7,7 +7,8 @@
  *     {"t": 2.5, "values": {"Velocity": 3.25}}   (the monitor computes the events)
  *     {"t": 9, "end": true}
  * and prints each verdict segment as `rmv replay --format jsonl` does. Exit status:
- * 0 no property false, 1 a property false somewhere, 2 unreadable input. */
+ * 0 no property false, 1 a property false somewhere, 2 unreadable input.
+ */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -325,7 +326,7 @@ static const char *read_values(const char *line, const char *p, rmv_carla_abs_sa
     return p + 1;
 }
 
-int main(void) {
+int main(int argc, char **argv) {
     static char line[LINE_MAX_BYTES];
     rmv_carla_abs_input input;
     rmv_carla_abs_sample sample;
@@ -333,6 +334,8 @@ int main(void) {
     int started = 0, ended = 0, has_values = 0, has_props = 0;
     int32_t property;
     rmv_carla_abs_init(&monitor, on_verdict, NULL);
+    (void)argc;
+    (void)argv;
     while (fgets(line, sizeof line, stdin)) {
         const char *p = skip_space(line);
         char key[64];

@@ -6,7 +6,8 @@
  *     {"t": 2, "state": "Stopped"}
  *     {"t": 9, "end": true}
  * and prints each verdict segment as `rmv replay --format jsonl` does. Exit status:
- * 0 no property false, 1 a property false somewhere, 2 unreadable input. */
+ * 0 no property false, 1 a property false somewhere, 2 unreadable input.
+ */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -253,13 +254,15 @@ static const char *read_names(const char *line, const char *p, uint8_t *set) {
     }
 }
 
-int main(void) {
+int main(int argc, char **argv) {
     static char line[LINE_MAX_BYTES];
     rmv_prius_platoon_input input;
     int64_t newest = 0;
     int started = 0, ended = 0, has_values = 0, has_props = 0;
     int32_t property;
     rmv_prius_platoon_init(&monitor, on_verdict, NULL);
+    (void)argc;
+    (void)argv;
     while (fgets(line, sizeof line, stdin)) {
         const char *p = skip_space(line);
         char key[64];
