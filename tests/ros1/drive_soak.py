@@ -95,9 +95,6 @@ def soak(soak: Soak, seconds: float, nodes: list) -> dict:
                 churning.append(soak.peer(f"/listener_{soak.started}", "subscriber"))
             next_churn = now + CHURN
         if rogue is None and now >= next_rogue:
-            # the next one ROGUE_EVERY after this one starts, however long starting
-            # it takes: as many rogues a minute on a loaded machine as on a quiet one
-            next_rogue = now + ROGUE_EVERY
             rogue = (soak.peer("/rogue", "quiet"), None, len(soak.reports))
         if rogue is not None:
             process, listed, before = rogue
@@ -109,6 +106,7 @@ def soak(soak: Soak, seconds: float, nodes: list) -> dict:
                 latencies.append(named[0] - listed if named else None)
                 core.stop(process)
                 rogue = None
+                next_rogue = time.monotonic() + ROGUE_EVERY
         if now >= next_sample:
             rss.append((round(now - started, 1), *(rss_kib(n.pid) for n in nodes)))
             next_sample += 1.0

@@ -125,9 +125,6 @@ def run(soak: Soak, monitor: subprocess.Popen[bytes], watch: subprocess.Popen[by
                 churning.append(start(kinds[len(soak.sent) % 2], topic))
             next_churn = time.monotonic() + scenario["churn"]
         if rogue is None and now >= next_rogue:
-            # the next one rogue_every after this one starts, however long starting it
-            # takes: as many rogues a minute on a loaded machine as on a quiet one
-            next_rogue = now + scenario["rogue_every"]
             rogue = (start("ros", topic), time.monotonic(), len(soak.reports))
         if rogue is not None:
             process, since, before = rogue
@@ -136,6 +133,7 @@ def run(soak: Soak, monitor: subprocess.Popen[bytes], watch: subprocess.Popen[by
                 latencies.append(named[0] - since if named else None)
                 stop(process)
                 rogue = None
+                next_rogue = time.monotonic() + scenario["rogue_every"]
         if now >= next_sample:
             rss.append((round(now - started, 1), rss_kib(monitor.pid), rss_kib(watch.pid)))
             next_sample += 1.0
