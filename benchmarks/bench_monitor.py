@@ -46,7 +46,7 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from rmvdsl.grammar.parser import parse_formula
+from rmvdsl.grammar.formula_parser import parse_formula
 from rmvdsl.logic.compile import compile_formula
 from rmvdsl.logic.reference import Reference, Trace
 from rmvdsl.runtime.rmtld3 import Monitor, Segment, merge

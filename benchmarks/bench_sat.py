@@ -39,7 +39,7 @@ import itertools
 import z3
 
 from rmvdsl.check import check
-from rmvdsl.grammar.parser import parse_formula
+from rmvdsl.grammar.formula_parser import parse_formula
 from rmvdsl.logic.answers import UNKNOWN
 from rmvdsl.logic.compile import compile_formula
 from rmvdsl.logic.sat import Cache, satisfiable, valid

@@ -6,7 +6,7 @@ import pytest
 from conftest import FIXTURES
 
 from rmvdsl.grammar import formula as fm
-from rmvdsl.grammar.parser import parse_formula
+from rmvdsl.grammar.formula_parser import parse_formula
 from rmvdsl.grammar.printer import formula as print_formula
 
 CORPUS = FIXTURES / "rmtld3synth" / "formulas.txt"

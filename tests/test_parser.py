@@ -19,6 +19,7 @@ from rmvdsl.grammar.scanner import (
     _starts_declaration,
     scan,
 )
+from rmvdsl.grammar.shift import shifted
 from rmvdsl.lang.source import SourceFile
 
 
@@ -194,7 +195,7 @@ def test_strings_keep_backslashes_but_unescape_quotes():
 def test_spans_start_at_the_operator_keyword():
     """A node led by a keyword (`not`, `eventually`, `duration`, unary `-`) spans it:
     the editor and the underlines of diagnostics point at the whole node."""
-    from rmvdsl.grammar.parser import parse_formula
+    from rmvdsl.grammar.formula_parser import parse_formula
 
     for text in ("eventually[<5s] a", "not a", "once[<=2s] historically[=1s] a"):
         node, _ = parse_formula(text, "rmv", "<f>", "formula")
@@ -291,3 +292,19 @@ def test_scan_agrees_on_the_examples() -> None:
     for path in sorted(EXAMPLES.rglob("*.rmv")):
         text = path.read_text(encoding="utf-8", errors="replace")
         assert scan(text) == _reference_scan(text), path
+
+
+def test_a_formula_on_its_own_is_parsed_as_a_property_body_is():
+    """`rmv eval` and `rmv sat` parse with the formula rule alone: the same tree as a
+    property's body in a spec, and a mistake is told what a formula may hold there,
+    never "a new declaration"."""
+    from rmvdsl.grammar.formula_parser import parse_formula
+
+    text = "historically ((once[<=10] q) -> ((not p) since q)) and duration[10s](H) < 4s"
+    alone, diagnostics = parse_formula(text, "rmv", "x.rmv", "formula")
+    prefix = "property P: "
+    in_spec = parse_source(SourceFile("x.rmv", prefix + text + "\n")).spec.items[0].body.formula
+    assert not diagnostics and shifted(alone, len(prefix)) == in_spec
+    _, (mistake,) = parse_formula("a until b c", "rmv", "<f>", "formula")
+    assert mistake.code == "RMV100" and "declaration" not in mistake.message
+    assert "`until`" in mistake.message and mistake.span.start == 10

@@ -296,7 +296,7 @@ def test_checker_never_raises_on_random_text(text):
 @settings(max_examples=100, deadline=None)
 @given(st.text(alphabet=string.printable, max_size=120))
 def test_latex_parser_never_raises(text):
-    from rmvdsl.grammar.parser import parse_formula
+    from rmvdsl.grammar.formula_parser import parse_formula
 
     formula, diagnostics = parse_formula(text, "latex")
     assert formula is not None or diagnostics

@@ -15,7 +15,7 @@ from fractions import Fraction
 
 from conftest import FIXTURES
 
-from rmvdsl.grammar.parser import parse_formula
+from rmvdsl.grammar.formula_parser import parse_formula
 from rmvdsl.logic.compile import compile_formula
 from rmvdsl.logic.reference import Reference, Trace
 from rmvdsl.runtime.rmtld3 import Monitor, merge

@@ -14,7 +14,7 @@ from conftest import FIXTURES, ROOT
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from rmvdsl.grammar.parser import parse_formula
+from rmvdsl.grammar.formula_parser import parse_formula
 from rmvdsl.logic.abstract import refute
 from rmvdsl.logic.answers import NO, UNKNOWN, YES
 from rmvdsl.logic.bounded import BoundedTrace

@@ -10,11 +10,10 @@ from dataclasses import dataclass, field
 from rmvdsl.grammar import ast
 from rmvdsl.grammar.parser import parse_source
 from rmvdsl.lang.diagnostics import Diagnostic, closest, error
-from rmvdsl.lang.errors import UsageError
+from rmvdsl.lang.errors import UsageError, unreadable
 from rmvdsl.lang.source import SourceFile, SourceMap
-from rmvdsl.runtime.wording import os_words
 
-__all__ = ["UsageError"]
+__all__ = ["UsageError", "unreadable"]
 
 
 def read_text(path: str) -> str:
@@ -25,17 +24,6 @@ def read_text(path: str) -> str:
     except OSError as exc:
         raise unreadable(path, exc) from None
     return decode(data, path)
-
-
-def unreadable(path: str, exc: OSError) -> UsageError:
-    """Why a file cannot be read, in one line."""
-    if isinstance(exc, FileNotFoundError):
-        return UsageError(f"{path}: no such file")
-    if isinstance(exc, IsADirectoryError):
-        return UsageError(f"{path}: is a directory, not a file")
-    if isinstance(exc, PermissionError):
-        return UsageError(f"{path}: permission denied")
-    return UsageError(f"{path}: cannot read: {os_words(exc)}")
 
 
 def read_stdin() -> str:

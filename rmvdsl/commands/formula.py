@@ -87,7 +87,7 @@ def _eval_output(args: argparse.Namespace, run: Streamed, at: Fraction) -> str |
 
 @contextlib.contextmanager
 def _trace_stream(path: str) -> Iterator[TraceStream]:
-    from rmvdsl.check.loader import unreadable
+    from rmvdsl.lang.errors import unreadable
     from rmvdsl.logic.trace_lines import TraceError
     from rmvdsl.logic.traces import TraceStream
 

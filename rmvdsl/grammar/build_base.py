@@ -1,5 +1,6 @@
 """The AST builder's base: one parse's state per thread, spans from tokens, and the
-literals every rule reads (identifiers, strings, numbers with units, times)."""
+literals formulas read (numbers with units, times). No declaration's node: a formula
+parsed on its own (`rmv eval`) loads none of them (rmvdsl.grammar.build_literals)."""
 
 from __future__ import annotations
 
@@ -11,7 +12,6 @@ from typing import Any
 
 from lark import Token, Transformer
 
-from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
 from rmvdsl.lang.diagnostics import Diagnostic, Label, error
 from rmvdsl.lang.numbers import NumberError, decimal, exact
@@ -121,14 +121,6 @@ class BuilderBase(Transformer[Token, Any]):
         span = getattr(item, "span", None)
         return span if isinstance(span, Span) and span.path != "<none>" else None
 
-    def ident(self, token: Token) -> ast.Ident:
-        return ast.Ident(str(token), self.span(token))
-
-    def string(self, token: Token) -> ast.StringLit:
-        span = self.span(token)
-        value, offsets = unescape(str(token), span.start)
-        return ast.StringLit(value, span, offsets)
-
     def duplicate(self, what: str, again: Any, first: Any) -> None:
         self.diagnostics.append(
             error(
@@ -186,22 +178,3 @@ class BuilderBase(Transformer[Token, Any]):
             self.unknown_unit(token, unit, "a time unit")
             normalized = unit
         return fm.TimeValue(value, normalized, text, self.span(token))
-
-    def quantity(self, token: Token, negative: bool = False) -> ast.Value:
-        value, unit, text = self.split_quantity(token)
-        value = -value if negative else value
-        text = "-" + text if negative else text
-        span = self.span(token)
-        if not unit:
-            return ast.NumberLit(value, text, span)
-        if unit in RATE_UNITS:
-            return ast.RateLit(value * RATE_UNITS[unit], text, span)
-        normalized = TIME_UNIT_ALIASES.get(unit, unit)
-        if normalized in fm.TIME_UNITS:
-            return ast.TimeLit(fm.TimeValue(value, normalized, text, span), span)
-        self.unknown_unit(token, unit, "a time unit or Hz")
-        return ast.NumberLit(value, text, span)
-
-    def time_lit(self, token: Token) -> ast.TimeLit:
-        time = self.time_value(token)
-        return ast.TimeLit(time, time.span)

@@ -10,13 +10,14 @@ from collections.abc import Callable
 from typing import Any
 
 from rmvdsl.grammar import ast
-from rmvdsl.grammar.build_formulas import FormulaRules
+from rmvdsl.grammar.build_literals import LiteralRules
 from rmvdsl.lang.diagnostics import error
 
 
-class AstBuilder(FormulaRules):
+class AstBuilder(LiteralRules):
     """Callbacks named after the grammar's rules and aliases: the declarations and
-    expressions here, the formulas in FormulaRules, spans and literals in BuilderBase."""
+    expressions here, their literals in LiteralRules, the formulas in FormulaRules,
+    spans in BuilderBase."""
 
     # ---- top level ----
 

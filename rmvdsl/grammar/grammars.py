@@ -6,13 +6,17 @@ from __future__ import annotations
 import functools
 import re
 from importlib import resources
+from typing import TYPE_CHECKING
 
 from lark import Lark, Token
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput
 from lark.lexer import PatternStr
 
-from rmvdsl.grammar.builder import AstBuilder
+from rmvdsl.grammar.build_formulas import FormulaRules
 from rmvdsl.grammar.scanner import TOP_LEVEL_KEYWORDS
+
+if TYPE_CHECKING:  # the declarations' builder is loaded by the parsers that build them
+    from rmvdsl.grammar.builder import AstBuilder
 
 _SPEC_GRAMMAR_FILES = ("rmv.lark", "expr.lark", "formula.lark", "lexical.lark")
 
@@ -54,6 +58,8 @@ def _grammar_text(names: tuple[str, ...]) -> str:
 
 @functools.cache
 def spec_parser() -> tuple[Lark, AstBuilder]:
+    from rmvdsl.grammar.builder import AstBuilder
+
     builder = AstBuilder()
     parser = Lark(
         _grammar_text(_SPEC_GRAMMAR_FILES),
@@ -70,7 +76,27 @@ def spec_parser() -> tuple[Lark, AstBuilder]:
 
 
 @functools.cache
+def formula_parser() -> tuple[Lark, FormulaRules]:
+    """The spec grammar from `formula` and `term` only, building formulas alone: a
+    formula given on its own (`rmv eval`, `rmv sat`) loads no declaration's rules and
+    a sixth of the tables."""
+    builder = FormulaRules()
+    parser = Lark(
+        _grammar_text(_SPEC_GRAMMAR_FILES),
+        parser="lalr",
+        lexer="contextual",
+        start=["formula", "term"],
+        transformer=builder,
+        maybe_placeholders=True,
+        cache=True,
+    )
+    return parser, builder
+
+
+@functools.cache
 def latex_parser() -> tuple[Lark, AstBuilder]:
+    from rmvdsl.grammar.builder import AstBuilder
+
     builder = AstBuilder()
     parser = Lark(
         _grammar_text(("latex.lark",)),

@@ -11,7 +11,7 @@ from fractions import Fraction
 from typing import Any, TextIO
 
 from rmvdsl.grammar.formula import Formula, Term
-from rmvdsl.grammar.parser import parse_formula
+from rmvdsl.grammar.formula_parser import parse_formula
 from rmvdsl.lang.diagnostics import Diagnostic, Severity, error
 from rmvdsl.lang.numbers import to_json
 from rmvdsl.logic.compile import CompileError, compile_formula

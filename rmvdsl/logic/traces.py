@@ -69,6 +69,11 @@ _FAST_CSV = re.compile(rf"^[ \t]*{_DECIMAL}[ \t]*,[ \t]*([A-Za-z_][A-Za-z0-9_]*)
 StateKey = str | tuple[str, ...]  # one proposition's name, or the list a `props` line names
 
 
+def _names(key: StateKey) -> tuple[str, ...]:
+    """The propositions a state key names."""
+    return (key,) if isinstance(key, str) else key
+
+
 def _is_csv(path: str, text: str) -> bool:
     stripped = text.lstrip()
     return path.endswith(".csv") or bool(stripped and not stripped.startswith("{"))
@@ -175,7 +180,7 @@ class TraceStream:
             number += count
             chunk = rest + self._read()
         for key in self._states:
-            self.seen.update((key,) if type(key) is str else key)
+            self.seen.update(_names(key))
         self._finish()
 
     def _chunk(
@@ -194,7 +199,7 @@ class TraceStream:
                 if decoded is not None:
                     plain, records = decoded
                     if plain:
-                        yield from self._fast_plain(records, before, lines)
+                        yield from self._fast_plain(plain, records, before, lines)
                     else:
                         yield from self._fast_records(records, before, lines)
                     return
@@ -202,29 +207,30 @@ class TraceStream:
             yield from self._full_line(before + index + 1, raw)
 
     def _fast_plain(
-        self, records: list[Any], before: int, lines: str
+        self, named_by: str, records: list[Any], before: int, lines: str
     ) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
-        """Plain samples: their times and names as lists, checked and grouped by
-        the interpreter's own loops (the hottest path: most chunks of most traces).
+        """Plain samples, each naming its state by the field `named_by` ("state" or
+        "props"): their times and keys as lists, checked and grouped by the
+        interpreter's own loops (the hottest path: most chunks of most traces).
         Anything to explain (a time not above the last, a new name that is no
         proposition) is left to the record at a time path."""
         times = [record.t for record in records]
-        names = [record.state for record in records]
+        keys = list(map(operator.attrgetter(named_by), records))
         states, reader = self._states, self._reader
-        new = set(names).difference(states)
+        new = set(keys).difference(states)
         if (
             times[0] <= reader.last_float
             or not all(map(operator.lt, times, islice(times, 1, None)))
-            or not all(NAME.fullmatch(name) for name in new)
+            or not all(NAME.fullmatch(name) for key in new for name in _names(key))
         ):
             general = self._chunks.records(lines)  # rare: decoded again
             yield from self._fast_records(general, before, lines)
             return
-        for name in new:
-            states[name] = frozenset((name,))
+        for key in new:
+            states[key] = frozenset(_names(key))
         current = self._current
-        for name, run in groupby(zip(times, names, strict=True), operator.itemgetter(1)):
-            state = states[name]
+        for key, run in groupby(zip(times, keys, strict=True), operator.itemgetter(1)):
+            state = states[key]
             if state is not current and state != current:
                 value = next(run)[0]
                 if current is None:
@@ -246,8 +252,11 @@ class TraceStream:
             value = record.t
             state = None
             if value > last and reader.end is None:
-                if record.props is None and record.end is None and record.unit is None:
-                    state = states.get(record.state)
+                if record.end is None and record.unit is None:
+                    props = record.props
+                    state = states.get(record.state if props is None else props)
+                    if record.state is not None and props is not None:
+                        state = None  # both: the full reader says which to keep
                 if state is None:
                     state = self._new_state(record)
             if state is None:
@@ -278,7 +287,7 @@ class TraceStream:
             key: StateKey = record.state
             names: tuple[str, ...] = (record.state,)
         elif record.state is None:
-            key = names = tuple(record.props)
+            key = names = record.props
         else:
             return None
         if not all(NAME.fullmatch(name) for name in names):

@@ -7,6 +7,7 @@ operators' meaning is docs/semantics.md). Standard library only."""
 from __future__ import annotations
 
 import bisect
+from itertools import islice
 from typing import Any
 
 from rmvdsl.runtime.signal import _INFINITY, Signal, pieces
@@ -65,10 +66,21 @@ def write(signal: Signal, start: Any, levels: Levels) -> None:
                 ends.add(high)
     ones, twos = levels
     one = two = 0  # the first interval of each level not yet behind t
-    for t in sorted(ends):
+    times = sorted(ends)
+    one, one_point, one_after = covers(ones, one, start)
+    two, two_point, two_after = covers(twos, two, start)
+    signal.append(start, one_point + two_point, one_after + two_after)
+    # Signal.append inlined (each later time is past the last written)
+    starts, points, opens, last = signal.starts, signal.points, signal.opens, signal.opens[-1]
+    for t in islice(times, 1, None):
         one, one_point, one_after = covers(ones, one, t)
         two, two_point, two_after = covers(twos, two, t)
-        signal.append(t, one_point + two_point, one_after + two_after)
+        point, after = one_point + two_point, one_after + two_after
+        if not last == point == after:
+            starts.append(t)
+            points.append(point)
+            opens.append(after)
+            last = after
 
 
 # ---- `phi since[<T] psi` and `phi since[<=T] psi` ----

@@ -50,6 +50,8 @@ __all__ = [
 
 _NO_PULSES: frozenset[str] = frozenset()
 BATCH = 256  # changes recomputed together once the input spans the horizon
+# A change of the input: its time, the propositions then holding, those pulsed.
+Change = tuple[Any, frozenset[str], frozenset[str]]
 SPARSE_HORIZONS = 32  # or once it spans this many horizons
 
 
@@ -130,7 +132,7 @@ class Monitor:
         self.written: Any = None  # the atoms' signals are written up to here
         self.written_state: frozenset[str] = frozenset()  # the state at `written`
         self.written_pulses: frozenset[str] = _NO_PULSES  # and what holds at that point only
-        self.changes: list[tuple[Any, frozenset[str], frozenset[str]]] = []  # since `written`
+        self.changes: list[Change] = []  # since `written`
         self.state: frozenset[str] = frozenset()
         self.emitted: Any = None  # verdicts are out up to here
         self.emitted_point = False  # and for the point `emitted` itself
@@ -274,9 +276,7 @@ class Monitor:
             signal = prop.signal
             signal.cut(begin)
             signal.append(begin, point, value)
-            for when, state, pulses in self.changes:
-                value = TRUE if name in state else FALSE
-                signal.append(when, TRUE if name in pulses else value, value)
+            _write_changes(signal, name, self.changes)
             signal.append(self.known, UNKNOWN, UNKNOWN)
         last = self.changes[-1] if self.changes else None
         self.written_pulses = (
@@ -440,3 +440,21 @@ def facts(formula: Any) -> Facts:
         done[id(node)] = (future, past, backwards, reach)
     future, past, backwards, reach = done[id(formula)]
     return Facts(future, past, tuple(names), backwards, future + reach)
+
+
+def _write_changes(signal: Signal, name: str, changes: list[Change]) -> None:
+    """A proposition's value at each change, appended as `Signal.append` would
+    (inlined: a batch's changes are most of what the monitor does per sample)."""
+    starts, points, opens = signal.starts, signal.points, signal.opens
+    last = opens[-1]
+    for when, state, pulses in changes:
+        value = TRUE if name in state else FALSE
+        point = TRUE if name in pulses else value
+        if when == starts[-1]:  # a change at the batch's first instant
+            signal.append(when, point, value)
+            last = opens[-1]
+        elif not last == point == value:
+            starts.append(when)
+            points.append(point)
+            opens.append(value)
+            last = value

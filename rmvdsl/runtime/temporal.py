@@ -60,8 +60,18 @@ class Not(Node):
         signal.cut(start)
         i = source.index(start)
         signal.append(start, 2 - source.at(start), 2 - source.opens[i])
-        for k in range(i + 1, len(source.starts)):
-            signal.append(source.starts[k], 2 - source.points[k], 2 - source.opens[k])
+        # Signal.append inlined (each time here is past the last written): these
+        # loops write most breakpoints a monitor makes
+        starts, points, opens, last = signal.starts, signal.points, signal.opens, signal.opens[-1]
+        for t, point, after in zip(
+            source.starts[i + 1 :], source.points[i + 1 :], source.opens[i + 1 :], strict=True
+        ):
+            point, after = 2 - point, 2 - after
+            if not last == point == after:
+                starts.append(t)
+                points.append(point)
+                opens.append(after)
+                last = after
 
 
 class Binary(Node):
@@ -88,6 +98,7 @@ class Binary(Node):
         signal.append(start, combine(a_point, b_point), combine(a_opens[i], b_opens[j]))
         i, j = i + 1, j + 1
         a_count, b_count = len(a_starts), len(b_starts)
+        starts, points, opens, last = signal.starts, signal.points, signal.opens, signal.opens[-1]
         while i < a_count or j < b_count:
             a_next = a_starts[i] if i < a_count else _INFINITY
             b_next = b_starts[j] if j < b_count else _INFINITY
@@ -102,7 +113,12 @@ class Binary(Node):
                 j += 1
             else:
                 b_point = b_open = b_opens[j - 1]
-            signal.append(t, combine(a_point, b_point), combine(a_open, b_open))
+            point, after = combine(a_point, b_point), combine(a_open, b_open)
+            if not last == point == after:  # Signal.append inlined, as in Not
+                starts.append(t)
+                points.append(point)
+                opens.append(after)
+                last = after
 
 
 class Evaluated(Node, ABC):
@@ -198,8 +214,15 @@ class Temporal(Evaluated):
             begin = self.origin + self.bound
         i = psi.index(begin - shift)
         out.append(begin, psi.at(begin - shift), psi.opens[i])
-        for k in range(i + 1, len(psi.starts)):
-            out.append(psi.starts[k] + shift, psi.points[k], psi.opens[k])
+        starts, points, opens, last = out.starts, out.points, out.opens, out.opens[-1]
+        for t, point, after in zip(
+            psi.starts[i + 1 :], psi.points[i + 1 :], psi.opens[i + 1 :], strict=True
+        ):
+            if not last == point == after:  # Signal.append inlined, as in Not
+                starts.append(t + shift)
+                points.append(point)
+                opens.append(after)
+                last = after
 
     def _dilate(self, start: Any) -> None:
         """`eventually` and `once` in one pass: each piece of psi (a point or an open
@@ -344,9 +367,22 @@ class Ever(Node):
         carried = pending.at(start) if start > self.origin else FALSE
         out.cut(start)
         pending.cut(start)
+        o_starts, o_points, o_opens = out.starts, out.points, out.opens
+        p_starts, p_points, p_opens = pending.starts, pending.points, pending.opens
         for t, phi_at, phi_after, psi_at, psi_after in pieces(phi, psi, start):
             value = max(min(carried, phi_at), psi_at)
             carried_after = min(max(value, psi_after), phi_after)
-            out.append(t, value, max(min(value, phi_after), psi_after))
-            pending.append(t, carried, carried_after)
+            after = max(min(value, phi_after), psi_after)
+            if t == o_starts[-1] or t == p_starts[-1]:  # the first piece, where cut
+                out.append(t, value, after)
+                pending.append(t, carried, carried_after)
+            else:  # Signal.append inlined, as in Not
+                if not o_opens[-1] == value == after:
+                    o_starts.append(t)
+                    o_points.append(value)
+                    o_opens.append(after)
+                if not p_opens[-1] == carried == carried_after:
+                    p_starts.append(t)
+                    p_points.append(carried)
+                    p_opens.append(carried_after)
             carried = carried_after
