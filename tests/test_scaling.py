@@ -10,7 +10,7 @@ from typing import Any
 
 import pytest
 
-from rmvdsl.check import check
+from rmvdsl.check import check, exclusion
 from rmvdsl.check import properties as properties_module
 from rmvdsl.check.conditions import Conditions
 from rmvdsl.logic.system import Machine, System
@@ -88,28 +88,89 @@ def test_properties_that_look_into_the_past_are_asked_with_all_the_others(tmp_pa
     assert any(names & {"A", "B"} and names & {"C", "D"} for names in asked), asked
 
 
-def test_exclusive_events_are_looked_for_among_events_sharing_a_variable(tmp_path, monkeypatch):
-    """On and Off read X, Up and Down read Y: 2 pairs are asked, not 6, and On,
-    Off are still found exclusive."""
-    pairs: list[int] = []
-    original = Conditions.solve
+def _questions(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    """How many events each question of rmvdsl.check.exclusion asks at once."""
+    asked: list[int] = []
+    original = exclusion._Group._ask
 
-    def counting(self: Conditions, constraints: list[Any], values: bool = True) -> Any:
-        if len(constraints) == 2:
-            pairs.append(2)
-        return original(self, constraints, values)
+    def counting(self: Any, events: list[str]) -> Any:
+        asked.append(len(events))
+        return original(self, events)
 
-    monkeypatch.setattr(Conditions, "solve", counting)
-    text = TWO_MACHINES + "property Events: always[<=1s] (On or Off or Up or Down)\n"
+    monkeypatch.setattr(exclusion._Group, "_ask", counting)
+    return asked
+
+
+def _relations(tmp_path: Path, text: str, events: set[str]) -> tuple[Any, Conditions, System]:
     path = tmp_path / "spec.rmv"
     path.write_text(text, encoding="utf-8")
     result = check(str(path), use_environment=False)
-    assert len(pairs) == 2
-    events = {"On", "Off", "Up", "Down"}
-    system = properties_module.system_of(
-        result.model, result.analysis, Conditions(result.model, result.types), events, set()
-    )
+    conditions = Conditions(result.model, result.types)
+    system = properties_module.system_of(result.model, result.analysis, conditions, events, set())
+    return result, conditions, system
+
+
+def test_exclusive_events_are_looked_for_among_events_sharing_a_variable(tmp_path, monkeypatch):
+    """On and Off read X, Up and Down read Y: two groups of two are asked, never a
+    pair across them, and On, Off are still found exclusive."""
+    asked = _questions(monkeypatch)
+    text = TWO_MACHINES + "property Events: always[<=1s] (On or Off or Up or Down)\n"
+    _, _, system = _relations(tmp_path, text, {"On", "Off", "Up", "Down"})
+    assert max(asked) == 2
     assert {tuple(sorted(p)) for p in system.exclusive} == {("Off", "On"), ("Down", "Up")}
+
+
+THRESHOLDS = """system many
+topic t: std_msgs/msg/Float64 = "/t"
+topic u: std_msgs/msg/Int32 = "/u"
+var x = t.data
+var n = u.data
+"""
+
+
+def test_events_over_one_variable_are_asked_in_linear_questions(tmp_path, monkeypatch):
+    """400 thresholds on one variable were 80,000 pair questions: a model of them all
+    joins every pair at once, so the questions are one per event at most."""
+    count = 400
+    asked = _questions(monkeypatch)
+    events = "".join(f"event Above{k} when x > {k}\n" for k in range(count))
+    prop = " or ".join(f"Above{k}" for k in range(count))
+    text = THRESHOLDS + events + f"property Any: eventually[<=1s] ({prop})\n"
+    _, _, system = _relations(tmp_path, text, {f"Above{k}" for k in range(count)})
+    assert not system.exclusive and not system.never
+    assert len(asked) <= count, len(asked)
+
+
+# Events over two variables, some impossible, some bands that exclude each other,
+# one reading both: the relations found at once equal the single questions'.
+MIXED = [
+    "x > 3", "x < 1", "x > 5 and x < 2", "x == 7.5", "x == 8", "x >= 7.5 and x <= 8",
+    "n > 10", "n < -10", "n == 0", "n > 3 and x < 0", "x < 0", "n > 5 and n < 3",
+    "x > 100", "not (x > 100)", "n >= 11 and n <= 11", "x != x",
+]  # fmt: skip
+
+
+def test_the_relations_found_at_once_are_the_single_questions_answers(tmp_path):
+    names = [f"E{k}" for k in range(len(MIXED))]
+    events = "".join(f"event {n} when {c}\n" for n, c in zip(names, MIXED, strict=True))
+    prop = " or ".join(names)
+    text = THRESHOLDS + events + f"property Any: eventually[<=1s] ({prop})\n"
+    _, conditions, system = _relations(tmp_path, text, set(names))
+    alone = {n for n in names if conditions.solve([conditions.of_event(n)], False)[0] == "unsat"}
+    pairs = set()
+    for i, a in enumerate(names):
+        for b in names[i + 1 :]:
+            if a in alone or b in alone:
+                continue
+            shared = conditions.names_of(conditions.of_event(a)) & conditions.names_of(
+                conditions.of_event(b)
+            )
+            both = [conditions.of_event(a), conditions.of_event(b)]
+            if shared and conditions.solve(both, False)[0] == "unsat":
+                pairs.add((a, b))
+    assert system.never == alone and alone == {"E2", "E11"}  # NaN != NaN: E15 holds
+    assert {tuple(sorted(p)) for p in system.exclusive} == {tuple(sorted(p)) for p in pairs}
+    assert ("E0", "E1") in pairs and ("E6", "E7") in pairs and ("E3", "E4") in pairs
 
 
 def test_a_system_cut_to_some_names_is_the_naive_cut():

@@ -167,10 +167,11 @@ class Conditions:
         flags = [self.symbols[n] for n in sorted(names_in(constraints)) if n.startswith(PRESENT)]
         return z3.And(*flags) if flags else z3.BoolVal(True)
 
-    def names_of_event(self, name: str) -> set[str]:
-        """The variables and values an event's condition reads (two conditions that
-        share none are independent)."""
-        return {_value_name(n) for n in names_in([self.of_event(name)])}
+    @staticmethod
+    def names_of(condition: Any) -> set[str]:
+        """The variables and values a condition (`of_event`'s term) reads (two
+        conditions that share none are independent)."""
+        return {_value_name(n) for n in names_in([condition])}
 
     def free(self, key: str, kind: str, may_be_absent: bool = True) -> Term:
         """A value of its own, one per key (the same text means the same value),

@@ -1,13 +1,11 @@
 """The system a spec's properties are checked on: its transducers as machines, and the
-boolean events that can never hold, or never together (asked of z3 once per pair
-that shares a variable)."""
+boolean events that can never hold, or never together (rmvdsl.check.exclusion)."""
 
 from __future__ import annotations
 
-import itertools
-
 from rmvdsl.check.analysis import AnalysisResult
 from rmvdsl.check.conditions import Conditions
+from rmvdsl.check.exclusion import event_relations
 from rmvdsl.check.model import Kind, Model
 from rmvdsl.logic.system import Machine, System
 
@@ -45,26 +43,5 @@ def system_of(
     events = sorted(
         n for n in names if (s := model.symbols.get(n)) is not None and s.kind is Kind.BOOL_EVENT
     )
-    never = {
-        e for e in events if conditions.solve([conditions.of_event(e)], values=False)[0] == "unsat"
-    }
-    exclusive = {
-        (a, b)
-        for a, b in _sharing([e for e in events if e not in never], conditions)
-        if conditions.solve([conditions.of_event(a), conditions.of_event(b)], values=False)[0]
-        == "unsat"
-    }
+    never, exclusive = event_relations(events, conditions)
     return System(tuple(machines), frozenset(exclusive), frozenset(never | unreachable))
-
-
-def _sharing(events: list[str], conditions: Conditions) -> list[tuple[str, str]]:
-    """The pairs of events whose conditions read a common variable, in order: two
-    satisfiable conditions over disjoint variables hold together, so only these
-    pairs can exclude each other (what keeps the question from being quadratic in
-    the events)."""
-    readers: dict[str, list[int]] = {}
-    for index, event in enumerate(events):
-        for name in conditions.names_of_event(event):
-            readers.setdefault(name, []).append(index)
-    pairs = {(i, j) for group in readers.values() for i, j in itertools.combinations(group, 2)}
-    return [(events[i], events[j]) for i, j in sorted(pairs)]
