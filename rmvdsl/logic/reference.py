@@ -9,6 +9,7 @@ two such points (a subformula is constant there). Arithmetic is exact (Fraction)
 
 from __future__ import annotations
 
+import bisect
 import itertools
 from dataclasses import dataclass, field
 from fractions import Fraction
@@ -107,7 +108,10 @@ class Reference:
         point inside each open gap: (time, is_a_breakpoint)."""
         inside = {low, high}
         for f in f_list:
-            inside.update(p for p in self.points(f) if low < p < high)
+            points = self.points(f)  # sorted
+            inside.update(
+                points[bisect.bisect_right(points, low) : bisect.bisect_left(points, high)]
+            )
         ordered = sorted(inside)
         out = []
         for a, b in itertools.pairwise(ordered):
@@ -146,18 +150,19 @@ class Reference:
         _, op, bound, phi, psi = f
         end = t + bound
         best = FALSE
-        samples = self.candidates([phi, psi], t, end)
-        for index, (s, is_point) in enumerate(samples):
+        before = TRUE  # phi over [t, s): every earlier sample
+        for s, is_point in self.candidates([phi, psi], t, end):
             in_window = (
                 (op == "=" and s == end) or (op == "<" and s < end) or (op == "<=" and s <= end)
             )
-            if not in_window:
-                continue
-            # phi over [t, s): every earlier sample, and the open part (., s) if s is inside a gap
-            before = [self.value(phi, x) for x, _ in samples[:index]]
-            if not is_point:
-                before.append(self.value(phi, s))
-            best = max(best, min([self.value(psi, s), *before]))
+            if in_window:
+                here = self.value(psi, s)
+                if not is_point:  # s inside a gap: phi holds on the open part (., s) too
+                    here = min(here, self.value(phi, s))
+                best = max(best, min(here, before))
+            before = min(before, self.value(phi, s))
+            if best == TRUE or before == FALSE:  # no later s can change the value
+                break
         return best
 
     def _since(self, f: Any, t: Fraction) -> int:
@@ -167,20 +172,17 @@ class Reference:
         if low > t:
             return FALSE
         best = FALSE
-        samples = self.candidates([phi, psi], low, t)
-        for index, (s, is_point) in enumerate(samples):
-            if op == "=":
-                in_window = s == begin
-            elif s == begin:
-                in_window = op == "<="
-            else:
-                in_window = True
-            if not in_window:
-                continue
-            after = [self.value(phi, x) for x, _ in samples[index + 1 :]]
-            if not is_point:
-                after.append(self.value(phi, s))
-            best = max(best, min([self.value(psi, s), *after]))
+        after = TRUE  # phi over (s, t]: every later sample
+        for s, is_point in reversed(self.candidates([phi, psi], low, t)):
+            in_window = s == begin if op == "=" else s != begin or op == "<="
+            if in_window:
+                here = self.value(psi, s)
+                if not is_point:  # s inside a gap: phi holds on the open part (s, .) too
+                    here = min(here, self.value(phi, s))
+                best = max(best, min(here, after))
+            after = min(after, self.value(phi, s))
+            if best == TRUE or after == FALSE:  # no earlier s can change the value
+                break
         return best
 
     def _compare(self, f: Any, t: Fraction) -> int:
