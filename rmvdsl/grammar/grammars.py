@@ -6,7 +6,7 @@ from __future__ import annotations
 import functools
 import re
 from importlib import resources
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from lark import Lark, Token
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput
@@ -56,23 +56,28 @@ def _grammar_text(names: tuple[str, ...]) -> str:
     return "\n".join(folder.joinpath(name).read_text(encoding="utf-8") for name in names)
 
 
+def _building(files: tuple[str, ...], start: list[str], builder: Any) -> Lark:
+    """An LALR parser of these grammar files that builds its result with `builder`
+    as it parses (no parse tree is made). The tables are kept in the temporary
+    folder, keyed by the grammar's hash and the options: every later run starts
+    about 0.2 s sooner."""
+    return Lark(
+        _grammar_text(files),
+        parser="lalr",
+        lexer="contextual",
+        start=start,
+        transformer=builder,
+        maybe_placeholders=True,
+        cache=True,
+    )
+
+
 @functools.cache
 def spec_parser() -> tuple[Lark, AstBuilder]:
     from rmvdsl.grammar.builder import AstBuilder
 
     builder = AstBuilder()
-    parser = Lark(
-        _grammar_text(_SPEC_GRAMMAR_FILES),
-        parser="lalr",
-        lexer="contextual",
-        start=["start", "formula", "term"],
-        transformer=builder,
-        maybe_placeholders=True,
-        # The LALR tables are kept in the temporary folder, keyed by the grammar's
-        # hash: every later run starts about 0.2 s sooner.
-        cache=True,
-    )
-    return parser, builder
+    return _building(_SPEC_GRAMMAR_FILES, ["start", "formula", "term"], builder), builder
 
 
 @functools.cache
@@ -81,16 +86,7 @@ def formula_parser() -> tuple[Lark, FormulaRules]:
     formula given on its own (`rmv eval`, `rmv sat`) loads no declaration's rules and
     a sixth of the tables."""
     builder = FormulaRules()
-    parser = Lark(
-        _grammar_text(_SPEC_GRAMMAR_FILES),
-        parser="lalr",
-        lexer="contextual",
-        start=["formula", "term"],
-        transformer=builder,
-        maybe_placeholders=True,
-        cache=True,
-    )
-    return parser, builder
+    return _building(_SPEC_GRAMMAR_FILES, ["formula", "term"], builder), builder
 
 
 @functools.cache
@@ -98,16 +94,7 @@ def latex_parser() -> tuple[Lark, AstBuilder]:
     from rmvdsl.grammar.builder import AstBuilder
 
     builder = AstBuilder()
-    parser = Lark(
-        _grammar_text(("latex.lark",)),
-        parser="lalr",
-        lexer="contextual",
-        start=["start", "term"],
-        transformer=builder,
-        maybe_placeholders=True,
-        cache=True,
-    )
-    return parser, builder
+    return _building(("latex.lark",), ["start", "term"], builder), builder
 
 
 @functools.cache
