@@ -61,6 +61,7 @@ def _eval_output(args: argparse.Namespace, run: Streamed, at: Fraction) -> str |
     """`--all`: every segment written as it is decided (None); else the verdict at
     `at`, the stream read to its end."""
     from rmvdsl.logic import evaluate as ev
+    from rmvdsl.runtime.segments import contains
     from rmvdsl.runtime.values import exact_text
 
     if args.all and args.format == "json":
@@ -77,10 +78,10 @@ def _eval_output(args: argparse.Namespace, run: Streamed, at: Fraction) -> str |
         return None
     verdict = "unknown"
     for segment in run.segments():  # read to the end: every line is checked
-        if ev.contains(segment, at):
+        if contains(segment, at):
             verdict = segment[4]
     for segment in run.summary.beyond:
-        if ev.contains(segment, at):
+        if contains(segment, at):
             verdict = segment[4]
     return verdict
 

@@ -144,18 +144,6 @@ def write_all_json(out: TextIO, run: Streamed) -> None:
     out.write(",\n" + rest.removeprefix("{\n") + "\n")
 
 
-def verdict_at(segments: list[Segment], t: Fraction) -> str:
-    for segment in segments:
-        if contains(segment, t):
-            return segment[4]
-    return "unknown"
-
-
-def contains(segment: Segment, t: Fraction) -> bool:
-    a, b, a_closed, b_closed, _ = segment
-    return (a < t or (a == t and a_closed)) and (t < b or (t == b and b_closed))
-
-
 def reference_verdict(formula: Any, trace: TraceFile, t: Fraction) -> str:
     """The verdict at t by the reference evaluator (docs/semantics.md)."""
     from rmvdsl.logic.reference import Reference, Trace

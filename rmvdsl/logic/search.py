@@ -19,6 +19,7 @@ from rmvdsl.logic.limits import Limits
 from rmvdsl.logic.system import System
 from rmvdsl.logic.terms import assert_all, conjunction, disjunction, implication, negation
 from rmvdsl.runtime.rmtld3 import Monitor, facts
+from rmvdsl.runtime.segments import verdict_at
 from rmvdsl.runtime.wording import counted
 from rmvdsl.util.cancel import checkpoint
 
@@ -170,7 +171,9 @@ class Question:
             monitor = Monitor(formula)
             monitor.feed(zip(witness.times, witness.states, strict=True))
             monitor.end(witness.end)
-            if monitor.verdict_at(witness.at) != "true":
+            # read from the verdicts, not the monitor's signals: those keep only
+            # the history a live monitor needs (a horizon or two before the end)
+            if verdict_at(monitor.verdicts(), witness.at) != "true":
                 return False
         return True
 

@@ -39,3 +39,16 @@ def merged(segments: Iterable[Segment]) -> Iterator[Segment]:
         pending = segment
     if pending is not None:
         yield pending
+
+
+def verdict_at(segments: Iterable[Segment], t: Any) -> str:
+    """The verdict the segments give at time t ("unknown" where none covers it)."""
+    for segment in segments:
+        if contains(segment, t):
+            return str(segment[4])
+    return "unknown"
+
+
+def contains(segment: Segment, t: Any) -> bool:
+    a, b, a_closed, b_closed, _ = segment
+    return bool((a < t or (a == t and a_closed)) and (t < b or (t == b and b_closed)))
