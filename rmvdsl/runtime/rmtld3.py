@@ -374,7 +374,10 @@ class Monitor:
         return iter(out)
 
     def verdict_at(self, t: Any) -> str:
-        """The verdict at time t, as far as the input so far decides it."""
+        """The verdict at time t, as far as the input so far decides it: a live
+        query. The signals keep only the history a live monitor needs (about two
+        horizons before the newest input), so an older t reads "unknown"; a whole
+        run's verdicts are `verdicts()` (rmvdsl.runtime.segments.verdict_at)."""
         self._flush()
         if self.start is None or t < self.root.signal.starts[0]:
             return "unknown"
