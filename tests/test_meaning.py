@@ -239,6 +239,7 @@ def test_the_caches_are_bounded(tmp_path, monkeypatch):
     answers = cache.Cache(str(tmp_path / "answers"))
     for index in range(25):
         answers.put(f"k{index}", {"answer": index})
+    cache.flush()  # written on a thread of their own
     assert len(answers.memory) <= 10 and "k24" in answers.memory and "k0" not in answers.memory
     folder = tmp_path / "answers"
     old = time.time() - 100 * 86400
@@ -248,6 +249,29 @@ def test_the_caches_are_bounded(tmp_path, monkeypatch):
     assert cache.prune(str(folder), entries=20) == 1 + 4  # the stale one, then the 4 oldest
     assert sorted(p.name for p in folder.iterdir())[:2] == ["k10.json", "k11.json"]
     assert answers.get("k0") is None and answers.get("k24") == {"answer": 24}
+
+
+def test_answers_are_written_behind_and_read_before_they_are(tmp_path, monkeypatch):
+    """Files are written on a thread of their own: an answer not yet on disk is read
+    by every cache of the process, and `flush` waits until all are written."""
+    import json
+    import threading
+
+    from rmvdsl.util import cache
+
+    disk = threading.Event()
+    write = cache._write_file
+    monkeypatch.setattr(cache, "_write_file", lambda *a: disk.wait(10) and write(*a))
+    first, second = cache.Cache(str(tmp_path)), cache.Cache(str(tmp_path))
+    for index in range(50):
+        first.put(f"k{index}", {"answer": index})
+    assert not list(tmp_path.glob("k*.json"))  # none written yet
+    assert [second.get(f"k{i}") for i in range(50)] == [{"answer": i} for i in range(50)]
+    disk.set()
+    cache.flush()
+    for index in range(50):
+        assert json.loads((tmp_path / f"k{index}.json").read_text()) == {"answer": index}
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no half file left
 
 
 def test_a_window_point_stamped_before_the_run_takes_effect_at_its_start(tmp_path):

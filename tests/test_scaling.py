@@ -293,3 +293,36 @@ def test_full_collections_are_rarer_while_checks_run_only(tmp_path):
     spec.write_text("system s\n", encoding="utf-8")
     check(str(spec), use_environment=False)
     assert gc.get_threshold() == before
+
+
+def test_events_asked_together_get_the_answers_they_get_alone(tmp_path, monkeypatch):
+    """rmvdsl.check.impossible asks a few dozen events in one question and halves a
+    group z3 refuses: the events it calls impossible are exactly those a question
+    of their own calls impossible, and possible events cost a question a group."""
+    from rmvdsl.check import impossible as module
+
+    conditions_ = [*MIXED, *(c.replace("7.5", "9.5").replace("x ", "-x ") for c in MIXED)]
+    names = [f"E{k}" for k in range(len(conditions_))]
+    events = "".join(f"event {n} when {c}\n" for n, c in zip(names, conditions_, strict=True))
+    possible = [f"P{k}" for k in range(3 * module.TOGETHER)]
+    events += "".join(f"event {p} when x > {k} or n < {k}\n" for k, p in enumerate(possible))
+    prop = " or ".join([*names, *possible])
+    text = THRESHOLDS + events + f"property Any: eventually[<=1s] ({prop})\n"
+    _, conditions, _ = _relations(tmp_path, text, set())
+    alone = {n: conditions.solve([conditions.of_event(n)], False)[0] == "unsat" for n in names}
+    asked: list[int] = []
+    verdict = Conditions.verdict
+    monkeypatch.setattr(Conditions, "verdict", lambda s, c: asked.append(len(c)) or verdict(s, c))
+    assert module.impossible(names, conditions) == alone
+    assert {n for n, never in alone.items() if never} == {"E2", "E11", "E18", "E21", "E27"}
+    asked.clear()
+    assert module.impossible(possible, conditions) == dict.fromkeys(possible, False)
+    assert asked == [module.TOGETHER] * 3
+    # No answer in time makes no claim: the event is None, the others are answered.
+    slow = conditions.of_event("E3")
+    monkeypatch.setattr(
+        Conditions,
+        "verdict",
+        lambda s, c: "unknown" if any(t.eq(slow) for t in c) else verdict(s, c),
+    )
+    assert module.impossible(names, conditions) == {**alone, "E3": None}

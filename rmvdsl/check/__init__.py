@@ -29,6 +29,7 @@ from rmvdsl.check.names import check_names, nothing_checked
 from rmvdsl.check.types import TypeConfig, TypeInfo, check_types
 from rmvdsl.lang.diagnostics import Diagnostic, Severity, did_you_mean, error, sort_key, warning
 from rmvdsl.lang.source import SourceFile, Span
+from rmvdsl.util.cache import flush
 from rmvdsl.util.deep import deep
 
 if TYPE_CHECKING:
@@ -95,8 +96,11 @@ def check(
     Raises UsageError only when the root file itself cannot be read. Runs on a deep
     stack (rmvdsl.util.deep): a generated spec's formulas can nest 100,000 levels."""
     options = (ros, messages, use_environment, solver_timeout, read, solver, solver_jobs)
-    with fewer_full_collections():
-        return deep(_check, path, text, *options, incremental)
+    try:
+        with fewer_full_collections():
+            return deep(_check, path, text, *options, incremental)
+    finally:
+        flush()  # the answers on disk, for the next process to read
 
 
 FULL_COLLECTION_THRESHOLD = 1000  # Python's default: 10

@@ -18,6 +18,7 @@ import networkx as nx
 import z3
 
 from rmvdsl.check.conditions import Conditions
+from rmvdsl.check.impossible import impossible
 from rmvdsl.check.model import Model
 from rmvdsl.check.types import TypeInfo
 from rmvdsl.grammar import ast
@@ -103,12 +104,9 @@ class Analyzer:
         cannot be reached. Reachability ignores them, so that a state reached only
         through them is unreachable, not a reachable dead end; computed to a fixpoint
         (an unreachable state silences what it emits, which may cut off more)."""
-        impossible = {
-            t.input.name
-            for decl in self.model.transducers.values()
-            for t in decl.transitions
-            if self._unsatisfiable(t.input.name)
-        }
+        inputs = [t.input.name for d in self.model.transducers.values() for t in d.transitions]
+        self._ask_unsatisfiable(inputs)
+        impossible = {name for name in inputs if self._unsat[name]}
         untaken: set[int] = set()
         while True:
             for name, decl in self.model.transducers.items():
@@ -127,26 +125,32 @@ class Analyzer:
             untaken = found
 
     def _unsatisfiable(self, name: str) -> bool:
-        """A boolean event whose condition no values make true (asked once a name;
-        its answer kept under the text of the question, so a re-check builds no
-        z3 term for it)."""
-        if name not in self._unsat:
+        """A boolean event whose condition no values make true."""
+        self._ask_unsatisfiable([name])
+        return self._unsat[name]
+
+    def _ask_unsatisfiable(self, names: list[str]) -> None:
+        """`_unsatisfiable` of these names, each asked once: its answer kept under the
+        text of the question (a re-check builds no z3 term for it), the others
+        asked together (rmvdsl.check.impossible)."""
+        cache = default_cache()
+        keys: dict[str, str] = {}
+        for name in dict.fromkeys(names):
             decl = self.model.events.get(name)
-            if decl is None or not decl.boolean:
-                self._unsat[name] = False
-                return False
-            cache = default_cache()
+            if name in self._unsat or decl is None or not decl.boolean:
+                self._unsat.setdefault(name, False)
+                continue
             key = digest("unsatisfiable event", "1", z3.get_version_string(),
                          self.conditions.event_question(name))  # fmt: skip
             cached = cache.get(key)
             if cached is not None and isinstance(cached.get("unsat"), bool):
                 self._unsat[name] = cached["unsat"]
-                return self._unsat[name]
-            answer = self.conditions.solve([self.conditions.of_event(name)], values=False)[0]
-            self._unsat[name] = answer == "unsat"
-            if answer != "unknown":  # a time limit is not an answer to keep
-                cache.put(key, {"unsat": self._unsat[name]})
-        return self._unsat[name]
+            else:
+                keys[name] = key
+        for name, answer in impossible(list(keys), self.conditions).items():
+            self._unsat[name] = answer is True
+            if answer is not None:  # a time limit is not an answer to keep
+                cache.put(keys[name], {"unsat": answer})
 
     def reachability(
         self,

@@ -30,7 +30,7 @@ from rmvdsl.check.operators import (
     transform,
     undefined_at,
 )
-from rmvdsl.check.solving import PRESENT, names_in, solve
+from rmvdsl.check.solving import PRESENT, names_in, solve, verdict
 from rmvdsl.check.types import TypeInfo
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.functions import ELEMENTWISE
@@ -66,7 +66,7 @@ class Term:
         return z3.And(self.present, z3.Not(as_bool(self.value)))
 
 
-def _both(left: Term, right: Term) -> Any:
+def _both(left: Term | Kleene, right: Term | Kleene) -> Any:
     if z3.is_true(left.present):
         return right.present
     if z3.is_true(right.present):
@@ -74,17 +74,40 @@ def _both(left: Term, right: Term) -> Any:
     return z3.And(left.present, right.present)
 
 
-def kleene(op: str, left: Term, right: Term) -> Term:
+@dataclass(frozen=True)
+class Kleene:
+    """A three-valued `and`/`or` as where it is true and where it is false, as built:
+    the value and presence `Term` derives them from are made only when read (an
+    event's condition reads neither, and they doubled the terms z3 was given)."""
+
+    true: Any
+    false: Any
+
+    @property
+    def value(self) -> Any:
+        return self.true
+
+    @property
+    def present(self) -> Any:
+        return z3.Or(self.true, self.false)
+
+
+def kleene(op: str, left: Term | Kleene, right: Term | Kleene) -> Term | Kleene:
     """`and`/`or` over three values, as rmvdsl.runtime.influx.kleene_and/or: false
     (true) decides an `and` (an `or`) whatever the other side is."""
     if op == "and":
-        holds, fails = z3.And(left.true, right.true), z3.Or(left.false, right.false)
-    else:
-        holds, fails = z3.Or(left.true, right.true), z3.And(left.false, right.false)
-    present = _both(left, right)
-    if z3.is_true(present):
+        holds = z3.And(left.true, right.true)
+        if _always(left) and _always(right):
+            return Term(holds)
+        return Kleene(holds, z3.Or(left.false, right.false))
+    holds = z3.Or(left.true, right.true)
+    if _always(left) and _always(right):
         return Term(holds)
-    return Term(holds, z3.Or(holds, fails))
+    return Kleene(holds, z3.And(left.false, right.false))
+
+
+def _always(term: Term | Kleene) -> bool:
+    return isinstance(term, Term) and z3.is_true(term.present)
 
 
 class Conditions:
@@ -157,9 +180,16 @@ class Conditions:
         variables they mention (only those: a question's cache key and its cost do
         not grow with the rest of the spec). Without `values`, only the verdict."""
         used = names_in(constraints)
-        domains = [c for name in sorted(used & self.domains.keys()) for c in self.domains[name]]
         symbols = {name: self.symbols[name] for name in sorted(used) if name in self.symbols}
-        return solve(constraints, domains, symbols, values)
+        return solve(constraints, self._domains(used), symbols, values)
+
+    def verdict(self, constraints: list[Any]) -> str:
+        """`verdict` of these constraints with the ranges of the variables they
+        mention, asked now (not cached)."""
+        return verdict([*self._domains(names_in(constraints)), *constraints])
+
+    def _domains(self, used: set[str]) -> list[Any]:
+        return [c for name in sorted(used & self.domains.keys()) for c in self.domains[name]]
 
     def present(self, constraints: list[Any]) -> Any:
         """Every value these constraints read has a value (each topic has published):
@@ -193,7 +223,7 @@ class Conditions:
                 self.domains[name] = [symbol >= least, symbol <= most]
         return self.free(name, "")
 
-    def expr(self, node: ir.Expr) -> Term:
+    def expr(self, node: ir.Expr) -> Term | Kleene:
         """A lowered expression as z3 computes it, with where it has a value."""
         match node:
             case ir.Number():
@@ -246,7 +276,7 @@ class Conditions:
             return Term(self.of_event(name))
         return self.free(name, _sort_kind(ref.type.kind))  # a value event: its newest value
 
-    def binary(self, node: ir.Binary) -> Term:
+    def binary(self, node: ir.Binary) -> Term | Kleene:
         left, right = self.expr(node.left), self.expr(node.right)
         op = node.op
         if op in ("and", "or"):

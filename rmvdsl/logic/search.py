@@ -38,9 +38,11 @@ class Question:
         self.formulas = formulas
         self.system = system
         self.limits = limits
-        mentioned = {name for f in formulas for name in facts(f).propositions}
+        found = [facts(f) for f in formulas]  # once: each is a walk of the formula
+        mentioned = {name for f in found for name in f.propositions}
         self.names = sorted(system.names(mentioned))
-        self.free_time = any(facts(f).has_past for f in formulas) or any(
+        self.horizon = max((f.future for f in found), default=Fraction(0))
+        self.free_time = any(f.has_past for f in found) or any(
             m.initial is not None for m in system.relevant(mentioned)
         )
         self.timed_out = False
@@ -128,8 +130,7 @@ class Question:
         little."""
         if len(self.names) > PERIODIC_NAMES or self.system.relevant(set(self.names)):
             return None
-        horizon = max((facts(f).future for f in self.formulas), default=Fraction(0))
-        end = horizon + 1
+        end = self.horizon + 1
         budget = PERIODIC_BUDGET
         # whether a proposition holds on the even and on the odd segments
         held = {
@@ -226,8 +227,7 @@ class Question:
         return self.witness(times, kept, witness.at)
 
     def witness(self, times: list[Fraction], states: list[frozenset[str]], at: Fraction) -> Witness:
-        horizon = max((facts(f).future for f in self.formulas), default=Fraction(0))
-        end = max(at, times[-1]) + horizon + 1
+        end = max(at, times[-1]) + self.horizon + 1
         return Witness(tuple(times), tuple(states), at, end, tuple(self.names))
 
     def replays(self, witness: Witness) -> bool:
