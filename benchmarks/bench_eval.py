@@ -40,6 +40,7 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+import peak
 from bench_monitor import generate
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -134,17 +135,15 @@ def byte_compile() -> None:
 
 
 def measure(command: list[str], output: Path) -> tuple[float, float]:
-    """Wall seconds and peak resident MB of one process."""
+    """Wall seconds and peak resident MB of one process (its own: benchmarks/peak.py)."""
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     with output.open("w") as out:
         start = time.perf_counter()
-        process = subprocess.Popen(command, stdout=out, env=env, cwd=ROOT)
-        _, status, usage = os.wait4(process.pid, 0)
+        usage = peak.run(command, stdout=out, env=env, cwd=ROOT)
         seconds = time.perf_counter() - start
-    process.returncode = os.waitstatus_to_exitcode(status)
-    if process.returncode:
-        raise SystemExit(f"{command[:4]} failed with status {process.returncode}")
-    return seconds, usage.ru_maxrss / 1024
+    if usage.returncode:
+        raise SystemExit(f"{command[:4]} failed with status {usage.returncode}")
+    return seconds, usage.peak_bytes / 2**20
 
 
 def commands(trace: Path, shape: str) -> dict[str, list[str]]:

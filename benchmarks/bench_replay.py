@@ -2,8 +2,9 @@
 
 Writes the CARLA braking scenario (examples/carla/make_recordings.py: 30 s of the
 ego vehicle's status at 20 Hz and the objects around it at 10 Hz) repeated until the
-recording holds --messages messages (1,000,000 by default: 9.3 hours), as a ROS 1
-bag, and a tenth of it; then runs, each in its own process:
+recording holds --messages messages (1,000,000 by default: 9.3 hours), and a tenth of
+it, in each storage (--storage: a ROS 1 .bag, a ROS 2 bag of SQLite .db3 files, one
+of MCAP files; all three by default); then runs, each in its own process:
 
 - bare:    rosbags' AnyReader reading and deserialising every message (the least any
            replay must do);
@@ -20,7 +21,7 @@ grow with the recording; what the replay holds beyond the bare read should be fl
 (the runtime holds what the spec's windows and horizons need, not the recording).
 
     python benchmarks/bench_replay.py                      # 1,000,000 messages
-    python benchmarks/bench_replay.py --messages 100000 --json out.json
+    python benchmarks/bench_replay.py --messages 100000 --storage mcap --json out.json
 """
 
 from __future__ import annotations
@@ -29,16 +30,23 @@ import argparse
 import importlib.util
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import IO, Any, TypeVar
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import peak
 
 ROOT = Path(__file__).resolve().parent.parent
 SPEC = ROOT / "examples" / "carla" / "abs.rmv"
 CYCLE_NS = 30 * 10**9
+T = TypeVar("T")
 BARE = """
 import sys
 from pathlib import Path
@@ -62,25 +70,35 @@ def _scenario() -> Any:
     return module
 
 
-def write_recording(path: Path, messages: int) -> int:
-    """The scenario repeated up to `messages` messages; each cycle's messages are
-    serialised once and written at shifted times. Returns the number of cycles
-    begun."""
-    from rosbags.rosbag1 import Writer
+STORAGES = ("bag", "db3", "mcap")  # ROS 1; ROS 2's SQLite and MCAP
+
+
+def write_recording(path: Path, messages: int, storage: str = "bag") -> int:
+    """The scenario repeated up to `messages` messages, as a ROS 1 bag or a ROS 2
+    bag folder of `storage`; each cycle's messages are serialised once and written at
+    shifted times. Returns the number of cycles begun."""
+    from rosbags.rosbag1 import Writer as Bag1Writer
+    from rosbags.rosbag2 import StoragePlugin
+    from rosbags.rosbag2 import Writer as Bag2Writer
     from rosbags.typesys import Stores
 
     scenario = _scenario()
-    store = scenario.typestore(Stores.ROS1_NOETIC)
-    cycle = [
-        (t, topic, store.serialize_ros1(m, m.__msgtype__))
-        for t, topic, m in scenario.messages(store)
-    ]
-    path.unlink(missing_ok=True)
+    ros1 = storage == "bag"
+    store = scenario.typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+    serialize = store.serialize_ros1 if ros1 else store.serialize_cdr
+    cycle = [(t, topic, serialize(m, m.__msgtype__)) for t, topic, m in scenario.messages(store)]
+    kinds = ((scenario.STATUS, scenario.STATUS_TYPE), (scenario.OBJECTS, scenario.OBJECTS_TYPE))
+    _remove(path)
+    if ros1:
+        writer: Any = Bag1Writer(path)
+        extra: dict[str, Any] = {"callerid": scenario.BRIDGE}
+    else:
+        plugin = StoragePlugin.SQLITE3 if storage == "db3" else StoragePlugin.MCAP
+        writer, extra = Bag2Writer(path, version=9, storage_plugin=plugin), {}
     written = 0
-    with Writer(path) as writer:
-        kinds = ((scenario.STATUS, scenario.STATUS_TYPE), (scenario.OBJECTS, scenario.OBJECTS_TYPE))
+    with writer:
         connections = {
-            topic: writer.add_connection(topic, kind, typestore=store, callerid=scenario.BRIDGE)
+            topic: writer.add_connection(topic, kind, typestore=store, **extra)
             for topic, kind in kinds
         }
         while written < messages:
@@ -91,36 +109,63 @@ def write_recording(path: Path, messages: int) -> int:
     return -(-messages // len(cycle))
 
 
-def _measure(command: list[str]) -> tuple[float, int, str]:
-    """Wall time, peak RSS (bytes) and standard output of one process."""
-    with tempfile.TemporaryFile() as out:
+def _write_in_child(path: Path, messages: int, storage: str) -> int:
+    """`write_recording` in a process of its own: a child's peak RSS counts the memory
+    of the process it was started from, and writing a million messages grew this one
+    to 1.3 GB (both measured processes then reported 1,301 MB)."""
+    command = [sys.executable, __file__, "--write", str(path), str(messages), storage]
+    return int(subprocess.run(command, check=True, capture_output=True, text=True).stdout)
+
+
+def _remove(path: Path) -> None:
+    if path.is_dir():
+        shutil.rmtree(path)
+    else:
+        path.unlink(missing_ok=True)
+
+
+def _size(path: Path) -> int:
+    files = path.rglob("*") if path.is_dir() else [path]
+    return sum(f.stat().st_size for f in files if f.is_file())
+
+
+def _measure(command: list[str], read: Callable[[IO[str]], T]) -> tuple[float, int, T]:
+    """Wall time, peak RSS (bytes: the process's own, benchmarks/peak.py) and what
+    `read` makes of the standard output of one process, read line by line (the
+    million-message replay's output, read whole, was 1.3 GB)."""
+    with tempfile.TemporaryFile("w+", encoding="utf-8") as out:
         start = time.perf_counter()
-        process = subprocess.Popen(command, stdout=out, stderr=subprocess.PIPE)
-        _, status, usage = os.wait4(process.pid, 0)
+        usage = peak.run(command, stdout=out)
         elapsed = time.perf_counter() - start
-        process.returncode = os.waitstatus_to_exitcode(status)
-        error = process.stderr.read().decode() if process.stderr else ""
+        if usage.returncode not in (0, 1):
+            raise SystemExit(f"{command[:4]} failed ({usage.returncode}): {usage.stderr}")
         out.seek(0)
-        text = out.read().decode()
-    if process.returncode not in (0, 1):
-        raise SystemExit(f"{command[:4]} failed ({process.returncode}): {error}")
-    return elapsed, usage.ru_maxrss * 1024, text
+        return elapsed, usage.peak_bytes, read(out)
+
+
+def _replay_output(out: IO[str]) -> tuple[dict[str, Any], int]:
+    """The replay's counters, and how many times ABSCheck was violated."""
+    counters, violations = {}, 0
+    for line in out:
+        record = json.loads(line)
+        if record["kind"] == "counter":
+            counters[record["name"]] = record["value"]
+        elif record["kind"] == "verdict" and record["property"] == "ABSCheck":
+            violations += record["verdict"] == "false"
+    return counters, violations
 
 
 def measure(path: Path, cycles: int) -> dict[str, Any]:
-    bare_time, bare_rss, bare_out = _measure([sys.executable, "-c", BARE, str(path)])
-    count = int(bare_out)
+    bare_time, bare_rss, count = _measure(
+        [sys.executable, "-c", BARE, str(path)], lambda out: int(out.read())
+    )
     replay = [sys.executable, "-m", "rmvdsl.cli", "replay", str(SPEC), str(path)]
-    replay_time, replay_rss, replay_out = _measure([*replay, "--format", "jsonl"])
-    records = [json.loads(line) for line in replay_out.splitlines()]
-    counters = {r["name"]: r["value"] for r in records if r["kind"] == "counter"}
-    violations = [
-        r for r in records
-        if r["kind"] == "verdict" and r["property"] == "ABSCheck" and r["verdict"] == "false"
-    ]  # fmt: skip
+    replay_time, replay_rss, (counters, violations) = _measure(
+        [*replay, "--format", "jsonl"], _replay_output
+    )
     assert counters["messages"] == count, (counters["messages"], count)
     # one violation per full cycle (the second brake of each); a cut cycle may lack it
-    assert cycles - 1 <= len(violations) <= cycles, (len(violations), cycles)
+    assert cycles - 1 <= violations <= cycles, (violations, cycles)
     return {
         "messages": count,
         "bare_seconds": bare_time,
@@ -130,47 +175,74 @@ def measure(path: Path, cycles: int) -> dict[str, Any]:
         "replay_per_second": count / replay_time,
         "replay_peak_rss": replay_rss,
         "replay_fraction_of_bare": bare_time / replay_time,
-        "violations": len(violations),
+        "violations": violations,
     }
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--messages", type=int, default=1_000_000)
-    parser.add_argument("--json", help="write the figures to this file")
-    args = parser.parse_args(argv)
-    os.environ["PYTHONPATH"] = str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")
-    results = {}
-    with tempfile.TemporaryDirectory(prefix="rmv-bench-replay-") as folder:
-        # The solver's answers in a cache of this run's own (never the user's): the
-        # first replay fills it, as a user's first replay of a spec does.
-        os.environ["RMV_CACHE_DIR"] = str(Path(folder) / "cache")
-        for label, count in (("tenth", args.messages // 10), ("whole", args.messages)):
-            path = Path(folder) / f"{label}.bag"
-            print(f"writing {count:,} messages ...", file=sys.stderr)
-            cycles = write_recording(path, count)
-            print(f"measuring {path.stat().st_size / 1e6:,.0f} MB ...", file=sys.stderr)
-            results[label] = measure(path, cycles)
-            path.unlink()
-    print(f"{'recording':>10} {'messages':>10} {'bare msg/s':>11} {'replay msg/s':>13} "
-          f"{'replay/bare':>12} {'bare RSS':>9} {'replay RSS':>11}")  # fmt: skip
-    for label, r in results.items():
-        print(
-            f"{label:>10} {r['messages']:>10,} {r['bare_per_second']:>11,.0f} "
-            f"{r['replay_per_second']:>13,.0f} {r['replay_fraction_of_bare']:>11.0%} "
-            f"{r['bare_peak_rss'] / 2**20:>7.0f}MB {r['replay_peak_rss'] / 2**20:>9.0f}MB"
-        )
-    whole, tenth = results["whole"], results["tenth"]
-    # rosbags' reader holds the recording's index, which grows with its length in
-    # both processes; what the replay holds beyond the bare read is the runtime's.
-    own = [r["replay_peak_rss"] - r["bare_peak_rss"] for r in (tenth, whole)]
-    print(f"replay speed: {whole['replay_fraction_of_bare']:.0%} of the bare read (goal >= 30%)")
-    print(
-        f"replay memory beyond the bare read: {own[0] / 2**20:.0f} MB on a tenth, "
-        f"{own[1] / 2**20:.0f} MB on the whole recording (goal: flat)"
+    parser.add_argument(
+        "--storage", action="append", choices=STORAGES, help="bag, db3 or mcap (default: all)"
     )
-    for result, extra in zip((tenth, whole), own, strict=True):
-        result["replay_rss_beyond_bare"] = extra
+    parser.add_argument("--json", help="write the figures to this file")
+    parser.add_argument("--write", nargs=3, metavar=("PATH", "MESSAGES", "STORAGE"),
+                        help=argparse.SUPPRESS)  # fmt: skip
+    args = parser.parse_args(argv)
+    if args.write:  # a child of `_write_in_child`
+        print(write_recording(Path(args.write[0]), int(args.write[1]), args.write[2]))
+        return 0
+    os.environ["PYTHONPATH"] = str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")
+    results: dict[str, dict[str, Any]] = {}
+    with tempfile.TemporaryDirectory(prefix="rmv-bench-replay-") as folder:
+        # The solver's answers in a cache of this run's own (never the user's),
+        # filled by a replay of one cycle first: a first replay also checks the spec,
+        # which grew the first recording's peak RSS by 40 MB (and flatness is read
+        # from the tenth against the whole).
+        os.environ["RMV_CACHE_DIR"] = str(Path(folder) / "cache")
+        warm = Path(folder) / "warm.bag"
+        _write_in_child(warm, 1, "bag")
+        _measure(
+            [sys.executable, "-m", "rmvdsl.cli", "replay", str(SPEC), str(warm)], lambda out: None
+        )
+        for storage in args.storage or STORAGES:
+            results[storage] = {}
+            for label, count in (("tenth", args.messages // 10), ("whole", args.messages)):
+                path = Path(folder) / (f"{label}.bag" if storage == "bag" else f"{label}_{storage}")
+                print(f"writing {count:,} messages ({storage}) ...", file=sys.stderr)
+                cycles = _write_in_child(path, count, storage)
+                print(f"measuring {_size(path) / 1e6:,.0f} MB ...", file=sys.stderr)
+                results[storage][label] = measure(path, cycles)
+                _remove(path)
+    columns = [
+        ("storage", 7),
+        ("recording", 10),
+        ("messages", 10),
+        ("bare msg/s", 11),
+        ("replay msg/s", 13),
+        ("replay/bare", 12),
+        ("bare RSS", 9),
+        ("replay RSS", 11),
+    ]
+    print(" ".join(f"{name:>{width}}" for name, width in columns))
+    for storage, rows in results.items():
+        for label, r in rows.items():
+            print(
+                f"{storage:>7} {label:>10} {r['messages']:>10,} {r['bare_per_second']:>11,.0f} "
+                f"{r['replay_per_second']:>13,.0f} {r['replay_fraction_of_bare']:>11.0%} "
+                f"{r['bare_peak_rss'] / 2**20:>7.0f}MB {r['replay_peak_rss'] / 2**20:>9.0f}MB"
+            )
+        whole, tenth = rows["whole"], rows["tenth"]
+        # rosbags' reader holds the recording's index, which grows with its length in
+        # both processes; what the replay holds beyond the bare read is the runtime's.
+        own = [r["replay_peak_rss"] - r["bare_peak_rss"] for r in (tenth, whole)]
+        print(
+            f"{storage}: replay {whole['replay_fraction_of_bare']:.0%} of the bare read; "
+            f"memory beyond it {own[0] / 2**20:.0f} MB on a tenth, "
+            f"{own[1] / 2**20:.0f} MB on the whole recording (goal: flat)"
+        )
+        for result, extra in zip((tenth, whole), own, strict=True):
+            result["replay_rss_beyond_bare"] = extra
     if args.json:
         Path(args.json).write_text(json.dumps(results, indent=2) + "\n", encoding="utf-8")
     return 0

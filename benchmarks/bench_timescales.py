@@ -46,6 +46,10 @@ from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import peak
+
 ROOT = Path(__file__).resolve().parent.parent
 Row = tuple[int, frozenset[str]]
 
@@ -336,16 +340,16 @@ def byte_compile() -> None:
 
 
 def measure(command: list[str]) -> tuple[float, float, str]:
-    """CPU seconds (user and system) and peak resident MB of one process, and its output."""
+    """CPU seconds (user and system) and peak resident MB of one process (its own:
+    benchmarks/peak.py), and its output."""
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     with tempfile.TemporaryFile() as out:
-        process = subprocess.Popen(command, stdout=out, env=env, cwd=ROOT)
-        _, status, usage = os.wait4(process.pid, 0)
-        if os.waitstatus_to_exitcode(status):
-            raise SystemExit(f"{command[:5]} failed with status {status}")
+        usage = peak.run(command, stdout=out, env=env, cwd=ROOT)
+        if usage.returncode:
+            raise SystemExit(f"{command[:5]} failed with status {usage.returncode}")
         out.seek(0)
         text = out.read().decode()
-    return usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024, text
+    return usage.cpu, usage.peak_bytes / 2**20, text
 
 
 def false_rows(segments: list[dict[str, Any]], count: int) -> list[int]:

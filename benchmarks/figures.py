@@ -144,16 +144,22 @@ def ros2_workload(data: dict[str, Any]) -> str:
     return _table(header, rows)
 
 
+STORAGE_NAMES = {"bag": "ROS 1 .bag", "db3": "ROS 2 .db3", "mcap": "ROS 2 .mcap"}
+
+
 def replay_speed(data: dict[str, Any]) -> str:
     rows = []
-    for label, row in data.items():
-        rows.append([label, f"{row['messages']:,}", _count(row["bare_per_second"]),
-                     _count(row["replay_per_second"]), f"{row['replay_fraction_of_bare']:.0%}",
-                     f"{row['bare_peak_rss'] / 2**20:.0f} MB",
-                     f"{row['replay_peak_rss'] / 2**20:.0f} MB",
-                     f"{row['replay_rss_beyond_bare'] / 2**20:.0f} MB"])  # fmt: skip
-    header = ["recording", "messages", "bare read msg/s", "replay msg/s", "replay / bare",
-              "bare peak RSS", "replay peak RSS", "replay beyond bare"]  # fmt: skip
+    for storage, recordings in data.items():
+        for label, row in recordings.items():
+            rows.append([STORAGE_NAMES.get(storage, storage), label, f"{row['messages']:,}",
+                         _count(row["bare_per_second"]), _count(row["replay_per_second"]),
+                         f"{row['replay_fraction_of_bare']:.0%}",
+                         f"{row['bare_peak_rss'] / 2**20:.0f} MB",
+                         f"{row['replay_peak_rss'] / 2**20:.0f} MB",
+                         f"{row['replay_rss_beyond_bare'] / 2**20:.0f} MB"])  # fmt: skip
+    header = ["storage", "recording", "messages", "bare read msg/s", "replay msg/s",
+              "replay / bare", "bare peak RSS", "replay peak RSS",
+              "replay beyond bare"]  # fmt: skip
     return _table(header, rows)
 
 
