@@ -281,7 +281,7 @@ OVERFLOWING = [(1, 1e308), (1.5, 1e308), (2, 5.0), (2.5, 6.0), (3, -1e308), (3.5
                (4, 1e200), (4.5, -1e200)]  # fmt: skip
 
 
-@pytest.mark.parametrize("index, function", enumerate(["sum", "stddev", "mean", "spread"]))
+@pytest.mark.parametrize("index, function", list(enumerate(["sum", "stddev", "mean", "spread"])))
 def test_a_window_too_great_for_a_double_is_no_point_in_either(server, tmp_path, index, function):
     """Windows whose value overflows to an infinity (a sum past 1.8e308, a square
     of 1e200): InfluxDB writes no such point and still writes the run's others,
@@ -294,7 +294,7 @@ def test_a_window_too_great_for_a_double_is_no_point_in_either(server, tmp_path,
     assert len(ours) < 4 and theirs == ours
 
 
-@pytest.mark.parametrize("index, function", enumerate(["mean", "stddev", "sum", "spread"]))
+@pytest.mark.parametrize("index, function", list(enumerate(["mean", "stddev", "sum", "spread"])))
 def test_sums_round_in_the_order_influxdb_adds(server, tmp_path, index, function):
     """Thirty windows of 2 to 9 random doubles: every window's value is InfluxDB's
     to the last bit. `mean` is the sum over the count (a running mean, which the
