@@ -315,7 +315,7 @@ class _PropertyAnalyzer(PropertyFindings):
             self.pool.setdefault(tuple(names), []).append(answer.witness)
         if answer.value != NO:
             return answer.value == YES
-        core = smallest_conflict(formulas, self.system, self.limits, answer.core)
+        core = smallest_conflict(formulas, self.system, self.limits)
         members = [names[i] for i in core] or names
         first, *others = members
         self.add(

@@ -106,12 +106,13 @@ def valid(
     )
 
 
-def conflict(
-    formulas: Sequence[Any], system: System | None, limits: Limits, core: Sequence[int] = ()
-) -> tuple[int, ...]:
+def conflict(formulas: Sequence[Any], system: System | None, limits: Limits) -> tuple[int, ...]:
     """A smallest subset of formulas that cannot hold together (each member needed:
     without any one of them the rest is not refuted), as indices; () when the
-    whole set is not refuted."""
+    whole set is not refuted. Of the subsets that are smallest in this sense, the
+    one deletion in the formulas' order leaves, whatever z3's unsat cores: those
+    depend on what the process asked z3 before, and a check with workers and one
+    without reported different pairs of one conflicting group."""
     mentioned = {name for f in formulas for name in facts(f).propositions}
     system = (system or System()).restricted(mentioned)
     key = digest(
@@ -121,43 +122,40 @@ def conflict(
         list(formulas),
         system.key(),
         limits.key(),
-        list(core),
+        "in order",
     )
     cache = default_cache()
     cached = cache.get(key)
     if cached is not None and isinstance(cached.get("members"), list):
         return tuple(int(m) for m in cached["members"])
-    members, complete = _smallest(formulas, system, limits, core)
+    members, complete = _smallest(formulas, system, limits)
     if complete:
         cache.put(key, {"members": list(members)})
     return members
 
 
 def _smallest(
-    formulas: Sequence[Any], system: System, limits: Limits, core: Sequence[int]
+    formulas: Sequence[Any], system: System, limits: Limits
 ) -> tuple[tuple[int, ...], bool]:
-    """Deletion-based minimisation; False when a limit cut a refutation short
-    (then the result may not be the smallest, and is not cached). A subset a trace
-    satisfies is no conflict: the witness search says so at once, where a
-    refutation would search until its time limit (found by fuzzing: 5 s for
+    """Deletion-based minimisation, in the formulas' order; False when a limit cut a
+    refutation short (then the result may not be the smallest, and is not cached).
+    A subset a trace satisfies is no conflict: the witness search says so at once,
+    where a refutation would search until its time limit (found by fuzzing: 5 s for
     `eventually[<11s] p and always[<10s] not p` alone)."""
     names = {n for f in formulas for n in system.names(set(facts(f).propositions))}
-    members = list(core) or list(range(len(formulas)))
-    verdict, found = refute([formulas[i] for i in members], system, names, limits)
+    members = list(range(len(formulas)))
+    verdict, _ = refute(list(formulas), system, names, limits)
     if verdict != "unsat":
         return (), verdict != "limit"
-    members = [members[i] for i in found]
     complete = True
     for candidate in list(members):
-        if candidate not in members:
-            continue  # an earlier core already left it out
         rest = [m for m in members if m != candidate]
         if not rest:
             break
         if satisfiable([formulas[i] for i in rest], system, limits).value == YES:
             continue  # the rest can hold together: the candidate is in the conflict
-        verdict, found = refute([formulas[i] for i in rest], system, names, limits)
+        verdict, _ = refute([formulas[i] for i in rest], system, names, limits)
         if verdict == "unsat":
-            members = [rest[i] for i in found]
+            members = rest
         complete = complete and verdict != "limit"
     return tuple(sorted(members)), complete

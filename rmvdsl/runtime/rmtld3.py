@@ -25,9 +25,10 @@ from __future__ import annotations
 
 import heapq
 from collections.abc import Iterable, Iterator
-from typing import Any, NamedTuple
+from typing import Any
 
 from rmvdsl.runtime.durations import Compare, arithmetic, compare, duration
+from rmvdsl.runtime.facts import Facts, facts
 from rmvdsl.runtime.segments import Segment, continues, extended, merge, merged
 from rmvdsl.runtime.signal import (
     _INFINITY,
@@ -399,50 +400,6 @@ class Monitor:
         """Breakpoints held over all nodes: bounded by the horizon, not the trace."""
         carried = sum(len(n.witnesses.times) for n in self.order if isinstance(n, Temporal))
         return sum(len(signal.starts) for signal in self.signals()) + carried + len(self.pending)
-
-
-class Facts(NamedTuple):
-    """What one walk over a compiled formula finds (docs/semantics.md, "horizon")."""
-
-    future: Any  # how far it looks ahead
-    past: Any  # how far it looks back (infinite under a `since` with no bound)
-    propositions: tuple[str, ...]  # left to right, each once
-    has_past: bool  # a `since` (or `once`, `historically`) inside
-    reach: Any = 0  # how much history a monitor keeps for it, ahead and back (finite)
-
-
-def facts(formula: Any) -> Facts:
-    """Horizon, propositions and past-ness in one traversal, by a loop (formulas can
-    be 100,000 levels deep). The monitor's nodes compute the same horizon each for
-    itself; a test keeps the two equal."""
-    done: dict[int, tuple[Any, Any, bool, Any]] = {}
-    names: dict[str, None] = {}
-    stack: list[tuple[Any, bool]] = [(formula, False)]
-    while stack:
-        node, expanded = stack.pop()
-        children = [c for c in node[1:] if isinstance(c, tuple)]
-        if not expanded:
-            if node[0] == "prop":
-                names.setdefault(node[1], None)
-            stack.append((node, True))
-            stack.extend((child, False) for child in reversed(children))
-            continue
-        parts = [done[id(child)] for child in children]
-        future = max((p[0] for p in parts), default=0)
-        past = max((p[1] for p in parts), default=0)
-        backwards = node[0] == "since" or any(p[2] for p in parts)
-        reach = max((p[3] for p in parts), default=0)
-        if node[0] == "until":
-            future += node[2]
-        elif node[0] == "since" and node[2] is None:
-            past = _INFINITY
-        elif node[0] == "since":
-            past, reach = past + node[2], reach + node[2]
-        elif node[0] == "dur":
-            future += node[1]
-        done[id(node)] = (future, past, backwards, reach)
-    future, past, backwards, reach = done[id(formula)]
-    return Facts(future, past, tuple(names), backwards, future + reach)
 
 
 def _write_changes(signal: Signal, name: str, changes: list[Change]) -> None:
