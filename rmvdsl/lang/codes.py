@@ -664,8 +664,8 @@ was meant to check checks nothing. Check A's states, events and bounds.""",
         "conflicting properties",
         """Each property can hold alone, but no trace makes all of them hold at one time:
 on every run at least one of their monitors fires. The message names a smallest
-conflicting subset (z3 unsat core, minimised: drop any member and the rest can
-hold together), each member labelled in the source. Weaken one of them.""",
+conflicting subset (minimised in the properties' order: drop any member and the
+rest can hold together), each member labelled in the source. Weaken one of them.""",
     ),
     (
         "RMV515",
