@@ -142,7 +142,7 @@ def measure(command: list[str], output: Path) -> tuple[float, float]:
         usage = peak.run(command, stdout=out, env=env, cwd=ROOT)
         seconds = time.perf_counter() - start
     if usage.returncode:
-        raise SystemExit(f"{command[:4]} failed with status {usage.returncode}")
+        raise SystemExit(f"{command[:4]} failed with status {usage.returncode}: {usage.stderr}")
     return seconds, usage.peak_bytes / 2**20
 
 

@@ -346,7 +346,7 @@ def measure(command: list[str]) -> tuple[float, float, str]:
     with tempfile.TemporaryFile() as out:
         usage = peak.run(command, stdout=out, env=env, cwd=ROOT)
         if usage.returncode:
-            raise SystemExit(f"{command[:5]} failed with status {usage.returncode}")
+            raise SystemExit(f"{command[:5]} failed with status {usage.returncode}: {usage.stderr}")
         out.seek(0)
         text = out.read().decode()
     return usage.cpu, usage.peak_bytes / 2**20, text
