@@ -11,7 +11,8 @@ then measures in one run:
 - in process: the same edits' fast stages in this process, from scratch and
               incremental (each declaration's names and types reused while its
               text and what it looked up are unchanged), p50: the server's share;
-- memory:     the server's resident memory every 100 edits (goal: flat);
+- memory:     the server's resident memory every 100 edits (goal: flat), and that
+              of the processes it started (the solver process and its workers);
 - pausing:    a typist pausing 0.5 s between keys (past the 0.3 s debounce) in a
               property's bound, so the solver stages of each text run while the
               next key's fast stages are asked for: p50/p95/p99/max.
@@ -46,16 +47,16 @@ from rmvdsl.check import check
 from rmvdsl.grammar.grammars import bare_spec_parser
 
 
-def generate() -> str:
-    """About 2,000 lines in the shapes of bench_check.py's spec."""
+def generate(scale: int = 1) -> str:
+    """About 2,000 lines (times `scale`) in the shapes of bench_check.py's spec."""
     lines = ["system editing", "time unit s", 'messages "msg"', ""]
-    topics, variables = 100, 600
+    topics, variables, events, machines = 100 * scale, 600 * scale, 200 * scale, 20 * scale
     lines += [f'topic T{t}: pkg_msgs/Msg{t % 50} = "/robot/sensor{t}"' for t in range(topics)]
     lines += [f"var V{v} = T{v % topics}.field{v % 7}.value" for v in range(variables)]
-    for e in range(200):
+    for e in range(events):
         lines += [f"event E{e} = mean(V{e}) * 3.6", "    group by time(100ms)", "    fill previous"]
-    lines += [f"event B{b} when V{200 + b} > 0.8 and E{b} < 5" for b in range(200)]
-    for d in range(20):
+    lines += [f"event B{b} when V{events + b} > 0.8 and E{b} < 5" for b in range(events)]
+    for d in range(machines):
         names = [f"S{d}_{s}" for s in range(10)]
         lines += [
             f"transducer D{d} {{",
@@ -64,10 +65,10 @@ def generate() -> str:
         ]
         lines += [f"    {names[s]} -> {names[(s + 1) % 10]} on B{d * 10 + s}" for s in range(10)]
         lines.append("}")
-    lines += [f"alert A{a} {{ warn when V{400 + a} > 10 reset when V{400 + a} < 5 }}"
-              for a in range(200)]  # fmt: skip
-    lines += [f"property P{p}: S{p % 20}_0 -> eventually[<=10s] S{p % 20}_1 {{ rate = 10Hz }}"
-              for p in range(100)]  # fmt: skip
+    lines += [f"alert A{a} {{ warn when V{2 * events + a} > 10 reset when V{2 * events + a} < 5 }}"
+              for a in range(events)]  # fmt: skip
+    lines += [f"property P{p}: S{p % machines}_0 -> eventually[<=10s] S{p % machines}_1 "
+              "{ rate = 10Hz }" for p in range(100 * scale)]  # fmt: skip
     return "\n".join(lines) + "\n"
 
 
@@ -87,10 +88,20 @@ def resident_mb(pid: int) -> float:
     return kb / 1024
 
 
-async def run(edits: int) -> dict[str, Any]:
+def descendants(pid: int) -> list[int]:
+    """The processes a process started, and theirs (the solver process, its workers)."""
+    found = []
+    for task in os.listdir(f"/proc/{pid}/task"):
+        with open(f"/proc/{pid}/task/{task}/children", encoding="ascii") as listed:
+            for child in map(int, listed.read().split()):
+                found += [child, *descendants(child)]
+    return found
+
+
+async def run(edits: int, scale: int = 1) -> dict[str, Any]:
     folder = Path(tempfile.mkdtemp(prefix="rmv-bench-lsp-"))
     write_messages(str(folder))
-    text = generate()
+    text = generate(scale)
     path = folder / "editing.rmv"
     path.write_text(text, encoding="utf-8")
     uri = path.as_uri()
@@ -147,6 +158,8 @@ async def run(edits: int) -> dict[str, Any]:
             series.append(round(resident_mb(pid), 1))
     memory = {"after_100_mb": series[0], "after_all_mb": series[-1], "memory_mb": series}
     pausing = await _pausing_typist(client, uri, lines, edits + 2, published)
+    # after the pausing typist, whose pauses let solver stages run
+    memory["solver_processes_mb"] = round(sum(resident_mb(p) for p in descendants(pid)), 1)
     completions = await _completing_typist(client, uri, lines[target], target,
                                            edits + 2 + PAUSING_KEYS)  # fmt: skip
     await client.shutdown_async(None)
@@ -260,9 +273,11 @@ async def _until(condition: Any, timeout: float = 120.0) -> None:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--edits", type=int, default=1000)
+    parser.add_argument("--scale", type=int, default=1,
+                        help="the spec's size in 2,085-line units (10: 20,805 lines)")  # fmt: skip
     parser.add_argument("--json", help="write the figures to this file")
     args = parser.parse_args(argv)
-    figures = asyncio.run(run(args.edits))
+    figures = asyncio.run(run(args.edits, args.scale))
     print(f"{figures['lines']:,} lines, {figures['edits']:,} edits; bare parse "
           f"{figures['bare_parse_ms']:.1f} ms")  # fmt: skip
     print(f"  fast stages in process, p50: {figures['scratch_check_ms']:.1f} ms from scratch, "
@@ -282,7 +297,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"  completion after each key ({COMPLETIONS}), p50 / p95 / p99 / max: "
           + " / ".join(f"{c:.1f}" for c in completion) + " ms")  # fmt: skip
     print(f"  server memory after 100 edits {figures['after_100_mb']:.0f} MB, after all "
-          f"{figures['after_all_mb']:.0f} MB (every 100: {figures['memory_mb']})")  # fmt: skip
+          f"{figures['after_all_mb']:.0f} MB (every 100: {figures['memory_mb']}); its solver "
+          f"process and workers {figures['solver_processes_mb']:.0f} MB")  # fmt: skip
     if args.json:
         Path(args.json).write_text(json.dumps(figures, indent=2) + "\n", encoding="utf-8")
     return 0

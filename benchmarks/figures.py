@@ -109,6 +109,8 @@ def lsp_latency(data: dict[str, Any]) -> str:
          f"{data['after_100_mb']:.0f} / {data['after_all_mb']:.0f} MB"],
         ["the server's memory every 100 edits, lowest / highest",
          f"{min(data['memory_mb']):.0f} / {max(data['memory_mb']):.0f} MB"],
+        ["the solver process and its workers, after the pausing typist",
+         f"{data['solver_processes_mb']:.0f} MB" if "solver_processes_mb" in data else "-"],
     ]  # fmt: skip
     return _table(["measure", "figure"], rows)
 
@@ -232,6 +234,7 @@ BLOCKS: dict[str, tuple[str, Callable[[dict[str, Any]], str]]] = {
     "monitor-per-change": ("monitor.json", monitor_per_change),
     "eval-end-to-end": ("eval.json", eval_end_to_end),
     "lsp-latency": ("lsp.json", lsp_latency),
+    "lsp-latency-20k": ("lsp_20k.json", lsp_latency),
     "ros2-node": ("ros2.json", ros2_node),
     "ros2-workload": ("ros2.json", ros2_workload),
     "replay-speed": ("replay.json", replay_speed),

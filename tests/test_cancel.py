@@ -3,6 +3,7 @@ leaving nothing behind that a later check would see."""
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import threading
 from pathlib import Path
@@ -64,3 +65,31 @@ def _collect(failed: list[BaseException]) -> None:
         checkpoint()
     except BaseException as error:
         failed.append(error)
+
+
+def test_a_stopped_stage_leaves_nothing_for_the_collector():
+    """What a stopped stage held is freed when its Cancelled is caught, not at the
+    next full collection: the error handed out of the deep stack kept a cycle (the
+    error, its traceback's frames, the list it was handed in), and an editor
+    pausing between keys left 19 MB behind per stopped stage."""
+    import gc
+    import weakref
+
+    class Held:
+        pass
+
+    held: list[weakref.ref[Held]] = []
+
+    def stage() -> None:
+        inner = Held()
+        held.append(weakref.ref(inner))
+        with stoppable(lambda: True):
+            checkpoint()
+
+    gc.disable()  # only reference counting frees anything now
+    try:
+        with contextlib.suppress(Cancelled):
+            deep(stage)
+        assert held and held[0]() is None
+    finally:
+        gc.enable()

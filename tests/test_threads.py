@@ -45,3 +45,31 @@ def test_checking_in_threads_is_safe_and_gives_the_same_answers(tmp_path: Path):
         found = list(pool.map(lambda t: (t, [d.code for d in check(t).diagnostics]), targets))
     for target, codes in found:
         assert codes == expected[target], target
+
+
+def test_a_parser_asked_for_by_threads_at_once_is_built_once():
+    """The editor's event loop and its lanes ask for the same tables at the same
+    moment: one builds them, the others wait and get the same parser."""
+    import threading
+    import time
+
+    from rmvdsl.grammar.grammars import built_once
+
+    builds: list[str] = []
+
+    @built_once
+    def tables(which: str) -> object:
+        builds.append(which)
+        time.sleep(0.2)  # long enough for every thread to ask meanwhile
+        return object()
+
+    start = threading.Barrier(6)
+
+    def ask(which: str) -> object:
+        start.wait()
+        return tables(which)
+
+    with ThreadPoolExecutor(max_workers=6) as pool:
+        got = list(pool.map(ask, ["spec"] * 4 + ["latex"] * 2))
+    assert sorted(builds) == ["latex", "spec"]
+    assert len({id(g) for g in got[:4]}) == 1 and len({id(g) for g in got[4:]}) == 1

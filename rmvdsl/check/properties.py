@@ -12,21 +12,20 @@ claims nothing.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
 from rmvdsl.check.analysis import AnalysisResult
 from rmvdsl.check.conditions import Conditions
 from rmvdsl.check.model import Model
-from rmvdsl.check.property_findings import PropertyFindings
+from rmvdsl.check.property_findings import PropertyFacts, PropertyFindings, PropertyReport
 from rmvdsl.check.property_system import system_of
 from rmvdsl.check.types import TypeInfo
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
 from rmvdsl.grammar.printer import formula as show_formula
 from rmvdsl.lang.diagnostics import Diagnostic, Label, error, warning
-from rmvdsl.logic.answers import NO, UNKNOWN, YES, Answer, Witness
+from rmvdsl.logic.answers import NO, UNKNOWN, YES, Witness
 from rmvdsl.logic.compile import CompileError, compile_formula
 from rmvdsl.logic.parallel import Question, answer_all, implied_all
 from rmvdsl.logic.sat import Limits, satisfiable, valid
@@ -40,21 +39,6 @@ from rmvdsl.util.cancel import checkpoint
 # with 20 to 40 properties): past this many properties it is skipped, as
 # docs/verification.md and RMV515 say.
 REDUNDANCY_LIMIT = 24
-
-
-@dataclass
-class PropertyFacts:
-    """What the analyses found about one property, for the editor and `--witnesses`."""
-
-    formula: Any
-    satisfiable: Answer | None = None
-    valid: Answer | None = None
-
-
-@dataclass
-class PropertyReport:
-    facts: dict[str, PropertyFacts] = field(default_factory=dict)
-    diagnostics: list[Diagnostic] = field(default_factory=list)
 
 
 def analyze_properties(

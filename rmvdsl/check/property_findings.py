@@ -1,9 +1,12 @@
-"""What the property analysis reports, one wording each: a property impossible on
-the system (RMV511, with a trace of pure logic where it holds), one the solver could
-not decide (RMV516), one that others imply (RMV515). A part of the analyzer."""
+"""What the property analysis reports: what it found about each property (read by
+the editor, which imports no solver, and by `--witnesses`), and its diagnostics, one
+wording each: a property impossible on the system (RMV511, with a trace of pure
+logic where it holds), one the solver could not decide (RMV516), one that others
+imply (RMV515). A part of the analyzer."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from typing import Any
 
 from rmvdsl.check.model import Model
@@ -13,6 +16,21 @@ from rmvdsl.logic.answers import Answer, Witness
 from rmvdsl.logic.system import System
 from rmvdsl.runtime.rmtld3 import facts as formula_facts
 from rmvdsl.runtime.wording import counted
+
+
+@dataclass
+class PropertyFacts:
+    """What the analyses found about one property, for the editor and `--witnesses`."""
+
+    formula: Any
+    satisfiable: Answer | None = None
+    valid: Answer | None = None
+
+
+@dataclass
+class PropertyReport:
+    facts: dict[str, PropertyFacts] = field(default_factory=dict)
+    diagnostics: list[Diagnostic] = field(default_factory=list)
 
 
 class PropertyFindings:

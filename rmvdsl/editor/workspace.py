@@ -37,6 +37,7 @@ __all__ = [
     "rename",
     "semantic_tokens",
     "symbol_at",
+    "warm_up",
 ]  # fmt: skip
 
 
@@ -63,6 +64,16 @@ class Workspace:
         with self._lock:
             self._open.pop(_key(path), None)
 
+    def documents(self) -> dict[str, str]:
+        """Every open document's text, by path."""
+        with self._lock:
+            return dict(self._open)
+
+    def show(self, documents: dict[str, str]) -> None:
+        """Exactly these documents open (another Workspace's `documents()`)."""
+        with self._lock:
+            self._open = {_key(path): text for path, text in documents.items()}
+
     def text(self, path: str) -> str | None:
         with self._lock:
             return self._open.get(_key(path))
@@ -76,6 +87,15 @@ class Workspace:
         """`rmv check` of `path` as the open documents say it is now."""
         options.setdefault("incremental", self.incremental)
         return check(path, self.text(path), read=self.read, solver=solver, **options)
+
+
+def warm_up() -> None:
+    """Build what requests build on first use: the grammar's tables that completion
+    (and the recovery from a syntax error) replay tokens on. An editor calls it
+    once its first text is checked, so no keystroke pays for it."""
+    from rmvdsl.grammar.grammars import recognizer
+
+    recognizer()
 
 
 @dataclass(frozen=True)

@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import functools
 import re
+import threading
+from collections.abc import Callable
 from importlib import resources
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from lark import Lark, Token
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput
@@ -19,6 +21,23 @@ if TYPE_CHECKING:  # the declarations' builder is loaded by the parsers that bui
     from rmvdsl.grammar.builder import AstBuilder
 
 _SPEC_GRAMMAR_FILES = ("rmv.lark", "expr.lark", "formula.lark", "lexical.lark")
+_Built = TypeVar("_Built")
+
+
+def built_once(build: Callable[..., _Built]) -> Callable[..., _Built]:
+    """functools.cache, whose first call builds while other threads asking at the
+    same time wait for it: the editor's event loop and its lanes ask for the same
+    parser at once, and each would otherwise build its own (a second or more of
+    lark's table building, paid by whichever request came first)."""
+    cached = functools.cache(build)
+    lock = threading.Lock()
+
+    @functools.wraps(build)
+    def get(*args: Any) -> _Built:
+        with lock:
+            return cached(*args)
+
+    return get
 
 
 _FRIENDLY = {
@@ -72,7 +91,7 @@ def _building(files: tuple[str, ...], start: list[str], builder: Any) -> Lark:
     )
 
 
-@functools.cache
+@built_once
 def spec_parser() -> tuple[Lark, AstBuilder]:
     from rmvdsl.grammar.builder import AstBuilder
 
@@ -80,7 +99,7 @@ def spec_parser() -> tuple[Lark, AstBuilder]:
     return _building(_SPEC_GRAMMAR_FILES, ["start", "formula", "term"], builder), builder
 
 
-@functools.cache
+@built_once
 def formula_parser() -> tuple[Lark, FormulaRules]:
     """The spec grammar from `formula` and `term` only, building formulas alone: a
     formula given on its own (`rmv eval`, `rmv sat`) loads no declaration's rules and
@@ -89,7 +108,7 @@ def formula_parser() -> tuple[Lark, FormulaRules]:
     return _building(_SPEC_GRAMMAR_FILES, ["formula", "term"], builder), builder
 
 
-@functools.cache
+@built_once
 def latex_parser() -> tuple[Lark, AstBuilder]:
     from rmvdsl.grammar.builder import AstBuilder
 
@@ -97,13 +116,15 @@ def latex_parser() -> tuple[Lark, AstBuilder]:
     return _building(("latex.lark",), ["start", "term"], builder), builder
 
 
-@functools.cache
+@built_once
 def recognizer() -> Lark:
-    """The spec grammar with no actions: replays token streams to ask what fits."""
-    return bare_spec_parser()
+    """The spec grammar with no actions: replays token streams to ask what fits
+    (completion, and the parser's recovery from a syntax error). Its tables are
+    kept in the temporary folder, as the building parsers' are."""
+    return bare_spec_parser(cache=True)
 
 
-def bare_spec_parser() -> Lark:
+def bare_spec_parser(cache: bool = False) -> Lark:
     """lark alone on the same grammar, building its own parse tree (the benchmark's
     baseline)."""
     return Lark(
@@ -112,10 +133,11 @@ def bare_spec_parser() -> Lark:
         lexer="contextual",
         start=["start", "formula", "term"],
         maybe_placeholders=True,
+        cache=cache,
     )
 
 
-@functools.cache
+@built_once
 def terminal_texts(which: str) -> dict[str, str]:
     parser = spec_parser()[0] if which == "spec" else latex_parser()[0]
     texts = dict(_FRIENDLY) if which == "spec" else {**_FRIENDLY, **_LATEX_FRIENDLY}
@@ -161,7 +183,7 @@ def accepted_words(text: str, start: int, offset: int) -> tuple[frozenset[str], 
     return frozenset(words), "NAME" in accepted
 
 
-@functools.cache
+@built_once
 def reserved_names() -> frozenset[str]:
     """Words that cannot stand for a name inside an expression or a formula (`and`,
     `true`, `always`, ...): a declaration named so could never be referred to."""

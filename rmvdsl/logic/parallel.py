@@ -26,7 +26,6 @@ import importlib
 import os
 import pickle
 import queue
-import struct
 import subprocess
 import sys
 import threading
@@ -39,7 +38,7 @@ from rmvdsl.logic.redundancy import group_key, implied
 from rmvdsl.logic.sat import Limits, ask, cached_answer, cut_system, keep, question_key
 from rmvdsl.logic.system import System
 from rmvdsl.util.cache import Cache
-from rmvdsl.util.processes import module_command
+from rmvdsl.util.processes import module_command, read_frame, write_frame
 
 # Below this many unanswered questions, waking workers costs more than it saves.
 LEAST_PARALLEL = 8
@@ -233,8 +232,8 @@ class _Worker:
         assert self.process.stdin is not None and self.process.stdout is not None
         with self.turn:  # one request at a time on the pipe, whoever asks
             try:
-                _write(self.process.stdin, payload)
-                reply = _read(self.process.stdout)
+                write_frame(self.process.stdin, payload)
+                reply = read_frame(self.process.stdout)
             except OSError:
                 reply = None
         if reply is None:
@@ -258,27 +257,13 @@ def _stop_workers() -> None:
             worker.process.kill()
 
 
-def _write(stream: IO[bytes], payload: bytes) -> None:
-    stream.write(struct.pack("<Q", len(payload)) + payload)
-    stream.flush()
-
-
-def _read(stream: IO[bytes]) -> bytes | None:
-    header = stream.read(8)
-    if len(header) < 8:
-        return None
-    (size,) = struct.unpack("<Q", header)
-    payload = stream.read(size)
-    return payload if len(payload) == size else None
-
-
 def serve(source: IO[bytes], sink: IO[bytes]) -> None:
     """A worker's loop: a call in, its result out, until the input ends. Only the
     parent writes to this process's input (a pipe), naming its own functions."""
-    while (request := _read(source)) is not None:
+    while (request := read_frame(source)) is not None:
         module, name, args = pickle.loads(request)
         result = getattr(importlib.import_module(module), name)(*args)
-        _write(sink, pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL))
+        write_frame(sink, pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL))
 
 
 if __name__ == "__main__":

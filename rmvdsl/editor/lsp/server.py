@@ -53,6 +53,7 @@ def build(own_process: bool = False) -> RmvServer:
         path = ls.document(params.text_document.uri).path
         ls.state.workspace.close(path)
         ls.state.generation[path] = ls.state.generation.get(path, 0) + 1
+        ls.state.solver.cancel(path)
         # Nothing of a closed document stays: its checks go, and a request still
         # waiting for one is answered now.
         ls.state.results.pop(path, None)

@@ -21,13 +21,14 @@ from rmvdsl.check.model import Model, Symbol
 from rmvdsl.editor.lsp import convert
 from rmvdsl.editor.lsp.protocol import Protocol
 from rmvdsl.editor.mentions import Mention, mention_at, mentions
+from rmvdsl.editor.solver_process import Solved, SolverEnded, SolverProcess
 from rmvdsl.editor.workspace import (
     CheckResult,
     Workspace,
     symbol_at,
+    warm_up,
 )
 from rmvdsl.lang.source import Span
-from rmvdsl.util.cancel import Cancelled, stoppable
 
 DEBOUNCE = 0.3  # seconds of quiet before the solver stages run
 # How long a request waits for the check of the text it was sent against (an
@@ -47,13 +48,16 @@ class State:
     results: dict[str, CheckResult] = field(default_factory=dict)
     # Two lanes: the fast stages (what a keystroke must show at once) never queue
     # behind a solver stage; solver stages run one at a time, and one queued for a
-    # text that has changed since is skipped when its turn comes.
+    # text that has changed since is skipped when its turn comes. The solver lane's
+    # thread only waits: the stages run in the solver process.
     fast_lane: ThreadPoolExecutor = field(default_factory=lambda: _lane("rmv-fast"))
     solver_lane: ThreadPoolExecutor = field(default_factory=lambda: _lane("rmv-solver"))
+    solver: SolverProcess = field(default_factory=SolverProcess)
     published: dict[str, set[str]] = field(default_factory=dict)  # root -> paths shown
     mentions: dict[str, tuple[CheckResult, list[Mention]]] = field(default_factory=dict)
     # path -> done when the fast stages of its newest text have been published
     analysed: dict[str, asyncio.Future[None]] = field(default_factory=dict)
+    warmed: bool = False  # what requests build on first use is built (warm_up)
 
 
 def _lane(name: str) -> ThreadPoolExecutor:
@@ -114,6 +118,7 @@ class RmvServer(LanguageServer):
         path, state = document.path, self.state
         state.workspace.open(path, document.source)
         generation = state.generation[path] = state.generation.get(path, 0) + 1
+        state.solver.cancel(path)  # a solver stage of the text before is wasted work
         loop = asyncio.get_running_loop()
         waiter = state.analysed.get(path)
         if waiter is None or waiter.done():
@@ -124,6 +129,12 @@ class RmvServer(LanguageServer):
             if result is None or state.generation.get(path) != generation:
                 return
             self.publish(path, result)
+            if not state.warmed:
+                # On the solver lane, idle until the debounce ends: the first
+                # completion would otherwise build the grammar's tables itself, and
+                # on the fast lane the first key would wait for them.
+                state.warmed = True
+                state.solver_lane.submit(warm_up)
         finally:
             if state.generation.get(path) == generation and not waiter.done():
                 waiter.set_result(None)  # published, or the check failed: stop waiting
@@ -131,7 +142,11 @@ class RmvServer(LanguageServer):
         if state.generation.get(path) != generation:
             return
         full = functools.partial(self._solve_if_newest, path, generation)
-        result = await loop.run_in_executor(state.solver_lane, full)
+        try:
+            result = await loop.run_in_executor(state.solver_lane, full)
+        except SolverEnded as ended:  # started again at the next change
+            self.ignored(f"the solver stage of {path}: {ended}")
+            return
         if result is not None and state.generation.get(path) == generation:
             self.publish(path, result)
 
@@ -143,20 +158,21 @@ class RmvServer(LanguageServer):
         return self.state.workspace.check(path, solver=False)
 
     def _solve_if_newest(self, path: str, generation: int) -> CheckResult | None:
-        """The solver stages of the document's text, stopped at their next solver
-        call once a newer change arrives: their answer would be thrown away, and
-        meanwhile they would slow the newer text's fast stages."""
+        """The whole check of the document's text, in the solver process, stopped
+        at its next checkpoint once a newer change arrives (its answer would be
+        thrown away); with the fast stages' model of the same text, as published.
+        SolverEnded if the process ended."""
 
         def overtaken() -> bool:
             return self.state.generation.get(path) != generation
 
         if overtaken():
             return None
-        with stoppable(overtaken):
-            try:
-                return self.state.workspace.check(path, solver=True)
-            except Cancelled:
-                return None
+        answer = self.state.solver.solve(path, self.state.workspace.documents(), overtaken)
+        fast = self.state.results.get(path)
+        if not isinstance(answer, Solved) or fast is None or overtaken():
+            return None
+        return answer.with_model(fast)
 
     def publish(self, root: str, result: CheckResult) -> None:
         """The diagnostics of a check, per file (an import's show in that file)."""
