@@ -10,6 +10,7 @@ fast stages of the text they were sent against.
 
 from __future__ import annotations
 
+import asyncio
 import gc
 import sys
 
@@ -35,10 +36,10 @@ def build(own_process: bool = False) -> RmvServer:
             # lives as long as the document: kept out of the collector's full
             # sweeps, which otherwise stall one keystroke in twenty by 50 ms on a
             # 2,000-line spec. Unfrozen first, so what earlier documents left behind
-            # is collected, not kept for ever.
-            gc.unfreeze()
-            gc.collect()
-            gc.freeze()
+            # is collected, not kept for ever. On the fast lane, between two checks:
+            # frozen during one, the half-built model of the next key's text was
+            # kept for ever once it was garbage.
+            await asyncio.get_running_loop().run_in_executor(ls.state.fast_lane, _refreeze)
 
     @server.feature(types.TEXT_DOCUMENT_DID_CHANGE)
     async def did_change(ls: RmvServer, params: types.DidChangeTextDocumentParams) -> None:
@@ -64,6 +65,12 @@ def build(own_process: bool = False) -> RmvServer:
 
     features.register(server)
     return server
+
+
+def _refreeze() -> None:
+    gc.unfreeze()
+    gc.collect()
+    gc.freeze()
 
 
 def main() -> None:
