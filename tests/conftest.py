@@ -113,6 +113,9 @@ def assert_soaked(seen: dict, seconds: float, replayed: str) -> None:
     latencies = seen["latencies"]
     print(f"{len(seen['sent'])} messages, {len(seen['verdicts'])} verdict segments, rogues "
           f"reported after {latencies} s")  # fmt: skip
+    # Rogues start every 10 s from 5 s (5 in a minute); a slow start under load may
+    # push the last past the end. A negative latency on ROS 1: the report came before
+    # the driver's poll of the master listed the rogue.
     assert len(latencies) >= seconds // 14 and all(
         latency is not None and latency <= 2.0 for latency in latencies
     ), latencies  # fmt: skip

@@ -22,7 +22,7 @@ from typing import Any
 import z3
 
 from rmvdsl.check.conditions import Conditions
-from rmvdsl.check.solving import SOLVER_TIMEOUT_MS, names_in
+from rmvdsl.check.solving import condition_solver, names_in
 from rmvdsl.util.cache import default_cache, digest
 from rmvdsl.util.cancel import checkpoint
 
@@ -115,11 +115,11 @@ class _Group:
         # A context of its own: z3's checks slow with every term alive in a context
         # (rmvdsl.check.solving), and the group's terms are all this one holds.
         context = z3.Context()
-        self.solver = z3.Solver(ctx=context)
-        self.solver.set("timeout", SOLVER_TIMEOUT_MS)
-        self.solver.add(*(term.translate(context) for term in domains))
-        self.group, self.reads, self.readers = group, reads, readers
+        domains = [term.translate(context) for term in domains]
         self.conditions = {event: terms[event].translate(context) for event in group}
+        self.solver = condition_solver([*domains, *self.conditions.values()], context)
+        self.solver.add(*domains)
+        self.group, self.reads, self.readers = group, reads, readers
         self.literals = {event: z3.Bool(f"holds {event}", context) for event in group}
         self.event_of = {literal.get_id(): event for event, literal in self.literals.items()}
         for event in group:

@@ -2,10 +2,11 @@
 intrusion nodes, then for SECONDS: twist messages at 20 Hz from /player (stamped,
 their speeds from a seeded generator as tests/ros2/drive_soak.py's), an allowed
 node starting or stopping every 2 s (an /allowed_N publisher that sends nothing,
-or a /listener_N subscriber), and a /rogue publisher every 10 s for 4 s. Prints
-one JSON object: the messages sent (stamp, speed), the verdict segments, every
-intrusion report, each rogue's report latency (from when the master lists it),
-both nodes' RSS once a second and their exit codes.
+or a /listener_N subscriber), and a /rogue publisher every 10 s from 5 s, each for
+4 s after the master lists it. Prints one JSON object: the messages sent (stamp,
+speed), the verdict segments, every intrusion report, each rogue's report latency
+(from when the master lists it), both nodes' RSS once a second and their exit
+codes.
 
 usage: drive_soak.py LOGS PACKAGE_DIR SECONDS
 """
@@ -95,6 +96,7 @@ def soak(soak: Soak, seconds: float, nodes: list) -> dict:
                 churning.append(soak.peer(f"/listener_{soak.started}", "subscriber"))
             next_churn = now + CHURN
         if rogue is None and now >= next_rogue:
+            next_rogue += ROGUE_EVERY  # a fixed cadence, as tests/ros2/drive_soak.py's
             rogue = (soak.peer("/rogue", "quiet"), None, len(soak.reports))
         if rogue is not None:
             process, listed, before = rogue
@@ -106,7 +108,6 @@ def soak(soak: Soak, seconds: float, nodes: list) -> dict:
                 latencies.append(named[0] - listed if named else None)
                 core.stop(process)
                 rogue = None
-                next_rogue = time.monotonic() + ROGUE_EVERY
         if now >= next_sample:
             rss.append((round(now - started, 1), *(rss_kib(n.pid) for n in nodes)))
             next_sample += 1.0

@@ -10,7 +10,8 @@ intrusions are published on, `seconds`, `rate` (Hz of the twist messages this
 player sends, stamped, their speeds from `seed`), `churn` (seconds between an
 allowed node starting or stopping: a second /player publisher, or a /listener
 subscriber, which the whitelist allows) and `rogue_every` (seconds between rogue
-publishers, each left for 4 s). Prints JSON: the messages sent (stamp, speed), the
+publishers, one starting at each multiple of it after half of it, each left for
+4 s). Prints JSON: the messages sent (stamp, speed), the
 node's verdict segments, every intrusion report with the node it names, each rogue's
 report latency, both nodes' RSS samples and their exit codes.
 """
@@ -125,6 +126,9 @@ def run(soak: Soak, monitor: subprocess.Popen[bytes], watch: subprocess.Popen[by
                 churning.append(start(kinds[len(soak.sent) % 2], topic))
             next_churn = time.monotonic() + scenario["churn"]
         if rogue is None and now >= next_rogue:
+            # On a fixed cadence from the soak's start: a slow process start under load
+            # must not push later rogues out of the soak.
+            next_rogue += scenario["rogue_every"]
             rogue = (start("ros", topic), time.monotonic(), len(soak.reports))
         if rogue is not None:
             process, since, before = rogue
@@ -133,7 +137,6 @@ def run(soak: Soak, monitor: subprocess.Popen[bytes], watch: subprocess.Popen[by
                 latencies.append(named[0] - since if named else None)
                 stop(process)
                 rogue = None
-                next_rogue = time.monotonic() + scenario["rogue_every"]
         if now >= next_sample:
             rss.append((round(now - started, 1), rss_kib(monitor.pid), rss_kib(watch.pid)))
             next_sample += 1.0
