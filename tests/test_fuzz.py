@@ -38,7 +38,8 @@ def test_a_short_run_of_every_target_finds_nothing(tmp_path: Path):
     out = tmp_path / "fuzz.json"
     run = subprocess.run(
         [sys.executable, str(ROOT / "tests" / "fuzz" / "__main__.py"), "all", "--runs", "1000000",
-         "--seconds", "4", "--jobs", "2", "--timeout", "10", "--json", str(out)],
+         "--seconds", "4", "--jobs", "2", "--timeout", "10", "--instrument", "reached",
+         "--json", str(out)],
         cwd=ROOT, capture_output=True, text=True, timeout=600,
     )  # fmt: skip
     print(run.stdout)
