@@ -115,7 +115,7 @@ def test_a_dask_cluster_gives_the_sequential_results(runs, sequential, tmp_path)
     }
     assert named.code in (0, 1) and "10 recordings of 10 replayed" in named.out, named.err
     stuck = _results(hanging.out)
-    assert stuck["hangs.bag"]["status"] == "failed", hanging.err
+    assert stuck["hangs.bag"]["status"] == "failed", (stuck, hanging.err)
     assert stuck["hangs.bag"]["error"] == "took longer than --timeout 1 s, twice"
     assert _comparable(stuck["run0003.bag"]) == _comparable(sequential["run0003.bag"])
     joined = _results(chunked.out)

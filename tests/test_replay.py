@@ -736,3 +736,22 @@ def test_past_operators_with_no_bound_over_a_recording(rmv, recordings, tmp_path
     assert [v for v, *_ in by_name["NeverAbs"]] == ["true"]
     calm = [(f, t) for v, f, t in by_name["CalmSinceStop"] if v == "true"]
     assert calm[:2] == [(Fraction("12.5"), Fraction("18.1")), (23, calm[1][1])]
+
+
+def test_recordings_of_the_same_definitions_share_one_type_store():
+    """Each recording's reader builds a type store, which compiles a deserializer
+    per type on its first message (half of a fleet's replay of small recordings):
+    a store of the same definitions is reused, one of other definitions is not."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    from rmvdsl.tools.typestores import shared_store
+
+    def store(definition: str) -> object:
+        made = get_typestore(Stores.EMPTY)
+        made.register(get_types_from_msg(definition, "pkg/msg/Speed"))
+        return made
+
+    first, again, other = store("float64 x\n"), store("float64 x\n"), store("float32 x\n")
+    assert shared_store(first) is first
+    assert shared_store(again) is first
+    assert shared_store(other) is other

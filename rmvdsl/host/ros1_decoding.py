@@ -10,6 +10,7 @@ installed (the thesis's type-agnostic subscription). The objects are the ones
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -79,8 +80,11 @@ def _refusing(error: DecodeError) -> Decode:
     return decode
 
 
+@functools.lru_cache(maxsize=256)
 def _compile(type_name: str, definition: str) -> Decode:
-    """The decoder of `type_name` from its definition text."""
+    """The decoder of `type_name` from its definition text, made once per process:
+    a replay of many bags of one type, or a node whose publishers come and go,
+    compiles it once."""
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
     name = ros2_style(type_name)

@@ -15,7 +15,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from rmvdsl.lang import builtins
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.engine import (
     Endpoint,
@@ -28,6 +27,7 @@ from rmvdsl.runtime.engine import (
 )
 from rmvdsl.runtime.wording import counted, os_words
 from rmvdsl.tools.report.text import decimal_text, text_line
+from rmvdsl.tools.typestores import default_store, shared_store
 
 
 @dataclass
@@ -57,26 +57,6 @@ class Plan:
     problems: list[tuple[str, str]] = field(default_factory=list)  # (origin, text)
     skipped_variables: set[str] = field(default_factory=set)
     skipped_messages: dict[str, int] = field(default_factory=dict)  # counter -> count
-
-
-def _message_text(message: ir.Message) -> str:
-    return "\n".join(f"{f.type} {f.name}" for f in message.fields) + "\n"
-
-
-def _typestore(spec: ir.Spec) -> Any:
-    """The default types of the spec's ROS version plus every definition it
-    resolved (custom messages included), for recordings without their own."""
-    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-
-    default = "ROS1_NOETIC" if spec.ros.version == 1 else "ROS2_HUMBLE"
-    store = get_typestore(getattr(Stores, builtins.TYPE_STORES.get(spec.ros.distro, default)))
-    for message in spec.messages:
-        if message.name not in store.fielddefs:
-            try:
-                store.register(get_types_from_msg(_message_text(message), message.name))
-            except Exception:
-                continue
-    return store
 
 
 def _path_problem(store: Any, msgtype: str, variable: ir.Variable) -> str | None:
@@ -147,7 +127,7 @@ def open_reader(paths: Sequence[Path], spec: ir.Spec) -> Any:
         if not path.exists():
             raise ReplayError(f"{path}: no such file or directory")
     try:
-        reader = AnyReader(list(paths), default_typestore=_typestore(spec))
+        reader = AnyReader(list(paths), default_typestore=default_store(spec))
         reader.open()
     except AnyReaderError as error:
         raise ReplayError(
@@ -210,7 +190,8 @@ def decoder(reader: Any) -> Callable[[Any, bytes], Any]:
     md5sum, so a bag and a live system are read alike, and two bags holding two
     versions of a type each with its own; ROS 2: by the reader's type store."""
     if reader.is2:
-        return lambda connection, raw: reader.deserialize(raw, connection.msgtype)
+        deserialize = shared_store(reader.typestore).deserialize_cdr
+        return lambda connection, raw: deserialize(raw, connection.msgtype)
     from rmvdsl.host.ros1_decoding import Decoder
 
     ros1 = Decoder()
