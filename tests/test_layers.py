@@ -175,3 +175,11 @@ def test_the_dialects_are_the_standard_library_s():
             assert own or (top in sys.stdlib_module_names and top != "rmvdsl"), (
                 f"{path.relative_to(ROOT)} imports {module}"
             )
+
+
+def test_the_files_the_suite_starts_first_exist():
+    """conftest's LONGEST_FIRST orders the suite's files; a renamed one would drop
+    out of it silently and start last again."""
+    from conftest import LONGEST_FIRST, ROOT
+
+    assert all((ROOT / "tests" / name).is_file() for name in LONGEST_FIRST)
