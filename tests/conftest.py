@@ -62,7 +62,6 @@ LONGEST_FIRST = [
     "test_ros2.py",  # ~400: the workspace build, the soaks
     "test_c_dataflow.py",  # ~165
     "test_c_target.py",  # ~145
-    "test_fleet.py",  # ~100
     "test_fuzz.py",  # ~100
     "test_lsp.py",  # ~100
     "test_ros1.py",  # ~90

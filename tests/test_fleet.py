@@ -115,6 +115,7 @@ def test_a_dask_cluster_gives_the_sequential_results(runs, sequential, tmp_path)
     }
     assert named.code in (0, 1) and "10 recordings of 10 replayed" in named.out, named.err
     stuck = _results(hanging.out)
+    assert "hangs.bag" in stuck, (hanging.code, hanging.out, hanging.err)
     assert stuck["hangs.bag"]["status"] == "failed", (stuck, hanging.err)
     assert stuck["hangs.bag"]["error"] == "took longer than --timeout 1 s, twice"
     assert _comparable(stuck["run0003.bag"]) == _comparable(sequential["run0003.bag"])
@@ -310,3 +311,25 @@ def test_a_retry_goes_to_another_worker():
     assert _take(pending, 12, {0: 11}, 2) == (0, Job("a.bag"))
     pending.append((0, Job("a.bag")))
     assert _take(pending, 11, {0: 11}, 1) == (0, Job("a.bag"))
+
+
+def test_the_spec_is_sent_again_while_a_restarted_worker_refuses_it(monkeypatch):
+    """After a stuck task's worker is restarted, sending the spec to every worker can
+    meet it still starting: asked again a second later, the run goes on."""
+    from rmvdsl.tools.fleet import cluster
+
+    class Client:
+        calls = 0
+
+        def scatter(self, data, broadcast, hash):
+            Client.calls += 1
+            if Client.calls < 3:
+                raise OSError("Timed out trying to connect to tcp://127.0.0.1:1")
+            return "spec future"
+
+    monkeypatch.setattr(cluster.time, "sleep", lambda seconds: None)
+    tasks = cluster._Tasks(Client(), "{}", None, [])
+    assert tasks.spec == "spec future" and Client.calls == 3
+    Client.calls = -10  # every try refused: the error is the run's
+    with pytest.raises(OSError):
+        tasks.ship()

@@ -172,6 +172,8 @@ def _with_atheris(
 ) -> int:
     import atheris
 
+    # A target with no seeds of its own (lsp) starts from one of mixed bytes.
+    seeds = seeds or [b"\x00" * 8 + b"\x03\x10\x05\x07\x03\x20\x10\x04"]
     with atheris.instrument_imports(include=["rmvdsl", "fuzz"]):
         if args.instrument == "all":
             _import_everything()
@@ -181,8 +183,6 @@ def _with_atheris(
     corpus = _folder(scratch / "corpus")
     for number, seed in enumerate(seeds):
         (corpus / f"seed{number:04d}").write_bytes(seed)
-    if not seeds:
-        (corpus / "seed").write_bytes(b"\x00" * 8 + b"\x03\x10\x05\x07\x03\x20\x10\x04")
     artifacts = _folder(known.REGRESSIONS / args.target)
     hang = max(1, round(_hang_limit(args.target, args.timeout)))
     flags = [f"-runs={args.runs}", f"-timeout={hang}",

@@ -23,6 +23,7 @@ from rmvdsl.tools.fleet.worker import Options, failed, replay_one
 
 INSTALL = "pip install 'rmvdsl[fleet]'"
 RESENDS = 3  # a task the cluster dropped (its input lost in a restart) is sent again
+SHIP_TRIES = 5
 
 
 def client_for(address: str) -> Any:
@@ -53,8 +54,17 @@ class _Tasks:
         self.resent: dict[int, int] = {}
 
     def ship(self) -> Any:
-        """The spec, on every worker (again after a restart took a worker's copy)."""
-        return self.client.scatter(self.spec_json, broadcast=True, hash=False)
+        """The spec, on every worker (again after a restart took a worker's copy).
+        A worker still restarting can refuse it: asked again, up to SHIP_TRIES
+        times a second apart, before the run gives up."""
+        for attempt in range(SHIP_TRIES):
+            try:
+                return self.client.scatter(self.spec_json, broadcast=True, hash=False)
+            except Exception:  # Dask's comm and timeout errors, by their many names
+                if attempt == SHIP_TRIES - 1:
+                    raise
+                time.sleep(1.0)
+        raise AssertionError("unreachable")
 
     def submit(self, index: int, avoid: str | None = None, again: bool = False) -> None:
         """A job's next attempt (`again`: the same attempt, whose task the cluster
