@@ -137,10 +137,10 @@ def solve(
         if result != "unknown":  # a time limit: not an answer to keep
             cache.put(key, {"answer": result, "values": None})
         return result, ""
-    # In a context of its own, made for this question: the model z3 finds depends on
-    # the terms its context made before (the same spec checked twice in one process
-    # gave `V2 = 0.0`, then `V2 has no value`); a new context gives every process
-    # and every check the same values.
+    # In a context of its own, made for this question, which holds its terms alone.
+    # z3's model still varies with what the process asked before (the same spec
+    # checked after others gave `V2 has no value` for `V2 = 0.0`): round_values
+    # makes the values shown the same.
     context = z3.Context()
     question = [term.translate(context) for term in [*domains, *constraints]]
     symbols = {name: symbol.translate(context) for name, symbol in symbols.items()}
