@@ -2,7 +2,7 @@
 intrusion nodes, then for SECONDS: twist messages at 20 Hz from /player (stamped,
 their speeds from a seeded generator as tests/ros2/drive_soak.py's), an allowed
 node starting or stopping every 2 s (an /allowed_N publisher that sends nothing,
-or a /listener_N subscriber), and a /rogue publisher every 10 s from 5 s, each for
+or a /listener_N subscriber), and a /rogueNN publisher every 10 s from 5 s, each for
 4 s after the master lists it. Prints one JSON object: the messages sent (stamp,
 speed), the verdict segments, every intrusion report, each rogue's report latency
 (from when the master lists it), both nodes' RSS once a second and their exit
@@ -79,7 +79,7 @@ def soak(soak: Soak, seconds: float, nodes: list) -> dict:
     next_rogue = started + ROGUE_EVERY / 2
     next_sample = started
     churning: list = []
-    rogue = None  # (process, when the master listed it or None, reports before)
+    rogue = None  # (process, when the master listed it or None, reports before, name)
     latencies: list[float | None] = []
     rss: list[tuple[float, int, int]] = []
     while time.monotonic() - started < seconds:
@@ -97,14 +97,18 @@ def soak(soak: Soak, seconds: float, nodes: list) -> dict:
             next_churn = now + CHURN
         if rogue is None and now >= next_rogue:
             next_rogue += ROGUE_EVERY  # a fixed cadence, as tests/ros2/drive_soak.py's
-            rogue = (soak.peer("/rogue", "quiet"), None, len(soak.reports))
+            # Each rogue a node of its own name: one named as the last, 6 s after it
+            # stopped, may find the master still listing the last (it replaces that
+            # registration, and the graph does not change).
+            name = f"/rogue{len(latencies) + 1:02d}"
+            rogue = (soak.peer(name, "quiet"), None, len(soak.reports), name)
         if rogue is not None:
-            process, listed, before = rogue
-            if listed is None and core.publishes("/rogue", TOPIC):
-                rogue = (process, time.monotonic(), before)
+            process, listed, before, name = rogue
+            if listed is None and core.publishes(name, TOPIC):
+                rogue = (process, time.monotonic(), before, name)
             elif listed is not None and time.monotonic() - listed >= ROGUE_STAYS:
                 with soak.lock:
-                    named = [t for t, text in soak.reports[before:] if "/rogue" in text]
+                    named = [t for t, text in soak.reports[before:] if name in text]
                 latencies.append(named[0] - listed if named else None)
                 core.stop(process)
                 rogue = None
