@@ -57,14 +57,12 @@ class _Tasks:
         """The spec, on every worker (again after a restart took a worker's copy).
         A worker still restarting can refuse it: asked again, up to SHIP_TRIES
         times a second apart, before the run gives up."""
-        for attempt in range(SHIP_TRIES):
+        for _ in range(SHIP_TRIES - 1):
             try:
                 return self.client.scatter(self.spec_json, broadcast=True, hash=False)
             except Exception:  # Dask's comm and timeout errors, by their many names
-                if attempt == SHIP_TRIES - 1:
-                    raise
                 time.sleep(1.0)
-        raise AssertionError("unreachable")
+        return self.client.scatter(self.spec_json, broadcast=True, hash=False)
 
     def submit(self, index: int, avoid: str | None = None, again: bool = False) -> None:
         """A job's next attempt (`again`: the same attempt, whose task the cluster
