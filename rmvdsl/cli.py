@@ -7,9 +7,12 @@ Exit codes: 0 no errors, 1 errors found (or `fmt --check` would change a file),
 from __future__ import annotations
 
 import argparse
+import atexit
+import contextlib
 import importlib
 import os
 import sys
+import threading
 from collections.abc import Sequence
 
 from rmvdsl.commands.arguments import build_parser
@@ -89,5 +92,27 @@ def _explain(code: str) -> int:
     return EXIT_OK
 
 
+def entry() -> None:
+    """The `rmv` console script: main(), then out of the process without freeing
+    what the command built, one object at a time. A first check of a 16,000-line
+    spec holds millions of objects, and the interpreter's own exit freed them for
+    1.05 s after the last line was printed; the system takes the memory back at
+    once. Streams are flushed and exit handlers run (the solver's workers are
+    stopped) as at any exit; a command that left a thread running exits the
+    usual way, which waits for it."""
+    code = main()
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(OSError, ValueError):  # a closed pipe: nothing more to say
+            stream.flush()
+    running = [
+        t for t in threading.enumerate() if not t.daemon and t is not threading.current_thread()
+    ]
+    run_handlers = getattr(atexit, "_run_exitfuncs", None)
+    if running or run_handlers is None:
+        sys.exit(code)
+    run_handlers()
+    os._exit(code)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    entry()

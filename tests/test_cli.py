@@ -285,3 +285,91 @@ def test_check_shows_the_solver_s_progress_on_a_terminal(tmp_path):
     assert "\r[" in text and "solver: 1/" in text, text
     assert text.endswith("\r"), text  # the bar cleared: the terminal's line is free
     assert out.decode().strip().endswith("0 errors, 0 warnings")
+
+
+def test_the_command_exits_with_its_output_and_answers_kept_and_no_worker_left(tmp_path):
+    """The console script leaves without freeing the check's objects one by one
+    (rmvdsl.cli.entry): what it printed, the answers its cache writer held and the
+    stopping of the solver's workers must all happen before it goes."""
+    import subprocess
+    import time
+
+    from conftest import RMV
+
+    lines = ["system leaving", 'topic t: std_msgs/msg/Float64 = "/t"', "var x = t.data"]
+    lines += [f"event E{i} when x > {i}" for i in range(4)]
+    lines += [f"property P{i}: E{i % 4} -> eventually[<={i % 5 + 1}s] E{(i + 1) % 4}"
+              for i in range(12)]  # fmt: skip
+    spec = tmp_path / "leaving.rmv"
+    spec.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    cache = tmp_path / "cache-of-this-test"
+    env = dict(os.environ, RMV_CACHE_DIR=str(cache))
+    done = subprocess.run([*RMV, "check", "--jobs", "2", str(spec)], capture_output=True,
+                          text=True, env=env, timeout=120)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip().endswith("0 errors, 0 warnings") and done.stderr == ""
+    assert sum(1 for f in cache.rglob("*") if f.is_file()) >= 12  # the workers' answers, kept
+
+    def left() -> list[int]:  # processes still holding this test's cache folder
+        found = []
+        for pid in filter(str.isdigit, os.listdir("/proc")):
+            try:
+                environ = Path(f"/proc/{pid}/environ").read_bytes()
+            except OSError:
+                continue
+            if str(cache).encode() in environ:
+                found.append(int(pid))
+        return found
+
+    deadline = time.monotonic() + 10
+    while left() and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert left() == []
+
+
+def test_the_command_says_nothing_more_into_a_closed_pipe():
+    import subprocess
+
+    from conftest import RMV
+
+    command = " ".join([*RMV, "explain", "RMV200", "|", "head", "-c", "1"])
+    done = subprocess.run(["bash", "-o", "pipefail", "-c", command], cwd=ROOT,
+                          capture_output=True, text=True, timeout=60)  # fmt: skip
+    assert done.stdout == "#" or len(done.stdout) == 1
+    assert "Traceback" not in done.stderr and "Exception ignored" not in done.stderr
+
+
+def test_the_command_exits_the_usual_way_while_a_thread_it_started_runs(monkeypatch):
+    """entry() skips the interpreter's teardown only when nothing is left to wait
+    for; exit handlers run first, with the command's code."""
+    import threading
+
+    from rmvdsl import cli
+
+    ran: list[str] = []
+
+    class Left(Exception):
+        pass
+
+    def hard_exit(code: int) -> None:
+        ran.append(f"os._exit {code}")
+        raise Left
+
+    monkeypatch.setattr(cli.atexit, "_run_exitfuncs", lambda: ran.append("handlers"))
+    monkeypatch.setattr(cli.os, "_exit", hard_exit)
+    monkeypatch.setattr(cli, "main", lambda: 1)
+    with pytest.raises(Left):
+        cli.entry()
+    assert ran == ["handlers", "os._exit 1"]
+
+    release = threading.Event()
+    waiting = threading.Thread(target=release.wait)
+    waiting.start()
+    ran.clear()
+    try:
+        with pytest.raises(SystemExit) as usual:
+            cli.entry()
+    finally:
+        release.set()
+        waiting.join()
+    assert usual.value.code == 1 and ran == []

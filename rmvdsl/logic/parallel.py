@@ -252,9 +252,12 @@ def _workers(count: int) -> list[_Worker]:
 
 @atexit.register
 def _stop_workers() -> None:
-    for worker in _WORKERS:
-        if worker.alive:
-            worker.process.kill()
+    alive = [worker for worker in _WORKERS if worker.alive]
+    for worker in alive:
+        worker.process.kill()
+    for worker in alive:  # reaped: their time is the command's (`time rmv check`)
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            worker.process.wait(timeout=5)
 
 
 def serve(source: IO[bytes], sink: IO[bytes]) -> None:
