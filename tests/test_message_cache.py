@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from rmvdsl.check import check, msgfolders
+from rmvdsl.util.cache import flush
 
 SPEC = 'system cached\nmessages "msg"\ntopic S: demo_msgs/Status = "/s"\nvar V = S.{field}\n'
 
@@ -69,3 +70,53 @@ def test_a_broken_file_keeps_its_diagnostic_from_the_cache(tmp_path: Path):
     spec.write_text(SPEC.format(field="speed"), encoding="utf-8")
     first, second = _codes(spec), _codes(spec)
     assert "RMV304" in first and first == second
+
+
+@pytest.mark.parametrize("distro", ["noetic", "humble", "jazzy"])
+def test_a_kept_store_gives_the_definitions_rosbags_gives(distro, tmp_path, monkeypatch):
+    """The standard messages are kept in the cache folder (rosbags builds its store
+    in 120-210 ms a process); what is read back is what rosbags' store says."""
+    from rmvdsl.check import msgtypes
+
+    monkeypatch.setenv("RMV_CACHE_DIR", str(tmp_path))
+    fresh = msgtypes._read_store(distro, msgtypes.builtins.TYPE_STORES[distro])
+    msgtypes._store_definitions.cache_clear()
+    try:
+        assert msgtypes._store_definitions(distro) == fresh  # read, then kept
+        flush()
+        assert len(list((tmp_path / "stores").iterdir())) == 1
+        msgtypes._store_definitions.cache_clear()
+        monkeypatch.setattr(msgtypes, "_read_store", _never_read)
+        assert msgtypes._store_definitions(distro) == fresh  # from the kept file
+        kept = next((tmp_path / "stores").iterdir())
+        kept.write_text('{"std_msgs/msg/Bool": {"fields": 3}}', encoding="utf-8")
+        msgtypes._store_definitions.cache_clear()
+        monkeypatch.undo()
+        monkeypatch.setenv("RMV_CACHE_DIR", str(tmp_path))
+        assert msgtypes._store_definitions(distro) == fresh  # a damaged file: read again
+    finally:
+        msgtypes._store_definitions.cache_clear()
+
+
+def _never_read(distro: str, store_name: str) -> None:
+    raise AssertionError(f"the {store_name} store was read, not taken from the cache folder")
+
+
+def test_a_check_of_a_standard_message_imports_no_rosbags_once_its_store_is_kept(tmp_path):
+    import subprocess
+    import sys
+
+    spec = tmp_path / "standard.rmv"
+    spec.write_text('system s\ntopic T: std_msgs/Float64 = "/t"\nvar V = T.data\n'
+                    "event E when V > 1\n", encoding="utf-8")  # fmt: skip
+    code = (
+        "import sys; from rmvdsl.check import check; "
+        f"found = check({str(spec)!r}, use_environment=False).diagnostics; "
+        "assert not [d for d in found if d.severity.name == 'ERROR'], found; "
+        "print(sorted(m for m in sys.modules if m.startswith('rosbags.typesys')))"
+    )
+    env = {**os.environ, "RMV_CACHE_DIR": str(tmp_path / "cache")}
+    runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                           env=env, check=True) for _ in range(2)]  # fmt: skip
+    first, second = (run.stdout.strip() for run in runs)
+    assert first != "[]" and second == "[]"

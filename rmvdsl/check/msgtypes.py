@@ -7,10 +7,13 @@ file:line:column. Message names are kept in the ROS 2 form `pkg/msg/Type`.
 
 from __future__ import annotations
 
+import contextlib
+import importlib.util
 import os
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from functools import cache
+from typing import Any
 
 from rmvdsl.check.msgdefs import FieldType, MessageDef, canonical
 from rmvdsl.check.msgfolders import (
@@ -23,6 +26,7 @@ from rmvdsl.check.msgfolders import (
 from rmvdsl.lang import builtins
 from rmvdsl.lang.diagnostics import Diagnostic, closest, error
 from rmvdsl.lang.source import SourceMap, Span
+from rmvdsl.util.cache import Cache, cache_folder, digest
 
 ROS1_DISTROS = ("noetic", "melodic", "kinetic")
 ROS2_DISTROS = ("dashing", "eloquent", "foxy", "galactic", "humble", "iron", "jazzy", "kilted")
@@ -40,12 +44,77 @@ def ros_version(distro: str) -> int:
 # ---- rosbags type stores ----
 
 
+# Bump when what is kept of a store's definitions changes.
+STORE_FORMAT = 1
+
+
 @cache
 def _store_definitions(distro: str) -> dict[str, MessageDef]:
+    """The distribution's standard messages. rosbags builds its store in 120-210 ms
+    (a class for each of its 162 types), which every new process paid for a spec
+    using one of them; they are kept in the cache folder as JSON, by the store
+    module's size and modification time, and read back in a few milliseconds."""
+    store_name = builtins.TYPE_STORES[distro]
+    key = _store_key(store_name, ros_version(distro) == 1)
+    kept = None if key is None else _kept_stores().get(key)
+    if kept is not None:
+        with contextlib.suppress(AttributeError, KeyError, TypeError, ValueError):
+            return _from_json(kept)  # else a damaged file: read the store again
+    definitions = _read_store(distro, store_name)
+    if key is not None:
+        _kept_stores().put(key, _as_json(definitions))
+    return definitions
+
+
+def _store_key(store_name: str, ros1: bool) -> str | None:
+    """The key of a store's definitions: its module file's path, size and time
+    (found without importing rosbags); None where the file is not found."""
+    found = importlib.util.find_spec("rosbags")
+    for folder in (found.submodule_search_locations or []) if found else []:
+        path = os.path.join(folder, "typesys", "stores", store_name.lower() + ".py")
+        with contextlib.suppress(OSError):
+            stat = os.stat(path)
+            return digest("store", STORE_FORMAT, path, stat.st_size, stat.st_mtime_ns, ros1)
+    return None
+
+
+def _kept_stores() -> Cache:
+    folder = cache_folder()
+    return Cache(os.path.join(folder, "stores") if folder else None)
+
+
+def _as_json(definitions: dict[str, MessageDef]) -> dict[str, Any]:
+    return {
+        name: {
+            "fields": {f: [t.base, t.array, t.size, t.bounded] for f, t in d.fields.items()},
+            "constants": d.constants,
+            "origin": d.origin,
+        }
+        for name, d in definitions.items()
+    }
+
+
+def _from_json(kept: dict[str, Any]) -> dict[str, MessageDef]:
+    return {
+        name: MessageDef(
+            name,
+            {f: _field_type(*kept_type) for f, kept_type in d["fields"].items()},
+            {c: (str(kind), str(value)) for c, (kind, value) in d["constants"].items()},
+            str(d["origin"]),
+        )
+        for name, d in kept.items()
+    }
+
+
+def _field_type(base: str, array: bool, size: int | None, bounded: bool) -> FieldType:
+    return FieldType(str(base), bool(array), None if size is None else int(size), bool(bounded))
+
+
+def _read_store(distro: str, store_name: str) -> dict[str, MessageDef]:
     from rosbags.typesys import Stores, get_typestore
     from rosbags.typesys.base import Nodetype
 
-    store = getattr(Stores, builtins.TYPE_STORES[distro])
+    store = getattr(Stores, store_name)
     typestore = get_typestore(store)
     ros1 = ros_version(distro) == 1
     definitions = {}
