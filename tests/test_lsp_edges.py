@@ -284,3 +284,32 @@ def test_a_storm_of_edits_ends_in_diagnostics_of_the_last_text(wire: Wire, tmp_p
 
 def _where(published: dict[str, Any], code: str) -> list[dict[str, int]]:
     return [d["range"]["start"] for d in published["diagnostics"] if d["code"] == code]
+
+
+def test_the_full_collection_waits_for_the_typist_to_pause(monkeypatch: pytest.MonkeyPatch):
+    """`rmv lsp`'s collector sweeps everything once the typist has paused for
+    IDLE_SWEEP seconds, on the fast lane: each key re-arms the sweep, so a burst of
+    keys is followed by one sweep, after the last (rmvdsl/editor/lsp/server.py)."""
+    import asyncio
+
+    from rmvdsl.editor.lsp import server as lsp_server
+
+    swept: list[float] = []
+    monkeypatch.setattr(lsp_server, "IDLE_SWEEP", 0.2)
+    monkeypatch.setattr(lsp_server, "_refreeze", lambda: swept.append(time.monotonic()))
+    ls = lsp_server.RmvServer()
+
+    async def typing() -> float:
+        for _ in range(5):  # a key every 0.05 s: never a pause of 0.2 s
+            lsp_server._sweep_when_idle(ls)
+            await asyncio.sleep(0.05)
+        last = time.monotonic()
+        await asyncio.sleep(0.6)
+        return last
+
+    try:
+        last_key = asyncio.run(typing())
+    finally:
+        ls.state.fast_lane.shutdown(wait=True)
+        ls.state.solver_lane.shutdown(wait=True)
+    assert len(swept) == 1 and swept[0] - last_key >= 0.15, (swept, last_key)

@@ -58,6 +58,7 @@ class State:
     # path -> done when the fast stages of its newest text have been published
     analysed: dict[str, asyncio.Future[None]] = field(default_factory=dict)
     warmed: bool = False  # what requests build on first use is built (warm_up)
+    idle_sweep: asyncio.TimerHandle | None = None  # the next full collection (server.py)
 
 
 def _lane(name: str) -> ThreadPoolExecutor:
