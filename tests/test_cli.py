@@ -249,6 +249,16 @@ def test_a_target_s_package_is_light_to_import():
     assert out.stdout.strip() == "[]"
 
 
+def _twelve_properties(spec: Path) -> Path:
+    """A spec whose 36 solver questions go to the workers (--jobs 2)."""
+    lines = [f"system {spec.stem}", 'topic t: std_msgs/msg/Float64 = "/t"', "var x = t.data"]
+    lines += [f"event E{i} when x > {i}" for i in range(4)]
+    lines += [f"property P{i}: E{i % 4} -> eventually[<={i % 5 + 1}s] E{(i + 1) % 4}"
+              for i in range(12)]  # fmt: skip
+    spec.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return spec
+
+
 def test_check_shows_the_solver_s_progress_on_a_terminal(tmp_path):
     """On a terminal, solver work over RMV_PROGRESS_AFTER seconds (2 by default)
     shows a bar on standard error, redrawn in place and cleared when done; piped,
@@ -258,12 +268,7 @@ def test_check_shows_the_solver_s_progress_on_a_terminal(tmp_path):
 
     from conftest import RMV
 
-    lines = ["system bar", 'topic t: std_msgs/msg/Float64 = "/t"', "var x = t.data"]
-    lines += [f"event E{i} when x > {i}" for i in range(4)]
-    lines += [f"property P{i}: E{i % 4} -> eventually[<={i % 5 + 1}s] E{(i + 1) % 4}"
-              for i in range(12)]  # fmt: skip
-    spec = tmp_path / "bar.rmv"
-    spec.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    spec = _twelve_properties(tmp_path / "bar.rmv")
     master, slave = pty.openpty()
     env = dict(os.environ, RMV_CACHE_DIR=str(tmp_path / "cache"), RMV_PROGRESS_AFTER="0")
     done = subprocess.Popen([*RMV, "check", "--jobs", "2", str(spec)], stdout=subprocess.PIPE,
@@ -296,12 +301,7 @@ def test_the_command_exits_with_its_output_and_answers_kept_and_no_worker_left(t
 
     from conftest import RMV
 
-    lines = ["system leaving", 'topic t: std_msgs/msg/Float64 = "/t"', "var x = t.data"]
-    lines += [f"event E{i} when x > {i}" for i in range(4)]
-    lines += [f"property P{i}: E{i % 4} -> eventually[<={i % 5 + 1}s] E{(i + 1) % 4}"
-              for i in range(12)]  # fmt: skip
-    spec = tmp_path / "leaving.rmv"
-    spec.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    spec = _twelve_properties(tmp_path / "leaving.rmv")
     cache = tmp_path / "cache-of-this-test"
     env = dict(os.environ, RMV_CACHE_DIR=str(cache))
     done = subprocess.run([*RMV, "check", "--jobs", "2", str(spec)], capture_output=True,
