@@ -33,12 +33,13 @@ class InProcess:
         self.said = io.BytesIO()  # how the thread ended, if not as asked
         self.stderr = self  # read() blocks until the server ends, as a pipe would
         self.returncode: int | None = None
+        self.server = build()  # what a test may look into (its lanes, its state)
 
         def serve() -> None:
             code = 0
             with os.fdopen(to_server, "rb") as given, os.fdopen(from_server, "wb") as said:
                 try:
-                    build().start_io(given, said)
+                    self.server.start_io(given, said)
                 except SystemExit as end:  # `exit`, as `rmv lsp` would
                     code = end.code if isinstance(end.code, int) else 1
                 except BaseException:  # the server's end, whatever it was, is the report

@@ -9,36 +9,60 @@ never says so."""
 from __future__ import annotations
 
 import signal
-import sys
 import threading
-import xmlrpc.client
 
-import rosgraph
-import rospy
-from geometry_msgs.msg import Twist, TwistStamped
+# First of all: a stop asked while the node still starts (a loaded machine takes
+# seconds to import rospy and register) is honoured once it has started, with the
+# clean shutdown that unregisters it. Python's own SIGINT, mid-start, left the
+# master listing a node that was gone (the intrusion node rightly called it stale).
+STOP = threading.Event()
+for _number in (signal.SIGINT, signal.SIGTERM):
+    signal.signal(_number, lambda *_: STOP.set())
+
+import sys  # noqa: E402
+import time  # noqa: E402
+import xmlrpc.client  # noqa: E402
+
+import rosgraph  # noqa: E402
+import rospy  # noqa: E402
+from geometry_msgs.msg import Twist, TwistStamped  # noqa: E402
 
 
 def main() -> None:
     name, role, topic = sys.argv[1:4]
     rospy.init_node(name.lstrip("/"), disable_signals=True)
-    stop = threading.Event()
-    for number in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(number, lambda *_: stop.set())
     if role == "subscriber":
         rospy.Subscriber(topic, Twist, lambda _: None)
-        stop.wait()
+        until_listed(topic, "subscriber")
+        STOP.wait()
     elif role == "quiet":  # advertises the soak's type and sends nothing
         rospy.Publisher(topic, TwistStamped, queue_size=10)
-        stop.wait()
+        until_listed(topic, "publisher")
+        STOP.wait()
     else:
         publisher = rospy.Publisher(topic, Twist, queue_size=10)
+        until_listed(topic, "publisher")
         if role == "sneak":
             sneak(topic, sys.argv[4])
         message = Twist()
-        while not stop.wait(0.05):
+        while not STOP.wait(0.05):
             message.linear.x += 1.0
             publisher.publish(message)
     rospy.signal_shutdown("stopped")
+
+
+def until_listed(topic: str, role: str, timeout: float = 30.0) -> None:
+    """Wait until the master lists this node on `topic`: rospy registers from a
+    thread of its own, and a shutdown racing it may unregister before it registers."""
+    master, me = rosgraph.Master(rospy.get_name()), rospy.get_name()
+    column = 0 if role == "publisher" else 1
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        listed = dict(master.getSystemState()[column])
+        if me in listed.get(topic, []):
+            return
+        time.sleep(0.05)
+    raise SystemExit(f"{me}: the master never listed it as a {role} of {topic}")
 
 
 def sneak(topic: str, subscriber: str) -> None:

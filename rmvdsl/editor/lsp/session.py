@@ -120,28 +120,16 @@ class RmvServer(LanguageServer):
         state.workspace.open(path, document.source)
         generation = state.generation[path] = state.generation.get(path, 0) + 1
         state.solver.cancel(path)  # a solver stage of the text before is wasted work
-        loop = asyncio.get_running_loop()
-        waiter = state.analysed.get(path)
-        if waiter is None or waiter.done():
-            waiter = state.analysed[path] = loop.create_future()
-        try:
-            fast = functools.partial(self._check_if_newest, path, generation)
-            result = await loop.run_in_executor(state.fast_lane, fast)
-            if result is None or state.generation.get(path) != generation:
-                return
-            self.publish(path, result)
-            if not state.warmed:
-                # On the solver lane, idle until the debounce ends: the first
-                # completion would otherwise build the grammar's tables itself, and
-                # on the fast lane the first key would wait for them.
-                state.warmed = True
-                state.solver_lane.submit(warm_up)
-        finally:
-            if state.generation.get(path) == generation and not waiter.done():
-                waiter.set_result(None)  # published, or the check failed: stop waiting
+        if not await self._publish_fast(path, generation):
+            return
+        # Waiting from here on holds no model: a wait for the solver lane can be
+        # long (another document's solver stage), and a model held meanwhile, one
+        # per waiting change, outlived its document (20,000-line files opened and
+        # closed in turn grew the server by 25 MB a cycle).
         await asyncio.sleep(DEBOUNCE)
         if state.generation.get(path) != generation:
             return
+        loop = asyncio.get_running_loop()
         full = functools.partial(self._solve_if_newest, path, generation)
         try:
             result = await loop.run_in_executor(state.solver_lane, full)
@@ -150,6 +138,32 @@ class RmvServer(LanguageServer):
             return
         if result is not None and state.generation.get(path) == generation:
             self.publish(path, result)
+
+    async def _publish_fast(self, path: str, generation: int) -> bool:
+        """The fast stages of `generation`, published unless a newer change overtook
+        them; whether they were (requests waiting for the document are let go
+        either way)."""
+        state = self.state
+        loop = asyncio.get_running_loop()
+        waiter = state.analysed.get(path)
+        if waiter is None or waiter.done():
+            waiter = state.analysed[path] = loop.create_future()
+        try:
+            fast = functools.partial(self._check_if_newest, path, generation)
+            result = await loop.run_in_executor(state.fast_lane, fast)
+            if result is None or state.generation.get(path) != generation:
+                return False
+            self.publish(path, result)
+            if not state.warmed:
+                # On the solver lane, idle until the debounce ends: the first
+                # completion would otherwise build the grammar's tables itself, and
+                # on the fast lane the first key would wait for them.
+                state.warmed = True
+                state.solver_lane.submit(warm_up)
+            return True
+        finally:
+            if state.generation.get(path) == generation and not waiter.done():
+                waiter.set_result(None)  # published, or the check failed: stop waiting
 
     def _check_if_newest(self, path: str, generation: int) -> CheckResult | None:
         """The fast stages of the document, unless a newer change overtook it while
