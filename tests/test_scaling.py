@@ -326,3 +326,36 @@ def test_events_asked_together_get_the_answers_they_get_alone(tmp_path, monkeypa
         lambda s, c: "unknown" if any(t.eq(slow) for t in c) else verdict(s, c),
     )
     assert module.impossible(names, conditions) == {**alone, "E3": None}
+
+
+def test_an_antecedent_that_a_trace_at_hand_holds_is_not_asked(tmp_path, monkeypatch):
+    """Each property's two traces (where it holds, where it fails) are at hand when
+    its antecedents are asked about: the trace where `A -> eventually[<=5s] B`
+    fails holds A, so "can A hold" needs no solver, and its answer is cached as the
+    solver's would be. `A and B` holds on no trace (two states of one transducer):
+    still asked, still reported vacuous."""
+    from rmvdsl.logic import sat
+
+    asked: list[list[Any]] = []
+    original = sat.ask
+
+    def recording(formulas: Any, *args: Any) -> Any:
+        asked.append(list(formulas))
+        return original(formulas, *args)
+
+    monkeypatch.setattr(sat, "ask", recording)
+    monkeypatch.setenv("RMV_CACHE_DIR", str(tmp_path / "cache"))
+    text = (
+        TWO_MACHINES
+        + "property Goes: A -> eventually[<=5s] B\n"
+        + "property Never: (A and B) -> eventually[<=1s] D\n"
+    )
+    path = tmp_path / "spec.rmv"
+    path.write_text(text, encoding="utf-8")
+    found = check(str(path), use_environment=False, solver_jobs=1).diagnostics
+    vacuous = [d for d in found if d.code == "RMV513"]
+    assert [d.message.split(",")[0] for d in vacuous] == ["in property `Never`"]
+    alone = [f[0] for f in asked if len(f) == 1 and not facts(f[0]).future]
+    assert [sorted(facts(f).propositions) for f in alone] == [["A", "B"]], asked
+    again = check(str(path), use_environment=False, solver_jobs=1).diagnostics
+    assert [d.code for d in again] == [d.code for d in found]

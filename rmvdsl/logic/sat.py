@@ -23,7 +23,7 @@ from typing import Any
 import z3
 
 from rmvdsl.logic.abstract import refute
-from rmvdsl.logic.answers import NO, UNKNOWN, YES, Answer
+from rmvdsl.logic.answers import NO, UNKNOWN, YES, Answer, Witness
 from rmvdsl.logic.limits import Limits
 from rmvdsl.logic.search import Question
 from rmvdsl.logic.system import System
@@ -84,6 +84,29 @@ def keep(cache: Cache, key: str, answer: Answer) -> None:
     machine, not on the question."""
     if not answer.timed_out:
         cache.put(key, answer.as_json())
+
+
+def answered_by(
+    formulas: Sequence[Any],
+    system: System | None,
+    known: Sequence[Witness],
+    limits: Limits,
+    cache: Cache,
+) -> bool:
+    """Whether the question needs no solver: its answer is cached, or a trace at
+    hand answers "yes" (one of `known`, a run of the system on which the runtime's
+    monitor finds every formula true at a time the question allows: time 0, or
+    any time where the question's time is free). Such a "yes" is cached as the
+    solver's would be, with the trace as its witness."""
+    key, restricted = question_key(formulas, system, limits)
+    if cache.get(key) is not None:
+        return True
+    question = Question(list(formulas), restricted, limits)
+    for witness in known:
+        if (witness.at == 0 or question.free_time) and question.monitored(witness):
+            keep(cache, key, Answer(YES, True, witness))
+            return True
+    return False
 
 
 def ask(formulas: Sequence[Any], system: System, limits: Limits) -> Answer:
