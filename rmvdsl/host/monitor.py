@@ -8,6 +8,7 @@ from being read."""
 from __future__ import annotations
 
 import collections
+import math
 import queue
 import threading
 import time
@@ -34,6 +35,23 @@ Item = tuple[int, str, Any, dict[str, Any]]
 BATCH = 1000
 # How many of the latest arrival-to-verdict latencies the diagnostics summarise.
 LATENCY_SAMPLES = 1_000
+
+
+def in_time_order(batch: list[Item], time_of: Callable[[int, str, Any], int | None]) -> list[Item]:
+    """The batch sorted by the times its messages take (ties by receipt); a message
+    that takes none stays just after the one it came after (first, if it came
+    first): the runtime reads it as unknown input from the topic's last message, so
+    where it stands must not depend on what else the executor took with it (an
+    ahead-stamped message sorted last in its batch made the stretch unknown from
+    whichever message came last)."""
+    keys: list[tuple[float, int]] = []
+    previous: tuple[float, int] = (-math.inf, 0)
+    for received, topic, message, *_ in batch:
+        taken = time_of(received, topic, message)
+        previous = previous if taken is None else (taken, received)
+        keys.append(previous)
+    order = sorted(range(len(batch)), key=keys.__getitem__)
+    return [batch[i] for i in order]
 
 
 class Outputs(Protocol):
@@ -133,9 +151,7 @@ class Monitor:
                 item = self.inbox.get_nowait()
             except queue.Empty:
                 break
-        time_of = self.runtime.time_of
-        batch.sort(key=lambda item: (time_of(item[0], item[1], item[2]), item[0]))
-        return batch, item is None
+        return in_time_order(batch, self.runtime.time_of), item is None
 
     def feed(self, now: int, topic: str, message: Any, info: dict[str, Any]) -> None:
         lost = self.gaps.lost(topic, info)

@@ -171,14 +171,18 @@ class Runtime(Reporting):
             return
         self._ingest(time, topic, message)
 
-    def time_of(self, time: int, topic: str, message: Any) -> int:
+    def time_of(self, time: int, topic: str, message: Any) -> int | None:
         """The time `message` would take (its stamp on a `time = header` topic, else
-        `time`), for a host that orders what it holds before feeding it."""
+        `time`), for a host that orders what it holds before feeding it; None where
+        it takes none (a stamp that does not read, or too far ahead to believe:
+        `message` reports it, from the topic's last message before it, so the host
+        keeps it where it came)."""
         if topic in self.stamped and topic in self.by_topic:
             try:
-                return fields.stamp(message)
+                stamp = fields.stamp(message)
             except fields.FieldError:
-                return time  # `message` reports it
+                return None
+            return None if stamp - time > STAMP_AHEAD else stamp
         return time
 
     def start(self, time: int) -> None:
