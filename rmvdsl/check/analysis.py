@@ -24,6 +24,7 @@ from rmvdsl.check.types import TypeInfo
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
 from rmvdsl.lang.diagnostics import Diagnostic, Label, error, warning
+from rmvdsl.logic.terms import Z3_VERSION
 from rmvdsl.util.cache import default_cache, digest
 from rmvdsl.util.cancel import checkpoint
 
@@ -140,7 +141,7 @@ class Analyzer:
             if name in self._unsat or decl is None or not decl.boolean:
                 self._unsat.setdefault(name, False)
                 continue
-            key = digest("unsatisfiable event", "1", z3.get_version_string(),
+            key = digest("unsatisfiable event", "1", Z3_VERSION,
                          self.conditions.event_question(name))  # fmt: skip
             cached = cache.get(key)
             if cached is not None and isinstance(cached.get("unsat"), bool):

@@ -23,6 +23,7 @@ import z3
 
 from rmvdsl.check.conditions import Conditions
 from rmvdsl.check.solving import condition_solver, names_in
+from rmvdsl.logic.terms import Z3_VERSION
 from rmvdsl.util.cache import default_cache, digest
 from rmvdsl.util.cancel import checkpoint
 
@@ -86,7 +87,7 @@ def _answers(
     key = digest(
         "event relations",
         "1",
-        z3.get_version_string(),
+        Z3_VERSION,
         [(event, terms[event].sexpr()) for event in group],
         [c.sexpr() for c in domains],
     )

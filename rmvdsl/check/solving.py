@@ -16,6 +16,7 @@ import z3
 from z3 import z3core
 
 from rmvdsl.check.operators import number
+from rmvdsl.logic.terms import Z3_VERSION
 from rmvdsl.util.cache import default_cache, digest
 from rmvdsl.util.cancel import checkpoint
 
@@ -125,7 +126,7 @@ def solve(
     constraints = list(constraints)
     declared = sorted(f"{name}: {symbol.sort()}" for name, symbol in symbols.items())
     terms = [c.sexpr() for c in [*domains, *constraints]]
-    key = digest("conditions", "5", z3.get_version_string(), declared, terms)
+    key = digest("conditions", "5", Z3_VERSION, declared, terms)
     cache = default_cache()
     cached = cache.get(key)
     if cached is not None and isinstance(cached.get("answer"), str):

@@ -20,18 +20,22 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-import z3
-
 from rmvdsl.logic.abstract import refute
 from rmvdsl.logic.answers import NO, UNKNOWN, YES, Answer, Witness
 from rmvdsl.logic.limits import Limits
 from rmvdsl.logic.search import Question
 from rmvdsl.logic.system import System
+from rmvdsl.logic.terms import Z3_VERSION
 from rmvdsl.runtime.rmtld3 import facts
 from rmvdsl.util.cache import Cache, default_cache, digest
 
 # Bump when an encoding changes: cached answers carry it in their key.
 ENCODING_VERSION = "2"  # 2: durations pinned by always/eventually in the refutation
+# Answers read from the cache, decoded (a property's answers are read several
+# times a check, and decoding a witness's times was a tenth of a first check's
+# serial part): by key, with the cached entry they were decoded from.
+_DECODED: dict[str, tuple[dict[str, Any], Answer]] = {}
+DECODED_KEPT = 8192
 
 
 def satisfiable(
@@ -57,9 +61,7 @@ def question_key(
 ) -> tuple[str, System]:
     """The cache key of a question, and the system cut to what the formulas mention."""
     restricted = cut_system(formulas, system)
-    key = digest(
-        ENCODING_VERSION, z3.get_version_string(), list(formulas), restricted.key(), limits.key()
-    )
+    key = digest(ENCODING_VERSION, Z3_VERSION, list(formulas), restricted.key(), limits.key())
     return key, restricted
 
 
@@ -73,17 +75,30 @@ def cached_answer(cache: Cache, key: str) -> Answer | None:
     found = cache.get(key)
     if found is None:
         return None
+    decoded = _DECODED.get(key)
+    if decoded is not None and decoded[0] is found:
+        return decoded[1]
     try:
-        return Answer.from_json(found)
+        answer = Answer.from_json(found)
     except (KeyError, TypeError, ValueError, ZeroDivisionError):
         return None  # an entry from elsewhere: ask again
+    _remember(key, found, answer)
+    return answer
 
 
 def keep(cache: Cache, key: str, answer: Answer) -> None:
     """Cache an answer, unless a time limit cut it short: that depends on the
     machine, not on the question."""
     if not answer.timed_out:
-        cache.put(key, answer.as_json())
+        entry = answer.as_json()
+        cache.put(key, entry)
+        _remember(key, entry, answer)
+
+
+def _remember(key: str, entry: dict[str, Any], answer: Answer) -> None:
+    if len(_DECODED) >= DECODED_KEPT:
+        _DECODED.clear()
+    _DECODED[key] = (entry, answer)
 
 
 def answered_by(
@@ -141,7 +156,7 @@ def conflict(formulas: Sequence[Any], system: System | None, limits: Limits) -> 
     key = digest(
         "conflict",
         ENCODING_VERSION,
-        z3.get_version_string(),
+        Z3_VERSION,
         list(formulas),
         system.key(),
         limits.key(),

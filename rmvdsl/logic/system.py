@@ -18,6 +18,8 @@ from fractions import Fraction
 
 from rmvdsl.runtime.wording import counted
 
+RESTRICTIONS_KEPT = 4096  # cuts of one system remembered
+
 
 @dataclass(frozen=True)
 class Machine:
@@ -36,7 +38,22 @@ class System:
     def restricted(self, names: set[str]) -> System:
         """What constrains traces over these propositions: the rest is left out, so
         that a question's cache key does not change with unrelated declarations.
-        Costs what the propositions touch, not the size of the system."""
+        Costs what the propositions touch, not the size of the system; made once
+        for each set of names (every question on a property cuts the system the
+        same way, and its key is computed once a cut)."""
+        key = frozenset(names)
+        found = self._restrictions.get(key)
+        if found is None:
+            if len(self._restrictions) >= RESTRICTIONS_KEPT:
+                self._restrictions.clear()
+            found = self._restrictions[key] = self._restricted(key)
+        return found
+
+    @functools.cached_property
+    def _restrictions(self) -> dict[frozenset[str], System]:
+        return {}
+
+    def _restricted(self, names: frozenset[str]) -> System:
         machines = self.relevant(names)
         every = set(names).union(*(m.states for m in machines))
         pairs = (p for n in every for p in self._exclusive_of.get(n, ()))
@@ -77,7 +94,7 @@ class System:
         machines = tuple(Machine(m.name, m.states, None, m.moves) for m in self.transducers)
         return System(machines, self.exclusive, self.never)
 
-    def relevant(self, names: set[str]) -> tuple[Machine, ...]:
+    def relevant(self, names: set[str] | frozenset[str]) -> tuple[Machine, ...]:
         """The transducers owning any of these names, in their order."""
         owners = self._machine_of
         return tuple(self.transducers[i] for i in sorted({owners[n] for n in names if n in owners}))

@@ -13,6 +13,8 @@ from typing import Any
 
 import z3
 
+Z3_VERSION = z3.get_version_string()  # in every cache key: another z3 may answer otherwise
+
 
 def conjunction(items: Sequence[Any]) -> Any:
     """`z3.And(*items)` of at least one boolean term."""
