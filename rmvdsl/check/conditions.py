@@ -32,6 +32,7 @@ from rmvdsl.check.operators import (
 )
 from rmvdsl.check.solving import PRESENT, names_in, solve, verdict
 from rmvdsl.check.types import TypeInfo
+from rmvdsl.logic.terms import conjunction, disjunction, negation
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.functions import ELEMENTWISE
 from rmvdsl.runtime.values import INTEGER_RANGES, literal
@@ -57,13 +58,13 @@ class Term:
         """Where the term is `True`: where a condition holds."""
         if z3.is_true(self.present):
             return as_bool(self.value)
-        return z3.And(self.present, as_bool(self.value))
+        return conjunction([self.present, as_bool(self.value)])
 
     @property
     def false(self) -> Any:
         if z3.is_true(self.present):
-            return z3.Not(as_bool(self.value))
-        return z3.And(self.present, z3.Not(as_bool(self.value)))
+            return negation(as_bool(self.value))
+        return conjunction([self.present, negation(as_bool(self.value))])
 
 
 def _both(left: Term | Kleene, right: Term | Kleene) -> Any:
@@ -71,7 +72,7 @@ def _both(left: Term | Kleene, right: Term | Kleene) -> Any:
         return right.present
     if z3.is_true(right.present):
         return left.present
-    return z3.And(left.present, right.present)
+    return conjunction([left.present, right.present])
 
 
 @dataclass(frozen=True)
@@ -89,21 +90,21 @@ class Kleene:
 
     @property
     def present(self) -> Any:
-        return z3.Or(self.true, self.false)
+        return disjunction([self.true, self.false])
 
 
 def kleene(op: str, left: Term | Kleene, right: Term | Kleene) -> Term | Kleene:
     """`and`/`or` over three values, as rmvdsl.runtime.influx.kleene_and/or: false
     (true) decides an `and` (an `or`) whatever the other side is."""
     if op == "and":
-        holds = z3.And(left.true, right.true)
+        holds = conjunction([left.true, right.true])
         if _always(left) and _always(right):
             return Term(holds)
-        return Kleene(holds, z3.Or(left.false, right.false))
-    holds = z3.Or(left.true, right.true)
+        return Kleene(holds, disjunction([left.false, right.false]))
+    holds = disjunction([left.true, right.true])
     if _always(left) and _always(right):
         return Term(holds)
-    return Kleene(holds, z3.And(left.false, right.false))
+    return Kleene(holds, conjunction([left.false, right.false]))
 
 
 def _always(term: Term | Kleene) -> bool:
