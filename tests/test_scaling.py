@@ -5,6 +5,7 @@ question's system is cut to what it mentions by index."""
 
 from __future__ import annotations
 
+from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
@@ -359,3 +360,34 @@ def test_an_antecedent_that_a_trace_at_hand_holds_is_not_asked(tmp_path, monkeyp
     assert [sorted(facts(f).propositions) for f in alone] == [["A", "B"]], asked
     again = check(str(path), use_environment=False, solver_jobs=1).diagnostics
     assert [d.code for d in again] == [d.code for d in found]
+
+
+def test_a_worker_answers_an_antecedent_by_its_propertys_traces(tmp_path, monkeypatch):
+    """A worker's batch is one property's questions: an antecedent marked so is
+    answered by a trace of the property's (the one where it fails holds the
+    antecedent), not asked; one no trace answers is asked."""
+    from rmvdsl.logic import parallel
+    from rmvdsl.logic.limits import Limits
+    from rmvdsl.logic.system import Machine
+    from rmvdsl.runtime.formulas import binary, const, not_, prop, temporal
+
+    system = System((Machine("T", ("A", "B"), "A", frozenset({("A", "B"), ("B", "A")})),))
+    a, b = prop("A"), prop("B")
+    both = binary("and", a, b)
+    goes = binary("or", not_(a), temporal("until", "<=", Fraction(5), const(True), b))
+    asked: list[Any] = []
+    original = parallel.ask
+
+    def recording(formulas: Any, *args: Any) -> Any:
+        asked.append(list(formulas))
+        return original(formulas, *args)
+
+    monkeypatch.setattr(parallel, "ask", recording)
+    batch = [([goes], system, False), ([("not", goes)], system, False),
+             ([a], system, True), ([both], system, True)]  # fmt: skip
+    answers = parallel._answer_batch(batch, Limits())
+    assert asked == [[goes], [("not", goes)], [both]]
+    assert [x["value"] for x in answers] == ["yes", "yes", "yes", "no"]
+    # a trace of the property's: the one where it fails holds A (the one where it
+    # holds may too: z3's choice)
+    assert answers[2]["witness"] in (answers[0]["witness"], answers[1]["witness"])

@@ -129,16 +129,21 @@ class _PropertyAnalyzer(PropertyFindings):
                 self.cache.memory[key] = answer.as_json()
 
     def single_questions(self, name: str, f: Any) -> list[Question]:
-        """What `single` asks of one property, on its system: can it hold, can it
-        fail."""
+        """What `single` and `vacuity` ask of one property, on its system: can it
+        hold, can it fail, can each antecedent hold (answered by the traces of
+        the first two where one does: `vacuity_questions`)."""
         system = self.system_for(name)
-        return [([f], system), ([("not", f)], system)]
+        decl = self.model.properties[name]
+        antecedents: list[Question] = [([a], system, True) for _, a in self.antecedents(decl)]
+        return [([f], system), ([("not", f)], system), *antecedents]
 
     def vacuity_questions(self, name: str, f: Any) -> list[Question]:
         """What `vacuity` asks of one property that its own two traces (the one
         where it holds, the one where it fails) leave open: can each antecedent
         hold. The trace where an implication fails holds its antecedent, so most
-        need no solver (bench_check's spec: none of its 500 antecedents)."""
+        need no solver (bench_check's spec: none of its 500 antecedents). A
+        worker answers them so in the property's batch; what it left (a check
+        without workers: all) is answered here, by those traces or the solver."""
         system = self.system_for(name)
         holds = satisfiable([f], system, self.limits, self.cache)
         if holds.value == NO:

@@ -35,7 +35,15 @@ from typing import IO, Any
 
 from rmvdsl.logic.answers import Answer, Witness
 from rmvdsl.logic.redundancy import group_key, implied
-from rmvdsl.logic.sat import Limits, ask, cached_answer, cut_system, keep, question_key
+from rmvdsl.logic.sat import (
+    Limits,
+    ask,
+    by_trace,
+    cached_answer,
+    cut_system,
+    keep,
+    question_key,
+)
 from rmvdsl.logic.system import System
 from rmvdsl.util.cache import Cache
 from rmvdsl.util.processes import module_command, read_frame, write_frame
@@ -43,8 +51,10 @@ from rmvdsl.util.processes import module_command, read_frame, write_frame
 # Below this many unanswered questions, waking workers costs more than it saves.
 LEAST_PARALLEL = 8
 
-Question = tuple[Sequence[Any], System | None]
-Batch = list[tuple[Sequence[Any], System]]
+# A question: its formulas and system, and optionally whether a trace found by an
+# earlier question of its batch may answer it (rmvdsl.logic.sat.by_trace).
+Question = tuple[Sequence[Any], System | None] | tuple[Sequence[Any], System | None, bool]
+Batch = list[tuple[Sequence[Any], System, bool]]
 
 _WORKERS: list[_Worker] = []
 _WORKERS_LOCK = threading.Lock()
@@ -72,11 +82,11 @@ def answer_all(
     pending: list[tuple[list[str], Batch]] = []
     for batch in batches:
         keys, todo = [], []
-        for formulas, system in batch:
+        for formulas, system, *traced in batch:
             key, restricted = question_key(formulas, system, limits)
             if cached_answer(cache, key) is None:
                 keys.append(key)
-                todo.append((formulas, restricted))
+                todo.append((formulas, restricted, bool(traced and traced[0])))
         if todo:
             pending.append((keys, todo))
     if sum(len(todo) for _, todo in pending) < LEAST_PARALLEL:
@@ -177,7 +187,19 @@ def run_tasks(tasks: Sequence[tuple[Callable[..., Any], tuple[Any, ...]]], jobs:
 
 
 def _answer_batch(batch: Batch, limits: Limits) -> list[dict[str, Any]]:
-    return [ask(formulas, system, limits).as_json() for formulas, system in batch]
+    """The batch's answers in order; a question marked so is answered by a trace
+    an earlier one found where one does (a property's antecedents, by the traces
+    where it holds and where it fails), else by the solver."""
+    known: list[Witness] = []
+    answers = []
+    for formulas, system, traced in batch:
+        answer = by_trace(formulas, system, known, limits) if traced and known else None
+        if answer is None:
+            answer = ask(formulas, system, limits)
+        if answer.witness is not None:
+            known.append(answer.witness)
+        answers.append(answer.as_json())
+    return answers
 
 
 def _implied_here(

@@ -109,19 +109,29 @@ def answered_by(
     cache: Cache,
 ) -> bool:
     """Whether the question needs no solver: its answer is cached, or a trace at
-    hand answers "yes" (one of `known`, a run of the system on which the runtime's
-    monitor finds every formula true at a time the question allows: time 0, or
-    any time where the question's time is free). Such a "yes" is cached as the
-    solver's would be, with the trace as its witness."""
+    hand answers it (`by_trace`); that answer is cached as the solver's would be."""
     key, restricted = question_key(formulas, system, limits)
     if cache.get(key) is not None:
         return True
-    question = Question(list(formulas), restricted, limits)
+    answer = by_trace(formulas, restricted, known, limits)
+    if answer is None:
+        return False
+    keep(cache, key, answer)
+    return True
+
+
+def by_trace(
+    formulas: Sequence[Any], system: System, known: Sequence[Witness], limits: Limits
+) -> Answer | None:
+    """ "Yes", with the trace as its witness, where one of `known` is a run of the
+    system (`system` already restricted by question_key) on which the runtime's
+    monitor finds every formula true at a time the question allows: time 0, or
+    any time where the question's time is free; else None."""
+    question = Question(list(formulas), system, limits)
     for witness in known:
         if (witness.at == 0 or question.free_time) and question.monitored(witness):
-            keep(cache, key, Answer(YES, True, witness))
-            return True
-    return False
+            return Answer(YES, True, witness)
+    return None
 
 
 def ask(formulas: Sequence[Any], system: System, limits: Limits) -> Answer:
