@@ -7,7 +7,7 @@ from __future__ import annotations
 from fractions import Fraction
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from rmvdsl.logic.reference import Reference, Trace
@@ -257,7 +257,10 @@ def _bounded(formula, bound: Fraction):
 def test_no_bound_is_a_bound_past_the_trace_for_input_in_any_order(formula, trace, random):
     """On a trace shorter than B, `since` with no bound and `since[<=B]` are the same
     formula: fed the same samples out of order (within the lateness), the constant
-    memory node and the windowed one give the same verdicts."""
+    memory node and the windowed one give the same verdicts. Shorter than B with
+    the formula's horizon past the end: a verdict near the end reads values up to
+    a horizon after it (`duration[4](not once a)` at the end of a 1 s trace reads
+    `once a` at 4 s, which `once[<=2]` no longer knows)."""
     samples = list(zip(trace.times, trace.states, strict=True))
     random.shuffle(samples)
 
@@ -268,7 +271,9 @@ def test_no_bound_is_a_bound_past_the_trace_for_input_in_any_order(formula, trac
         monitor.end(trace.end)
         return merge(monitor.verdicts())  # after the end, a bound expires and none does
 
-    assert run(formula) == run(_bounded(formula, trace.end + 1))
+    from rmvdsl.runtime.rmtld3 import facts
+
+    assert run(formula) == run(_bounded(formula, trace.end + facts(formula).future + 1))
 
 
 @pytest.mark.parametrize(
@@ -434,3 +439,60 @@ def test_a_witness_is_not_carried_over_a_point_where_phi_fails():
     trace = Trace(times, [frozenset(s) for _, s in samples], Fraction(8))
     assert merge(segments) == Reference(trace).segments(formula)
     assert merge(segments) == [(0, 1, True, False, "true"), (1, 8, True, False, "false")]
+
+
+def nested_windows(depth: int = 4) -> st.SearchStrategy:
+    """Windows of one kind directly inside one another (`eventually` in
+    `eventually`, `always` in `always`, and the past ones), any op, bounds short
+    enough that the windows' ends fall inside the traces, around random formulas."""
+    sub = formulas(2) if depth == 0 else nested_windows(depth - 1)
+    true = ("const", True)
+
+    def window(tag: str, op: str, bound: Fraction, body: tuple, negated: bool) -> tuple:
+        if negated:  # always / historically
+            return ("not", (tag, op, bound, true, ("not", body)))
+        return (tag, op, bound, true, body)
+
+    def chain(tag: str, negated: bool, ops: list[str], bounds: list[Fraction], body: tuple):
+        for op, bound in zip(ops, bounds, strict=False):
+            body = window(tag, op, bound, body, negated)
+        return body
+
+    kinds = st.sampled_from(["until", "since"])
+    small = st.integers(0, 4).map(Fraction)  # windows that end inside the traces
+    return st.one_of(
+        sub,
+        st.builds(window, kinds, OPS, small, sub, st.booleans()),
+        st.builds(
+            chain,
+            kinds,
+            st.booleans(),
+            st.lists(OPS, min_size=2, max_size=4),
+            st.lists(small, min_size=2, max_size=4),
+            sub,
+        ),
+    )
+
+
+_P, _TRUE = ("prop", "a"), ("const", True)
+_TIMES = [Fraction(0), Fraction(2), Fraction(3)]
+_STEP = Trace(_TIMES, [frozenset(), frozenset({"a"}), frozenset()], Fraction(6))
+
+
+@settings(max_examples=500, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(nested_windows(), traces(), st.data())
+@example(("until", "<", Fraction(0), _TRUE, ("until", "<=", Fraction(1), _TRUE, _P)), _STEP, None)
+@example(("until", "<", Fraction(1), _TRUE, ("until", "<", Fraction(1), _TRUE, _P)), _STEP, None)
+@example(("since", "<=", Fraction(1), _TRUE, ("since", "<", Fraction(2), _TRUE, _P)), _STEP, None)
+def test_merged_windows_give_the_verdicts_of_the_nested_ones(formula, trace, data):
+    """The solver asks its questions of formulas whose nested windows of one kind
+    are merged (rmvdsl.logic.nesting): on any trace, cut anywhere (three-valued
+    verdicts), the monitor gives the same verdicts for both."""
+    from rmvdsl.logic.nesting import flattened
+
+    merged = flattened(formula)
+    cut = trace.end / 2 if data is None else data.draw(st.integers(1, int(trace.end)).map(Fraction))
+    for end in (cut, trace.end):
+        assert monitored(merged, trace, end, False) == monitored(formula, trace, end, False)
+    if "until" in str(formula) or "since" in str(formula):
+        assert len(str(merged)) <= len(str(formula))

@@ -16,6 +16,7 @@ from rmvdsl.logic.abstract import refute
 from rmvdsl.logic.answers import NO, UNKNOWN, YES, Answer, Witness
 from rmvdsl.logic.bounded import BoundedTrace, EncodingTimeout
 from rmvdsl.logic.limits import Limits
+from rmvdsl.logic.nesting import flattened
 from rmvdsl.logic.system import System
 from rmvdsl.logic.terms import assert_all, conjunction, disjunction, implication, negation
 from rmvdsl.runtime.rmtld3 import Monitor, facts
@@ -35,7 +36,7 @@ class Question:
     the system? `answer()` runs the searches, cheapest first, within the limits."""
 
     def __init__(self, formulas: list[Any], system: System, limits: Limits) -> None:
-        self.formulas = formulas
+        self.formulas = [flattened(f) for f in formulas]  # the same meaning, fewer times
         self.system = system
         self.limits = limits
         found = [facts(f) for f in formulas]  # once: each is a walk of the formula

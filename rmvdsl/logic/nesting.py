@@ -1,0 +1,73 @@
+"""Nested windows of one kind as one window, for the solver's questions.
+
+`eventually[<=a] eventually[<=b] p` is `eventually[<=a+b] p` (a time within a of
+one within b of now is a time within a+b, and each such time is one), and so for
+`once` in `once`, `always` in `always` and `historically` in `historically`
+(each the negation of the other kind around a negation). The identity holds for
+the three-valued verdicts too: either side is true where p holds somewhere in the
+window, false where p is known false all over it, unknown otherwise. A `<` on
+either side makes the merged window open at its end; a bound of `< 0` (an empty
+window) or `= T` (one instant) is left as written.
+
+The solver encodes each nested window with times of its own, so ten nested
+`eventually[<=1s]` made questions many times harder than one `eventually[<=10s]`,
+and two such properties, equal in meaning, were never found redundant. The
+questions are asked of the merged formulas (rmvdsl.logic.search.Question); the
+cache keys, the monitors and the reports keep the formulas as written.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+_WINDOWS = ("until", "since")
+
+
+def flattened(formula: Any) -> Any:
+    """The formula with each window directly inside another of its kind merged
+    into it, and double negations dropped (a loop: formulas nest deeply)."""
+    done: dict[int, Any] = {}
+    stack: list[tuple[Any, bool]] = [(formula, False)]
+    while stack:
+        node, visited = stack.pop()
+        if id(node) in done:
+            continue
+        children = [c for c in node[1:] if _is_node(c)]
+        if not visited:
+            stack.append((node, True))
+            stack.extend((c, False) for c in children if id(c) not in done)
+            continue
+        fields = [done[id(c)] if _is_node(c) else c for c in node[1:]]
+        done[id(node)] = _simplified(node, fields)
+    return done[id(formula)]
+
+
+def _is_node(value: Any) -> bool:
+    return isinstance(value, tuple) and bool(value) and isinstance(value[0], str)
+
+
+def _simplified(node: Any, fields: list[Any]) -> Any:
+    tag = node[0]
+    if tag == "not" and fields[0][0] == "not":
+        return fields[0][1]
+    if tag in _WINDOWS and _mergeable(tag, (tag, *fields)) and _mergeable(tag, fields[3]):
+        op, bound, left, (_, inner_op, inner_bound, _, inner) = fields
+        merged_op = "<=" if op == inner_op == "<=" else "<"
+        return _made(node, [merged_op, bound + inner_bound, left, inner])
+    return _made(node, fields)
+
+
+def _mergeable(tag: str, node: Any) -> bool:
+    """`eventually` (`once`, by `tag`) with a window that merges: `<=` any bound,
+    `<` a positive one; `true` on the left."""
+    if len(node) != 5 or node[0] != tag or node[2] is None:
+        return False
+    op, bound, left = node[1], node[2], node[3]
+    if not _is_node(left) or tuple(left) != ("const", True):
+        return False
+    return bool(op == "<=" or (op == "<" and bound > 0))
+
+
+def _made(node: Any, fields: list[Any]) -> Any:
+    make = getattr(type(node), "_make", None)
+    return make([node[0], *fields]) if make is not None else (node[0], *fields)
