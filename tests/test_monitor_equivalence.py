@@ -484,15 +484,22 @@ _STEP = Trace(_TIMES, [frozenset(), frozenset({"a"}), frozenset()], Fraction(6))
 @example(("until", "<", Fraction(0), _TRUE, ("until", "<=", Fraction(1), _TRUE, _P)), _STEP, None)
 @example(("until", "<", Fraction(1), _TRUE, ("until", "<", Fraction(1), _TRUE, _P)), _STEP, None)
 @example(("since", "<=", Fraction(1), _TRUE, ("since", "<", Fraction(2), _TRUE, _P)), _STEP, None)
+@example(["until", "<=", Fraction(1), ["const", True], ["until", "<", Fraction(2), _TRUE, _P]],
+         _STEP, None)  # lists, as a host keeps formulas  # fmt: skip
 def test_merged_windows_give_the_verdicts_of_the_nested_ones(formula, trace, data):
-    """The solver asks its questions of formulas whose nested windows of one kind
-    are merged (rmvdsl.logic.nesting): on any trace, cut anywhere (three-valued
-    verdicts), the monitor gives the same verdicts for both."""
-    from rmvdsl.logic.nesting import flattened
+    """The solver's questions and the monitors take formulas whose nested windows
+    of one kind are merged (rmvdsl.runtime.nesting): on any trace, cut anywhere
+    (three-valued verdicts), the reference evaluator gives the same verdicts for
+    both, and the monitor (which merges) those of the formula as written."""
+    from rmvdsl.runtime.nesting import flattened
 
     merged = flattened(formula)
     cut = trace.end / 2 if data is None else data.draw(st.integers(1, int(trace.end)).map(Fraction))
-    for end in (cut, trace.end):
-        assert monitored(merged, trace, end, False) == monitored(formula, trace, end, False)
+    kept = [(t, s) for t, s in zip(trace.times, trace.states, strict=True) if t < cut]
+    cut_trace = Trace([t for t, _ in kept], [s for _, s in kept], cut)
+    for part in (cut_trace, trace):
+        written = Reference(part).segments(formula)
+        assert Reference(part).segments(merged) == written
+        assert monitored(formula, part, part.end, False) == written
     if "until" in str(formula) or "since" in str(formula):
         assert len(str(merged)) <= len(str(formula))

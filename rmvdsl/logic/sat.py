@@ -123,10 +123,10 @@ def answered_by(
 def by_trace(
     formulas: Sequence[Any], system: System, known: Sequence[Witness], limits: Limits
 ) -> Answer | None:
-    """ "Yes", with the trace as its witness, where one of `known` is a run of the
-    system (`system` already restricted by question_key) on which the runtime's
-    monitor finds every formula true at a time the question allows: time 0, or
-    any time where the question's time is free; else None."""
+    """The answer yes, with the trace as its witness, where one of `known` is a run
+    of the system (`system` already restricted by question_key) on which the
+    runtime's monitor finds every formula true at a time the question allows:
+    time 0, or any time where the question's time is free; else None."""
     question = Question(list(formulas), system, limits)
     for witness in known:
         if (witness.at == 0 or question.free_time) and question.monitored(witness):

@@ -16,9 +16,9 @@ from rmvdsl.logic.abstract import refute
 from rmvdsl.logic.answers import NO, UNKNOWN, YES, Answer, Witness
 from rmvdsl.logic.bounded import BoundedTrace, EncodingTimeout
 from rmvdsl.logic.limits import Limits
-from rmvdsl.logic.nesting import flattened
 from rmvdsl.logic.system import System
 from rmvdsl.logic.terms import assert_all, conjunction, disjunction, implication, negation
+from rmvdsl.runtime.nesting import flattened
 from rmvdsl.runtime.rmtld3 import Monitor, facts
 from rmvdsl.runtime.segments import verdict_at
 from rmvdsl.runtime.wording import counted

@@ -29,6 +29,7 @@ from typing import Any
 
 from rmvdsl.runtime.durations import Compare, arithmetic, compare, duration
 from rmvdsl.runtime.facts import Facts, facts
+from rmvdsl.runtime.nesting import flattened
 from rmvdsl.runtime.segments import Segment, continues, extended, merge, merged
 from rmvdsl.runtime.signal import (
     _INFINITY,
@@ -122,7 +123,9 @@ class Monitor:
 
     def __init__(self, formula: Any, lateness: Any = 0) -> None:
         self.props: dict[str, Prop] = {}
-        self.root = build(formula, self.props)
+        # Nested windows of one kind run as one (rmvdsl.runtime.nesting): the
+        # same verdicts, one node where ten nested `eventually` made ten.
+        self.root = build(flattened(formula), self.props)
         self.order = _order(self.root)
         # What the nodes read, ahead and back: history older than this is dropped
         # (a `since` with no bound keeps what it needs in constant memory).

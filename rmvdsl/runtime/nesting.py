@@ -9,11 +9,13 @@ window, false where p is known false all over it, unknown otherwise. A `<` on
 either side makes the merged window open at its end; a bound of `< 0` (an empty
 window) or `= T` (one instant) is left as written.
 
-The solver encodes each nested window with times of its own, so ten nested
+The solver encoded each nested window with times of its own, so ten nested
 `eventually[<=1s]` made questions many times harder than one `eventually[<=10s]`,
-and two such properties, equal in meaning, were never found redundant. The
-questions are asked of the merged formulas (rmvdsl.logic.search.Question); the
-cache keys, the monitors and the reports keep the formulas as written.
+and two such properties, equal in meaning, were never found redundant; the
+monitor ran a node per window. The solver's questions
+(rmvdsl.logic.search.Question) and the monitors (rmvdsl.runtime.rmtld3.Monitor)
+take the merged formulas; the cache keys, the generated code and the reports
+keep the formulas as written.
 """
 
 from __future__ import annotations
@@ -43,7 +45,8 @@ def flattened(formula: Any) -> Any:
 
 
 def _is_node(value: Any) -> bool:
-    return isinstance(value, tuple) and bool(value) and isinstance(value[0], str)
+    """A formula's node: a tuple (or, as a host keeps them, a list) led by its tag."""
+    return isinstance(value, tuple | list) and bool(value) and isinstance(value[0], str)
 
 
 def _simplified(node: Any, fields: list[Any]) -> Any:
@@ -69,5 +72,8 @@ def _mergeable(tag: str, node: Any) -> bool:
 
 
 def _made(node: Any, fields: list[Any]) -> Any:
+    """A node of the same kind (named tuple, tuple or list) with these fields."""
+    if isinstance(node, list):
+        return [node[0], *fields]
     make = getattr(type(node), "_make", None)
     return make([node[0], *fields]) if make is not None else (node[0], *fields)
