@@ -25,9 +25,29 @@ from typing import Any
 _WINDOWS = ("until", "since")
 
 
+# Formulas already flattened, by identity, with what they became: a monitor is
+# built for each witness a question replays (up to 200), and a walk per build
+# was half the cost of building it.
+_KNOWN: dict[int, tuple[Any, Any]] = {}
+KNOWN_KEPT = 4096
+
+
 def flattened(formula: Any) -> Any:
     """The formula with each window directly inside another of its kind merged
-    into it, and double negations dropped (a loop: formulas nest deeply)."""
+    into it, and double negations dropped (a loop: formulas nest deeply); the
+    formula itself where nothing merges."""
+    known = _KNOWN.get(id(formula))
+    if known is not None and known[0] is formula:
+        return known[1]
+    found = _walked(formula)
+    if len(_KNOWN) >= KNOWN_KEPT:
+        _KNOWN.clear()
+    _KNOWN[id(formula)] = (formula, found)
+    _KNOWN[id(found)] = (found, found)
+    return found
+
+
+def _walked(formula: Any) -> Any:
     done: dict[int, Any] = {}
     stack: list[tuple[Any, bool]] = [(formula, False)]
     while stack:
@@ -72,7 +92,10 @@ def _mergeable(tag: str, node: Any) -> bool:
 
 
 def _made(node: Any, fields: list[Any]) -> Any:
-    """A node of the same kind (named tuple, tuple or list) with these fields."""
+    """A node of the same kind (named tuple, tuple or list) with these fields: the
+    node itself where none changed."""
+    if all(new is old for new, old in zip(fields, node[1:], strict=True)):
+        return node
     if isinstance(node, list):
         return [node[0], *fields]
     make = getattr(type(node), "_make", None)
