@@ -28,7 +28,7 @@ from rmvdsl.lang.diagnostics import Diagnostic, Label, error, warning
 from rmvdsl.logic.answers import NO, UNKNOWN, YES, Witness
 from rmvdsl.logic.compile import CompileError, compile_formula
 from rmvdsl.logic.parallel import Question, answer_all, implied_all
-from rmvdsl.logic.sat import Limits, answered_by, satisfiable, valid
+from rmvdsl.logic.sat import Limits, satisfiable, valid
 from rmvdsl.logic.sat import conflict as smallest_conflict
 from rmvdsl.logic.system import System
 from rmvdsl.runtime.rmtld3 import facts as formula_facts
@@ -92,7 +92,6 @@ class _PropertyAnalyzer(PropertyFindings):
         questions are independent of each other: they are answered in parallel
         first (rmvdsl.logic.parallel), then read in order from the answers."""
         self.prefetch([self.single_questions(name, f) for name, f in self.compiled.items()])
-        self.prefetch([self.vacuity_questions(name, f) for name, f in self.compiled.items()])
         consistent_candidates = []
         for name, f in self.compiled.items():
             checkpoint()  # the editor may stop here (rmvdsl.util.cancel)
@@ -131,31 +130,11 @@ class _PropertyAnalyzer(PropertyFindings):
     def single_questions(self, name: str, f: Any) -> list[Question]:
         """What `single` and `vacuity` ask of one property, on its system: can it
         hold, can it fail, can each antecedent hold (answered by the traces of
-        the first two where one does: `vacuity_questions`)."""
+        the first two where one does: see `vacuity`)."""
         system = self.system_for(name)
         decl = self.model.properties[name]
         antecedents: list[Question] = [([a], system, True) for _, a in self.antecedents(decl)]
         return [([f], system), ([("not", f)], system), *antecedents]
-
-    def vacuity_questions(self, name: str, f: Any) -> list[Question]:
-        """What `vacuity` asks of one property that its own two traces (the one
-        where it holds, the one where it fails) leave open: can each antecedent
-        hold. The trace where an implication fails holds its antecedent, so most
-        need no solver (bench_check's spec: none of its 500 antecedents). A
-        worker answers them so in the property's batch; what it left (a check
-        without workers: all) is answered here, by those traces or the solver."""
-        system = self.system_for(name)
-        holds = satisfiable([f], system, self.limits, self.cache)
-        if holds.value == NO:
-            return []  # `single` asks nothing more
-        fails = satisfiable([("not", f)], system, self.limits, self.cache)
-        known = [a.witness for a in (holds, fails) if a.witness is not None]
-        decl = self.model.properties[name]
-        return [
-            ([a], system)
-            for _, a in self.antecedents(decl)
-            if not answered_by([a], system, known, self.limits, self.cache)
-        ]
 
     def starts_late(self, name: str) -> bool:
         """A property under a trigger whose formula looks back: its monitor starts
@@ -268,7 +247,7 @@ class _PropertyAnalyzer(PropertyFindings):
                 self.add(self.undecided(decl, "can hold", answer))
             return False
         facts.valid = validity = valid(f, system, self.limits, self.cache)
-        vacuous = self.vacuity(decl)
+        vacuous = self.vacuity(decl, [a.witness for a in (answer, validity) if a.witness])
         if validity.value == YES and vacuous:
             return False  # the vacuous implication says why
         if validity.value == YES:
@@ -291,12 +270,17 @@ class _PropertyAnalyzer(PropertyFindings):
             self.add(self.undecided(decl, "can fail", validity))
         return True
 
-    def vacuity(self, decl: ast.PropertyDecl) -> bool:
-        """Report implications whose antecedent never holds; True if there are any."""
+    def vacuity(self, decl: ast.PropertyDecl, known: list[Witness]) -> bool:
+        """Report implications whose antecedent never holds; True if there are any.
+        `known`: the property's traces (where it holds, where it fails): the one
+        where an implication fails holds its antecedent, so most antecedents need
+        no solver (bench_check's spec: none of its 500). A worker answered them so
+        in the property's batch; what it left (without workers: all) is answered
+        here the same way."""
         found = False
         system = self.system_for(decl.name.name)
         for node, antecedent in self.antecedents(decl):
-            answer = satisfiable([antecedent], system, self.limits, self.cache)
+            answer = satisfiable([antecedent], system, self.limits, self.cache, known)
             if answer.value != NO:
                 continue
             found = True

@@ -43,15 +43,20 @@ def satisfiable(
     system: System | None = None,
     limits: Limits | None = None,
     cache: Cache | None = None,
+    known: Sequence[Witness] = (),
 ) -> Answer:
-    """Is there a trace of the system making all `formulas` true at one time?"""
+    """Is there a trace of the system making all `formulas` true at one time?
+    `known`: traces at hand, which answer yes where one does (`by_trace`) before
+    the solver is asked; the answer is cached either way."""
     limits = limits or Limits()
     cache = cache if cache is not None else default_cache()
     key, system = question_key(formulas, system, limits)
     cached = cached_answer(cache, key)
     if cached is not None:
         return cached
-    answer = ask(formulas, system, limits)
+    answer = by_trace(formulas, system, known, limits) if known else None
+    if answer is None:
+        answer = ask(formulas, system, limits)
     keep(cache, key, answer)
     return answer
 
@@ -99,25 +104,6 @@ def _remember(key: str, entry: dict[str, Any], answer: Answer) -> None:
     if len(_DECODED) >= DECODED_KEPT:
         _DECODED.clear()
     _DECODED[key] = (entry, answer)
-
-
-def answered_by(
-    formulas: Sequence[Any],
-    system: System | None,
-    known: Sequence[Witness],
-    limits: Limits,
-    cache: Cache,
-) -> bool:
-    """Whether the question needs no solver: its answer is cached, or a trace at
-    hand answers it (`by_trace`); that answer is cached as the solver's would be."""
-    key, restricted = question_key(formulas, system, limits)
-    if cache.get(key) is not None:
-        return True
-    answer = by_trace(formulas, restricted, known, limits)
-    if answer is None:
-        return False
-    keep(cache, key, answer)
-    return True
 
 
 def by_trace(
