@@ -219,7 +219,7 @@ def test_a_storm_of_edits_ends_in_diagnostics_of_the_last_text(wire: Wire, tmp_p
     Flat is read over four cycles of the 20,000-line file. The server's resident
     memory grew in steps of 15-28 MB in some cycles and not others: each change
     waiting for the solver lane held its model (CI: 194, 233, 247, 272 MB; the test
-    below); now 173, 180, 181, 183 MB beside two busy processes. Four cycles stay
+    below); now 172, 180, 185, 186 MB beside two busy processes. Four cycles stay
     within 35% of the first; a leak of the file's model (about 30 MB a cycle)
     would pass 45%."""
     wire.initialize(tmp_path)

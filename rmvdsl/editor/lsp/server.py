@@ -66,11 +66,6 @@ def build(own_process: bool = False) -> RmvServer:
         waiter = ls.state.analysed.pop(path, None)
         if waiter is not None and not waiter.done():
             waiter.set_result(None)
-        if own_process:
-            # The closed document's model is garbage now: swept at once (the full
-            # sweeps otherwise wait for a pause in typing, or a next didOpen),
-            # so the next document is not built beside it.
-            asyncio.get_running_loop().run_in_executor(ls.state.fast_lane, _refreeze)
 
     features.register(server)
     return server
