@@ -4,7 +4,8 @@ The checker and the monitor both read it."""
 
 from __future__ import annotations
 
-from typing import Any, NamedTuple
+from collections.abc import Callable
+from typing import Any, NamedTuple, TypeVar
 
 from rmvdsl.runtime.signal import _INFINITY
 
@@ -20,10 +21,24 @@ class Facts(NamedTuple):
 
 
 # The facts of the formulas asked about lately, by identity: the checker asks them
-# of each property's formula several times a question (each keeps its formula
-# alive here, so its id is its own until the memory is cleared).
+# of each property's formula several times a question.
 _KNOWN_FACTS: dict[int, tuple[Any, Facts]] = {}
 KNOWN_FACTS = 4096
+T = TypeVar("T")
+
+
+def remembered(table: dict[int, tuple[Any, T]], formula: Any, make: Callable[[Any], T]) -> T:
+    """`make(formula)`, kept in `table` by the formula's identity (each entry keeps
+    its formula alive, so its id is its own until the table is cleared, at
+    KNOWN_FACTS entries)."""
+    known = table.get(id(formula))
+    if known is not None and known[0] is formula:
+        return known[1]
+    found = make(formula)
+    if len(table) >= KNOWN_FACTS:
+        table.clear()
+    table[id(formula)] = (formula, found)
+    return found
 
 
 def facts(formula: Any) -> Facts:
@@ -33,14 +48,7 @@ def facts(formula: Any) -> Facts:
     `("not", f)` of a formula is answered from the formula's."""
     while formula[0] == "not":
         formula = formula[1]
-    known = _KNOWN_FACTS.get(id(formula))
-    if known is not None and known[0] is formula:
-        return known[1]
-    found = _walked_facts(formula)
-    if len(_KNOWN_FACTS) >= KNOWN_FACTS:
-        _KNOWN_FACTS.clear()
-    _KNOWN_FACTS[id(formula)] = (formula, found)
-    return found
+    return remembered(_KNOWN_FACTS, formula, _walked_facts)
 
 
 def _walked_facts(formula: Any) -> Facts:

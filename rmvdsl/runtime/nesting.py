@@ -22,6 +22,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from rmvdsl.runtime.facts import remembered
+
 _WINDOWS = ("until", "since")
 
 
@@ -29,22 +31,13 @@ _WINDOWS = ("until", "since")
 # built for each witness a question replays (up to 200), and a walk per build
 # was half the cost of building it.
 _KNOWN: dict[int, tuple[Any, Any]] = {}
-KNOWN_KEPT = 4096
 
 
 def flattened(formula: Any) -> Any:
     """The formula with each window directly inside another of its kind merged
     into it, and double negations dropped (a loop: formulas nest deeply); the
     formula itself where nothing merges."""
-    known = _KNOWN.get(id(formula))
-    if known is not None and known[0] is formula:
-        return known[1]
-    found = _walked(formula)
-    if len(_KNOWN) >= KNOWN_KEPT:
-        _KNOWN.clear()
-    _KNOWN[id(formula)] = (formula, found)
-    _KNOWN[id(found)] = (found, found)
-    return found
+    return remembered(_KNOWN, formula, _walked)
 
 
 def _walked(formula: Any) -> Any:
