@@ -160,7 +160,7 @@ def _sum(numbers: Sequence[Any]) -> Any:
 
 
 def _field(value: Any, step: FieldStep) -> Any:
-    if isinstance(value, Mapping):
+    if _is_mapping(type(value)):
         if step.read in value:
             return value[step.read]
         if step.name in value:
@@ -170,6 +170,20 @@ def _field(value: Any, step: FieldStep) -> Any:
             if hasattr(value, name):
                 return getattr(value, name)
     raise FieldError(f"the message has no field `{step.name}` ({step.type})")
+
+
+def _is_mapping(kind: type) -> bool:
+    """`isinstance(value, Mapping)` by the value's class, remembered: the ABC's
+    check costs more than reading the field (a decoded message's classes are few)."""
+    known = _MAPPINGS.get(kind)
+    if known is None:
+        known = issubclass(kind, Mapping)
+        if len(_MAPPINGS) < 4096:
+            _MAPPINGS[kind] = known
+    return known
+
+
+_MAPPINGS: dict[type, bool] = {dict: True}
 
 
 def _element(value: Any, index: int) -> Any:

@@ -98,12 +98,24 @@ def _json_value(value: Any) -> str:
         return str(value)
     if kind is float:
         return repr(value) if math.isfinite(value) else f'"{value!r}"'
-    if isinstance(value, dict):
-        items = (f"{_json_string(str(k))}: {_json_value(v)}" for k, v in value.items())
+    if kind is dict or isinstance(value, dict):
+        keys = _KEYS
+        items = [
+            f"{keys.get(k) or _key(k)}: {_json_value(v)}" for k, v in value.items()
+        ]  # fmt: skip
         return "{" + ", ".join(items) + "}"
     if isinstance(value, list | tuple):
-        return "[" + ", ".join(_json_value(v) for v in value) + "]"
+        return "[" + ", ".join([_json_value(v) for v in value]) + "]"
     return _json_string(str(value))
 
 
-_json_string = json.JSONEncoder(ensure_ascii=False).encode
+# What json.JSONEncoder(ensure_ascii=False).encode does with a str, less its wrapper.
+_json_string = json.encoder.encode_basestring
+_KEYS: dict[str, str] = {}  # record keys, few and repeated: encoded once
+
+
+def _key(key: Any) -> str:
+    text = _json_string(str(key))
+    if type(key) is str and len(_KEYS) < 1024:
+        _KEYS[key] = text
+    return text

@@ -187,15 +187,27 @@ def exact_decimal(value: Fraction) -> str | None:
     print numbers through it."""
     if value.denominator == 1:
         return str(value.numerator)
-    denominator, twos, fives = value.denominator, 0, 0
+    digits = _PLACES.get(value.denominator)
+    if digits is None:
+        digits = _places(value.denominator)
+        if len(_PLACES) < 4096:  # the few denominators times have (ns: divisors of 10^9)
+            _PLACES[value.denominator] = digits
+    if digits < 0:
+        return None
+    text = f"{abs(value.numerator) * 10**digits // value.denominator:0{digits + 1}d}"
+    return f"{'-' if value.numerator < 0 else ''}{text[:-digits]}.{text[-digits:]}"
+
+
+_PLACES: dict[int, int] = {}
+
+
+def _places(denominator: int) -> int:
+    """The decimal places 1/denominator needs, or -1 where they never end."""
+    twos = fives = 0
     while denominator % 2 == 0:
         denominator //= 2
         twos += 1
     while denominator % 5 == 0:
         denominator //= 5
         fives += 1
-    if denominator != 1:
-        return None
-    digits = max(twos, fives)
-    text = f"{abs(value.numerator) * 10**digits // value.denominator:0{digits + 1}d}"
-    return f"{'-' if value < 0 else ''}{text[:-digits]}.{text[-digits:]}"
+    return max(twos, fives) if denominator == 1 else -1
