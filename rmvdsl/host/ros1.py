@@ -24,7 +24,14 @@ import rospy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from std_msgs.msg import String
 
-from rmvdsl.host import collector, intrusion, monitor, ros1_decoding, ros1_graph
+from rmvdsl.host import (
+    collector,
+    intrusion,
+    monitor,
+    partial_decoding,
+    ros1_decoding,
+    ros1_graph,
+)
 from rmvdsl.host.actions import NodeActions
 from rmvdsl.host.gaps import Undecodable
 from rmvdsl.host.packaged import load_spec, package, with_time_sources
@@ -87,7 +94,9 @@ def subscribe(spec: ir.Spec, take: Callable[[str, Any, dict[str, Any]], None]) -
     problem = ros1_decoding.missing()
     if problem is not None:
         raise SystemExit(f"{rospy.get_name()}: {problem}")
-    decoder = ros1_decoding.Decoder()
+    # each topic's fields the spec reads, and its header's `seq` (monitor.Gaps)
+    decoder = ros1_decoding.Decoder(optional={"header": {"seq": None}})
+    needs = partial_decoding.spec_needs(spec)
     for topic in spec.topics:
         ros_name = str(parameter(f"topics.{topic.name}", topic.ros_name))
 
@@ -104,7 +113,7 @@ def subscribe(spec: ir.Spec, take: Callable[[str, Any, dict[str, Any]], None]) -
                                       f"reads {topic.message_type}")  # fmt: skip
             else:
                 try:
-                    message = decoder.decode(header, raw._buff)
+                    message = decoder.decode(header, raw._buff, needs.get(topic.ros_name))
                 except ros1_decoding.DecodeError as error:
                     message = Undecodable(str(error))
                 else:

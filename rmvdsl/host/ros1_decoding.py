@@ -14,6 +14,7 @@ import functools
 from collections.abc import Callable, Mapping
 from typing import Any
 
+from rmvdsl.host import partial_decoding
 from rmvdsl.runtime.wording import counted
 
 Decode = Callable[[bytes], Any]
@@ -46,21 +47,28 @@ def ros2_style(name: str) -> str:
 
 
 class Decoder:
-    """One rosbags decoder per (type, md5sum) a publisher announced: two
-    publishers of one topic may send two versions of a type."""
+    """One decoder per (type, md5sum) a publisher announced, and per set of
+    fields read: two publishers of one topic may send two versions of a type.
+    Given what the spec reads of a topic (`needs`), only that is decoded
+    (rmvdsl.host.partial_decoding); a message that reader refuses is decoded
+    whole, which says what is wrong with it."""
 
-    def __init__(self) -> None:
-        self.decoders: dict[tuple[str, str], Decode] = {}
+    def __init__(self, optional: partial_decoding.Needs | None = None) -> None:
+        self.decoders: dict[tuple[str, str, str], Decode] = {}
+        # read too where the definition has it (the live node's `header.seq`)
+        self.optional = optional
 
     def message_type(self, header: Mapping[str, str]) -> str:
         return ros2_style(header.get("type", ""))
 
-    def decode(self, header: Mapping[str, str], raw: bytes) -> Any:
-        key = (header.get("type", ""), header.get("md5sum", ""))
+    def decode(
+        self, header: Mapping[str, str], raw: bytes, needs: partial_decoding.Needs | None = None
+    ) -> Any:
+        key = (header.get("type", ""), header.get("md5sum", ""), repr(needs))
         decode = self.decoders.get(key)
         if decode is None:
             try:
-                decode = _compile(key[0], header.get("message_definition", ""))
+                decode = _reader(key[0], header.get("message_definition", ""), needs, self.optional)
             except DecodeError as error:  # once: every message of it fails alike
                 decode = _refusing(error)
             self.decoders[key] = decode
@@ -73,6 +81,32 @@ class Decoder:
             raise DecodeError(f"a {key[0]} message of {size}: {error}") from None
 
 
+def _reader(
+    type_name: str,
+    definition: str,
+    needs: partial_decoding.Needs | None,
+    optional: partial_decoding.Needs | None,
+) -> Decode:
+    store = _store(type_name, definition)
+    name = ros2_style(type_name)
+    deserialize = store.deserialize_ros1
+
+    def full(raw: bytes | memoryview) -> Any:
+        return deserialize(raw, name)
+
+    if not needs:
+        return full
+    fields_of = lambda type_name: store.fielddefs[type_name][1]  # noqa: E731
+    tried = [partial_decoding.merged(needs, optional)] if optional else []
+    for wanted in [*tried, needs]:
+        try:
+            partial = partial_decoding.compile_reader(name, wanted, fields_of, ros1=True)
+        except partial_decoding.Unsupported:
+            continue
+        return partial_decoding.falling_back(partial, full)
+    return full
+
+
 def _refusing(error: DecodeError) -> Decode:
     def decode(raw: bytes) -> Any:
         raise error
@@ -81,10 +115,10 @@ def _refusing(error: DecodeError) -> Decode:
 
 
 @functools.lru_cache(maxsize=256)
-def _compile(type_name: str, definition: str) -> Decode:
-    """The decoder of `type_name` from its definition text, made once per process:
-    a replay of many bags of one type, or a node whose publishers come and go,
-    compiles it once."""
+def _store(type_name: str, definition: str) -> Any:
+    """The type store of `type_name` from its definition text, made once per
+    process: a replay of many bags of one type, or a node whose publishers come
+    and go, parses it once."""
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
     name = ros2_style(type_name)
@@ -95,9 +129,4 @@ def _compile(type_name: str, definition: str) -> Decode:
         store.register(get_types_from_msg(definition, name))
     except Exception as error:
         raise DecodeError(f"the definition of {type_name} does not parse: {error}") from None
-    deserialize = store.deserialize_ros1
-
-    def decode(raw: bytes) -> Any:
-        return deserialize(raw, name)
-
-    return decode
+    return store

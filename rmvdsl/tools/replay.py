@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from rmvdsl.host import partial_decoding
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.engine import (
     Endpoint,
@@ -184,14 +185,15 @@ def key(connection: Any) -> tuple[int, int]:
     return connection.id, id(connection.owner)
 
 
-def decoder(reader: Any) -> Callable[[Any, bytes], Any]:
-    """How a connection's messages are decoded. ROS 1: by the live ROS 1 node's
-    decoder (rmvdsl.host.ros1_decoding), from the connection's own definition and
-    md5sum, so a bag and a live system are read alike, and two bags holding two
-    versions of a type each with its own; ROS 2: by the reader's type store."""
+def decoder(reader: Any, needs: dict[str, partial_decoding.Needs]) -> Callable[[Any, bytes], Any]:
+    """How a connection's messages are decoded: only the fields the spec reads of
+    its topic (`needs`, rmvdsl.host.partial_decoding), by a reader compiled from
+    the recording's definitions. ROS 1: by the live ROS 1 node's decoder
+    (rmvdsl.host.ros1_decoding), from the connection's own definition and md5sum,
+    so a bag and a live system are read alike, and two bags holding two versions
+    of a type each with its own; ROS 2: from the reader's type store."""
     if reader.is2:
-        deserialize = shared_store(reader.typestore).deserialize_cdr
-        return lambda connection, raw: deserialize(raw, connection.msgtype)
+        return _ros2_decoder(shared_store(reader.typestore), needs)
     from rmvdsl.host.ros1_decoding import Decoder
 
     ros1 = Decoder()
@@ -204,7 +206,36 @@ def decoder(reader: Any) -> Callable[[Any, bytes], Any]:
                 "type": connection.msgtype, "md5sum": connection.digest,
                 "message_definition": connection.msgdef.data,
             }  # fmt: skip
-        return ros1.decode(header, raw)
+        return ros1.decode(header, raw, needs.get(connection.topic))
+
+    return decode
+
+
+def _ros2_decoder(
+    store: Any, needs: dict[str, partial_decoding.Needs]
+) -> Callable[[Any, bytes], Any]:
+    readers: dict[tuple[str, str], partial_decoding.Reader] = {}
+    fields_of = lambda type_name: store.fielddefs[type_name][1]  # noqa: E731
+
+    def made(topic: str, msgtype: str) -> partial_decoding.Reader:
+        def full(raw: bytes | memoryview) -> Any:
+            return store.deserialize_cdr(raw, msgtype)
+
+        wanted = needs.get(topic)
+        if not wanted:
+            return full
+        try:
+            partial = partial_decoding.compile_reader(msgtype, wanted, fields_of, ros1=False)
+        except partial_decoding.Unsupported:
+            return full
+        return partial_decoding.falling_back(partial, full)
+
+    def decode(connection: Any, raw: bytes) -> Any:
+        which = (connection.topic, connection.msgtype)
+        read = readers.get(which)
+        if read is None:
+            read = readers[which] = made(*which)
+        return read(raw)
 
     return decode
 
@@ -271,7 +302,7 @@ def replay(
         watched = publishers if can_refuse(spec) else []
         connections = found.connections + [c for c in watched if key(c) not in read]
         total = sum(c.msgcount for c in found.connections)
-        decode = decoder(reader)
+        decode = decoder(reader, partial_decoding.spec_needs(spec, found.skipped_variables))
         position = Position()
         for connection, timestamp, raw in _messages(
             reader, runtime, connections=connections, start=low, stop=high

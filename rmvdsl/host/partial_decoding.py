@@ -1,0 +1,587 @@
+"""Serialized ROS messages read for the fields a spec reads, and no others.
+
+A full decoder (rosbags') builds every field of every message: an object per
+nested message, a numpy array per array, a str per string. A spec reads a few
+fields (`vehicle_status.control.brake`, `objects.objects[*].twist.linear.x`), so a
+reader compiled once per message type and set of fields (`compile_reader`) walks
+the bytes by the definition, skips what is not read by its size (a run of
+fixed-size fields is one offset, known when compiling; a string or a sequence is
+skipped by its length), and unpacks each run of read fields with one
+`struct.Struct`. What it returns reads like the full decoder's message for every
+field read: the same names, nested objects, sequences of elements, and the same
+Python values (docs/replay.md, "Reading only what the spec reads").
+
+Both wire formats rosbags reads: ROS 2's CDR (either byte order, every primitive
+aligned to its size from the end of the 4-byte encapsulation header, lengths to 4,
+strings NUL-terminated) and ROS 1's (little-endian, packed). A message whose length
+does not fit its definition, or whose read bytes do not decode, raises
+`PartialDecodeError`; its caller then decodes it fully, which says what is wrong in
+rosbags' words. A type this reader does not handle (float128, wstring, a field
+name that is not an identifier) raises `Unsupported` when compiling: the caller
+keeps the full decoder for it.
+
+The definitions come as rosbags' field descriptions (`Typestore.fielddefs`):
+`(name, (kind, detail))` with kind 1 a primitive or string, 2 a nested message, 3
+a fixed-size array and 4 a sequence (rosbags.interfaces.Nodetype).
+"""
+
+from __future__ import annotations
+
+import keyword
+import struct
+from collections import OrderedDict
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from rmvdsl.runtime import spec as ir
+
+BASE, NAME, ARRAY, SEQUENCE = 1, 2, 3, 4
+# struct's format of each primitive, as rosbags unpacks it (`byte` signed, `char`
+# unsigned, `bool` any nonzero byte).
+FORMATS = {
+    "bool": "?", "byte": "b", "char": "B", "int8": "b", "uint8": "B",
+    "int16": "h", "uint16": "H", "int32": "i", "uint32": "I",
+    "int64": "q", "uint64": "Q", "float32": "f", "float64": "d",
+}  # fmt: skip
+# ROS 2 gives an empty message one member, which ROS 1's wire format leaves out.
+_PLACEHOLDER = "structure_needs_at_least_one_member"
+
+# What is read of a message: field name -> what is read of that field (None: all
+# of it). An array's entry says what is read of each of its elements.
+Needs = dict[str, "Needs | None"]
+FieldsOf = Callable[[str], Sequence[tuple[str, Any]]]
+Reader = Callable[[bytes | memoryview], Any]
+
+
+class PartialDecodeError(ValueError):
+    """The bytes do not fit the definition where this reader looked."""
+
+
+class Unsupported(Exception):
+    """A definition this reader does not compile; the full decoder reads it."""
+
+
+def needs_of(paths: Iterable[Sequence[str | None]]) -> Needs:
+    """The fields read along `paths`: each a sequence of field names, None for a
+    step into an array's elements (`[3]` or `[*]`)."""
+    needs: Needs = {}
+    for path in paths:
+        names = [step for step in path if step is not None]
+        if not names:
+            raise Unsupported("a path that reads the whole message")
+        level: Needs | None = needs
+        for depth, name in enumerate(names):
+            assert level is not None
+            last = depth == len(names) - 1
+            if name in level and level[name] is None:
+                break  # all of this field is read already
+            if last:
+                level[name] = None
+                break
+            level = level.setdefault(name, {})
+    return needs
+
+
+def spec_needs(spec: ir.Spec, skipped: Iterable[str] = ()) -> dict[str, Needs]:
+    """What the spec reads of each topic (by its ROS name): its variables' paths
+    (but those in `skipped`), and the stamp of a topic timed by its header."""
+    names = {topic.name: topic.ros_name for topic in spec.topics}
+    paths: dict[str, list[list[str | None]]] = {}
+    leave_out = set(skipped)
+    for variable in spec.variables:
+        if variable.name not in leave_out:
+            steps = [s.read if isinstance(s, ir.FieldStep) else None for s in variable.path]
+            paths.setdefault(names[variable.topic], []).append(steps)
+    for topic in spec.topics:
+        if topic.time_source == "header" and topic.ros_name in paths:
+            paths[topic.ros_name].append(["header", "stamp"])
+    # a path of no field reads the whole message: that topic is decoded whole
+    return {
+        topic: needs_of(found)
+        for topic, found in paths.items()
+        if all(any(step is not None for step in path) for path in found)
+    }
+
+
+def merged(first: Needs, second: Needs) -> Needs:
+    """What either reads."""
+    out: Needs = dict(first)
+    for name, inner in second.items():
+        if name not in out:
+            out[name] = inner
+        else:
+            mine = out[name]
+            out[name] = None if mine is None or inner is None else merged(mine, inner)
+    return out
+
+
+def falling_back(partial: Reader, full: Reader) -> Reader:
+    """`partial`, and `full` where it refuses a message: the full decoder then
+    reads it, or says in its words what is wrong with it."""
+
+    def read(raw: bytes | memoryview) -> Any:
+        try:
+            return partial(raw)
+        except PartialDecodeError:
+            return full(raw)
+
+    return read
+
+
+def compile_reader(type_name: str, needs: Needs, fields_of: FieldsOf, *, ros1: bool) -> Reader:
+    """A reader of `type_name`'s serialized messages that decodes `needs`; made
+    once per process for each definition and set of fields (a fleet of
+    recordings of one type compiles it once)."""
+    key = (type_name, repr(needs), ros1, _fingerprint(type_name, fields_of))
+    made = _COMPILED.get(key)
+    if made is None:
+        made = _COMPILED[key] = _compiled(type_name, needs, fields_of, ros1=ros1)
+        if len(_COMPILED) > KEPT:
+            _COMPILED.popitem(last=False)
+    return made
+
+
+KEPT = 256  # readers kept: memory stays flat over any fleet of definitions
+_COMPILED: OrderedDict[tuple[str, str, bool, str], Reader] = OrderedDict()
+
+
+def _fingerprint(type_name: str, fields_of: FieldsOf) -> str:
+    """The definitions `type_name` reaches, as text: two versions of a type differ."""
+    seen: dict[str, Any] = {}
+    waiting = [type_name]
+    while waiting:
+        name = waiting.pop()
+        if name in seen:
+            continue
+        try:
+            fields = seen[name] = tuple(fields_of(name))
+        except KeyError as error:
+            raise Unsupported(f"no definition of {name}") from error
+        for _, (kind, detail) in fields:
+            kind = int(kind)
+            if kind == NAME:
+                waiting.append(detail)
+            elif kind in (ARRAY, SEQUENCE) and int(detail[0][0]) == NAME:
+                waiting.append(detail[0][1])
+    return repr(sorted(seen.items()))
+
+
+def _compiled(type_name: str, needs: Needs, fields_of: FieldsOf, *, ros1: bool) -> Reader:
+    try:
+        if ros1:
+            return _Compiler(fields_of, ros1=True, order="<").top(type_name, needs)
+        little = _Compiler(fields_of, ros1=False, order="<").top(type_name, needs)
+        big = _Compiler(fields_of, ros1=False, order=">").top(type_name, needs)
+    except RecursionError as error:  # a definition that contains itself
+        raise Unsupported("definitions nested too deep") from error
+
+    def read(raw: bytes | memoryview) -> Any:
+        # the encapsulation header: 00 01 little-endian CDR, 00 00 big-endian
+        if len(raw) < 4 or raw[0] != 0 or raw[1] > 1:
+            raise PartialDecodeError("not CDR: unknown encapsulation")
+        return (little if raw[1] else big)(raw)
+
+    return read
+
+
+@dataclass
+class _Segment:
+    """Fields read at static offsets from one runtime position, unpacked at once."""
+
+    # offset, format, element count (None: one value, not an array), variable
+    reads: list[tuple[int, str, int | None, str]] = field(default_factory=list)
+
+
+@dataclass
+class _Body:
+    """One generated function's state while its lines are written: the position is
+    `p + offset` with `p` a runtime value known to be `known`-aligned."""
+
+    lines: list[str] = field(default_factory=list)
+    offset: int = 0
+    known: int = 8
+    segment: _Segment = field(default_factory=_Segment)
+    objects: list[str] = field(default_factory=list)  # constructions, inner first
+    counter: int = 0
+
+    def name(self, prefix: str) -> str:
+        self.counter += 1
+        return f"{prefix}{self.counter}"
+
+
+class _Compiler:
+    def __init__(self, fields_of: FieldsOf, *, ros1: bool, order: str) -> None:
+        self.fields_of = fields_of
+        self.ros1 = ros1
+        self.order = order
+        self.names: dict[str, Any] = {
+            "_unpack_from": struct.unpack_from,
+            "_Error": PartialDecodeError,
+            "_LENGTH": "the message is longer or shorter than its definition",
+        }
+        self.functions: dict[tuple[str, str], str] = {}
+        self.source: list[str] = []
+        self.sizes: dict[str, tuple[int, int]] = {}  # type -> (fixed size | -1, alignment)
+
+    # ---- the whole reader ----
+
+    def top(self, type_name: str, needs: Needs) -> Reader:
+        body = _Body(known=8)
+        start = 0 if self.ros1 else 4  # CDR positions count from the header's end
+        body.lines.append(f"p = {start}")
+        value = self._message(body, type_name, needs, read=True)
+        self._flush(body)
+        end = self._position(body)
+        body.lines.extend(body.objects)
+        if self.ros1:
+            body.lines.append(f"if {end} != len(raw): raise _Error(_LENGTH)")
+        else:  # rosbags allows up to 3 bytes of padding after the last field
+            body.lines.append(f"end = {end}")
+            body.lines.append("if end > len(raw) or end + 3 < len(raw): raise _Error(_LENGTH)")
+        body.lines.append(f"return {value}")
+        self._define("read", "raw", body)
+        namespace = dict(self.names)
+        exec("\n".join(self.source), namespace)  # generated here: no name from a definition
+        reader: Reader = namespace["read"]
+
+        def checked(raw: bytes | memoryview) -> Any:
+            try:
+                return reader(raw)
+            except (struct.error, UnicodeDecodeError, IndexError, ValueError) as error:
+                raise PartialDecodeError(str(error)) from None
+
+        return checked
+
+    def _define(self, name: str, parameters: str, body: _Body) -> None:
+        self.source.append(f"def {name}({parameters}):")
+        self.source.extend(f"    {line}" for line in body.lines)
+
+    # ---- fields ----
+
+    def _fields(self, type_name: str) -> list[tuple[str, Any]]:
+        try:
+            fields = list(self.fields_of(type_name))
+        except KeyError as error:
+            raise Unsupported(f"no definition of {type_name}") from error
+        if self.ros1:
+            fields = [(n, d) for n, d in fields if n != _PLACEHOLDER]
+        return fields
+
+    def _message(self, body: _Body, type_name: str, needs: Needs | None, read: bool) -> str | None:
+        """Walk a nested message's fields (reading `needs`, all when None); the
+        variable of its object when it is read."""
+        fields = self._fields(type_name)
+        if needs:
+            missing = sorted(set(needs) - {name for name, _ in fields})
+            if missing:
+                raise Unsupported(f"{type_name} has no field {missing[0]}")
+        values: list[tuple[str, str]] = []
+        for name, (kind, detail) in fields:
+            wanted = read and (needs is None or name in needs)
+            inner = None if needs is None else needs.get(name)
+            value = self._field(body, int(kind), detail, wanted, inner)
+            if wanted:
+                assert value is not None
+                values.append((name, value))
+        if not read:
+            return None
+        cls = self._class(type_name, [n for n, _ in values])
+        variable = body.name("o")
+        body.objects.append(f"{variable} = {cls}({', '.join(v for _, v in values)})")
+        return variable
+
+    def _field(
+        self, body: _Body, kind: int, detail: Any, read: bool, needs: Needs | None
+    ) -> str | None:
+        if kind == BASE:
+            base, _bound = detail
+            if base == "string":
+                return self._string(body, read)
+            return self._primitive(body, base, read)
+        if kind == NAME:
+            return self._message(body, detail, needs, read)
+        element, count = detail
+        if kind == ARRAY:
+            return self._elements(body, element, str(count), read, needs, fixed=count)
+        if kind == SEQUENCE:
+            self._align(body, 4)
+            length = body.name("n")
+            self._add(body, "I", None, length)
+            self._flush(body)
+            body.offset += 4
+            return self._elements(body, element, length, read, needs, fixed=None)
+        raise Unsupported(f"a field of kind {kind}")
+
+    def _primitive(self, body: _Body, base: str, read: bool) -> str | None:
+        fmt = FORMATS.get(base)
+        if fmt is None:
+            raise Unsupported(f"the primitive type {base}")
+        size = struct.calcsize(fmt)
+        self._align(body, size)
+        variable = None
+        if read:
+            variable = body.name("v")
+            self._add(body, fmt, None, variable)
+        body.offset += size
+        return variable
+
+    def _string(self, body: _Body, read: bool) -> str | None:
+        self._align(body, 4)
+        length = body.name("n")
+        self._add(body, "I", None, length)
+        self._flush(body)
+        here = self._position(body)
+        variable = None
+        terminator = 0 if self.ros1 else 1
+        if not self.ros1:  # read or not: a CDR string ends in NUL (rosbags checks it)
+            body.lines.append(f"if {length} < 1 or raw[{here} + 3 + {length}] != 0: "
+                              "raise _Error('a string without its terminator')")  # fmt: skip
+        if read:
+            variable = body.name("s")
+            body.lines.append(
+                f"{variable} = bytes(raw[{here} + 4:{here} + 4 + {length} - {terminator}]).decode()"
+            )
+        body.lines.append(f"p = {here} + 4 + {length}")
+        body.offset, body.known = 0, 1
+        return variable
+
+    def _elements(
+        self, body: _Body, element: Any, count: str, read: bool, needs: Needs | None,
+        fixed: int | None,
+    ) -> str | None:  # fmt: skip
+        """The elements of an array (`fixed` of them) or a sequence (`count`, a
+        variable): skipped by their size when every element has the same, else
+        walked one by one."""
+        kind, detail = int(element[0]), element[1]
+        if kind == BASE and detail[0] != "string":
+            return self._primitives(body, detail[0], count, read, fixed)
+        if not read and kind == NAME:
+            stride, alignment = self._stride(detail)
+            if stride >= 0:
+                self._align_if(body, alignment, count, fixed)
+                if fixed is not None:
+                    body.offset += fixed * stride
+                    return None
+                self._flush(body)
+                body.lines.append(f"p = {self._position(body)} + {count} * {stride}")
+                body.offset, body.known = 0, min(4, alignment)
+                return None
+        function = self._function(kind, detail, needs, read)
+        if fixed is not None:
+            self._align(body, self._first(element))
+        self._flush(body)
+        if body.offset:
+            body.lines.append(f"p = {self._position(body)}")
+        if fixed is None:  # a damaged count must not make the loop run for ever
+            least = max(1, self._least(element))  # no loop needed for a size of 0
+            body.lines.append(f"if {count} * {least} > len(raw) - p: "
+                              "raise _Error('a sequence longer than the message')")  # fmt: skip
+        variable = body.name("a") if read else None
+        if read:
+            body.lines.append(f"{variable} = []")
+            body.lines.append(f"for _ in range({count}):")
+            body.lines.append(f"    e, p = {function}(raw, p)")
+            body.lines.append(f"    {variable}.append(e)")
+        else:
+            body.lines.append(f"for _ in range({count}):")
+            body.lines.append(f"    p = {function}(raw, p)[1]")
+        body.offset, body.known = 0, 1
+        return variable
+
+    def _primitives(
+        self, body: _Body, base: str, count: str, read: bool, fixed: int | None
+    ) -> str | None:
+        fmt = FORMATS.get(base)
+        if fmt is None:
+            raise Unsupported(f"the primitive type {base}")
+        size = struct.calcsize(fmt)
+        self._align_if(body, size, count, fixed)
+        variable = body.name("t") if read else None
+        if fixed is not None:
+            if variable is not None and fixed:
+                self._add(body, fmt, fixed, variable)
+            elif variable is not None:
+                body.lines.append(f"{variable} = ()")
+            body.offset += fixed * size
+            return variable
+        self._flush(body)
+        here = self._position(body)
+        if variable is not None:
+            body.lines.append(f"{variable} = _unpack_from('{self.order}%d{fmt}' % {count}, "
+                              f"raw, {here})")  # fmt: skip
+        body.lines.append(f"p = {here} + {count} * {size}")
+        body.offset, body.known = 0, min(4, size)
+        return variable
+
+    def _function(self, kind: int, detail: Any, needs: Needs | None, read: bool) -> str:
+        """A function that reads one element at `p`: returns (value, end)."""
+        key = (repr((kind, detail)), repr((needs, read)))
+        name = self.functions.get(key)
+        if name is not None:
+            return name
+        name = self.functions[key] = f"element{len(self.functions)}"
+        body = _Body(known=1)
+        if kind == NAME:
+            value = self._message(body, detail, needs, read)
+        else:
+            value = self._string(body, read)
+        self._flush(body)
+        end = self._position(body)
+        body.lines.extend(body.objects)
+        body.lines.append(f"return {value}, {end}")
+        self._define(name, "raw, p", body)
+        return name
+
+    # ---- sizes and alignment ----
+
+    def _least(self, description: Any) -> int:
+        """The fewest bytes a value takes (a sequence's count is checked against
+        the bytes left before its elements are walked)."""
+        kind, detail = int(description[0]), description[1]
+        if kind == BASE:
+            if detail[0] == "string":
+                return 4 if self.ros1 else 5
+            return struct.calcsize(FORMATS[detail[0]])
+        if kind == ARRAY:
+            return detail[1] * self._least(detail[0])
+        if kind == SEQUENCE:
+            return 4
+        return sum(self._least(d) for _, d in self._fields(detail))
+
+    def _stride(self, type_name: str) -> tuple[int, int]:
+        """The bytes each element of an array of `type_name` takes when all take
+        the same, and the alignment they start at; (-1, 0) when they do not. In
+        CDR that needs a fixed size, a multiple of the largest alignment inside,
+        which is also the first field's."""
+        cached = self.sizes.get(type_name)
+        if cached is not None:
+            return cached
+        body = _Body(known=8)
+        self._message(body, type_name, {}, read=False)
+        largest = self._largest((NAME, type_name))
+        first = self._first((NAME, type_name))
+        fixed = not body.lines and not body.segment.reads
+        even = self.ros1 or (body.offset % largest == 0 and first == largest)
+        result = (body.offset, largest) if fixed and even else (-1, 0)
+        self.sizes[type_name] = result
+        return result
+
+    def _largest(self, description: Any) -> int:
+        kind, detail = int(description[0]), description[1]
+        if kind == BASE:
+            return 4 if detail[0] == "string" else struct.calcsize(FORMATS[detail[0]])
+        if kind == NAME:
+            return max((self._largest(d) for _, d in self._fields(detail)), default=1)
+        return max(4 if kind == SEQUENCE else 1, self._largest(detail[0]))
+
+    def _first(self, description: Any) -> int:
+        kind, detail = int(description[0]), description[1]
+        if kind == BASE:
+            return 4 if detail[0] == "string" else struct.calcsize(FORMATS[detail[0]])
+        if kind == NAME:
+            fields = self._fields(detail)
+            return self._first(fields[0][1]) if fields else 1
+        return 4 if kind == SEQUENCE else self._first(detail[0])
+
+    def _align(self, body: _Body, size: int) -> None:
+        if self.ros1 or size <= 1:
+            return
+        if size <= body.known:
+            body.offset = -(-body.offset // size) * size
+            return
+        self._flush(body)
+        here = self._position(body)
+        body.lines.append(f"p = (({here} - 4 + {size - 1}) & {-size}) + 4")
+        body.offset, body.known = 0, size
+
+    def _align_if(self, body: _Body, size: int, count: str, fixed: int | None) -> None:
+        """A sequence's elements are aligned only when there are any (rosbags'
+        rule, as the CDR it writes)."""
+        if self.ros1 or size <= 1:
+            return
+        if fixed is not None:  # a fixed-size array is aligned even when empty
+            self._align(body, size)
+            return
+        if size <= body.known and body.offset % size == 0:
+            return
+        self._flush(body)
+        here = self._position(body)
+        body.lines.append(f"p = (({here} - 4 + {size - 1}) & {-size}) + 4 if {count} else {here}")
+        # just after a count: 4-aligned with no element, `size`-aligned with some
+        body.offset, body.known = 0, min(4, size)
+
+    @staticmethod
+    def _position(body: _Body) -> str:
+        return f"p + {body.offset}" if body.offset else "p"
+
+    # ---- reads at static offsets ----
+
+    def _add(self, body: _Body, fmt: str, count: int | None, variable: str) -> None:
+        body.segment.reads.append((body.offset, fmt, count, variable))
+
+    def _flush(self, body: _Body) -> None:
+        reads = body.segment.reads
+        if not reads:
+            return
+        body.segment = _Segment()
+        start = reads[0][0]
+        parts, at = [self.order], start
+        for offset, fmt, count, _ in reads:
+            if offset > at:
+                parts.append(f"{offset - at}x")
+            parts.append(f"{count or ''}{fmt}")
+            at = offset + (count or 1) * struct.calcsize(fmt)
+        unpacker = f"_S{len(self.names)}"
+        self.names[unpacker] = struct.Struct("".join(parts))
+        where = f"p + {start}" if start else "p"
+        if all(count is None for _, _, count, _ in reads):
+            targets = ", ".join(variable for *_, variable in reads)
+            body.lines.append(f"{targets}, = {unpacker}.unpack_from(raw, {where})")
+            return
+        body.lines.append(f"u = {unpacker}.unpack_from(raw, {where})")
+        index = 0
+        for _, _, count, variable in reads:
+            if count is None:
+                body.lines.append(f"{variable} = u[{index}]")
+                index += 1
+            else:
+                body.lines.append(f"{variable} = u[{index}:{index + count}]")
+                index += count
+
+    # ---- the objects returned ----
+
+    def _class(self, type_name: str, names: list[str]) -> str:
+        for name in names:
+            if not name.isidentifier() or keyword.iskeyword(name) or name.startswith("__"):
+                raise Unsupported(f"the field name {name!r}")
+        key = f"_C{len(self.names)}"
+        self.names[key] = _message_class(type_name, tuple(names))
+        return key
+
+
+def _message_class(type_name: str, names: tuple[str, ...]) -> type:
+    """A class of the fields read of `type_name`, made once per set of names."""
+    made = _CLASSES.get((type_name, names))
+    if made is not None:
+        return made
+    source = "\n".join([
+        f"def __init__(self, {', '.join(names)}):",
+        *(f"    self.{name} = {name}" for name in names),
+    ])  # fmt: skip
+    namespace: dict[str, Any] = {}
+    exec(source, namespace)  # the names: identifiers, checked
+    cls = type(type_name.rsplit("/", 1)[-1], (), {
+        "__slots__": names, "__init__": namespace["__init__"],
+        "__repr__": _repr, "__msgtype__": type_name,
+    })  # fmt: skip
+    _CLASSES[(type_name, names)] = cls
+    return cls
+
+
+def _repr(self: Any) -> str:
+    inner = ", ".join(f"{name}={getattr(self, name)!r}" for name in self.__slots__)
+    return f"{type(self).__name__}({inner})"
+
+
+_CLASSES: dict[tuple[str, tuple[str, ...]], type] = {}
