@@ -184,3 +184,27 @@ def test_an_edit_reuses_the_declarations_it_did_not_touch(tmp_path) -> None:
     edited = text.replace("E7 when V7 > 1", "E7 when V7 > 12")
     check(str(path), edited, solver=False, incremental=True)
     assert (len(RESOLVED), len(TYPED)) == (151, 101)  # only E7 is new
+
+
+def test_an_unknown_type_s_suggestion_is_worked_out_once_across_checks(tmp_path, monkeypatch):
+    """An editor re-checks a spec whose messages are not there yet at every
+    keystroke: each unknown type's did-you-mean is worked out once, not per check
+    (50 unknown types took 13 ms of a 48 ms check)."""
+    from rmvdsl.check import msgtypes
+
+    asked: list[str] = []
+    uncached = msgtypes.TypeRegistry._closest_uncached
+
+    def counted(self: Any, full: str) -> str | None:
+        asked.append(full)
+        return uncached(self, full)
+
+    monkeypatch.setattr(msgtypes.TypeRegistry, "_closest_uncached", counted)
+    text = "".join(f'topic T{i}: sensor_msgs/LaserScna{i % 2} = "/t{i}"\n' for i in range(4))
+    path = tmp_path / "spec.rmv"
+    first = check(str(path), "system s\n" + text)
+    again = check(str(path), "system s\n\n" + text)
+    assert sorted(asked) == ["sensor_msgs/msg/LaserScna0", "sensor_msgs/msg/LaserScna1"]
+    helps = [d.help for d in again.errors if d.code == "RMV300"]
+    assert helps == [d.help for d in first.errors if d.code == "RMV300"]
+    assert helps and all(h == "did you mean `sensor_msgs/msg/LaserScan`?" for h in helps)

@@ -46,7 +46,7 @@ class FieldPaths:
             return None  # its .msg file has errors, reported there
         suggestion = registry.closest_type(topic.msg_type.text)
         package = topic.msg_type.parts[0].name
-        known_package = any(n.startswith(package + "/") for n in registry.names())
+        known_package = registry.has_package(package)
         self.report(
             error(
                 "RMV300",
