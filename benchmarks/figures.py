@@ -165,6 +165,18 @@ def replay_speed(data: dict[str, Any]) -> str:
     return _table(header, rows)
 
 
+def replay_decoding(data: dict[str, Any]) -> str:
+    rows = [
+        [STORAGE_NAMES.get(storage, storage), msgtype, f"{row['messages']:,}",
+         f"{row['full_us']:.1f}", f"{row['partial_us']:.1f}", f"{row['partial_of_full']:.2f}"]
+        for storage, types in data.items()
+        for msgtype, row in types.items()
+    ]  # fmt: skip
+    header = ["storage", "message type", "messages", "full decoder µs", "fields read µs",
+              "ratio"]  # fmt: skip
+    return _table(header, rows)
+
+
 def check_scaling(data: dict[str, Any]) -> str:
     rows = []
     for scale, row in data.items():
@@ -238,6 +250,7 @@ BLOCKS: dict[str, tuple[str, Callable[[dict[str, Any]], str]]] = {
     "ros2-node": ("ros2.json", ros2_node),
     "ros2-workload": ("ros2.json", ros2_workload),
     "replay-speed": ("replay.json", replay_speed),
+    "replay-decoding": ("decoding.json", replay_decoding),
     "check-scaling": ("check.json", check_scaling),
     "sat-families": ("sat.json", sat_families),
     "sat-requirements": ("sat.json", sat_requirements),

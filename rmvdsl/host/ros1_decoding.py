@@ -54,7 +54,7 @@ class Decoder:
     whole, which says what is wrong with it."""
 
     def __init__(self, optional: partial_decoding.Needs | None = None) -> None:
-        self.decoders: dict[tuple[str, str, str], Decode] = {}
+        self.decoders: dict[tuple[str, str, int], tuple[Any, Decode]] = {}
         # read too where the definition has it (the live node's `header.seq`)
         self.optional = optional
 
@@ -64,14 +64,17 @@ class Decoder:
     def decode(
         self, header: Mapping[str, str], raw: bytes, needs: partial_decoding.Needs | None = None
     ) -> Any:
-        key = (header.get("type", ""), header.get("md5sum", ""), repr(needs))
-        decode = self.decoders.get(key)
-        if decode is None:
+        # a topic's needs are one long-lived dict: known by identity, not spelt out
+        # at every message (and kept, so the identity stays its own)
+        key = (header.get("type", ""), header.get("md5sum", ""), id(needs))
+        found = self.decoders.get(key)
+        if found is None or found[0] is not needs:
             try:
                 decode = _reader(key[0], header.get("message_definition", ""), needs, self.optional)
             except DecodeError as error:  # once: every message of it fails alike
                 decode = _refusing(error)
-            self.decoders[key] = decode
+            found = self.decoders[key] = (needs, decode)
+        decode = found[1]
         try:
             return decode(raw)
         except DecodeError:
