@@ -116,6 +116,23 @@ def merged(first: Needs, second: Needs) -> Needs:
     return out
 
 
+def or_full(
+    full: Reader, type_name: str, wanted: Sequence[Needs], fields_of: FieldsOf, *, ros1: bool
+) -> Reader:
+    """A reader of the first of `wanted` this module compiles for `type_name`,
+    falling back to `full` where it refuses a message; `full` itself where none
+    compiles (or nothing is wanted)."""
+    for needs in wanted:
+        if not needs:
+            continue
+        try:
+            partial = compile_reader(type_name, needs, fields_of, ros1=ros1)
+        except Unsupported:
+            continue
+        return falling_back(partial, full)
+    return full
+
+
 def falling_back(partial: Reader, full: Reader) -> Reader:
     """`partial`, and `full` where it refuses a message: the full decoder then
     reads it, or says in its words what is wrong with it."""

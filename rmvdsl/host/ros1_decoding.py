@@ -100,14 +100,8 @@ def _reader(
     if not needs:
         return full
     fields_of = lambda type_name: store.fielddefs[type_name][1]  # noqa: E731
-    tried = [partial_decoding.merged(needs, optional)] if optional else []
-    for wanted in [*tried, needs]:
-        try:
-            partial = partial_decoding.compile_reader(name, wanted, fields_of, ros1=True)
-        except partial_decoding.Unsupported:
-            continue
-        return partial_decoding.falling_back(partial, full)
-    return full
+    wanted = [partial_decoding.merged(needs, optional), needs] if optional else [needs]
+    return partial_decoding.or_full(full, name, wanted, fields_of, ros1=True)
 
 
 def _refusing(error: DecodeError) -> Decode:

@@ -221,14 +221,8 @@ def _ros2_decoder(
         def full(raw: bytes | memoryview) -> Any:
             return store.deserialize_cdr(raw, msgtype)
 
-        wanted = needs.get(topic)
-        if not wanted:
-            return full
-        try:
-            partial = partial_decoding.compile_reader(msgtype, wanted, fields_of, ros1=False)
-        except partial_decoding.Unsupported:
-            return full
-        return partial_decoding.falling_back(partial, full)
+        wanted = [needs[topic]] if topic in needs else []
+        return partial_decoding.or_full(full, msgtype, wanted, fields_of, ros1=False)
 
     def decode(connection: Any, raw: bytes) -> Any:
         which = (connection.topic, connection.msgtype)
