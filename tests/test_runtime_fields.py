@@ -186,3 +186,71 @@ def test_a_uint64_above_int64_wraps_as_the_docs_say():
     assert read(variable, {"data": 2**64 - 1}) == -1
     assert read(variable, {"data": 2**63}) == -(2**63)
     assert read(variable, {"data": 7}) == 7
+
+
+class _Node:
+    """A decoded message's object: attributes only."""
+
+    def __init__(self, **fields: object) -> None:
+        self.__dict__.update(fields)
+
+
+_LEAVES = st.one_of(
+    st.booleans(), st.integers(-(2**70), 2**70), st.floats(allow_nan=True),
+    st.sampled_from([float("nan"), "text", None]),
+)  # fmt: skip
+
+
+@st.composite
+def _aggregated(draw):
+    """A message with `a[*].b` (or `a[*].b[*]`), its elements objects, mappings,
+    lists, tuples or numpy arrays, holding values of every kind, and a variable of
+    every array aggregate over it."""
+    import numpy
+
+    inner_each = draw(st.booleans())
+    leaf_type = draw(st.sampled_from(["float64", "int32", "bool"]))
+
+    def leaf():
+        if inner_each:
+            items = draw(st.lists(_LEAVES, max_size=3))
+            shape = draw(st.sampled_from(["list", "tuple", "numpy"]))
+            if shape == "numpy" and all(type(v) in (int, float) for v in items):
+                return numpy.array(items, dtype=float)
+            return tuple(items) if shape == "tuple" else items
+        return draw(_LEAVES)
+
+    def element():
+        value = leaf()
+        return {"b": value} if draw(st.integers(0, 9)) == 0 else _Node(b=value)
+
+    elements = [element() for _ in range(draw(st.integers(0, 4)))]
+    container = tuple(elements) if draw(st.booleans()) else elements
+    message = {"a": container} if draw(st.integers(0, 9)) == 0 else _Node(a=container)
+    path = [ir.FieldStep("a", "a", "pkg/msg/E[]"), ir.EachStep(),
+            ir.FieldStep("b", "b", f"{leaf_type}[]" if inner_each else leaf_type)]  # fmt: skip
+    if inner_each:
+        path.append(ir.EachStep())
+    name = draw(st.sampled_from(["min", "max", "sum", "mean", "count", "any", "all"]))
+    kind = "int" if name == "count" else "bool" if name in ("any", "all") else "float"
+    return _variable_at(path, kind, name), message
+
+
+def _outcome(read_it, message):
+    try:
+        value = read_it(message)
+    except (FieldError, IndexError) as error:
+        return type(error).__name__
+    return type(value).__name__, "nan" if isinstance(value, float) and value != value else value
+
+
+@settings(max_examples=400, deadline=None)
+@given(_aggregated())
+def test_an_aggregate_s_fast_reader_reads_what_read_reads(case):
+    """fields.reader's fast path for aggregates over attribute objects gives what
+    `read` gives on any message: mappings, numpy arrays, values of another type."""
+    from rmvdsl.runtime.fields import reader
+
+    variable, message = case
+    fast = reader(variable)
+    assert _outcome(fast, message) == _outcome(lambda m: read(variable, m), message)

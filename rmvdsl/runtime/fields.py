@@ -58,12 +58,10 @@ def reader(variable: Variable) -> Any:
     """`read` for one variable, with a fast path for the common shape: fields only,
     down to a number or a bool, on objects with attributes. Anything else (a
     mapping, a missing field, an array) takes `read`, which says what is wrong."""
+    if variable.aggregate is not None:
+        return _aggregate_reader(variable)
     convert = _SCALARS.get(variable.type.kind)
-    if (
-        variable.aggregate is not None
-        or convert is None
-        or not all(isinstance(step, FieldStep) for step in variable.path)
-    ):
+    if convert is None or not all(isinstance(step, FieldStep) for step in variable.path):
         return lambda message: read(variable, message)
     names = tuple(step.read for step in variable.path if isinstance(step, FieldStep))
 
@@ -79,6 +77,53 @@ def reader(variable: Variable) -> Any:
             return read(variable, message)
 
     return fast
+
+
+def _aggregate_reader(variable: Variable) -> Any:
+    """`read` for an array aggregate (`max(objects[*].twist.linear.x)`), with a
+    fast path for attribute objects and lists or tuples of them down to numbers or
+    bools: the elements' values converted as `read` converts them, then the
+    aggregate. Anything else (a mapping, a numpy array, an index, a value of
+    another type) takes `read`."""
+    convert = _SCALARS.get(_element_kind(variable))
+    steps = variable.path
+    if convert is None or not all(isinstance(s, FieldStep | EachStep) for s in steps):
+        return lambda message: read(variable, message)
+    plan = tuple(step.read if isinstance(step, FieldStep) else None for step in steps)
+    name = variable.aggregate
+    assert name is not None
+
+    def fast(message: Any) -> Any:
+        values = None if _is_mapping(type(message)) else _walk(plan, message)
+        if values is None or any(type(value) not in _PLAIN for value in values):
+            return read(variable, message)  # numpy, mappings, methods: the careful way
+        try:
+            converted = [convert(value) for value in values]
+        except (ValueError, OverflowError):  # NaN or infinity as an integer
+            return read(variable, message)  # which says so
+        return aggregate(name, converted)
+
+    return fast
+
+
+def _walk(plan: tuple[str | None, ...], message: Any) -> list[Any] | None:
+    """The values at the end of a path of attributes (a name) and every element
+    of a list or tuple (None); None where the message is not so shaped."""
+    values = [message]
+    for field in plan:
+        if field is not None:
+            try:
+                values = [getattr(value, field) for value in values]
+            except AttributeError:
+                return None
+            continue
+        elements: list[Any] = []
+        for value in values:
+            if type(value) is not list and type(value) is not tuple:
+                return None
+            elements.extend(value)
+        values = elements
+    return values
 
 
 def read(variable: Variable, message: Any) -> Any:
@@ -221,7 +266,7 @@ def _convert(value: Any, kind: str, name: str) -> Any:
             return value if isinstance(value, str) else bytes(value).decode("utf-8", "replace")
         if kind in ("time", "duration"):
             return _seconds(value)
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError, OverflowError) as exc:  # inf is no integer
         raise FieldError(f"`{name}`: {exc}") from None
     return value
 
