@@ -244,3 +244,32 @@ def test_a_definition_that_contains_itself_is_left_to_the_full_decoder() -> None
     fields = {"test_msgs/msg/Loop": [("next", (2, "test_msgs/msg/Loop")), ("x", (1, ("int32", 0)))]}
     with pytest.raises(Unsupported, match="nested too deep"):
         compile_reader("test_msgs/msg/Loop", needs_of([("x",)]), fields.__getitem__, ros1=True)
+
+
+def test_a_primitive_it_does_not_know_anywhere_is_left_to_the_full_decoder() -> None:
+    """float128 inside the elements of a sequence not read: the reader must size
+    them to skip them, cannot, and says so when compiling (never a KeyError)."""
+    fields = {
+        "test_msgs/msg/A": [("x", (1, ("int32", 0))), ("items", (4, ((2, "test_msgs/msg/B"), 0)))],
+        "test_msgs/msg/B": [("y", (1, ("float128", 0))), ("s", (1, ("string", 0)))],
+    }
+    for ros1 in (True, False):
+        with pytest.raises(Unsupported, match="float128"):
+            compile_reader("test_msgs/msg/A", needs_of([("x",)]), fields.__getitem__, ros1=ros1)
+
+
+@pytest.mark.parametrize("name", ["self", "_self", "raw", "p", "len", "class", "__init__", "a b"])
+def test_any_field_name_is_read_or_left_to_the_full_decoder(name: str) -> None:
+    """Field names reach generated code only as checked identifiers: one that
+    shadows a parameter or a builtin is read; one that is no name is refused when
+    compiling."""
+    fields = {"test_msgs/msg/A": [(name, (1, ("int32", 0))), ("y", (1, ("int32", 0)))]}
+    needs = needs_of([(name,), ("y",)])
+    if not name.isidentifier() or name in ("class", "__init__", "_self"):
+        with pytest.raises(Unsupported):
+            compile_reader("test_msgs/msg/A", needs, fields.__getitem__, ros1=True)
+        return
+    message = compile_reader("test_msgs/msg/A", needs, fields.__getitem__, ros1=True)(
+        (7).to_bytes(4, "little") + (9).to_bytes(4, "little")
+    )
+    assert (getattr(message, name), message.y) == (7, 9)

@@ -54,6 +54,14 @@ FieldsOf = Callable[[str], Sequence[tuple[str, Any]]]
 Reader = Callable[[bytes | memoryview], Any]
 
 
+def _size(base: str) -> int:
+    """The bytes of a primitive (any this reader knows)."""
+    fmt = FORMATS.get(base)
+    if fmt is None:
+        raise Unsupported(f"the primitive type {base}")
+    return struct.calcsize(fmt)
+
+
 class PartialDecodeError(ValueError):
     """The bytes do not fit the definition where this reader looked."""
 
@@ -459,7 +467,7 @@ class _Compiler:
         if kind == BASE:
             if detail[0] == "string":
                 return 4 if self.ros1 else 5
-            return struct.calcsize(FORMATS[detail[0]])
+            return _size(detail[0])
         if kind == ARRAY:
             return detail[1] * self._least(detail[0])
         if kind == SEQUENCE:
@@ -487,7 +495,7 @@ class _Compiler:
     def _largest(self, description: Any) -> int:
         kind, detail = int(description[0]), description[1]
         if kind == BASE:
-            return 4 if detail[0] == "string" else struct.calcsize(FORMATS[detail[0]])
+            return 4 if detail[0] == "string" else _size(detail[0])
         if kind == NAME:
             return max((self._largest(d) for _, d in self._fields(detail)), default=1)
         return max(4 if kind == SEQUENCE else 1, self._largest(detail[0]))
@@ -495,7 +503,7 @@ class _Compiler:
     def _first(self, description: Any) -> int:
         kind, detail = int(description[0]), description[1]
         if kind == BASE:
-            return 4 if detail[0] == "string" else struct.calcsize(FORMATS[detail[0]])
+            return 4 if detail[0] == "string" else _size(detail[0])
         if kind == NAME:
             fields = self._fields(detail)
             return self._first(fields[0][1]) if fields else 1
@@ -569,9 +577,11 @@ class _Compiler:
     # ---- the objects returned ----
 
     def _class(self, type_name: str, names: list[str]) -> str:
-        for name in names:
-            if not name.isidentifier() or keyword.iskeyword(name) or name.startswith("__"):
+        for name in names:  # ROS names a field [a-zA-Z][a-zA-Z0-9_]*: other text is left out
+            if not name.isidentifier() or keyword.iskeyword(name) or name.startswith("_"):
                 raise Unsupported(f"the field name {name!r}")
+        if len(set(names)) != len(names):
+            raise Unsupported(f"{type_name} names a field twice")
         key = f"_C{len(self.names)}"
         self.names[key] = _message_class(type_name, tuple(names))
         return key
@@ -583,8 +593,8 @@ def _message_class(type_name: str, names: tuple[str, ...]) -> type:
     if made is not None:
         return made
     source = "\n".join([
-        f"def __init__(self, {', '.join(names)}):",
-        *(f"    self.{name} = {name}" for name in names),
+        f"def __init__(_self, {', '.join(names)}):",  # no field is named `_self`
+        *(f"    _self.{name} = {name}" for name in names),
     ])  # fmt: skip
     namespace: dict[str, Any] = {}
     exec(source, namespace)  # the names: identifiers, checked
@@ -592,6 +602,8 @@ def _message_class(type_name: str, names: tuple[str, ...]) -> type:
         "__slots__": names, "__init__": namespace["__init__"],
         "__repr__": _repr, "__msgtype__": type_name,
     })  # fmt: skip
+    if len(_CLASSES) >= KEPT:
+        _CLASSES.clear()  # made again when needed: memory stays flat
     _CLASSES[(type_name, names)] = cls
     return cls
 
