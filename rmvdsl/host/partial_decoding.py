@@ -581,7 +581,7 @@ class _Compiler:
             if not name.isidentifier() or keyword.iskeyword(name) or name.startswith("_"):
                 raise Unsupported(f"the field name {name!r}")
         if len(set(names)) != len(names):
-            raise Unsupported(f"{type_name} names a field twice")
+            raise Unsupported(f"two fields of {type_name} have one name")
         key = f"_C{len(self.names)}"
         self.names[key] = _message_class(type_name, tuple(names))
         return key
