@@ -4,7 +4,7 @@ the fields a spec reads (rmvdsl.host.partial_decoding), as `rmv replay` calls ea
 Writes the CARLA braking scenario (bench_replay.py's recording) to --messages
 messages in each storage (a ROS 1 .bag, ROS 2 .db3 and .mcap), then, in a process of
 its own per storage, reads every message's bytes once and times decoding them all
-(best of --repeat passes) both ways through `rmvdsl.tools.replay.decoder`: with no
+(best of --repeat passes) both ways through `rmvdsl.tools.recordings.decoder`: with no
 fields named (the full decoder) and with examples/carla/abs.rmv's fields. Before a
 figure is printed, every variable of the spec must read the same value from both
 decodings of every message. Reported per message type: microseconds a message each
@@ -38,14 +38,14 @@ def timed(path: str, repeat: int) -> dict[str, Any]:
     from rmvdsl.host.partial_decoding import spec_needs
     from rmvdsl.ir import lower
     from rmvdsl.runtime import fields
-    from rmvdsl.tools import replay
+    from rmvdsl.tools import recordings
 
     spec = lower(check(str(SPEC)))
     with AnyReader([Path(path)]) as reader:
         messages = [(connection, bytes(raw)) for connection, _, raw in reader.messages()]
         ways = {
-            "full": replay.decoder(reader, {}),
-            "partial": replay.decoder(reader, spec_needs(spec)),
+            "full": recordings.decoder(reader, {}),
+            "partial": recordings.decoder(reader, spec_needs(spec)),
         }
         topics = {t.name: t.ros_name for t in spec.topics}
         readers = [(topics[v.topic], fields.reader(v)) for v in spec.variables]

@@ -43,7 +43,8 @@ from rmvdsl.runtime import influx, lineproto
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.engine import Runtime
 from rmvdsl.targets import kapacitor
-from rmvdsl.tools.replay import open_reader, plan, replay
+from rmvdsl.tools.recordings import open_reader, plan
+from rmvdsl.tools.replay import replay
 
 NS = 10**9
 CARLA = EXAMPLES / "carla"

@@ -18,6 +18,7 @@ def run(args: argparse.Namespace) -> int:
     from rmvdsl.ir import lower
     from rmvdsl.lang.render import render_text
     from rmvdsl.tools import fleet, replay
+    from rmvdsl.tools.recordings import ReplayError
 
     message_options(args)
     if args.report:
@@ -46,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
             output=args.format, start=args.start, stop=args.stop, report=args.report,
             run_actions=args.run_actions, progress=progress,
         )  # fmt: skip
-    except (replay.ReplayError, ValueError, ZeroDivisionError) as exc:
+    except (ReplayError, ValueError, ZeroDivisionError) as exc:
         raise UsageError(str(exc)) from None
     if summary.failed:
         return EXIT_ERRORS

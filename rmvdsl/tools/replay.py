@@ -8,10 +8,9 @@ hands its records to the caller as they are decided.
 
 from __future__ import annotations
 
-import struct
 import sys
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -26,9 +25,17 @@ from rmvdsl.runtime.engine import (
     can_refuse,
     seconds,
 )
-from rmvdsl.runtime.wording import counted, os_words
+from rmvdsl.runtime.wording import counted
+from rmvdsl.tools.recordings import (
+    ReplayError,
+    decoder,
+    key,
+    messages_of,
+    open_reader,
+    plan,
+    window_time,
+)
 from rmvdsl.tools.report.text import decimal_text, text_line
-from rmvdsl.tools.typestores import default_store, shared_store
 
 
 @dataclass
@@ -43,207 +50,6 @@ class Position:
 # A chunk's hook at a seam: (seam, runtime, the graph's endpoints seen, the position)
 # -> whether the run stops there.
 AtSeam = Callable[[int, Runtime, set[Endpoint], Position], bool]
-
-
-class ReplayError(Exception):
-    """A recording that cannot be read at all (the CLI exits 2)."""
-
-
-@dataclass
-class Plan:
-    """What the recording holds for the spec: the connections to read and what
-    was found wrong before reading."""
-
-    connections: list[Any] = field(default_factory=list)
-    problems: list[tuple[str, str]] = field(default_factory=list)  # (origin, text)
-    skipped_variables: set[str] = field(default_factory=set)
-    skipped_messages: dict[str, int] = field(default_factory=dict)  # counter -> count
-
-
-def _path_problem(store: Any, msgtype: str, variable: ir.Variable) -> str | None:
-    """Whether the recording's definition of `msgtype` has the variable's path."""
-    from rosbags.typesys.base import Nodetype
-
-    current: Any = (Nodetype.NAME, msgtype)
-    where = msgtype
-    for step in variable.path:
-        kind, detail = current
-        if isinstance(step, ir.FieldStep):
-            if kind != Nodetype.NAME:
-                return f"`{where}` is not a message, so it has no field `{step.name}`"
-            fields = dict(store.fielddefs[detail][1])
-            if step.read not in fields:
-                return f"{detail} has no field `{step.read}` (it has {', '.join(fields)})"
-            current, where = fields[step.read], f"{where}.{step.read}"
-        else:
-            if kind not in (Nodetype.ARRAY, Nodetype.SEQUENCE):
-                return f"`{where}` is not an array"
-            current = detail[0]
-    return None
-
-
-def plan(spec: ir.Spec, reader: Any) -> Plan:
-    """Match the spec's topics with the recording's connections."""
-    found = Plan()
-    by_topic: dict[str, list[Any]] = {}
-    for connection in reader.connections:
-        by_topic.setdefault(connection.topic, []).append(connection)
-    variables: dict[str, list[ir.Variable]] = {}
-    for variable in spec.variables:
-        variables.setdefault(variable.topic, []).append(variable)
-    for topic in spec.topics:
-        connections = by_topic.get(topic.ros_name, [])
-        if not connections:
-            found.problems.append((
-                topic.origin,
-                f"topic `{topic.name}` ({topic.ros_name}) is not in the recording: "
-                "what it feeds stays without values",
-            ))  # fmt: skip
-            continue
-        for connection in connections:
-            if connection.msgtype != topic.message_type:
-                found.problems.append((
-                    topic.origin,
-                    f"topic `{topic.name}` ({topic.ros_name}) is recorded as {connection.msgtype}, "
-                    f"the spec reads {topic.message_type}: its messages are skipped",
-                ))  # fmt: skip
-                key = f"messages of another type: {topic.ros_name}"
-                skipped = found.skipped_messages
-                skipped[key] = skipped.get(key, 0) + connection.msgcount
-                continue
-            found.connections.append(connection)
-            for variable in variables.get(topic.name, []):
-                problem = _path_problem(reader.typestore, connection.msgtype, variable)
-                if problem is not None and variable.name not in found.skipped_variables:
-                    found.skipped_variables.add(variable.name)
-                    text = f"variable `{variable.name}` on {topic.ros_name}: {problem}"
-                    found.problems.append((variable.origin, text))
-    return found
-
-
-def open_reader(paths: Sequence[Path], spec: ir.Spec) -> Any:
-    from rosbags.highlevel import AnyReader, AnyReaderError
-
-    for path in paths:
-        if not path.exists():
-            raise ReplayError(f"{path}: no such file or directory")
-    try:
-        reader = AnyReader(list(paths), default_typestore=default_store(spec))
-        reader.open()
-    except AnyReaderError as error:
-        raise ReplayError(
-            f"{', '.join(map(str, paths))}: cannot read the recording: {_reader_words(error)}"
-        ) from None
-    except Exception as error:  # rosbags meets damaged bytes in many ways
-        raise ReplayError(
-            f"{', '.join(map(str, paths))}: cannot read the recording: {damage(error)}"
-        ) from None
-    return reader
-
-
-def _reader_words(error: Exception) -> str:
-    """rosbags' refusal, without the Python beneath it."""
-    text = str(error)
-    if text.startswith("Invalid bag metadata"):
-        return "its metadata.yaml is damaged, or not a rosbag2 recording's"
-    if text.startswith("Unrecognized storage format"):
-        return "it is not a recording: rosbags reads ROS 1 .bag, and .db3 and .mcap of rosbag2"
-    return text
-
-
-def damage(error: Exception) -> str:
-    """What a reader's error on damaged bytes means, in a user's words."""
-    if isinstance(error, UnicodeDecodeError):
-        return "it is damaged: it holds bytes that are not text where text belongs"
-    if isinstance(error, OverflowError | IndexError | MemoryError | struct.error):
-        return "it is damaged: a length or an offset in it points outside the file"
-    if isinstance(error, OSError):
-        return os_words(error)
-    return str(error) or f"it is damaged ({type(error).__name__})"
-
-
-def _messages(reader: Any, runtime: Runtime, **window: Any) -> Iterator[tuple[Any, int, bytes]]:
-    """The reader's messages, up to where the recording cannot be read any further
-    (damaged bytes): said there, and the run ends with what was read."""
-    messages = reader.messages(**window)
-    last = reader.start_time
-    while True:
-        try:
-            connection, timestamp, raw = next(messages)
-        except StopIteration:
-            return
-        except Exception as error:  # rosbags meets damaged bytes in many ways
-            runtime.note(last, f"the recording cannot be read past {decimal_text(seconds(last))}: "
-                               f"{damage(error)}; the rest of it is not checked")  # fmt: skip
-            return
-        last = timestamp
-        yield connection, timestamp, raw
-
-
-def key(connection: Any) -> tuple[int, int]:
-    """A connection among several recordings': each numbers its own from 0."""
-    return connection.id, id(connection.owner)
-
-
-def decoder(reader: Any, needs: dict[str, partial_decoding.Needs]) -> Callable[[Any, bytes], Any]:
-    """How a connection's messages are decoded: only the fields the spec reads of
-    its topic (`needs`, rmvdsl.host.partial_decoding), by a reader compiled from
-    the recording's definitions. ROS 1: by the live ROS 1 node's decoder
-    (rmvdsl.host.ros1_decoding), from the connection's own definition and md5sum,
-    so a bag and a live system are read alike, and two bags holding two versions
-    of a type each with its own; ROS 2: from the reader's type store."""
-    if reader.is2:
-        return _ros2_decoder(shared_store(reader.typestore), needs)
-    from rmvdsl.host.ros1_decoding import Decoder
-
-    ros1 = Decoder()
-    headers: dict[tuple[int, int], dict[str, str]] = {}
-
-    def decode(connection: Any, raw: bytes) -> Any:
-        header = headers.get(key(connection))
-        if header is None:
-            header = headers[key(connection)] = {
-                "type": connection.msgtype, "md5sum": connection.digest,
-                "message_definition": connection.msgdef.data,
-            }  # fmt: skip
-        return ros1.decode(header, raw, needs.get(connection.topic))
-
-    return decode
-
-
-def _ros2_decoder(
-    store: Any, needs: dict[str, partial_decoding.Needs]
-) -> Callable[[Any, bytes], Any]:
-    readers: dict[tuple[str, str], partial_decoding.Reader] = {}
-    fields_of = lambda type_name: store.fielddefs[type_name][1]  # noqa: E731
-
-    def made(topic: str, msgtype: str) -> partial_decoding.Reader:
-        def full(raw: bytes | memoryview) -> Any:
-            return store.deserialize_cdr(raw, msgtype)
-
-        wanted = [needs[topic]] if topic in needs else []
-        return partial_decoding.or_full(full, msgtype, wanted, fields_of, ros1=False)
-
-    def decode(connection: Any, raw: bytes) -> Any:
-        which = (connection.topic, connection.msgtype)
-        read = readers.get(which)
-        if read is None:
-            read = readers[which] = made(*which)
-        return read(raw)
-
-    return decode
-
-
-def window_time(text: str | None, start: int) -> int | None:
-    """`--from`/`--to`: seconds on the recording's clock, or `+N` after its start."""
-    if text is None:
-        return None
-    from fractions import Fraction
-
-    relative = text.startswith("+")
-    value = Fraction(text[1:] if relative else text)
-    ns = int(value * 1_000_000_000)
-    return start + ns if relative else ns
 
 
 def replay(
@@ -298,7 +104,7 @@ def replay(
         total = sum(c.msgcount for c in found.connections)
         decode = decoder(reader, partial_decoding.spec_needs(spec, found.skipped_variables))
         position = Position()
-        for connection, timestamp, raw in _messages(
+        for connection, timestamp, raw in messages_of(
             reader, runtime, connections=connections, start=low, stop=high
         ):
             while upcoming and timestamp >= upcoming[0]:

@@ -22,7 +22,7 @@ from rmvdsl.tools.fleet.sections import Job, Joined, plan
 from rmvdsl.tools.fleet.summary import FleetSummary
 from rmvdsl.tools.fleet.worker import Options as Options
 from rmvdsl.tools.fleet.worker import replay_one
-from rmvdsl.tools.replay import ReplayError
+from rmvdsl.tools.recordings import ReplayError
 
 SCHEDULER_VARIABLE = "RMV_DASK_SCHEDULER"
 INTERRUPTED = 130

@@ -8,7 +8,7 @@ import os
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 
-from rmvdsl.tools.replay import ReplayError
+from rmvdsl.tools.recordings import ReplayError
 
 SUFFIXES = (".bag", ".mcap", ".db3")
 _PATTERN = "*?["

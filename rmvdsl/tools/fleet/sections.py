@@ -56,15 +56,15 @@ def plan(
     """The sections of one recording, first wave: one per chunk of `chunk` ns (none
     when the recording is not longer than that, or cannot be opened: the whole run
     then reports it). `lead`: the lead-in, by default the spec's (any is exact)."""
-    from rmvdsl.tools import replay
+    from rmvdsl.tools.recordings import open_reader, window_time
 
     try:
-        reader = replay.open_reader([Path(path)], spec)
+        reader = open_reader([Path(path)], spec)
     except Exception:
         return []
     try:
-        low = replay.window_time(start, reader.start_time) or reader.start_time
-        high = replay.window_time(stop, reader.start_time) or reader.end_time
+        low = window_time(start, reader.start_time) or reader.start_time
+        high = window_time(stop, reader.start_time) or reader.end_time
     except (ValueError, ZeroDivisionError):
         return []  # the whole run says what is wrong with the window
     finally:

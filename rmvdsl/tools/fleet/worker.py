@@ -12,6 +12,7 @@ from typing import Any
 from rmvdsl.runtime import spec as ir
 from rmvdsl.tools import replay
 from rmvdsl.tools.fleet.sections import Job, replay_section, status_of, tally
+from rmvdsl.tools.recordings import ReplayError
 
 # What a result's `status` says, from worst to best.
 STATUSES = ("failed", "unreadable", "violations", "intrusions", "incomplete", "pass")
@@ -68,7 +69,7 @@ def replay_one(spec_json: str, job: Job | str, options: Options) -> dict[str, An
                 tally(counts, texts, record)
     except TimedOut as why:
         result.update(status="failed", error=str(why), timed_out=True)
-    except (replay.ReplayError, ValueError, ZeroDivisionError) as why:
+    except (ReplayError, ValueError, ZeroDivisionError) as why:
         result.update(status="unreadable", error=str(why))
     except Exception as why:  # rosbags' errors of a damaged file are of many kinds
         result.update(status="unreadable", error=f"{type(why).__name__}: {why}")
