@@ -25,7 +25,9 @@ by round with lark's bare parse of the same file as a new process, medians of
          filled the caches (issue 38: <= 2x bare at every scale);
 - edit:  one line of the spec changed before each run (a comment appended), the
          solver's answers cached (issue 38: <= 3x bare);
-- cold:  the first check with empty caches (--cold-runs of them, not paired).
+- cold:  the first check with empty caches (--cold-runs of them, not paired);
+         `varied` the same of the spec whose transducers are all different
+         (generate(varied=True): every solver question asked, none shared).
 
 In process (`--in-process`): machines here are shared and noisy, so the figures
 are ratios to `bare` in the same run, each the best of --repeat runs (the first
@@ -66,7 +68,12 @@ from rmvdsl.ir import dump, lower
 from rmvdsl.util.cache import Cache, use_cache
 
 
-def generate(scale: int = 1) -> str:
+def generate(scale: int = 1, varied: bool = False) -> str:
+    """The spec at `scale`. Its transducers are alike (a ring of 20 states each, so
+    the solver's questions on their properties are alike up to names, and asked
+    once: rmvdsl.logic.canonical); `varied` gives each 16 to 25 states, the last
+    leading back to one of the first 16 (160 shapes: at scale 1 no two transducers
+    are alike, so every question is asked)."""
     topics, variables, events = 1000 * scale, 5000 * scale, 2000 * scale
     transducers, states, properties = 100 * scale, 20, 500 * scale
     lines = ["system large", "time unit s", 'messages "msg"', ""]
@@ -85,14 +92,15 @@ def generate(scale: int = 1) -> str:
         lines.append(f"alert A{v} {{ warn when V{v} > 10 reset when V{v} < 5 }}")
     bool_events = events - value_events
     for d in range(transducers):
-        names = [f"S{d}_{s}" for s in range(states)]
+        # varied: 16 to 25 states, the last leading back to one of the first 16
+        count, back = (16 + d % 10, (d // 10) % 16) if varied else (states, 0)
+        names = [f"S{d}_{s}" for s in range(count)]
         lines.append(f"transducer D{d} {{")
         lines.append("    states " + ", ".join(names))
         lines.append(f"    initial {names[0]}")
-        for s in range(states):
-            lines.append(
-                f"    {names[s]} -> {names[(s + 1) % states]} on B{(d * states + s) % bool_events}"
-            )
+        for s in range(count):
+            target = s + 1 if s + 1 < count else back
+            lines.append(f"    {names[s]} -> {names[target]} on B{(d * states + s) % bool_events}")
         lines.append("}")
     for p in range(properties):
         d, k = p % transducers, p // transducers  # distinct: none implies another
@@ -200,11 +208,16 @@ def processes(scale: int, runs: int, cold_runs: int, folder: str) -> dict[str, o
     Path(spec).write_text(text, encoding="utf-8")
     check_spec = [*rmv(), "check", os.path.basename(spec)]
     bare_spec = [sys.executable, "-c", BARE, os.path.basename(spec)]
-    cold = []
+    varied = os.path.join(folder, f"varied{scale}.rmv")
+    Path(varied).write_text(generate(scale, varied=True), encoding="utf-8")
+    check_varied = [*rmv(), "check", os.path.basename(varied)]
+    cold, cold_varied = [], []
     for run in range(cold_runs):
         empty = os.path.join(folder, f"cold{scale}-{run}")
         cold.append(child(check_spec, folder, empty))
-        print(f"  {scale}x cold run {run + 1}: {cold[-1][0]:.1f} s wall", file=sys.stderr)
+        cold_varied.append(child(check_varied, folder, empty + "-varied"))
+        print(f"  {scale}x cold run {run + 1}: {cold[-1][0]:.1f} s wall, "
+              f"varied {cold_varied[-1][0]:.1f} s", file=sys.stderr)  # fmt: skip
     cache = os.path.join(folder, f"warm{scale}")
     child(check_spec, folder, cache)  # fills the caches
     rounds: dict[str, list[tuple[float, float]]] = {"bare": [], "warm": [], "edit": []}
@@ -224,18 +237,21 @@ def processes(scale: int, runs: int, cold_runs: int, folder: str) -> dict[str, o
     if cold:
         figures["cold_wall"] = statistics.median(w for w, _ in cold)
         figures["cold_cpu"] = statistics.median(c for _, c in cold)
+        figures["cold_varied_wall"] = statistics.median(w for w, _ in cold_varied)
+        figures["cold_varied_cpu"] = statistics.median(c for _, c in cold_varied)
         figures["cold_runs"] = len(cold)
     return figures
 
 
 def processes_table(results: dict[int, dict[str, object]]) -> None:
     print(f"{'scale':>5} {'lines':>7} {'bare cpu':>9} {'warm cpu':>9} {'warm/bare':>9} "
-          f"{'edit cpu':>9} {'edit/bare':>9} {'cold wall':>9}")  # fmt: skip
+          f"{'edit cpu':>9} {'edit/bare':>9} {'cold wall':>9} {'varied':>9}")  # fmt: skip
     for scale, f in results.items():
-        cold = f"{f['cold_wall']:>9.1f}" if "cold_wall" in f else f"{'-':>9}"
+        colds = ("cold_wall", "cold_varied_wall")
+        cold = [f"{f[k]:>9.1f}" if k in f else f"{'-':>9}" for k in colds]
         print(f"{scale:>5} {f['lines']:>7} {f['bare_cpu']:>9.3f} {f['warm_cpu']:>9.3f} "
               f"{f['warm_ratio']:>9.2f} {f['edit_cpu']:>9.3f} {f['edit_ratio']:>9.2f} "
-              f"{cold}")  # fmt: skip
+              f"{' '.join(cold)}")  # fmt: skip
 
 
 def main() -> int:

@@ -357,7 +357,9 @@ def test_an_antecedent_that_a_trace_at_hand_holds_is_not_asked(tmp_path, monkeyp
     vacuous = [d for d in found if d.code == "RMV513"]
     assert [d.message.split(",")[0] for d in vacuous] == ["in property `Never`"]
     alone = [f[0] for f in asked if len(f) == 1 and not facts(f[0]).future]
-    assert [sorted(facts(f).propositions) for f in alone] == [["A", "B"]], asked
+    # the solver sees questions in their canonical naming (rmvdsl.logic.canonical):
+    # `A and B` is asked as `p0 and p1`
+    assert [sorted(facts(f).propositions) for f in alone] == [["p0", "p1"]], asked
     again = check(str(path), use_environment=False, solver_jobs=1).diagnostics
     assert [d.code for d in again] == [d.code for d in found]
 
@@ -375,18 +377,25 @@ def test_a_worker_answers_an_antecedent_by_its_propertys_traces(tmp_path, monkey
     a, b = prop("A"), prop("B")
     both = binary("and", a, b)
     goes = binary("or", not_(a), temporal("until", "<=", Fraction(5), const(True), b))
+    from rmvdsl.logic import sat
+    from rmvdsl.logic.canonical import canonical
+
     asked: list[Any] = []
-    original = parallel.ask
+    original = sat.ask
 
     def recording(formulas: Any, *args: Any) -> Any:
         asked.append(list(formulas))
         return original(formulas, *args)
 
-    monkeypatch.setattr(parallel, "ask", recording)
+    monkeypatch.setattr(sat, "ask", recording)
     batch = [([goes], system, False), ([("not", goes)], system, False),
              ([a], system, True), ([both], system, True)]  # fmt: skip
     answers = parallel._answer_batch(batch, Limits())
-    assert asked == [[goes], [("not", goes)], [both]]
+    # asked in their canonical naming (A is p0, B is p1 in each)
+    expected = [
+        list(canonical(q, system, Limits()).formulas) for q in ([goes], [("not", goes)], [both])
+    ]
+    assert asked == expected
     assert [x["value"] for x in answers] == ["yes", "yes", "yes", "no"]
     # a trace of the property's: the one where it fails holds A (the one where it
     # holds may too: z3's choice)

@@ -132,8 +132,9 @@ class Analyzer:
 
     def _ask_unsatisfiable(self, names: list[str]) -> None:
         """`_unsatisfiable` of these names, each asked once: its answer kept under the
-        text of the question (a re-check builds no z3 term for it), the others
-        asked together (rmvdsl.check.impossible)."""
+        text of the question (a re-check builds no z3 term for it), and events whose
+        questions read alike (rmvdsl.check.conditions.event_question) asked as one,
+        the others together (rmvdsl.check.impossible)."""
         cache = default_cache()
         keys: dict[str, str] = {}
         for name in dict.fromkeys(names):
@@ -141,17 +142,22 @@ class Analyzer:
             if name in self._unsat or decl is None or not decl.boolean:
                 self._unsat.setdefault(name, False)
                 continue
-            key = digest("unsatisfiable event", "1", Z3_VERSION,
+            key = digest("unsatisfiable event", "2", Z3_VERSION,
                          self.conditions.event_question(name))  # fmt: skip
             cached = cache.get(key)
             if cached is not None and isinstance(cached.get("unsat"), bool):
                 self._unsat[name] = cached["unsat"]
             else:
                 keys[name] = key
-        for name, answer in impossible(list(keys), self.conditions).items():
-            self._unsat[name] = answer is True
+        alike: dict[str, list[str]] = {}  # a question -> its events, the first asked
+        for name, key in keys.items():
+            alike.setdefault(key, []).append(name)
+        asked = [events[0] for events in alike.values()]
+        for name, answer in impossible(asked, self.conditions).items():
             if answer is not None:  # a time limit is not an answer to keep
                 cache.put(keys[name], {"unsat": answer})
+            for event in alike[keys[name]]:
+                self._unsat[event] = answer is True
 
     def reachability(
         self,

@@ -147,15 +147,20 @@ class Conditions:
         the event and of every boolean event it inlines (each Ref's kind and type
         in them), so a question about the event is keyed before any term is made
         (a re-check asks the cache first; building the terms cost more than the
-        answers)."""
+        answers). Names are replaced by their order of first reading: events that
+        say the same of other values (`X1 > 0.8` and `X2 > 0.8`, both float64) are
+        one question (rmvdsl.logic.canonical does the same for properties)."""
         parts: list[str] = []
-        self._question(name, (), parts)
+        self._question(name, (), parts, {})
         return "\n".join(parts)
 
-    def _question(self, name: str, inlining: tuple[str, ...], parts: list[str]) -> None:
+    def _question(
+        self, name: str, inlining: tuple[str, ...], parts: list[str], names: dict[str, str]
+    ) -> None:
         decl = self.model.events.get(name)
+        called = names.setdefault(name, f"n{len(names)}")
         if decl is None or not decl.boolean or name in inlining or self.types is None:
-            parts.append(f"free event {name}")
+            parts.append(f"free event {called}")
             return
         try:
             trees = [lower_expr(self.model, self.types, decl.expr)]
@@ -163,9 +168,9 @@ class Conditions:
             if where is not None:
                 trees.append(lower_expr(self.model, self.types, where.value))
         except NotLowered:
-            parts.append(f"unlowered event {name}")
+            parts.append(f"unlowered event {called}")
             return
-        parts.append(f"event {name}: {trees!r}")
+        parts.append(f"event {called}: " + " | ".join(_shape(tree, names) for tree in trees))
         for tree in trees:
             for ref in _refs(tree):
                 inlined = self.model.events.get(ref.name)
@@ -174,7 +179,7 @@ class Conditions:
                     and inlined is not None
                     and inlined.boolean
                 ):
-                    self._question(ref.name, (*inlining, name), parts)
+                    self._question(ref.name, (*inlining, name), parts, names)
 
     def solve(self, constraints: list[Any], values: bool = True) -> tuple[str, str]:
         """`solve` of these constraints, with the ranges of the
@@ -314,6 +319,31 @@ def text(node: ir.Expr) -> str:
         case ir.Call():
             return f"{node.function}({', '.join(text(a) for a in node.args)})"
     return repr(node)
+
+
+def _shape(node: ir.Expr, names: dict[str, str]) -> str:
+    """An expression in prefix notation, each name it reads replaced by its
+    canonical one in `names` (given in the order of first reading), by a loop
+    (expressions nest deep). Leaves carry no names: their repr is their text."""
+    out: list[str] = []
+    stack = [node]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, ir.Ref):
+            called = names.setdefault(item.name, f"n{len(names)}")
+            out.append(f"ref {called} {item.kind} {item.type!r}")
+        elif isinstance(item, ir.Unary):
+            out.append(f"unary {item.op} {item.type!r}")
+            stack.append(item.operand)
+        elif isinstance(item, ir.Binary):
+            out.append(f"binary {item.op} {item.type!r}")
+            stack.extend((item.right, item.left))
+        elif isinstance(item, ir.Call):
+            out.append(f"call {item.function} {len(item.args)} {item.type!r}")
+            stack.extend(reversed(item.args))
+        else:
+            out.append(repr(item))
+    return " ".join(out)
 
 
 def _refs(node: ir.Expr) -> list[ir.Ref]:

@@ -45,6 +45,22 @@ class ChunkParser:
         self.fed: list[Token] = []  # the tokens the parser took, in order
 
     def parse(self) -> list[ast.Decl] | None:
+        """The chunk's declarations. Most chunks have no error: lark's own loop
+        parses them (a quarter of the parse's time went to driving it token by
+        token); the first error starts the chunk again with recovery, the
+        builder's findings of the failed attempt dropped."""
+        _, builder = spec_parser()
+        before = len(builder.diagnostics)
+        interactive = self._interactive()
+        try:
+            result = interactive.resume_parse()
+        except UnexpectedInput:
+            del builder.diagnostics[before:]
+            return self._recovering()
+        last = interactive.lexer_thread.state.last_token
+        return self._closed(list(result) if result is not None else [], last)
+
+    def _interactive(self) -> Any:
         parser, _ = spec_parser()
         interactive = parser.parse_interactive("", start="start")
         counter = LineCounter("\n")
@@ -53,6 +69,10 @@ class ChunkParser:
         interactive.lexer_thread.state = LexerState(
             TextSlice(self.source.text, self.start, self.end), counter
         )
+        return interactive
+
+    def _recovering(self) -> list[ast.Decl] | None:
+        interactive = self._interactive()
         last: Token | None = None
         for token in self._tokens(interactive):
             if len(self.diagnostics) >= MAX_ERRORS:
@@ -60,7 +80,10 @@ class ChunkParser:
                 return None
             self._feed(interactive, token)
             last = token
-        decls = self._finish(interactive, last)
+        return self._closed(self._finish(interactive, last), last)
+
+    @staticmethod
+    def _closed(decls: list[ast.Decl] | None, last: Token | None) -> list[ast.Decl] | None:
         if decls and len(decls) == 1 and last is not None and last.end_pos is not None:
             # A declaration's span runs to its last token, the closing `}` included.
             decl = decls[0]

@@ -34,16 +34,9 @@ from dataclasses import dataclass, field
 from typing import IO, Any
 
 from rmvdsl.logic.answers import Answer, Witness
+from rmvdsl.logic.canonical import canonical, cut_system
 from rmvdsl.logic.redundancy import group_key, implied
-from rmvdsl.logic.sat import (
-    Limits,
-    ask,
-    by_trace,
-    cached_answer,
-    cut_system,
-    keep,
-    question_key,
-)
+from rmvdsl.logic.sat import Limits, cached_answer, keep, question_key, solve
 from rmvdsl.logic.system import System
 from rmvdsl.util.cache import Cache
 from rmvdsl.util.processes import module_command, read_frame, write_frame
@@ -80,11 +73,13 @@ def answer_all(
     if jobs < 2:
         return {}  # the check asks them in process, in order
     pending: list[tuple[list[str], Batch]] = []
+    asked: set[str] = set()  # each canonical question once (rmvdsl.logic.canonical)
     for batch in batches:
         keys, todo = [], []
         for formulas, system, *traced in batch:
             key, restricted = question_key(formulas, system, limits)
-            if cached_answer(cache, key) is None:
+            if key not in asked and cached_answer(cache, key) is None:
+                asked.add(key)
                 keys.append(key)
                 todo.append((formulas, restricted, bool(traced and traced[0])))
         if todo:
@@ -95,7 +90,9 @@ def answer_all(
     found: dict[str, Answer] = {}
     for (keys, _), answers in zip(pending, run_tasks(tasks, jobs), strict=True):
         for key, data in zip(keys, answers or (), strict=False):
-            answer = Answer.from_json(data)
+            if data.get("key") != key:  # named otherwise than here: asked in process
+                continue
+            answer = Answer.from_json(data)  # canonical, as the cache keeps it
             keep(cache, key, answer)
             found[key] = answer
     return found
@@ -111,17 +108,18 @@ def implied_all(
     groups whose answer the cache lacks are answered by the workers first (a
     group whose questions a time limit cut short is asked again in process)."""
     jobs = jobs_wanted(limits)
-    missing = [
-        i
-        for i, (_, formulas, _) in enumerate(groups)
-        if jobs > 1 and cache.get(group_key(formulas, system, limits)) is None
-    ]
+    missing: dict[str, int] = {}  # a group's key -> the first group asked with it
+    for index, (_, formulas, _) in enumerate(groups):
+        key = group_key(formulas, system, limits) if jobs > 1 else ""
+        if jobs > 1 and key not in missing and cache.get(key) is None:
+            missing[key] = index
     if len(missing) > 1:
         # Each group's task carries only the part of the system its formulas touch:
         # the whole system in every task was quadratic (the 10x spec's 1,000 groups
         # each pickled 1,000 transducers). Every question cuts it the same way.
         tasks = [
-            (_implied_here, (*groups[i], cut_system(groups[i][1], system), limits)) for i in missing
+            (_implied_here, (*groups[i], cut_system(groups[i][1], system), limits))
+            for i in missing.values()
         ]
         for reply in run_tasks(tasks, jobs):
             for key, data in reply or ():
@@ -187,18 +185,19 @@ def run_tasks(tasks: Sequence[tuple[Callable[..., Any], tuple[Any, ...]]], jobs:
 
 
 def _answer_batch(batch: Batch, limits: Limits) -> list[dict[str, Any]]:
-    """The batch's answers in order; a question marked so is answered by a trace
-    an earlier one found where one does (a property's antecedents, by the traces
-    where it holds and where it fails), else by the solver."""
-    known: list[Witness] = []
+    """The batch's canonical answers in order, each with its key (the parent keeps
+    an answer only under the same key); a question marked so is answered by a
+    trace an earlier one found where one does (a property's antecedents, by the
+    traces where it holds and where it fails), else by the solver."""
+    known: list[Witness] = []  # in the batch's own names
     answers = []
     for formulas, system, traced in batch:
-        answer = by_trace(formulas, system, known, limits) if traced and known else None
-        if answer is None:
-            answer = ask(formulas, system, limits)
-        if answer.witness is not None:
-            known.append(answer.witness)
-        answers.append(answer.as_json())
+        question = canonical(formulas, system, limits)
+        answer = solve(question, known if traced else (), limits)
+        witness = question.real(answer).witness
+        if witness is not None:
+            known.append(witness)
+        answers.append({**answer.as_json(), "key": question.key})
     return answers
 
 

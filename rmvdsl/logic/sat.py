@@ -22,15 +22,13 @@ from typing import Any
 
 from rmvdsl.logic.abstract import refute
 from rmvdsl.logic.answers import NO, UNKNOWN, YES, Answer, Witness
+from rmvdsl.logic.canonical import Canonical, canonical, cut_system
 from rmvdsl.logic.limits import Limits
 from rmvdsl.logic.search import Question
 from rmvdsl.logic.system import System
-from rmvdsl.logic.terms import Z3_VERSION
 from rmvdsl.runtime.rmtld3 import facts
 from rmvdsl.util.cache import Cache, default_cache, digest
 
-# Bump when an encoding changes: cached answers carry it in their key.
-ENCODING_VERSION = "2"  # 2: durations pinned by always/eventually in the refutation
 # Answers read from the cache, decoded (a property's answers are read several
 # times a check, and decoding a witness's times was a tenth of a first check's
 # serial part): by key, with the cached entry they were decoded from.
@@ -47,33 +45,36 @@ def satisfiable(
 ) -> Answer:
     """Is there a trace of the system making all `formulas` true at one time?
     `known`: traces at hand, which answer yes where one does (`by_trace`) before
-    the solver is asked; the answer is cached either way."""
+    the solver is asked; the answer is cached either way, in the question's
+    canonical naming (rmvdsl.logic.canonical), and given in the caller's names."""
     limits = limits or Limits()
     cache = cache if cache is not None else default_cache()
-    key, system = question_key(formulas, system, limits)
-    cached = cached_answer(cache, key)
+    question = canonical(formulas, system, limits)
+    cached = cached_answer(cache, question.key)
     if cached is not None:
-        return cached
-    answer = by_trace(formulas, system, known, limits) if known else None
-    if answer is None:
-        answer = ask(formulas, system, limits)
-    keep(cache, key, answer)
-    return answer
+        return question.real(cached)
+    answer = solve(question, known, limits)
+    keep(cache, question.key, answer)
+    return question.real(answer)
+
+
+def solve(question: Canonical, known: Sequence[Witness], limits: Limits) -> Answer:
+    """The canonical answer to a canonical question: by a trace at hand (in the
+    caller's names) where one answers, else by the solver."""
+    answer = None
+    if known:
+        renamed = [question.canonical(w) for w in known]
+        answer = by_trace(question.formulas, question.system, renamed, limits)
+    return answer if answer is not None else ask(question.formulas, question.system, limits)
 
 
 def question_key(
     formulas: Sequence[Any], system: System | None, limits: Limits
 ) -> tuple[str, System]:
-    """The cache key of a question, and the system cut to what the formulas mention."""
-    restricted = cut_system(formulas, system)
-    key = digest(ENCODING_VERSION, Z3_VERSION, list(formulas), restricted.key(), limits.key())
-    return key, restricted
-
-
-def cut_system(formulas: Sequence[Any], system: System | None) -> System:
-    """The part of the system that constrains what the formulas mention."""
-    mentioned = {name for f in formulas for name in facts(f).propositions}
-    return (system or System()).restricted(mentioned)
+    """The cache key of a question (of its canonical form), and the system cut to
+    what the formulas mention."""
+    question = canonical(formulas, system, limits)
+    return question.key, question.restricted
 
 
 def cached_answer(cache: Cache, key: str) -> Answer | None:
@@ -147,17 +148,9 @@ def conflict(formulas: Sequence[Any], system: System | None, limits: Limits) -> 
     one deletion in the formulas' order leaves, whatever z3's unsat cores: those
     depend on what the process asked z3 before, and a check with workers and one
     without reported different pairs of one conflicting group."""
-    mentioned = {name for f in formulas for name in facts(f).propositions}
-    system = (system or System()).restricted(mentioned)
-    key = digest(
-        "conflict",
-        ENCODING_VERSION,
-        Z3_VERSION,
-        list(formulas),
-        system.key(),
-        limits.key(),
-        "in order",
-    )
+    system = cut_system(formulas, system)
+    # the members are indices: any naming of the question has the same ones
+    key = digest("conflict", canonical(formulas, system, limits).key, "in order")
     cache = default_cache()
     cached = cache.get(key)
     if cached is not None and isinstance(cached.get("members"), list):

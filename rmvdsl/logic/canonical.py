@@ -1,0 +1,169 @@
+"""Questions up to the names of their propositions (docs/verification.md).
+
+Whether formulas can hold on a system's traces does not depend on what its states
+and events are called: rename the propositions one to one, in formulas and system
+alike, and the answer is the same, its witness renamed. A spec says the same thing
+of many parts (a transducer per robot, a property per transducer), and an editor's
+user renames: each question is therefore asked, and kept in the cache, in one
+naming of its own, its canonical form. Its propositions are named `p0`, `p1`, ...
+in the order the formulas first mention them, then the remaining states of each
+transducer they touch in its declared order; transducers are `m0`, `m1`, ... Two
+questions that differ only in names have one canonical form, so one answer.
+
+The solver only ever sees canonical questions: an answer is a function of the
+question, whichever of its namings was asked first.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from rmvdsl.logic.answers import Answer, Witness
+from rmvdsl.logic.limits import Limits
+from rmvdsl.logic.system import Machine, System
+from rmvdsl.logic.terms import Z3_VERSION
+from rmvdsl.runtime.rmtld3 import facts
+from rmvdsl.util.cache import digest
+
+# Bump when an encoding changes: cached answers carry it in their key.
+ENCODING_VERSION = "3"  # 3: questions asked in their canonical naming
+CANONICAL_KEPT = 8192  # questions whose canonical form is remembered
+
+
+@dataclass(frozen=True)
+class Canonical:
+    """A question in its canonical naming, with the way back to the caller's names."""
+
+    key: str
+    formulas: tuple[Any, ...]
+    system: System
+    restricted: System  # the caller's system, cut to what the formulas mention
+    names: dict[str, str] = field(repr=False)  # the caller's name -> canonical
+
+    def real(self, answer: Answer) -> Answer:
+        """A canonical answer in the caller's names."""
+        if answer.witness is None:
+            return answer
+        back = {canonical: name for name, canonical in self.names.items()}
+        return _with_witness(answer, _renamed_witness(answer.witness, back))
+
+    def canonical(self, witness: Witness) -> Witness:
+        """A trace in the caller's names, in the canonical ones (what the question
+        does not mention left out)."""
+        return _renamed_witness(witness, self.names)
+
+
+_KEPT: dict[tuple[Any, ...], Canonical] = {}
+
+
+def canonical(formulas: Sequence[Any], system: System | None, limits: Limits) -> Canonical:
+    """The canonical form of the question "can `formulas` hold together on the
+    traces of `system`", and its cache key."""
+    restricted = cut_system(formulas, system)
+    memo = (tuple(formulas), restricted.key(), limits.key())
+    found = _KEPT.get(memo)
+    if found is None:
+        names = _naming(formulas, restricted)
+        renamed = tuple(_renamed_formula(f, names) for f in formulas)
+        renamed_system = _renamed_system(restricted, names)
+        key = digest(ENCODING_VERSION, Z3_VERSION, list(renamed), renamed_system.key(),
+                     limits.key())  # fmt: skip
+        found = Canonical(key, renamed, renamed_system, restricted, names)
+        if len(_KEPT) >= CANONICAL_KEPT:
+            _KEPT.clear()
+        _KEPT[memo] = found
+    return found
+
+
+def cut_system(formulas: Sequence[Any], system: System | None) -> System:
+    """The part of the system that constrains what the formulas mention."""
+    mentioned = {name for f in formulas for name in facts(f).propositions}
+    return (system or System()).restricted(mentioned)
+
+
+def _naming(formulas: Sequence[Any], system: System) -> dict[str, str]:
+    """Each proposition's canonical name: by first mention in the formulas, then
+    the other states of the transducers, in the order of their first mention."""
+    order: dict[str, None] = {}
+    for formula in formulas:
+        order.update(dict.fromkeys(facts(formula).propositions))
+    first = {name: index for index, name in enumerate(order)}
+    machines = sorted(
+        system.transducers, key=lambda m: min(first.get(s, len(first)) for s in m.states)
+    )
+    for machine in machines:
+        order.update(dict.fromkeys(machine.states))
+    for a, b in sorted(system.exclusive):  # named above: kept total all the same
+        order.update(dict.fromkeys((a, b)))
+    order.update(dict.fromkeys(sorted(system.never)))
+    names = {name: f"p{index}" for index, name in enumerate(order)}
+    for index, machine in enumerate(machines):
+        names[_MACHINE + machine.name] = f"m{index}"
+    return names
+
+
+_MACHINE = "\0machine "  # a transducer's entry in a naming: no proposition has this name
+
+
+def _renamed_system(system: System, names: dict[str, str]) -> System:
+    machines = sorted(
+        (
+            Machine(
+                names[_MACHINE + m.name],
+                tuple(names[s] for s in m.states),
+                None if m.initial is None else names[m.initial],
+                frozenset((names[a], names[b]) for a, b in m.moves),
+            )
+            for m in system.transducers
+        ),
+        key=lambda m: int(m.name[1:]),
+    )
+    return System(
+        tuple(machines),
+        frozenset((names[a], names[b]) for a, b in system.exclusive),
+        frozenset(names[n] for n in system.never),
+    )
+
+
+def _renamed_formula(formula: Any, names: dict[str, str]) -> Any:
+    """The formula with its propositions renamed, by a loop (formulas can nest
+    100,000 levels); a subformula shared is renamed once."""
+    done: dict[int, Any] = {}
+    stack: list[tuple[Any, bool]] = [(formula, False)]
+    while stack:
+        node, expanded = stack.pop()
+        if id(node) in done:
+            continue
+        if node[0] == "prop":
+            done[id(node)] = _rebuilt(node, (node[0], names[node[1]]))
+            continue
+        children = [c for c in node[1:] if isinstance(c, tuple)]
+        if not expanded:
+            stack.append((node, True))
+            stack.extend((child, False) for child in children)
+            continue
+        done[id(node)] = _rebuilt(node, [done[id(c)] if isinstance(c, tuple) else c for c in node])
+    return done[id(formula)]
+
+
+def _rebuilt(node: tuple[Any, ...], items: Sequence[Any]) -> tuple[Any, ...]:
+    """A node of the same class (the runtime's named tuples, or the checker's plain
+    `("not", f)`) with these items."""
+    make = getattr(node, "_make", None)
+    return make(items) if make is not None else tuple(items)
+
+
+def _renamed_witness(witness: Witness, names: dict[str, str]) -> Witness:
+    return Witness(
+        witness.times,
+        tuple(frozenset(names[n] for n in state if n in names) for state in witness.states),
+        witness.at,
+        witness.end,
+        tuple(sorted(names[n] for n in witness.names if n in names)),  # as a search names them
+    )
+
+
+def _with_witness(answer: Answer, witness: Witness) -> Answer:
+    return Answer(answer.value, answer.exact, witness, answer.core, answer.note, answer.timed_out)
