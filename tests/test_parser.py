@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import itertools
 import re
 
 import pytest
 from conftest import EXAMPLES
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from lark.exceptions import UnexpectedInput
 
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
@@ -308,3 +310,69 @@ def test_a_formula_on_its_own_is_parsed_as_a_property_body_is():
     _, (mistake,) = parse_formula("a until b c", "rmv", "<f>", "formula")
     assert mistake.code == "RMV100" and "declaration" not in mistake.message
     assert "`until`" in mistake.message and mistake.span.start == 10
+
+
+def _both_ways(text: str) -> list[tuple[object, object]]:
+    """Each chunk of `text` parsed without recovery (where it has no error) and with
+    recovery: declarations (spans included) and the builder's findings."""
+    from rmvdsl.grammar.grammars import spec_parser
+    from rmvdsl.grammar.recovery import ChunkParser
+    from rmvdsl.grammar.scanner import scan
+    from rmvdsl.grammar.unbroken import NotUnbroken, parse_unbroken
+
+    _, builder = spec_parser()
+    builder.start_parse("spec.rmv")
+    source = SourceFile("spec.rmv", text)
+    bounds = [*scan(text, None).chunks, (len(text), 0)]
+    compared = []
+    for (start, line), (end, _) in itertools.pairwise(bounds):
+        before = len(builder.diagnostics)
+        recovering = ChunkParser(source, start, end, line)
+        slow = recovering._recovering()
+        slow_found = builder.diagnostics[before:]
+        del builder.diagnostics[before:]
+        try:
+            result, last = parse_unbroken(text, start, end, line)
+        except (NotUnbroken, UnexpectedInput):
+            del builder.diagnostics[before:]
+            assert recovering.diagnostics or slow is None, text[start:end]  # an error, found
+            continue
+        fast = ChunkParser._closed(list(result) if result is not None else [], last)
+        assert not recovering.diagnostics, text[start:end]
+        compared.append(((fast, builder.diagnostics[before:]), (slow, slow_found)))
+        del builder.diagnostics[before:]
+    return compared
+
+
+EXAMPLE_SPECS = [
+    p.read_text(encoding="utf-8") for p in sorted(EXAMPLES.rglob("*.rmv")) if p.name != "latin1.rmv"
+]
+
+
+def test_a_chunk_without_errors_parses_alike_without_recovery():
+    """rmvdsl.grammar.unbroken feeds lark's parser from lark's own patterns: every
+    declaration of the examples, with its spans and the builder's findings, is
+    what the recovering parser builds."""
+    pairs = [pair for text in EXAMPLE_SPECS for pair in _both_ways(text)]
+    assert len(pairs) > 300
+    for fast, slow in pairs:
+        assert fast == slow
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.sampled_from(EXAMPLE_SPECS), st.data())
+def test_edited_chunks_parse_alike_or_go_to_recovery(text, data):
+    """Random edits (deleted runs, stray characters and keywords, lines cut): a chunk
+    the fast loop accepts is parsed alike by recovery, with no error there; one
+    it refuses has an error recovery reports."""
+    for _ in range(data.draw(st.integers(1, 4))):
+        position = data.draw(st.integers(0, max(0, len(text) - 1)))
+        snippet = data.draw(
+            st.sampled_from(
+                ["", "{", "}", "(", '"', "->", "state ", "\n", "é", "1e400", "10Hz", "@"]
+            )
+        )
+        cut = data.draw(st.integers(0, 8))
+        text = text[:position] + snippet + text[position + cut :]
+    for fast, slow in _both_ways(text):
+        assert fast == slow

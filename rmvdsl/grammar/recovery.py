@@ -21,6 +21,7 @@ from rmvdsl.grammar.grammars import (
     spec_parser,
 )
 from rmvdsl.grammar.scanner import TOP_LEVEL_KEYWORDS
+from rmvdsl.grammar.unbroken import NotUnbroken, parse_unbroken
 from rmvdsl.lang.diagnostics import Diagnostic, Label, error
 from rmvdsl.lang.source import SourceFile, Span
 from rmvdsl.runtime.wording import counted
@@ -45,19 +46,17 @@ class ChunkParser:
         self.fed: list[Token] = []  # the tokens the parser took, in order
 
     def parse(self) -> list[ast.Decl] | None:
-        """The chunk's declarations. Most chunks have no error: lark's own loop
-        parses them (a quarter of the parse's time went to driving it token by
-        token); the first error starts the chunk again with recovery, the
-        builder's findings of the failed attempt dropped."""
+        """The chunk's declarations. Most chunks have no error: they are parsed
+        without recovery's bookkeeping (rmvdsl.grammar.unbroken); the first error
+        starts the chunk again with recovery, the builder's findings of the
+        failed attempt dropped."""
         _, builder = spec_parser()
         before = len(builder.diagnostics)
-        interactive = self._interactive()
         try:
-            result = interactive.resume_parse()
-        except UnexpectedInput:
+            result, last = parse_unbroken(self.source.text, self.start, self.end, self.line)
+        except (NotUnbroken, UnexpectedInput):
             del builder.diagnostics[before:]
             return self._recovering()
-        last = interactive.lexer_thread.state.last_token
         return self._closed(list(result) if result is not None else [], last)
 
     def _interactive(self) -> Any:
