@@ -11,6 +11,7 @@ from typing import Any
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from test_sat import formulas
+from test_scaling import TWO_MACHINES
 
 from rmvdsl.check import check
 from rmvdsl.logic import sat
@@ -99,33 +100,13 @@ def test_questions_that_differ_in_more_than_names_have_their_own_keys():
     assert canonical([a], None, Limits()).key != canonical([a], None, Limits(timeout=1)).key
 
 
-TWO_ALIKE = """system s
-ros humble
-topic a: std_msgs/msg/Bool = "/a"
-topic b: std_msgs/msg/Bool = "/b"
-var X = a.data
-var Y = b.data
-event On when X
-event Off when not X
-event Up when Y
-event Down when not Y
-transducer T {
-    states A, B
-    initial A
-    A -> B on On
-    B -> A on Off
-}
-transducer U {
-    states C, D
-    initial C
-    C -> D on Up
-    D -> C on Down
-}
-property Hold: always[<=5s] (A or B)
-property Vac: (A and B) -> eventually[<=1s] A
-property Hold2: always[<=5s] (C or D)
-property Vac2: (C and D) -> eventually[<=1s] C
-"""
+# test_scaling's two transducers of one shape, with their properties replaced
+TWO_ALIKE = TWO_MACHINES[: TWO_MACHINES.index("property ")] + (
+    "property Hold: always[<=5s] (A or B)\n"
+    "property Vac: (A and B) -> eventually[<=1s] A\n"
+    "property Hold2: always[<=5s] (C or D)\n"
+    "property Vac2: (C and D) -> eventually[<=1s] C\n"
+)
 
 
 def test_a_spec_saying_one_thing_of_two_transducers_asks_the_solver_once(tmp_path, monkeypatch):
@@ -156,3 +137,32 @@ def test_a_spec_saying_one_thing_of_two_transducers_asks_the_solver_once(tmp_pat
     path.write_text(only_first, encoding="utf-8")
     check(str(path), use_environment=False, solver_jobs=1)
     assert sorted(map(repr, asked)) == sorted(questions)
+
+
+def test_a_check_renames_each_question_once(tmp_path, monkeypatch):
+    """A check keys each question when it asks ahead and again when it reads the
+    answer: the remembered canonical forms grow to the check's questions, so none
+    is renamed twice (a fixed bound below them made a large spec's cached check
+    take twice as long)."""
+    from rmvdsl.logic import canonical as canonical_module
+    from rmvdsl.util.bounded import Bounded
+
+    monkeypatch.setattr(canonical_module, "_KEPT", Bounded(4))
+    named: list[str] = []
+    original = canonical_module._naming
+
+    def recording(formulas: Any, system: System) -> dict[str, str]:
+        named.append(repr((list(formulas), system.key())))
+        return original(formulas, system)
+
+    monkeypatch.setattr(canonical_module, "_naming", recording)
+    monkeypatch.setattr(cache_module, "_DEFAULT", Cache())
+    path = tmp_path / "spec.rmv"
+    properties = "".join(
+        f"property P{i}: always[<={i + 1}s] (A or B) and (A -> eventually[<=2s] B)\n"
+        for i in range(8)
+    )
+    path.write_text(TWO_MACHINES[: TWO_MACHINES.index("property ")] + properties, "utf-8")
+    check(str(path), use_environment=False, solver_jobs=1)
+    assert len(named) > 16
+    assert len(named) == len(set(named))

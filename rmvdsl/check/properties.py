@@ -26,6 +26,7 @@ from rmvdsl.grammar import formula as fm
 from rmvdsl.grammar.printer import formula as show_formula
 from rmvdsl.lang.diagnostics import Diagnostic, Label, error, warning
 from rmvdsl.logic.answers import NO, UNKNOWN, YES, Witness
+from rmvdsl.logic.canonical import keep_at_least
 from rmvdsl.logic.compile import CompileError, compile_formula
 from rmvdsl.logic.parallel import Question, answer_all, implied_all
 from rmvdsl.logic.sat import Limits, satisfiable, valid
@@ -91,7 +92,9 @@ class _PropertyAnalyzer(PropertyFindings):
         """The questions on each property, then on each group of them. Each step's
         questions are independent of each other: they are answered in parallel
         first (rmvdsl.logic.parallel), then read in order from the answers."""
-        self.prefetch([self.single_questions(name, f) for name, f in self.compiled.items()])
+        singles = [self.single_questions(name, f) for name, f in self.compiled.items()]
+        keep_at_least(sum(len(questions) for questions in singles))
+        self.prefetch(singles)
         consistent_candidates = []
         for name, f in self.compiled.items():
             checkpoint()  # the editor may stop here (rmvdsl.util.cancel)

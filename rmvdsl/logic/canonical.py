@@ -25,11 +25,12 @@ from rmvdsl.logic.limits import Limits
 from rmvdsl.logic.system import Machine, System
 from rmvdsl.logic.terms import Z3_VERSION
 from rmvdsl.runtime.rmtld3 import facts
+from rmvdsl.util.bounded import Bounded
 from rmvdsl.util.cache import digest
 
 # Bump when an encoding changes: cached answers carry it in their key.
 ENCODING_VERSION = "3"  # 3: questions asked in their canonical naming
-CANONICAL_KEPT = 8192  # questions whose canonical form is remembered
+CANONICAL_KEPT = 4096  # questions whose canonical form is remembered (a few KB each)
 
 
 @dataclass(frozen=True)
@@ -55,7 +56,15 @@ class Canonical:
         return _renamed_witness(witness, self.names)
 
 
-_KEPT: dict[tuple[Any, ...], Canonical] = {}
+_KEPT: Bounded[tuple[Any, ...], Canonical] = Bounded(CANONICAL_KEPT)
+
+
+def keep_at_least(count: int) -> None:
+    """Remember the canonical forms of twice this many questions: a check keys
+    each question when it asks ahead and again when it reads the answer, and a
+    bound below a check's questions made it key every one twice (a 159,000-line
+    spec's cached check took twice as long)."""
+    _KEPT.fit(count)
 
 
 def canonical(formulas: Sequence[Any], system: System | None, limits: Limits) -> Canonical:
@@ -71,9 +80,7 @@ def canonical(formulas: Sequence[Any], system: System | None, limits: Limits) ->
         key = digest(ENCODING_VERSION, Z3_VERSION, list(renamed), renamed_system.key(),
                      limits.key())  # fmt: skip
         found = Canonical(key, renamed, renamed_system, restricted, names)
-        if len(_KEPT) >= CANONICAL_KEPT:
-            _KEPT.clear()
-        _KEPT[memo] = found
+        _KEPT.put(memo, found)
     return found
 
 
@@ -128,8 +135,13 @@ def _renamed_system(system: System, names: dict[str, str]) -> System:
 
 
 def _renamed_formula(formula: Any, names: dict[str, str]) -> Any:
-    """The formula with its propositions renamed, by a loop (formulas can nest
-    100,000 levels); a subformula shared is renamed once."""
+    """The formula with its propositions renamed: by recursion (twice as fast for
+    the shallow formulas most are), else, past the stack's limit, by a loop
+    (formulas can nest 100,000 levels), where a subformula shared is renamed once."""
+    try:
+        return _renamed_shallow(formula, names, {})
+    except RecursionError:
+        pass
     done: dict[int, Any] = {}
     stack: list[tuple[Any, bool]] = [(formula, False)]
     while stack:
@@ -146,6 +158,21 @@ def _renamed_formula(formula: Any, names: dict[str, str]) -> Any:
             continue
         done[id(node)] = _rebuilt(node, [done[id(c)] if isinstance(c, tuple) else c for c in node])
     return done[id(formula)]
+
+
+def _renamed_shallow(node: Any, names: dict[str, str], done: dict[int, Any]) -> Any:
+    """`_renamed_formula` by recursion; `done`: the subformulas renamed so far, by
+    identity (`a <-> b` shares its sides: a chain of them is a graph whose paths
+    grow exponentially)."""
+    found = done.get(id(node))
+    if found is None:
+        if node[0] == "prop":
+            found = _rebuilt(node, (node[0], names[node[1]]))
+        else:
+            items = [_renamed_shallow(c, names, done) if isinstance(c, tuple) else c for c in node]
+            found = _rebuilt(node, items)
+        done[id(node)] = found
+    return found
 
 
 def _rebuilt(node: tuple[Any, ...], items: Sequence[Any]) -> tuple[Any, ...]:

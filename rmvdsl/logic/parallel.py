@@ -113,7 +113,10 @@ def implied_all(
         key = group_key(formulas, system, limits) if jobs > 1 else ""
         if jobs > 1 and key not in missing and cache.get(key) is None:
             missing[key] = index
-    if len(missing) > 1:
+    # A group's redundancy is mostly answered by the traces at hand: below
+    # LEAST_PARALLEL groups, waking workers costs more than it saves (an editor's
+    # two changed groups of five started two workers, 120 MB, for a few questions).
+    if len(missing) >= LEAST_PARALLEL:
         # Each group's task carries only the part of the system its formulas touch:
         # the whole system in every task was quadratic (the 10x spec's 1,000 groups
         # each pickled 1,000 transducers). Every question cuts it the same way.
