@@ -130,3 +130,26 @@ def test_the_language_reference_tables_are_generated_from_the_registry():
     assert text == builtins.sync_reference(text)
     for name in (*builtins.BLOCKS, "functions", "actions"):
         assert f"<!-- builtins:{name} -->" in text, name
+
+
+def test_every_function_with_any_count_of_arguments_anywhere_is_a_diagnostic(tmp_path):
+    """Each registered function called with 0 to 3 arguments in a value, a
+    condition and a `where` clause: the checker never raises (the names stage
+    once unpacked `log`'s two arguments in a `where` before the types stage
+    counted them; found by the fuzzer), and a count the registry refuses is
+    RMV314."""
+    head = ["system f", "ros humble", 'topic t: std_msgs/msg/Float64 = "/t"', "var Speed = t.data"]
+    for name, function in builtins.FUNCTIONS.items():
+        lines = list(head)
+        for count in range(4):
+            args = ", ".join(["Speed"] * count)
+            lines += [
+                f"event V{count} = max({name}({args})) group by time(1s)",
+                f"event C{count} when {name}({args}) > 1",
+                f"event W{count} = max(Speed) where {name}({args}) > 1 group by time(1s)",
+            ]
+        path = tmp_path / f"{name}.rmv"
+        path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+        codes = {d.code for d in check(str(path), use_environment=False).diagnostics}
+        wrong = [c for c in range(4) if not function.least <= c <= function.most]
+        assert not wrong or "RMV314" in codes, (name, codes)

@@ -166,3 +166,21 @@ def test_a_check_renames_each_question_once(tmp_path, monkeypatch):
     check(str(path), use_environment=False, solver_jobs=1)
     assert len(named) > 16
     assert len(named) == len(set(named))
+
+
+def test_a_formula_deeper_than_the_stack_is_renamed_by_the_loop():
+    """Recursion renames shallow formulas; one deeper than the stack allows (here
+    on the test's own stack) is renamed by the loop, alike."""
+    from rmvdsl.logic.canonical import _renamed_formula, _renamed_shallow
+
+    shallow = ("until", "<=", Fraction(2), ("prop", "b"), ("not", ("prop", "a")))
+    deep: Any = shallow
+    for _ in range(5000):
+        deep = ("not", deep)
+    names = {"a": "p1", "b": "p0"}
+    renamed = _renamed_formula(deep, names)
+    for _ in range(5000):
+        assert renamed[0] == "not"
+        renamed = renamed[1]
+    assert renamed == _renamed_shallow(shallow, names, {})
+    assert renamed == ("until", "<=", Fraction(2), ("prop", "p0"), ("not", ("prop", "p1")))

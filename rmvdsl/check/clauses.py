@@ -116,7 +116,7 @@ class EventChecks:
         base (RMV321). `calls`: those of the `where` clause. Whether it was fine."""
         for call in calls:
             name = call.func.name
-            if name == "log":
+            if name == "log" and len(call.args) == 2:  # other counts: RMV314, types stage
                 value, base = (printer.expression(a) for a in call.args)
                 self.report_shape(
                     call.func.span,

@@ -24,6 +24,7 @@ from rmvdsl.logic.answers import Answer, Witness
 from rmvdsl.logic.limits import Limits
 from rmvdsl.logic.system import Machine, System
 from rmvdsl.logic.terms import Z3_VERSION
+from rmvdsl.runtime.nesting import bottom_up
 from rmvdsl.runtime.rmtld3 import facts
 from rmvdsl.util.bounded import Bounded
 from rmvdsl.util.cache import digest
@@ -142,22 +143,13 @@ def _renamed_formula(formula: Any, names: dict[str, str]) -> Any:
         return _renamed_shallow(formula, names, {})
     except RecursionError:
         pass
-    done: dict[int, Any] = {}
-    stack: list[tuple[Any, bool]] = [(formula, False)]
-    while stack:
-        node, expanded = stack.pop()
-        if id(node) in done:
-            continue
+
+    def rebuild(node: Any, fields: list[Any]) -> Any:
         if node[0] == "prop":
-            done[id(node)] = _rebuilt(node, (node[0], names[node[1]]))
-            continue
-        children = [c for c in node[1:] if isinstance(c, tuple)]
-        if not expanded:
-            stack.append((node, True))
-            stack.extend((child, False) for child in children)
-            continue
-        done[id(node)] = _rebuilt(node, [done[id(c)] if isinstance(c, tuple) else c for c in node])
-    return done[id(formula)]
+            return _rebuilt(node, (node[0], names[node[1]]))
+        return _rebuilt(node, (node[0], *fields))
+
+    return bottom_up(formula, rebuild)
 
 
 def _renamed_shallow(node: Any, names: dict[str, str], done: dict[int, Any]) -> Any:

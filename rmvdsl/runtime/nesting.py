@@ -20,6 +20,7 @@ keep the formulas as written.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 from rmvdsl.runtime.facts import remembered
@@ -41,6 +42,13 @@ def flattened(formula: Any) -> Any:
 
 
 def _walked(formula: Any) -> Any:
+    return bottom_up(formula, _simplified)
+
+
+def bottom_up(formula: Any, rebuild: Callable[[Any, list[Any]], Any]) -> Any:
+    """`rebuild(node, fields)` of every node, children first, `fields` the node's
+    items after its tag with each child already rebuilt; by a loop (formulas nest
+    deeply), a node shared by several parents rebuilt once."""
     done: dict[int, Any] = {}
     stack: list[tuple[Any, bool]] = [(formula, False)]
     while stack:
@@ -53,7 +61,7 @@ def _walked(formula: Any) -> Any:
             stack.extend((c, False) for c in children if id(c) not in done)
             continue
         fields = [done[id(c)] if _is_node(c) else c for c in node[1:]]
-        done[id(node)] = _simplified(node, fields)
+        done[id(node)] = rebuild(node, fields)
     return done[id(formula)]
 
 
