@@ -151,7 +151,7 @@ def test_a_check_renames_each_question_once(tmp_path, monkeypatch):
     named: list[str] = []
     original = canonical_module._naming
 
-    def recording(formulas: Any, system: System) -> dict[str, str]:
+    def recording(formulas: Any, system: System) -> Any:
         named.append(repr((list(formulas), system.key())))
         return original(formulas, system)
 

@@ -75,9 +75,9 @@ def canonical(formulas: Sequence[Any], system: System | None, limits: Limits) ->
     memo = (tuple(formulas), restricted.key(), limits.key())
     found = _KEPT.get(memo)
     if found is None:
-        names = _naming(formulas, restricted)
+        names, machines = _naming(formulas, restricted)
         renamed = tuple(_renamed_formula(f, names) for f in formulas)
-        renamed_system = _renamed_system(restricted, names)
+        renamed_system = _renamed_system(restricted, names, machines)
         key = digest(ENCODING_VERSION, Z3_VERSION, list(renamed), renamed_system.key(),
                      limits.key())  # fmt: skip
         found = Canonical(key, renamed, renamed_system, restricted, names)
@@ -91,9 +91,11 @@ def cut_system(formulas: Sequence[Any], system: System | None) -> System:
     return (system or System()).restricted(mentioned)
 
 
-def _naming(formulas: Sequence[Any], system: System) -> dict[str, str]:
+def _naming(formulas: Sequence[Any], system: System) -> tuple[dict[str, str], list[Machine]]:
     """Each proposition's canonical name: by first mention in the formulas, then
-    the other states of the transducers, in the order of their first mention."""
+    the other states of the transducers, in the order of their first mention; and
+    the transducers in that order (the i-th is `m<i>`). A cut system holds no
+    other name: its exclusive and impossible events are among these."""
     order: dict[str, None] = {}
     for formula in formulas:
         order.update(dict.fromkeys(facts(formula).propositions))
@@ -103,33 +105,21 @@ def _naming(formulas: Sequence[Any], system: System) -> dict[str, str]:
     )
     for machine in machines:
         order.update(dict.fromkeys(machine.states))
-    for a, b in sorted(system.exclusive):  # named above: kept total all the same
-        order.update(dict.fromkeys((a, b)))
-    order.update(dict.fromkeys(sorted(system.never)))
-    names = {name: f"p{index}" for index, name in enumerate(order)}
-    for index, machine in enumerate(machines):
-        names[_MACHINE + machine.name] = f"m{index}"
-    return names
+    return {name: f"p{index}" for index, name in enumerate(order)}, machines
 
 
-_MACHINE = "\0machine "  # a transducer's entry in a naming: no proposition has this name
-
-
-def _renamed_system(system: System, names: dict[str, str]) -> System:
-    machines = sorted(
-        (
-            Machine(
-                names[_MACHINE + m.name],
-                tuple(names[s] for s in m.states),
-                None if m.initial is None else names[m.initial],
-                frozenset((names[a], names[b]) for a, b in m.moves),
-            )
-            for m in system.transducers
-        ),
-        key=lambda m: int(m.name[1:]),
+def _renamed_system(system: System, names: dict[str, str], machines: list[Machine]) -> System:
+    renamed = tuple(
+        Machine(
+            f"m{index}",
+            tuple(names[s] for s in m.states),
+            None if m.initial is None else names[m.initial],
+            frozenset((names[a], names[b]) for a, b in m.moves),
+        )
+        for index, m in enumerate(machines)
     )
     return System(
-        tuple(machines),
+        renamed,
         frozenset((names[a], names[b]) for a, b in system.exclusive),
         frozenset(names[n] for n in system.never),
     )

@@ -109,9 +109,9 @@ def implied_all(
     group whose questions a time limit cut short is asked again in process)."""
     jobs = jobs_wanted(limits)
     missing: dict[str, int] = {}  # a group's key -> the first group asked with it
-    for index, (_, formulas, _) in enumerate(groups):
-        key = group_key(formulas, system, limits) if jobs > 1 else ""
-        if jobs > 1 and key not in missing and cache.get(key) is None:
+    for index, (_, formulas, _) in enumerate(groups if jobs > 1 else ()):
+        key = group_key(formulas, system, limits)
+        if key not in missing and cache.get(key) is None:
             missing[key] = index
     # A group's redundancy is mostly answered by the traces at hand: below
     # LEAST_PARALLEL groups, waking workers costs more than it saves (an editor's
