@@ -361,3 +361,86 @@ def test_a_transducer_reads_what_it_emits_at_the_same_instant(tmp_path):
     states = [(str(r["time"]), r["state"]) for r in records if r["kind"] == "state"]
     assert states[1:] == [("1", "S2"), ("6/5", "S0"), ("7/5", "S2")], states
     assert _verdicts(records, "P") == {"true"}
+
+
+def _pairwise(op: str, operands: list[ir.Expr], lookup) -> object:
+    """`and`/`or` of operands grouped to the left, each pair by the uncompiled rule."""
+    rule = influx.kleene_and if op == "and" else influx.kleene_or
+    value = lookup(operands[0].name)
+    for operand in operands[1:]:
+        value = rule(value, lambda operand=operand: lookup(operand.name))
+    return value
+
+
+def test_a_chain_of_connectives_is_the_pairs_grouped_either_way():
+    """The runtime compiles `a and b and c ...` into one loop: for every grouping
+    and every mix of true, false and unknown, the same value as the pairs, and the
+    same operands read (none after the one that decides)."""
+    import itertools
+
+    bool_type = ir.ValueType("bool")
+    values = {"T": True, "F": False, "U": influx.MISSING}
+    for op, count in itertools.product(("and", "or"), (2, 3, 4)):
+        for names in itertools.product(values, repeat=count):
+            refs = [ir.Ref(f"{n}{i}", "variable", bool_type) for i, n in enumerate(names)]
+            left = refs[0]
+            for ref in refs[1:]:
+                left = ir.Binary(op, left, ref, bool_type)
+            right = refs[-1]
+            for ref in reversed(refs[:-1]):
+                right = ir.Binary(op, ref, right, bool_type)
+            expected_reads: list[str] = []
+            expected = _pairwise(op, refs, _reading(expected_reads))
+            for grouped in (left, right):
+                reads: list[str] = []
+                assert influx.evaluate(grouped, _reading(reads)) is expected, (op, names)
+                assert reads == expected_reads, (op, names)
+
+
+def _reading(reads: list[str]):
+    def lookup(name: str) -> object:
+        reads.append(name)
+        return {"T": True, "F": False, "U": influx.MISSING}[name[0]]
+
+    return lookup
+
+
+def test_mixed_numbers_compare_as_the_values_module_says():
+    """A comparison of an int with a float in a condition: the compiled shortcut
+    and `values.compare` agree, also past 2**53 where a float cannot hold the int."""
+    from rmvdsl.runtime import values
+
+    numbers = [0, -0.0, 5, 5.0, -5, 0.8, 2**53, 2**53 + 1, float(2**53), -(2**63), 1e300]
+    number_type = ir.ValueType("float")
+    a, b = (ir.Ref(n, "variable", number_type) for n in ("A", "B"))
+    for op in ("<", "<=", ">", ">="):
+        compiled = influx.compiled(ir.Binary(op, a, b, ir.ValueType("bool")))
+        for x in numbers:
+            for y in numbers:
+                assert compiled({"A": x, "B": y}.get) == values.compare(op, x, y), (op, x, y)
+
+
+def test_an_inbox_gives_its_items_in_the_order_of_the_heap_whatever_the_bound():
+    """`_take` sorts the whole inbox in one call when every item is before the
+    bound, and pops them otherwise: the same items in the same order either way,
+    ties at one time in arrival order, and what stays is still a heap."""
+    import heapq
+    import random
+
+    from rmvdsl.runtime.dataflow import _take
+
+    draw = random.Random(7)
+    for _ in range(300):
+        inbox: list = []
+        expected: list = []
+        for sequence in range(draw.randint(0, 40)):
+            item = (draw.randint(0, 20), sequence, "x", draw.random(), "")
+            heapq.heappush(inbox, item)
+            expected.append(item)
+        expected.sort()
+        bound = draw.randint(-1, 22)
+        taken = _take(inbox, bound)
+        assert taken == [i for i in expected if i[0] < bound]
+        assert [heapq.heappop(inbox) for _ in range(len(inbox))] == [
+            i for i in expected if i[0] >= bound
+        ]

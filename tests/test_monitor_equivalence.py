@@ -11,6 +11,7 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from rmvdsl.logic.reference import Reference, Trace
+from rmvdsl.runtime.formulas import scaled
 from rmvdsl.runtime.rmtld3 import Monitor, merge
 
 PROPS = ["a", "b", "c"]
@@ -503,3 +504,49 @@ def test_merged_windows_give_the_verdicts_of_the_nested_ones(formula, trace, dat
         assert monitored(formula, part, part.end, False) == written
     if "until" in str(formula) or "since" in str(formula):
         assert len(str(merged)) <= len(str(formula))
+
+
+def terms(depth: int = 2) -> st.SearchStrategy:
+    """Terms of durations and constants: sums, differences and products with a
+    constant factor on either side (`2 * duration(...)`, `duration(...) * 3`)."""
+    duration = st.tuples(st.just("dur"), BOUNDS.filter(lambda b: b > 0), formulas(2))
+    number = st.integers(0, 10).map(lambda n: ("num", Fraction(n)))
+    if depth == 0:
+        return st.one_of(duration, number)
+    sub = terms(depth - 1)
+    return st.one_of(
+        duration,
+        number,
+        st.tuples(st.sampled_from(["add", "sub"]), sub, sub),
+        st.tuples(st.just("mul"), number, sub),
+        st.tuples(st.just("mul"), sub.filter(lambda t: t[0] != "num"), number),
+    )
+
+
+def _with_terms() -> st.SearchStrategy:
+    compared = st.tuples(
+        st.just("cmp"), st.sampled_from(["<", "<=", ">", ">=", "==", "!="]), terms(), terms()
+    )
+    return st.one_of(formulas(3), compared, st.tuples(st.just("and"), formulas(3), compared))
+
+
+_ONE_SECOND_OF_A = Trace([Fraction(0), Fraction(1)], [frozenset("a"), frozenset()], Fraction(6))
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(_with_terms(), traces(), st.booleans())
+@example(("cmp", "<", ("mul", ("num", 2), ("dur", 4, ("prop", "a"))), ("num", 3)),
+         _ONE_SECOND_OF_A, False)  # fmt: skip
+@example(("cmp", ">", ("mul", ("dur", 4, ("prop", "a")), ("num", 3)), ("num", 2)),
+         _ONE_SECOND_OF_A, True)  # fmt: skip
+@example(("cmp", "<", ("mul", ("num", 2), ("num", 3)), ("dur", 9, ("prop", "a"))),
+         _ONE_SECOND_OF_A, False)  # fmt: skip
+def test_a_formula_scaled_to_nanoseconds_gives_the_verdicts_in_seconds(formula, trace, one_by_one):
+    """The runtime feeds its monitors integer nanoseconds and the formula with its
+    times scaled alike (rmvdsl.runtime.formulas.scaled): its verdicts, turned back
+    into seconds, are the formula's over the trace in seconds."""
+    ns = 10**9
+    expected = monitored(formula, trace, trace.end, one_by_one)
+    in_ns = Trace([int(t * ns) for t in trace.times], trace.states, int(trace.end * ns))
+    got = monitored(scaled(formula, ns), in_ns, in_ns.end, one_by_one)
+    assert [(Fraction(a, ns), Fraction(b, ns), *rest) for a, b, *rest in got] == expected

@@ -8,6 +8,7 @@ from typing import Any
 
 from rmvdsl.runtime import influx
 from rmvdsl.runtime import spec as ir
+from rmvdsl.runtime.expressions import Evaluator
 from rmvdsl.runtime.records import Record, seconds
 
 LEVELS = ("OK", "INFO", "WARNING", "CRITICAL")
@@ -18,22 +19,35 @@ def kapacitor_level(levels: Sequence[ir.AlertLevel], current: int, lookup: Any) 
     """Kapacitor's AlertNode.determineLevel: a level at or above the current one
     whose condition holds; else the current one while its reset does not hold;
     else the highest level below that holds; else OK."""
-    by_rank = {_SEVERITY[level.severity]: level for level in levels}
+    return LevelRule(levels).level(current, lookup)
 
-    def holds(rank: int) -> bool:
-        level = by_rank.get(rank)
-        return level is not None and influx.evaluate(level.condition, lookup) is True
 
-    for rank in range(3, max(current, 1) - 1, -1):
-        if holds(rank):
-            return rank
-    reset = by_rank[current].reset if current in by_rank else None
-    if reset is not None and influx.evaluate(reset, lookup) is not True:
-        return current
-    for rank in range(current, 0, -1):
-        if holds(rank):
-            return rank
-    return 0
+class LevelRule:
+    """`kapacitor_level` for one alert's levels, their conditions compiled once (an
+    alert is asked at every instant a name it reads changes)."""
+
+    def __init__(self, levels: Sequence[ir.AlertLevel]) -> None:
+        self.conditions: list[Evaluator | None] = [None] * 4  # by rank; OK has none
+        self.resets: list[Evaluator | None] = [None] * 4
+        for level in levels:
+            rank = _SEVERITY[level.severity]
+            self.conditions[rank] = influx.compiled(level.condition)
+            self.resets[rank] = None if level.reset is None else influx.compiled(level.reset)
+
+    def level(self, current: int, lookup: Any) -> int:
+        conditions = self.conditions
+        for rank in range(3, max(current, 1) - 1, -1):
+            condition = conditions[rank]
+            if condition is not None and condition(lookup) is True:
+                return rank
+        reset = self.resets[current]
+        if reset is not None and reset(lookup) is not True:
+            return current
+        for rank in range(current, 0, -1):
+            condition = conditions[rank]
+            if condition is not None and condition(lookup) is True:
+                return rank
+        return 0
 
 
 class AlertState:
@@ -42,6 +56,7 @@ class AlertState:
         self.reads = frozenset(alert.reads)
         self.current: dict[str, Any] = {}
         self.level = 0
+        self.rule = LevelRule(alert.levels)
 
     def instant(self, time: int, changes: list[tuple[str, Any]]) -> Record | None:
         touched = False
@@ -52,7 +67,7 @@ class AlertState:
         if not touched:
             return None
         previous = self.level
-        self.level = kapacitor_level(self.alert.levels, previous, self.current.get)
+        self.level = self.rule.level(previous, self.current.get)
         if self.level == previous and (self.alert.state_changes_only or self.level == 0):
             return None
         if self.level == 0 and self.alert.no_recoveries:

@@ -22,6 +22,12 @@ def _take(inbox: list[Item], bound: int) -> list[Item]:
     """Remove the items before `bound` from the heap `inbox`, oldest first (ties in
     arrival order). A heap, because items wait in an inbox until the slowest input
     of the node is final (a query running once a minute) while the others arrive."""
+    if not inbox or inbox[0][0] >= bound:
+        return []
+    if max(inbox)[0] < bound:  # all of it (a pump after every input's time): sorted
+        taken = sorted(inbox)  # in one call, the order the pops would give
+        inbox.clear()
+        return taken
     taken = []
     while inbox and inbox[0][0] < bound:
         taken.append(heapq.heappop(inbox))
@@ -129,7 +135,14 @@ class Condition(Node):
         return self.condition(lookup) is True
 
     def process(self, bound: int, emit: Callable[[int, str, Any, str], None]) -> None:
+        current = self.current
         for time, items in _instants(self.take(bound)):
+            if len(items) == 1:  # most instants: one value, no pulse possible
+                _, _, name, value, _ = items[0]
+                if name is not START:
+                    current[name] = value
+                self._set(time, emit)
+                continue
             pulses, raised = [], set()
             for _, _, name, value, _ in items:
                 if name is START:
@@ -138,13 +151,13 @@ class Condition(Node):
                     raised.add(name)
                 elif value is False and name in raised:
                     pulses.append(name)  # raised and released at this instant: a pulse
-                self.current[name] = value
+                current[name] = value
             for name in pulses:
                 # each pulse read as true once, over the instant's other values; then
                 # its own value again (false, unless raised once more after it)
-                final, self.current[name] = self.current[name], True
+                final, current[name] = current[name], True
                 self._set(time, emit)
-                self.current[name] = final
+                current[name] = final
             self._set(time, emit)
         self.final = bound
 

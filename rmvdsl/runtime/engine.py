@@ -128,6 +128,7 @@ class Runtime(Reporting):
         # A state is read through its transducer, whose items carry the state's name.
         self.consumed = frozenset(self.state_of.get(n, n) for n in wanted)
         self.consumer_inbox: list[Item] = []
+        self.routes: dict[str, tuple[list[list[Item]], str | None]] = {}  # by `_route`
         self.consumer_upstream = self._producers(self.consumed)
         self.segments = Segments(spec.properties, self._write, self._violated)
         # Late input (docs/runtime.md, "Late input"): per property, the verdict
@@ -319,23 +320,34 @@ class Runtime(Reporting):
         # (nothing happens before the run starts); its record keeps the stamp.
         at = time if self.started is None or time >= self.started else self.started
         item = (at, self.sequence, name, value, source)
-        for node in self.subscribers.get(name, ()):
-            heapq.heappush(node.inbox, item)
+        route = self.routes.get(name)
+        if route is None:
+            route = self.routes[name] = self._route(name)
+        inboxes, kind = route
+        for inbox in inboxes:
+            heapq.heappush(inbox, item)
+        if kind is None:
+            return
+        if kind == "state":
+            record = {"kind": "state", "transducer": name, "time": seconds(time), "state": value}
+        else:
+            record = {"kind": kind, "time": seconds(time), "name": name, "value": value}
+        self.out.append(record)
+
+    def _route(self, name: str) -> tuple[list[list[Item]], str | None]:
+        """Where an item of `name` goes (the inboxes of the nodes reading it, and the
+        properties' and alerts' one) and the kind of record it makes, if recorded."""
+        inboxes = [node.inbox for node in self.subscribers.get(name, ())]
         if name in self.consumed:
-            heapq.heappush(self.consumer_inbox, item)
+            inboxes.append(self.consumer_inbox)
         producer = self.producer.get(name)
         if producer is None:
-            if "variable" in self.recorded:
-                self.out.append(
-                    {"kind": "variable", "time": seconds(time), "name": name, "value": value}
-                )
+            kind = "variable"
         elif isinstance(producer, Transducer) and name == producer.name:
-            if "state" in self.recorded:
-                self.out.append(
-                    {"kind": "state", "transducer": name, "time": seconds(time), "state": value}
-                )
-        elif "event" in self.recorded:
-            self.out.append({"kind": "event", "time": seconds(time), "name": name, "value": value})
+            kind = "state"
+        else:
+            kind = "event"
+        return inboxes, kind if kind in self.recorded else None
 
     def _pump(self, input_final: int) -> None:
         """Let every node compute what its inputs have made final (in dependency

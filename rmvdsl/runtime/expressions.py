@@ -55,6 +55,8 @@ def _compile(expr: ir.Expr) -> Evaluator:
         case ir.Unary():
             operand, op = _compile(expr.operand), expr.op
             return lambda lookup: unary(op, operand(lookup))
+        case ir.Binary() if expr.op in ("and", "or"):
+            return _connective(expr.op == "or", [_compile(e) for e in _operands(expr)])
         case ir.Binary():
             return _compile_binary(expr, _compile(expr.left), _compile(expr.right))
         case ir.Call() if expr.function in ELEMENTWISE:
@@ -83,8 +85,6 @@ def _constant(value: Any) -> Evaluator:
 
 def _compile_binary(expr: ir.Binary, left: Evaluator, right: Evaluator) -> Evaluator:
     op = expr.op
-    if op in ("and", "or"):
-        return _connective(op == "or", left, right)
     if op in _ORDERING:
         compare = _ORDERING[op]
 
@@ -93,6 +93,8 @@ def _compile_binary(expr: ir.Binary, left: Evaluator, right: Evaluator) -> Evalu
             kinds = type(a), type(b)
             if kinds == (float, float) or kinds == (int, int):
                 return compare(a, b)  # the common case: no conversion to decide
+            if kinds == (float, int) or kinds == (int, float):
+                return compare(float(a), float(b))  # as values.compare: mixed, as floats
             if a is MISSING or b is MISSING:
                 return MISSING
             return values.compare(op, a, b)
@@ -114,15 +116,45 @@ def unary(op: str, operand: Any) -> Any:
     return values.negate(operand)
 
 
-def _connective(deciding: bool, left: Evaluator, right: Evaluator) -> Evaluator:
+def _operands(expr: ir.Binary) -> list[ir.Expr]:
+    """The operands of a chain of one connective (`a and b and c`, grouped either
+    way), in order: Kleene's `and` and `or` are associative, and both groupings
+    evaluate the operands in order up to the first that decides."""
+    operands: list[ir.Expr] = []
+    stack: list[ir.Expr] = [expr]
+    while stack:
+        node = stack.pop()
+        if isinstance(node, ir.Binary) and node.op == expr.op:
+            stack += [node.right, node.left]
+        else:
+            operands.append(node)
+    return operands
+
+
+def _connective(deciding: bool, operands: list[Evaluator]) -> Evaluator:
     """`_kleene` compiled for the runtime's hot path (a condition at every message):
-    no closure made per evaluation."""
+    no closure made per evaluation, one call for a chain."""
+    if len(operands) == 2:
+        left, right = operands
 
-    def connective(lookup: Callable[[str], Any]) -> Any:
-        a = left(lookup)
-        return deciding if a is deciding else _settled(deciding, a, right(lookup))
+        def connective(lookup: Callable[[str], Any]) -> Any:
+            a = left(lookup)
+            return deciding if a is deciding else _settled(deciding, a, right(lookup))
 
-    return connective
+        return connective
+    other = not deciding
+
+    def chain(lookup: Callable[[str], Any]) -> Any:
+        unknown = False
+        for operand in operands:
+            value = operand(lookup)
+            if value is deciding:
+                return deciding
+            if value is not other:
+                unknown = True
+        return MISSING if unknown else other
+
+    return chain
 
 
 def kleene_and(left: Any, right_of: Callable[[], Any]) -> Any:

@@ -191,7 +191,8 @@ class WindowedQuery:
         event = self.event
         selected = list(rows)
         if event.where is not None:
-            selected = [r for r in selected if evaluate(event.where, r.fields.get) is True]
+            where = compiled(event.where)
+            selected = [r for r in selected if where(r.fields.get) is True]
         windows = range(run.start, run.end, self.interval)
         expr = event.expr
         if isinstance(expr, ir.Call) and expr.function in MULTI:
@@ -243,11 +244,12 @@ class WindowedQuery:
         """The values a function reads: a NaN or an infinity is no point (InfluxDB
         refuses to store one, and the collector leaves it out: lineproto), so `min`,
         `max` and the rest skip it, as numpy's `nanmin` does."""
+        value_of, isfinite = compiled(arg), math.isfinite
         out = []
         for row in rows:
-            value = evaluate(arg, row.fields.get)
-            if value is not MISSING and not _unstorable(value):
-                out.append((row.time, value))
+            value = value_of(row.fields.get)
+            if value is not MISSING and not (isinstance(value, float) and not isfinite(value)):
+                out.append((row.time, value))  # _unstorable inlined: a point per row
         return out
 
     def _aggregate(self, call: ir.Call, rows: list[Row], windows: range) -> Series:

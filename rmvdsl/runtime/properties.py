@@ -7,8 +7,8 @@ from typing import Any
 
 from rmvdsl.runtime import influx
 from rmvdsl.runtime import spec as ir
-from rmvdsl.runtime.formulas import to_lists
-from rmvdsl.runtime.records import seconds
+from rmvdsl.runtime.formulas import scaled, to_lists
+from rmvdsl.runtime.records import NS, seconds
 from rmvdsl.runtime.rmtld3 import Monitor
 
 
@@ -18,7 +18,9 @@ class PropertyMonitor:
 
     def __init__(self, prop: ir.Property, start: int, initial: frozenset[str]) -> None:
         self.prop = prop
-        self.formula = to_lists(prop.formula)
+        # The monitor reads times in integer nanoseconds, as the input comes: its
+        # verdicts are turned into seconds as they are given out (`verdicts`).
+        self.formula = to_lists(scaled(prop.formula, NS))
         self.names = frozenset(prop.propositions)
         self.watch = self.names | ({prop.trigger} if prop.trigger != "always" else set())
         self.true: set[str] = set(initial & self.watch)
@@ -40,12 +42,12 @@ class PropertyMonitor:
     def _open(self, time: int) -> None:
         self.monitor = Monitor(self.formula)
         if self.period is None:
-            self.monitor.step(seconds(time), self.true & self.names)
+            self.monitor.step(time, self.true & self.names)
 
     def _close(self, time: int) -> None:
         if self.monitor is not None:
-            self.monitor.end(seconds(time))
-            self.segments.extend(self.monitor.verdicts())
+            self.monitor.end(time)
+            self.segments.extend(map(_in_seconds, self.monitor.verdicts()))
             self.monitor = None
 
     def instant(self, time: int, changes: list[tuple[str, Any]]) -> None:
@@ -69,7 +71,7 @@ class PropertyMonitor:
         if self.monitor is None:
             return
         if self.period is None:
-            self.monitor.step(seconds(time), self.true & self.names, pulses & self.names)
+            self.monitor.step(time, self.true & self.names, pulses & self.names)
         else:
             self.pending_pulses |= pulses
 
@@ -80,28 +82,33 @@ class PropertyMonitor:
             return
         state = self.true & self.names
         if self.monitor is not None:
-            self.monitor.step(seconds(self.next_tick), state, self.pending_pulses & self.names)
+            self.monitor.step(self.next_tick, state, self.pending_pulses & self.names)
         self.pending_pulses = set()
         # The later ticks repeat that state without pulses, which only tells the
         # monitor that time has passed: the last of them says it for all (a gap of
         # years between two stamps costs one step, not a step per tick).
         last = self.next_tick + (bound - 1 - self.next_tick) // self.period * self.period
         if last > self.next_tick and self.monitor is not None:
-            self.monitor.step(seconds(last), state, frozenset())
+            self.monitor.step(last, state, frozenset())
         self.next_tick = last + self.period
 
     def advance(self, bound: int) -> None:
         """Nothing changed before `bound`: the monitor knows its input up to there
         (a rate's ticks say it for a sampled property)."""
         if self.period is None and self.monitor is not None and bound > self.start:
-            self.monitor.advance(seconds(bound))
+            self.monitor.advance(bound)
 
     def verdicts(self) -> list[tuple]:
         if self.monitor is not None:
-            self.segments.extend(self.monitor.verdicts())
+            self.segments.extend(map(_in_seconds, self.monitor.verdicts()))
         out, self.segments = self.segments, []
         return out
 
     def end(self, time: int) -> None:
         self.ticks_before(time + 1)
         self._close(time)
+
+
+def _in_seconds(segment: tuple) -> tuple:
+    """A verdict segment of the monitor (times in nanoseconds) in seconds."""
+    return (seconds(segment[0]), seconds(segment[1]), *segment[2:])

@@ -22,7 +22,7 @@ from rmvdsl.runtime import influx, rates
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.dataflow import Condition, Item, Node, RawEvent, Transducer, WindowedEvent
 from rmvdsl.runtime.properties import PropertyMonitor
-from rmvdsl.runtime.records import NS
+from rmvdsl.runtime.records import NS, seconds
 from rmvdsl.runtime.rmtld3 import Ever, Monitor, facts
 from rmvdsl.runtime.signal import Signal
 
@@ -156,7 +156,7 @@ def _monitor(monitor: Monitor) -> tuple[Any, ...]:
         return ("not started", tuple(monitor.pending))
     if monitor.changes or monitor.pending or monitor.late:
         raise _Unmatched
-    low = monitor.known - monitor.horizon - MARGIN
+    low = monitor.known - monitor.horizon - 1  # MARGIN: the monitor counts nanoseconds
     signals = tuple(
         (name, _signal(prop.signal, low)) for name, prop in sorted(monitor.props.items())
     ) + tuple(  # what each `since` with no bound carries over from before `low`
@@ -213,7 +213,7 @@ def _agree_from(monitor: PropertyMonitor) -> Any:
     inner = monitor.monitor
     if inner is None or inner.start is None:
         return None
-    return max(inner.start, inner.known - monitor.future - MARGIN)
+    return max(seconds(inner.start), seconds(inner.known) - monitor.future - MARGIN)
 
 
 def pending_starts(runtime: Any) -> dict[str, tuple[Any, bool]]:
