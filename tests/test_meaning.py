@@ -444,3 +444,55 @@ def test_an_inbox_gives_its_items_in_the_order_of_the_heap_whatever_the_bound():
         assert [heapq.heappop(inbox) for _ in range(len(inbox))] == [
             i for i in expected if i[0] >= bound
         ]
+
+
+def test_an_alert_level_of_the_same_values_is_the_level_again():
+    """An alert whose values did not change keeps its level without asking again:
+    Kapacitor's rule (`kapacitor_level`) of its own result, over the same values,
+    gives that result, for every set of levels, resets and values."""
+    import itertools
+
+    from rmvdsl.runtime.alerts import kapacitor_level
+
+    bool_type = ir.ValueType("bool")
+    ref = {n: ir.Ref(n, "variable", bool_type) for n in ("I", "W", "C", "RI", "RW", "RC")}
+    for present in itertools.product((False, True), repeat=3):
+        for with_reset in itertools.product((False, True), repeat=3):
+            levels = [
+                ir.AlertLevel(severity, ref[name], ref["R" + name] if reset else None)
+                for severity, name, here, reset in zip(
+                    ("info", "warn", "crit"), "IWC", present, with_reset, strict=True
+                )
+                if here
+            ]
+            for bits in itertools.product((False, True, None), repeat=6):
+                values = dict(zip(("I", "W", "C", "RI", "RW", "RC"), bits, strict=True))
+                for start in range(4):
+                    once = kapacitor_level(levels, start, values.get)
+                    assert kapacitor_level(levels, once, values.get) == once
+
+
+def test_a_condition_sees_a_zero_change_its_sign(tmp_path):
+    """A condition is evaluated again only when a value it reads changes; -0.0 after
+    0.0 is a change (atan2(0, -0.0) is pi, atan2(0, 0.0) is 0), and a value that
+    repeats exactly is not: the event's changes are the same either way."""
+    path = tmp_path / "spec.rmv"
+    path.write_text(
+        'system s\nros humble\ntopic y: std_msgs/Float64 = "/y"\n'
+        'topic x: std_msgs/Float64 = "/x"\nvar Y = y.data\nvar X = x.data\n'
+        "event Behind when atan2(Y, X) > 1\nproperty P: not Behind\n",
+        encoding="utf-8",
+    )
+    result = check(str(path), use_environment=False)
+    assert not result.errors
+    runtime = engine.Runtime(lower(result))
+    feed = [(0.0, 1.0), (0.0, 0.0), (0.0, -0.0), (0.0, -0.0), (0.0, 0.0), (0.0, 0.0)]
+    for k, (y, x) in enumerate(feed):
+        runtime.message((k + 1) * NS, "/y", {"data": y})
+        runtime.message((k + 1) * NS, "/x", {"data": x})
+    runtime.end(10 * NS)
+    changes = [
+        (r["time"], r["value"]) for r in runtime.records()
+        if r["kind"] == "event" and r["name"] == "Behind"
+    ]  # fmt: skip
+    assert changes == [(3, True), (5, False)]

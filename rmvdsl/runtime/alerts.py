@@ -10,6 +10,7 @@ from rmvdsl.runtime import influx
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.expressions import Evaluator
 from rmvdsl.runtime.records import Record, seconds
+from rmvdsl.runtime.values import UNSET, same_value
 
 LEVELS = ("OK", "INFO", "WARNING", "CRITICAL")
 _SEVERITY = {"info": 1, "warn": 2, "crit": 3}
@@ -59,15 +60,25 @@ class AlertState:
         self.rule = LevelRule(alert.levels)
 
     def instant(self, time: int, changes: list[tuple[str, Any]]) -> Record | None:
-        touched = False
+        touched = changed = False
+        current = self.current
         for name, value in changes:
             if name in self.reads:
-                self.current[name] = value
                 touched = True
+                if not changed:  # same_value inlined but for a zero, as in Condition
+                    old = current.get(name, UNSET)
+                    changed = (
+                        old != value
+                        or type(old) is not type(value)
+                        or (value == 0.0 and not same_value(old, value))
+                    )
+                current[name] = value
         if not touched:
             return None
         previous = self.level
-        self.level = self.rule.level(previous, self.current.get)
+        if changed:  # the level of the same values is the same: `kapacitor_level` of
+            # its own result gives it again
+            self.level = self.rule.level(previous, current.get)
         if self.level == previous and (self.alert.state_changes_only or self.level == 0):
             return None
         if self.level == 0 and self.alert.no_recoveries:

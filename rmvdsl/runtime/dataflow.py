@@ -12,6 +12,7 @@ from typing import Any
 
 from rmvdsl.runtime import influx
 from rmvdsl.runtime import spec as ir
+from rmvdsl.runtime.values import UNSET, same_value
 
 _FOREVER = 1 << 126
 Item = tuple[int, int, str, Any, str]  # time, sequence, name, value, source
@@ -67,12 +68,15 @@ def _instants(items: list[Item]) -> Iterable[tuple[int, list[Item]]]:
 def _rows(items: list[Item]) -> Iterable[influx.Row]:
     """Items of one source at one time form one row (one message, one point)."""
     rows: dict[tuple[int, str], influx.Row] = {}
+    row, row_source = None, ""
     for time, _, name, value, source in items:
-        row = rows.get((time, source))
-        if row is None:
-            row = rows[(time, source)] = influx.Row(time, {})
+        # a message's items come one after another: most items join the row before
+        if row is None or time != row.time or source != row_source:
+            row, row_source = rows.get((time, source)), source
+            if row is None:
+                row = rows[(time, source)] = influx.Row(time, {})
         row.fields[name] = value
-    return sorted(rows.values(), key=lambda r: r.time)
+    return list(rows.values())  # in time order: the items are, and rows keep their first
 
 
 class RawEvent(Node):
@@ -137,20 +141,24 @@ class Condition(Node):
     def process(self, bound: int, emit: Callable[[int, str, Any, str], None]) -> None:
         current = self.current
         for time, items in _instants(self.take(bound)):
-            if len(items) == 1:  # most instants: one value, no pulse possible
-                _, _, name, value, _ = items[0]
-                if name is not START:
-                    current[name] = value
-                self._set(time, emit)
-                continue
-            pulses, raised = [], set()
+            # The condition is a function of the values it reads: evaluated again
+            # only where one of them changed (a pedal, a mode, a flag repeat).
+            changed, pulses, raised = False, [], set()
             for _, _, name, value, _ in items:
                 if name is START:
+                    changed = True
                     continue
                 if value is True:
                     raised.add(name)
                 elif value is False and name in raised:
                     pulses.append(name)  # raised and released at this instant: a pulse
+                if not changed:  # same_value inlined but for a zero
+                    old = current.get(name, UNSET)
+                    changed = (
+                        old != value
+                        or type(old) is not type(value)
+                        or (value == 0.0 and not same_value(old, value))
+                    )
                 current[name] = value
             for name in pulses:
                 # each pulse read as true once, over the instant's other values; then
@@ -158,7 +166,8 @@ class Condition(Node):
                 final, current[name] = current[name], True
                 self._set(time, emit)
                 current[name] = final
-            self._set(time, emit)
+            if changed:
+                self._set(time, emit)
         self.final = bound
 
     def _set(self, time: int, emit: Callable[[int, str, Any, str], None]) -> None:

@@ -211,3 +211,19 @@ def _places(denominator: int) -> int:
         denominator //= 5
         fives += 1
     return max(twos, fives) if denominator == 1 else -1
+
+
+UNSET = object()  # a name not read yet: the same as no value
+
+
+def same_value(old: object, new: object) -> bool:
+    """Whether every expression reads `new` exactly as `old` (so a condition of
+    values that are all the same is not evaluated again): the same type and value,
+    and for a float zero the same sign (atan2 tells -0.0 from 0.0)."""
+    if old is new:
+        return True
+    if type(old) is not type(new) or old != new:
+        return False
+    return (
+        type(new) is not float or new != 0.0 or math.copysign(1.0, old) == math.copysign(1.0, new)  # type: ignore[arg-type]
+    )
