@@ -135,7 +135,7 @@ def _nodes(formula) -> list:
 
 
 def windows(depth: int = 4) -> st.SearchStrategy:
-    """`eventually`, `once` and `since` with a window (each one sweep in the monitor)
+    """`eventually`, `once`, `until` and `since` with a window (each one sweep in the monitor)
     nested with the rest: `always` and `historically` make isolated points, which
     end windows where they lie."""
     leaf = st.sampled_from(PROPS).map(lambda p: ("prop", p))
@@ -152,7 +152,7 @@ def windows(depth: int = 4) -> st.SearchStrategy:
         st.tuples(st.sampled_from(["and", "or"]), sub, sub),
         window,
         dual.map(lambda f: ("not", f)),
-        st.tuples(st.just("since"), OPS, bounds, sub, sub),
+        st.tuples(kinds, OPS, bounds, sub, sub),  # `until` and `since` with both sides
     )
 
 
@@ -324,6 +324,27 @@ def test_windowed_since_over_isolated_points(formula, steps):
     """`phi since[<T] psi` in one sweep: where psi holds at an isolated point and phi
     from there on, the window ends exactly T after it (open or closed), on traces
     whose stretches are as long as the bounds."""
+    times, states, t = [], [], Fraction(0)
+    for gap, state in steps:
+        times.append(t)
+        states.append(frozenset(state))
+        t += gap
+    trace = Trace(times, states, t)
+    assert monitored(formula, trace, trace.end, False) == Reference(trace).segments(formula)
+
+
+@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    st.tuples(st.just("until"), st.sampled_from(["<", "<="]), st.integers(0, 3).map(Fraction),
+              _pointed(2), _pointed(2)),
+    st.lists(st.tuples(st.integers(1, 3), st.sets(st.sampled_from(PROPS))), min_size=1,
+             max_size=8),
+)  # fmt: skip
+def test_windowed_until_over_isolated_points(formula, steps):
+    """`phi until[<T] psi` in one sweep: where psi holds at an isolated point, the
+    window reaches back from it exactly T (open or closed), and phi's run before it
+    (or just after an open stretch's start) decides how far; on traces whose
+    stretches are as long as the bounds."""
     times, states, t = [], [], Fraction(0)
     for gap, state in steps:
         times.append(t)

@@ -250,3 +250,71 @@ def _earlier(a: End, b: End) -> End:
     if a[0] != b[0]:
         return a if a[0] < b[0] else b
     return a[0], a[1] and b[1]
+
+
+# ---- `phi until[<T] psi` and `phi until[<=T] psi` ----
+
+
+def until_levels(phi: Signal, psi: Signal, start: Any, bound: Any, closed: bool) -> Levels:
+    """At level k, t is covered where psi >= k at some t' in [t, t + T) (or ]) with
+    phi >= k on [t, t'). A point of psi at p covers from a bound before it, or from
+    where phi's run up to p begins, to p; an open piece (s, e) covers itself and,
+    where phi holds at s and up to it, the times before s whose window reaches past
+    s. Nothing before `start` is read but the runs of phi into it (a future
+    operator carries nothing over): linear in the breakpoints from `start` on."""
+    levels: Levels = ([], [])
+    base = phi.index(start)
+    starts, points, opens = psi.starts, psi.points, psi.opens
+    count = len(starts)
+    first = psi.index(start)
+    for level, intervals in zip((1, 2), levels, strict=True):
+        before_open = _runs_back(phi, base, level)
+        for k in range(first, count):
+            at = starts[k]
+            following = starts[k + 1] if k + 1 < count else _INFINITY
+            if points[k] >= level and at >= start:  # t' = at: phi on [t, at)
+                run = _run_before(phi, base, at, before_open)
+                low = _later((at - bound, closed), run) if run else (at, True)
+                add(intervals, *low, at, True)
+            if opens[k] >= level and following > start:  # t' in (at, following)
+                run = None
+                if at >= start:  # phi on [t, at] and just after it (t' just past at)
+                    run = before_open[phi.index(at) - base]
+                low = _later((at - bound, False), run) if run else (at, False)
+                add(intervals, *low, following, False)
+    return levels
+
+
+def _runs_back(phi: Signal, base: int, level: int) -> list[End | None]:
+    """For each breakpoint of phi from `base` on: from where phi >= level holds up to
+    the end of the open interval after it, as the first time b (and whether b itself
+    holds) for which it holds on all of [b, x); None: not on that interval."""
+    starts, points, opens = phi.starts, phi.points, phi.opens
+    count = len(starts) - base
+    before_open: list[End | None] = [None] * count
+    previous: End | None = None  # the run through the open interval before the point
+    for m in range(count):
+        index = base + m
+        if opens[index] >= level:
+            if points[index] >= level:
+                before_open[m] = previous or (starts[index], True)
+            else:
+                before_open[m] = (starts[index], False)
+        previous = before_open[m]
+    return before_open
+
+
+def _run_before(phi: Signal, base: int, at: Any, before_open: list[End | None]) -> End | None:
+    """From where phi >= level holds on [b, at), `at` itself not needed (None: not
+    just before `at`; nor before the first breakpoint read, which the caller clips)."""
+    index = phi.index(at)
+    if phi.starts[index] == at:  # the open interval before it
+        return before_open[index - 1 - base] if index - 1 >= base else None
+    return before_open[index - base]
+
+
+def _later(a: End, b: End) -> End:
+    """The later of two lower ends (at one time, closed only if both are)."""
+    if a[0] != b[0]:
+        return a if a[0] > b[0] else b
+    return a[0], a[1] and b[1]

@@ -7,7 +7,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from typing import Any
 
-from rmvdsl.runtime.covers import Levels, Witnesses, cover, since_levels, write
+from rmvdsl.runtime.covers import Levels, Witnesses, cover, since_levels, until_levels, write
 from rmvdsl.runtime.signal import _INFINITY, FALSE, TRUE, UNKNOWN, Signal, _mid, pieces
 
 
@@ -199,6 +199,9 @@ class Temporal(Evaluated):
             left, right, closed = self.left.signal, self.right.signal, self.op == "<="
             levels = since_levels(left, right, start, self.bound, closed, self.witnesses)
             write(self.signal, start, levels)
+        elif windowed:  # until
+            left, right, closed = self.left.signal, self.right.signal, self.op == "<="
+            write(self.signal, start, until_levels(left, right, start, self.bound, closed))
         else:
             super().update(start)
 
