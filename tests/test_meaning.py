@@ -496,3 +496,30 @@ def test_a_condition_sees_a_zero_change_its_sign(tmp_path):
         if r["kind"] == "event" and r["name"] == "Behind"
     ]  # fmt: skip
     assert changes == [(3, True), (5, False)]
+
+
+def test_a_repeated_boolean_still_makes_a_pulse(tmp_path):
+    """Conditions are told of a value only where it changed, but a boolean always:
+    `Flag` true again, then false, at one instant is a pulse, read as true once with
+    the instant's other values (here `Other`, raised at that instant)."""
+    path = tmp_path / "spec.rmv"
+    path.write_text(
+        'system s\nros humble\ntopic flag: std_msgs/Bool = "/flag"\n'
+        'topic other: std_msgs/Bool = "/other"\nvar Flag = flag.data\nvar Other = other.data\n'
+        "event Both when Flag and Other\nproperty P: not Both\n",
+        encoding="utf-8",
+    )
+    result = check(str(path), use_environment=False)
+    assert not result.errors
+    runtime = engine.Runtime(lower(result))
+    runtime.message(NS, "/flag", {"data": True})
+    runtime.message(NS, "/other", {"data": False})
+    runtime.message(2 * NS, "/flag", {"data": True})
+    runtime.message(2 * NS, "/other", {"data": True})
+    runtime.message(2 * NS, "/flag", {"data": False})
+    runtime.end(5 * NS)
+    changes = [
+        (r["time"], r["value"]) for r in runtime.records()
+        if r["kind"] == "event" and r["name"] == "Both"
+    ]  # fmt: skip
+    assert changes == [(2, True), (2, False)]

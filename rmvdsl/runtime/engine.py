@@ -36,7 +36,6 @@ from rmvdsl.runtime.dataflow import (
     _instants,
     _take,
     dataflow_nodes,
-    reaching,
 )
 from rmvdsl.runtime.intrusions import Endpoint, can_refuse, verdict_of
 from rmvdsl.runtime.properties import PropertyMonitor
@@ -53,7 +52,7 @@ from rmvdsl.runtime.records import (
     to_json,
 )
 from rmvdsl.runtime.reporting import STAMP_AHEAD, Reporting
-from rmvdsl.runtime.values import exact_text
+from rmvdsl.runtime.values import UNSET, exact_text, same_value
 from rmvdsl.runtime.verdicts import Segments
 
 # What the other runtime modules define, read through this one by the hosts.
@@ -64,6 +63,10 @@ __all__ = [
     "action_level", "action_record", "action_text", "can_refuse", "kapacitor_level",
     "seconds", "to_json", "verdict_of",
 ]  # fmt: skip
+
+# Where an item of a name goes: the inboxes of the nodes that read it but conditions,
+# those of the conditions (told only of a change), the kind of record it makes.
+Route = tuple[list[list[Item]], list[list[Item]], str | None]
 
 # The dataflow runs once per this many input instants (and on `decide()`): its output
 # does not depend on the batching, and a batch costs the per-run overhead once.
@@ -128,7 +131,10 @@ class Runtime(Reporting):
         # A state is read through its transducer, whose items carry the state's name.
         self.consumed = frozenset(self.state_of.get(n, n) for n in wanted)
         self.consumer_inbox: list[Item] = []
-        self.routes: dict[str, tuple[list[list[Item]], str | None]] = {}  # by `_route`
+        self.routes: dict[str, Route] = {}  # by `_route`
+        # The last value of each name a condition reads: a condition is told of a
+        # value only where it changed (or is a boolean: a pulse is true, then false).
+        self.last_values: dict[str, Any] = {}
         self.consumer_upstream = self._producers(self.consumed)
         self.segments = Segments(spec.properties, self._write, self._violated)
         # Late input (docs/runtime.md, "Late input"): per property, the verdict
@@ -227,49 +233,6 @@ class Runtime(Reporting):
                 continue
             self._emit(time, variable.name, value, topic)
 
-    def _late_input(self, time: int, topic: str) -> None:
-        """A message of `topic` at `time` came after the monitor had passed its time:
-        the input from `time` to the newest the monitor had is unknown (and on,
-        until the topic publishes again, if it has not since)."""
-        superseded = self.last_on.get(topic, -_FOREVER) > time
-        noticed = max(self.now, self.complete_before)
-        self._unknown_input(topic, time, noticed if superseded else None)
-
-    def _unknown_input(self, topic: str, first: int, last: int | None) -> None:
-        """What `topic` said from `first` to `last` (None: until it publishes
-        again) is not known (a message late, lost, damaged or stamped ahead):
-        every property reading the topic is unknown where its verdict reads that
-        stretch, and what was given out there is revised."""
-        if self.started is None:
-            self._begin(first)
-        assert self.started is not None
-        reach = self._reach(topic)
-        for monitor in self.properties:
-            name = monitor.prop.name
-            if name not in reach:
-                continue
-            # A window's point is stamped up to an interval before its input and
-            # holds until the next: the stretch widens by the lead on both sides.
-            lead = seconds(reach[name] + (monitor.period or 0))
-            low = max(seconds(first) - lead - monitor.future, seconds(self.started))
-            # With no bound back, every later verdict reads the gap: unknown for
-            # the rest of the run (docs/runtime.md, "Lost, damaged and stamped-ahead input").
-            after = None if monitor.past is None else lead + monitor.past
-            high = None if last is None or after is None else seconds(last) + after
-            interval = self.segments.unknown(name, low, high)
-            if last is None and after is not None:
-                self.until_next.setdefault(topic, []).append((interval, after))
-
-    def _reach(self, topic: str) -> dict[str, int]:
-        """The properties that read `topic`, with their leads, found once a topic (a
-        flood of late messages walks the dataflow once, not per message)."""
-        found = self.reaches.get(topic)
-        if found is None:
-            names = [variable.name for variable, _ in self.by_topic.get(topic, ())]
-            found = reaching(self.nodes, names, self.spec.properties, self.state_of)
-            self.reaches[topic] = found
-        return found
-
     def _begin(self, time: int) -> None:
         self.started = time
         # Each condition is evaluated at the first instant, changed input or not:
@@ -323,9 +286,21 @@ class Runtime(Reporting):
         route = self.routes.get(name)
         if route is None:
             route = self.routes[name] = self._route(name)
-        inboxes, kind = route
+        inboxes, conditions, kind = route
         for inbox in inboxes:
             heapq.heappush(inbox, item)
+        if conditions:
+            last = self.last_values.get(name, UNSET)
+            # same_value inlined, as in Condition.process
+            if (
+                type(value) is bool
+                or last != value
+                or type(last) is not type(value)
+                or (value == 0.0 and not same_value(last, value))
+            ):
+                self.last_values[name] = value
+                for inbox in conditions:
+                    heapq.heappush(inbox, item)
         if kind is None:
             return
         if kind == "state":
@@ -334,10 +309,13 @@ class Runtime(Reporting):
             record = {"kind": kind, "time": seconds(time), "name": name, "value": value}
         self.out.append(record)
 
-    def _route(self, name: str) -> tuple[list[list[Item]], str | None]:
+    def _route(self, name: str) -> Route:
         """Where an item of `name` goes (the inboxes of the nodes reading it, and the
-        properties' and alerts' one) and the kind of record it makes, if recorded."""
-        inboxes = [node.inbox for node in self.subscribers.get(name, ())]
+        properties' and alerts' one; the conditions' apart) and the kind of record it
+        makes, if recorded."""
+        readers = self.subscribers.get(name, ())
+        inboxes = [node.inbox for node in readers if not isinstance(node, Condition)]
+        conditions = [node.inbox for node in readers if isinstance(node, Condition)]
         if name in self.consumed:
             inboxes.append(self.consumer_inbox)
         producer = self.producer.get(name)
@@ -347,7 +325,7 @@ class Runtime(Reporting):
             kind = "state"
         else:
             kind = "event"
-        return inboxes, kind if kind in self.recorded else None
+        return inboxes, conditions, kind if kind in self.recorded else None
 
     def _pump(self, input_final: int) -> None:
         """Let every node compute what its inputs have made final (in dependency

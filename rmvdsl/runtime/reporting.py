@@ -6,9 +6,11 @@ from __future__ import annotations
 
 from collections import Counter
 from collections.abc import Iterable
+from fractions import Fraction
 from typing import Any
 
 from rmvdsl.runtime import spec as ir
+from rmvdsl.runtime.dataflow import _FOREVER, Node, reaching
 from rmvdsl.runtime.intrusions import Endpoint, verdict_of
 from rmvdsl.runtime.properties import PropertyMonitor
 from rmvdsl.runtime.records import (
@@ -64,8 +66,60 @@ class Reporting:
     stamped: frozenset[str]
     started: int | None
     now: int
+    properties: list[PropertyMonitor]
+    until_next: dict[str, list[tuple[list[Any], Fraction]]]
+    complete_before: int
+    reaches: dict[str, dict[str, int]]
+    by_topic: dict[str, list[tuple[ir.Variable, Any]]]
+    nodes: list[Node]
+    state_of: dict[str, str]
 
-    def _unknown_input(self, topic: str, first: int, last: int | None) -> None: ...
+    def _begin(self, time: int) -> None: ...
+
+    # ---- input lost, late or damaged: the verdicts that read it are unknown ----
+
+    def _late_input(self, time: int, topic: str) -> None:
+        """A message of `topic` at `time` came after the monitor had passed its time:
+        the input from `time` to the newest the monitor had is unknown (and on,
+        until the topic publishes again, if it has not since)."""
+        superseded = self.last_on.get(topic, -_FOREVER) > time
+        noticed = max(self.now, self.complete_before)
+        self._unknown_input(topic, time, noticed if superseded else None)
+
+    def _unknown_input(self, topic: str, first: int, last: int | None) -> None:
+        """What `topic` said from `first` to `last` (None: until it publishes
+        again) is not known (a message late, lost, damaged or stamped ahead):
+        every property reading the topic is unknown where its verdict reads that
+        stretch, and what was given out there is revised."""
+        if self.started is None:
+            self._begin(first)
+        assert self.started is not None
+        reach = self._reach(topic)
+        for monitor in self.properties:
+            name = monitor.prop.name
+            if name not in reach:
+                continue
+            # A window's point is stamped up to an interval before its input and
+            # holds until the next: the stretch widens by the lead on both sides.
+            lead = seconds(reach[name] + (monitor.period or 0))
+            low = max(seconds(first) - lead - monitor.future, seconds(self.started))
+            # With no bound back, every later verdict reads the gap: unknown for
+            # the rest of the run (docs/runtime.md, "Lost, damaged and stamped-ahead input").
+            after = None if monitor.past is None else lead + monitor.past
+            high = None if last is None or after is None else seconds(last) + after
+            interval = self.segments.unknown(name, low, high)
+            if last is None and after is not None:
+                self.until_next.setdefault(topic, []).append((interval, after))
+
+    def _reach(self, topic: str) -> dict[str, int]:
+        """The properties that read `topic`, with their leads, found once a topic (a
+        flood of late messages walks the dataflow once, not per message)."""
+        found = self.reaches.get(topic)
+        if found is None:
+            names = [variable.name for variable, _ in self.by_topic.get(topic, ())]
+            found = reaching(self.nodes, names, self.spec.properties, self.state_of)
+            self.reaches[topic] = found
+        return found
 
     def damaged(self, time: int, topic: str, reason: str) -> None:
         """A message that could not be decoded, received at `time`: what the topic
