@@ -472,54 +472,50 @@ def test_an_alert_level_of_the_same_values_is_the_level_again():
                     assert kapacitor_level(levels, once, values.get) == once
 
 
+def _two_topics(tmp_path: Path, kind: str, names: tuple[str, str], event: str):
+    """A runtime for two topics of std_msgs/`kind` (`/a` and `/b`), variables
+    `names` read from them, and `event` (checked first)."""
+    path = tmp_path / "spec.rmv"
+    path.write_text(
+        f'system s\nros humble\ntopic a: std_msgs/{kind} = "/a"\n'
+        f'topic b: std_msgs/{kind} = "/b"\nvar {names[0]} = a.data\nvar {names[1]} = b.data\n'
+        f"event {event}\nproperty P: not {event.split()[0]}\n",
+        encoding="utf-8",
+    )
+    result = check(str(path), use_environment=False)
+    assert not result.errors, result.errors
+    return engine.Runtime(lower(result))
+
+
+def _event_changes(runtime, name: str) -> list[tuple[Fraction, bool]]:
+    return [
+        (r["time"], r["value"]) for r in runtime.records()
+        if r["kind"] == "event" and r["name"] == name
+    ]  # fmt: skip
+
+
 def test_a_condition_sees_a_zero_change_its_sign(tmp_path):
     """A condition is evaluated again only when a value it reads changes; -0.0 after
     0.0 is a change (atan2(0, -0.0) is pi, atan2(0, 0.0) is 0), and a value that
     repeats exactly is not: the event's changes are the same either way."""
-    path = tmp_path / "spec.rmv"
-    path.write_text(
-        'system s\nros humble\ntopic y: std_msgs/Float64 = "/y"\n'
-        'topic x: std_msgs/Float64 = "/x"\nvar Y = y.data\nvar X = x.data\n'
-        "event Behind when atan2(Y, X) > 1\nproperty P: not Behind\n",
-        encoding="utf-8",
-    )
-    result = check(str(path), use_environment=False)
-    assert not result.errors
-    runtime = engine.Runtime(lower(result))
+    runtime = _two_topics(tmp_path, "Float64", ("Y", "X"), "Behind when atan2(Y, X) > 1")
     feed = [(0.0, 1.0), (0.0, 0.0), (0.0, -0.0), (0.0, -0.0), (0.0, 0.0), (0.0, 0.0)]
     for k, (y, x) in enumerate(feed):
-        runtime.message((k + 1) * NS, "/y", {"data": y})
-        runtime.message((k + 1) * NS, "/x", {"data": x})
+        runtime.message((k + 1) * NS, "/a", {"data": y})
+        runtime.message((k + 1) * NS, "/b", {"data": x})
     runtime.end(10 * NS)
-    changes = [
-        (r["time"], r["value"]) for r in runtime.records()
-        if r["kind"] == "event" and r["name"] == "Behind"
-    ]  # fmt: skip
-    assert changes == [(3, True), (5, False)]
+    assert _event_changes(runtime, "Behind") == [(3, True), (5, False)]
 
 
 def test_a_repeated_boolean_still_makes_a_pulse(tmp_path):
     """Conditions are told of a value only where it changed, but a boolean always:
     `Flag` true again, then false, at one instant is a pulse, read as true once with
     the instant's other values (here `Other`, raised at that instant)."""
-    path = tmp_path / "spec.rmv"
-    path.write_text(
-        'system s\nros humble\ntopic flag: std_msgs/Bool = "/flag"\n'
-        'topic other: std_msgs/Bool = "/other"\nvar Flag = flag.data\nvar Other = other.data\n'
-        "event Both when Flag and Other\nproperty P: not Both\n",
-        encoding="utf-8",
-    )
-    result = check(str(path), use_environment=False)
-    assert not result.errors
-    runtime = engine.Runtime(lower(result))
-    runtime.message(NS, "/flag", {"data": True})
-    runtime.message(NS, "/other", {"data": False})
-    runtime.message(2 * NS, "/flag", {"data": True})
-    runtime.message(2 * NS, "/other", {"data": True})
-    runtime.message(2 * NS, "/flag", {"data": False})
+    runtime = _two_topics(tmp_path, "Bool", ("Flag", "Other"), "Both when Flag and Other")
+    runtime.message(NS, "/a", {"data": True})
+    runtime.message(NS, "/b", {"data": False})
+    runtime.message(2 * NS, "/a", {"data": True})
+    runtime.message(2 * NS, "/b", {"data": True})
+    runtime.message(2 * NS, "/a", {"data": False})
     runtime.end(5 * NS)
-    changes = [
-        (r["time"], r["value"]) for r in runtime.records()
-        if r["kind"] == "event" and r["name"] == "Both"
-    ]  # fmt: skip
-    assert changes == [(2, True), (2, False)]
+    assert _event_changes(runtime, "Both") == [(2, True), (2, False)]

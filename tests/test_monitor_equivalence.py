@@ -313,38 +313,19 @@ def _pointed(depth: int) -> st.SearchStrategy:
     return st.one_of(prop, always, at, sub.map(lambda f: ("not", f)))
 
 
-@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=800, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
-    st.tuples(st.just("since"), st.sampled_from(["<", "<="]), st.integers(1, 3).map(Fraction),
-              _pointed(2), _pointed(2)),
+    st.tuples(st.sampled_from(["since", "until"]), st.sampled_from(["<", "<="]),
+              st.integers(0, 3).map(Fraction), _pointed(2), _pointed(2)),
     st.lists(st.tuples(st.integers(1, 3), st.sets(st.sampled_from(PROPS))), min_size=1,
              max_size=8),
 )  # fmt: skip
-def test_windowed_since_over_isolated_points(formula, steps):
-    """`phi since[<T] psi` in one sweep: where psi holds at an isolated point and phi
-    from there on, the window ends exactly T after it (open or closed), on traces
-    whose stretches are as long as the bounds."""
-    times, states, t = [], [], Fraction(0)
-    for gap, state in steps:
-        times.append(t)
-        states.append(frozenset(state))
-        t += gap
-    trace = Trace(times, states, t)
-    assert monitored(formula, trace, trace.end, False) == Reference(trace).segments(formula)
-
-
-@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(
-    st.tuples(st.just("until"), st.sampled_from(["<", "<="]), st.integers(0, 3).map(Fraction),
-              _pointed(2), _pointed(2)),
-    st.lists(st.tuples(st.integers(1, 3), st.sets(st.sampled_from(PROPS))), min_size=1,
-             max_size=8),
-)  # fmt: skip
-def test_windowed_until_over_isolated_points(formula, steps):
-    """`phi until[<T] psi` in one sweep: where psi holds at an isolated point, the
-    window reaches back from it exactly T (open or closed), and phi's run before it
-    (or just after an open stretch's start) decides how far; on traces whose
-    stretches are as long as the bounds."""
+def test_windowed_since_and_until_over_isolated_points(formula, steps):
+    """`phi since[<T] psi` and `phi until[<T] psi` in one sweep each: where psi holds
+    at an isolated point, the window ends exactly T after it (since) or reaches back
+    exactly T before it (until), open or closed, and phi's run from it (since) or
+    into it (until) decides how far; on traces whose stretches are as long as the
+    bounds."""
     times, states, t = [], [], Fraction(0)
     for gap, state in steps:
         times.append(t)

@@ -65,13 +65,8 @@ class AlertState:
         for name, value in changes:
             if name in self.reads:
                 touched = True
-                if not changed:  # same_value inlined but for a zero, as in Condition
-                    old = current.get(name, UNSET)
-                    changed = (
-                        old != value
-                        or type(old) is not type(value)
-                        or (value == 0.0 and not same_value(old, value))
-                    )
+                if not changed:
+                    changed = not same_value(current.get(name, UNSET), value)
                 current[name] = value
         if not touched:
             return None

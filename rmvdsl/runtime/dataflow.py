@@ -152,13 +152,8 @@ class Condition(Node):
                     raised.add(name)
                 elif value is False and name in raised:
                     pulses.append(name)  # raised and released at this instant: a pulse
-                if not changed:  # same_value inlined but for a zero
-                    old = current.get(name, UNSET)
-                    changed = (
-                        old != value
-                        or type(old) is not type(value)
-                        or (value == 0.0 and not same_value(old, value))
-                    )
+                if not changed:  # the emitter leaves out unchanged values but booleans
+                    changed = not same_value(current.get(name, UNSET), value)
                 current[name] = value
             for name in pulses:
                 # each pulse read as true once, over the instant's other values; then

@@ -291,7 +291,7 @@ class Runtime(Reporting):
             heapq.heappush(inbox, item)
         if conditions:
             last = self.last_values.get(name, UNSET)
-            # same_value inlined, as in Condition.process
+            # not same_value(last, value), inlined (every value of every message)
             if (
                 type(value) is bool
                 or last != value
