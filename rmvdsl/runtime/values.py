@@ -213,7 +213,7 @@ def _places(denominator: int) -> int:
     return max(twos, fives) if denominator == 1 else -1
 
 
-UNSET = object()  # a name not read yet: the same as no value
+UNSET = object()  # the value of a name not read yet: the same as no other value
 
 
 def same_value(old: object, new: object) -> bool:
@@ -224,6 +224,6 @@ def same_value(old: object, new: object) -> bool:
         return True
     if type(old) is not type(new) or old != new:
         return False
-    return (
-        type(new) is not float or new != 0.0 or math.copysign(1.0, old) == math.copysign(1.0, new)  # type: ignore[arg-type]
-    )
+    if type(new) is not float or new != 0.0:
+        return True
+    return math.copysign(1.0, old) == math.copysign(1.0, new)  # type: ignore[arg-type]
