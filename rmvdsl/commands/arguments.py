@@ -9,6 +9,7 @@ from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
 from rmvdsl import __version__
+from rmvdsl.commands.argument_types import chunk, duration, instant, jobs, solver_seconds
 from rmvdsl.lang.errors import EXIT_USAGE
 
 if TYPE_CHECKING:
@@ -73,14 +74,14 @@ exit codes: 0 no errors, 1 errors (or warnings with --strict), 2 usage or I/O pr
     check_parser.add_argument("--strict", action="store_true", help="warnings fail the check")
     check_parser.add_argument(
         "--timeout",
-        type=_seconds,
+        type=solver_seconds,
         metavar="SECONDS",
         help="time limit of each solver call on the properties (default 5, or "
         "`solver_timeout` in rmv.toml)",
     )
     check_parser.add_argument(
         "--jobs",
-        type=_jobs,
+        type=jobs,
         metavar="N",
         help="processes answering independent solver questions at once (default: one a "
         "core, or `solver_jobs` in rmv.toml; 1: none beside rmv)",
@@ -209,11 +210,11 @@ spec has errors), 2 usage or I/O problem, or a recording that does not match the
         "or a pattern (quoted: 'runs/**/*.bag'); several: one result each (docs/fleet.md)",
     )  # fmt: skip
     replay_parser.add_argument(
-        "--from", dest="start", metavar="T", type=_instant("--from"),
+        "--from", dest="start", metavar="T", type=instant("--from"),
         help="start at T seconds on the recording's clock (+T: T after its start)",
     )  # fmt: skip
     replay_parser.add_argument(
-        "--to", dest="stop", metavar="T", type=_instant("--to"), help="stop at T (as --from)"
+        "--to", dest="stop", metavar="T", type=instant("--to"), help="stop at T (as --from)"
     )  # fmt: skip
     replay_parser.add_argument("--format", choices=("text", "json", "jsonl"), default="text")
     replay_parser.add_argument(
@@ -229,7 +230,7 @@ spec has errors), 2 usage or I/O problem, or a recording that does not match the
     replay_parser.add_argument("--no-color", action="store_true")
     fleet = replay_parser.add_argument_group("several recordings (docs/fleet.md)")
     fleet.add_argument(
-        "--jobs", type=_jobs, metavar="N",
+        "--jobs", type=jobs, metavar="N",
         help="replay N recordings at a time, each in a process (default: the cores)",
     )  # fmt: skip
     fleet.add_argument(
@@ -242,11 +243,11 @@ spec has errors), 2 usage or I/O problem, or a recording that does not match the
         help="run on the Dask cluster whose scheduler RMV_DASK_SCHEDULER names",
     )  # fmt: skip
     fleet.add_argument(
-        "--timeout", type=_duration, metavar="SECONDS",
+        "--timeout", type=duration, metavar="SECONDS",
         help="give up on a recording after SECONDS (retried once, then reported failed)",
     )  # fmt: skip
     fleet.add_argument(
-        "--chunk", type=_chunk, metavar="DURATION",
+        "--chunk", type=chunk, metavar="DURATION",
         help="replay a recording longer than DURATION (600, 90s, 10m, 1h) in chunks that "
         "long, in parallel, joined into exactly one run's result",
     )  # fmt: skip
@@ -343,7 +344,11 @@ exit codes: 0 answered (whatever the answer), 1 the formula has errors, 2 usage 
     sat_parser.add_argument("--syntax", choices=("auto", "rmv", "latex"), default="auto")
     sat_parser.add_argument("--format", choices=("text", "json"), default="text")
     sat_parser.add_argument(
-        "--timeout", type=_seconds, default=5.0, metavar="SECONDS", help="per solver call (5)"
+        "--timeout",
+        type=solver_seconds,
+        default=5.0,
+        metavar="SECONDS",
+        help="per solver call (5)",
     )
     sat_parser.add_argument("--no-color", action="store_true")
 
@@ -438,74 +443,3 @@ def _add_message_options(parser: argparse.ArgumentParser) -> None:
         default=[],
         help="a folder of .msg files (<pkg>/msg/*.msg below it); may be repeated",
     )
-
-
-def _jobs(text: str) -> int:
-    """A --jobs: a whole number of processes, 1 to 1024."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
-    if not 1 <= value <= 1024:
-        raise argparse.ArgumentTypeError(f"must be 1 to 1024, not {value}")
-    return value
-
-
-def _seconds_up_to(most: float | None) -> Callable[[str], float]:
-    """A --timeout's type: seconds, more than 0 (and at most `most`)."""
-    bound = "" if most is None else f" and at most {most:g}"
-
-    def seconds(text: str) -> float:
-        try:
-            value = float(text)
-        except ValueError:
-            value = float("nan")
-        if not 0 < value < float("inf") or (most is not None and value > most):
-            raise argparse.ArgumentTypeError(f"{text}: give seconds, more than 0{bound}")
-        return value
-
-    return seconds
-
-
-# The latest time a recording can hold: rosbags' times are int64 nanoseconds.
-_LATEST = (2**63 - 1) // 10**9
-
-
-def _instant(flag: str) -> Callable[[str], str]:
-    """--from/--to: seconds on the recording's clock or, with +, after its start:
-    a decimal number from 0 to the latest time a recording holds (kept as text;
-    the replay reads it against the recording)."""
-
-    def instant(text: str) -> str:
-        import re
-
-        match = re.fullmatch(r"\+?(\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d{1,3})?", text.strip())
-        if match is None or float(text.strip().lstrip("+")) > _LATEST:
-            raise argparse.ArgumentTypeError(
-                f"{text}: give seconds on the recording's clock (1700000012.5) or after its "
-                f"start (+12.5), from 0 to {_LATEST:,}"
-            )
-        return text.strip()
-
-    return instant
-
-
-_UNITS = {"ms": 10**6, "s": 10**9, "m": 60 * 10**9, "h": 3600 * 10**9}
-
-
-def _chunk(text: str) -> int:
-    """A --chunk: a duration (seconds, or with ms, s, m or h), at least 1 ms; in ns."""
-    import re
-    from fractions import Fraction
-
-    match = re.fullmatch(r"(\d+(?:\.\d+)?)(ms|s|m|h)?", text.strip())
-    value = Fraction(match.group(1)) * _UNITS[match.group(2) or "s"] if match else 0
-    if value < 10**6:
-        raise argparse.ArgumentTypeError(
-            f"{text}: give a duration of at least 1 ms: seconds (600) or 500ms, 90s, 10m, 1h"
-        )
-    return int(value)
-
-
-_seconds = _seconds_up_to(3600)  # a solver call's
-_duration = _seconds_up_to(None)  # one recording's
