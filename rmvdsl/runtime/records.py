@@ -17,20 +17,8 @@ NS = influx.NS
 Record = dict[str, Any]
 
 
-_LAST_SECONDS: tuple[int, Fraction] = (0, Fraction(0))
-
-
 def seconds(ns: int) -> Fraction:
-    """`ns` nanoseconds in seconds, exactly. An instant's time is converted for each
-    record, property and alert of the instant: the last conversion is kept (one
-    tuple, so a thread reading it while another writes sees a matching pair)."""
-    global _LAST_SECONDS
-    last = _LAST_SECONDS
-    if last[0] == ns:
-        return last[1]
-    value = Fraction(ns, NS)
-    _LAST_SECONDS = (ns, value)
-    return value
+    return Fraction(ns, NS)
 
 
 class Host(Protocol):
