@@ -4,7 +4,9 @@ Starts the server as its own process and talks to it over stdio (pygls's client)
 then measures in one run:
 
 - change:     didChange -> the first publishDiagnostics of that version (the fast
-              stages: load, names, types), p50 and p95 over --edits edits;
+              stages: load, names, types), p50/p95/p99/max over --edits edits, two
+              keys in an event's line, then a property's, then a transducer's
+              (each kind's p50/p95/p99 too);
 - completion: a typist asking for completion after each key in an event's
               condition (` V` typed and erased in turn): p50/p95/p99/max;
 - bare:       lark's bare parse of the same text in this process (the floor);
@@ -136,24 +138,30 @@ async def run(edits: int, scale: int = 1) -> dict[str, Any]:
         types.TextDocumentItem(uri=uri, language_id="rmv", version=1, text=text)))  # fmt: skip
     await _until(lambda: 1 in published)
     lines = text.split("\n")
-    target = next(i for i, line in enumerate(lines) if line.startswith("event B0 when"))
+    places = typing_places(lines)
+    target = places["event"][0]
     changes: list[float] = []
+    by_line: dict[str, list[float]] = {kind: [] for kind in places}
     series: list[float] = []  # the server's resident memory every 100 edits
     pid = client._server.pid  # type: ignore[union-attr]
     for version in range(2, edits + 2):
         # Typing and erasing in turn (as _typed): a digit inserted, then removed, so
-        # that every later declaration moves by one character and back.
-        at = types.Position(target, 22)
+        # that every later declaration moves by one character and back; two keys in
+        # an event's line, then in a property's, then in a transducer's.
+        kind = _kind_typed(version)
+        line, column = places[kind]
+        at = types.Position(line, column)
         if version % 2 == 0:
             edit = types.TextDocumentContentChangePartial(range=types.Range(at, at), text="7")
         else:
-            after = types.Position(target, 23)
+            after = types.Position(line, column + 1)
             edit = types.TextDocumentContentChangePartial(range=types.Range(at, after), text="")
         start = time.perf_counter()
         client.text_document_did_change(types.DidChangeTextDocumentParams(
             types.VersionedTextDocumentIdentifier(uri=uri, version=version), [edit]))  # fmt: skip
         await _until(lambda v=version: v in published)
         changes.append(published[version] - start)
+        by_line[kind].append(changes[-1])
         if (version - 1) % 100 == 0:
             series.append(round(resident_mb(pid), 1))
     memory = {"after_100_mb": series[0], "after_all_mb": series[-1], "memory_mb": series}
@@ -177,6 +185,11 @@ async def run(edits: int, scale: int = 1) -> dict[str, Any]:
         "server_messages": shown[:5], "server_message_count": len(shown),
         "change_p99_ms": percentile(changes, 0.99) * ms, "change_max_ms": max(changes) * ms,
         "first_two_ms": [round(c * ms, 1) for c in changes[:2]],
+        "change_by_line": {
+            kind: {"edits": len(found), "p50_ms": percentile(found, 0.5) * ms,
+                   "p95_ms": percentile(found, 0.95) * ms, "p99_ms": percentile(found, 0.99) * ms}
+            for kind, found in by_line.items() if found
+        },
         "pausing_keys": len(pausing), "pause_s": PAUSE,
         "pausing_p50_ms": percentile(pausing, 0.5) * ms,
         "pausing_p95_ms": percentile(pausing, 0.95) * ms,
@@ -235,23 +248,43 @@ async def _completing_typist(
     return times
 
 
-def _typed(text: str, version: int, line: int) -> str:
-    """The benchmark's edit: a digit typed at column 23 of `line`, then erased."""
+def typing_places(lines: list[str]) -> dict[str, tuple[int, int]]:
+    """Where the fast typist types, by the kind of line (0-based line and column): in
+    an event's condition (`V200 > 0.8` becomes `V200 > 07.8`), in a property's bound
+    (`[<=10s]`, `[<=170s]`) and at the end of a transition's event (`on B07`, a name
+    not declared)."""
+    event = next(i for i, line in enumerate(lines) if line.startswith("event B0 when"))
+    prop = next(i for i, line in enumerate(lines) if line.startswith("property P0:"))
+    transition = next(i for i, line in enumerate(lines) if line.startswith("    S0_0 -> "))
+    return {
+        "event": (event, 22),
+        "property": (prop, lines[prop].index("[<=") + 4),
+        "transducer": (transition, len(lines[transition])),
+    }
+
+
+def _kind_typed(version: int) -> str:
+    """The kind of line the fast typist's edit `version` is in: two keys each."""
+    return ("event", "property", "transducer")[(version - 2) // 2 % 3]
+
+
+def _typed(text: str, version: int, line: int, column: int = 22) -> str:
+    """A digit typed at `column` of `line` (even versions), erased (odd ones)."""
     lines = text.split("\n")
     if version % 2 == 0:
-        lines[line] = lines[line][:22] + "7" + lines[line][22:]
+        lines[line] = lines[line][:column] + "7" + lines[line][column:]
     return "\n".join(lines)
 
 
 def _checks(path: str, text: str, incremental: bool, edits: int = 60) -> float:
-    """The p50 of the fast stages of `rmv check` over the benchmark's edits, here."""
-    target = next(i for i, line in enumerate(text.split("\n")) if line.startswith("event B0"))
+    """The p50 of the fast stages of `rmv check` over the fast typist's edits, here."""
+    places = typing_places(text.split("\n"))
     check(path, text, solver=False, incremental=incremental)
     gc.collect()
     gc.freeze()  # as the server does after a document's first check
     times = []
     for version in range(2, edits + 2):
-        edited = _typed(text, version, target)
+        edited = _typed(text, version, *places[_kind_typed(version)])
         times.append(_timed(lambda t=edited: check(path, t, solver=False, incremental=incremental)))
     return percentile(times, 0.5)
 
@@ -286,6 +319,9 @@ def main(argv: list[str] | None = None) -> int:
           f"{figures['change_p95_ms']:.1f} ms (goal p95 <= 50 ms)")  # fmt: skip
     print(f"  didChange p99 / max: {figures['change_p99_ms']:.1f} / {figures['change_max_ms']:.1f}"
           f" ms; the first two keys after open: {figures['first_two_ms']} ms")  # fmt: skip
+    print("  by the line typed in, p50 / p99: " + ", ".join(
+        f"{kind} {found['p50_ms']:.1f} / {found['p99_ms']:.1f} ms"
+        for kind, found in figures["change_by_line"].items()))  # fmt: skip
     print(f"  a typist pausing {figures['pause_s']} s ({figures['pausing_keys']} keys in a "
           f"property's bound), didChange -> diagnostics p50 / p95 / p99 / max: "
           f"{figures['pausing_p50_ms']:.1f} / {figures['pausing_p95_ms']:.1f} / "

@@ -96,6 +96,9 @@ def lsp_latency(data: dict[str, Any]) -> str:
         ["the same, p99 / max; the first two keys after open",
          f"{data['change_p99_ms']:.0f} / {data['change_max_ms']:.0f} ms; "
          + " and ".join(f"{ms:.0f}" for ms in data["first_two_ms"]) + " ms"],
+        ["the same by the line typed in, p50 / p99",
+         "; ".join(f"{kind} {found['p50_ms']:.0f} / {found['p99_ms']:.0f} ms"
+                   for kind, found in data.get("change_by_line", {}).items()) or "-"],
         [f"a typist pausing {data['pause_s']} s between keys (past the debounce), "
          f"{data['pausing_keys']} keys in a property's bound: p50 / p95 / p99 / max",
          f"{data['pausing_p50_ms']:.0f} / {data['pausing_p95_ms']:.0f} / "

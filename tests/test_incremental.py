@@ -15,9 +15,8 @@ import pytest
 from conftest import EXAMPLES
 
 from rmvdsl.check import CheckResult, check
-from rmvdsl.check.names import RESOLVED
-from rmvdsl.check.types import TYPED
 from rmvdsl.grammar import ast
+from rmvdsl.grammar.shift import findings
 
 SPECS = sorted(
     p for p in EXAMPLES.rglob("*.rmv") if p.name != "latin1.rmv" and "imports" not in p.parts
@@ -140,6 +139,10 @@ DEPENDENCIES = {
         'topic T: std_msgs/Float64 = "/t"\nvar V = T.data\nevent F = V * 2\nevent E = F + 1\n',
         'topic T: std_msgs/Float64 = "/t"\nvar V = T.data\nevent F = E * 2\nevent E = F + 1\n',
     ),
+    "the events of a cycle moved by an edit before them": (
+        'topic T: std_msgs/Float64 = "/t"\nvar V = T.data\nevent F = E * 2\nevent E = F + 1\n',
+        'topic T: std_msgs/Float64 = "/t"\nvar V = T.data * 10\nevent F = E * 2\nevent E = F + 1\n',
+    ),
 }
 
 
@@ -163,27 +166,45 @@ def test_a_variable_is_typed_again_when_its_message_changed(tmp_path) -> None:
         'messages "msg"\ntopic T: robot_msgs/Speed = "/speed"\nvar V = T.value\n'
         "event E when V > 1\n"
     )
-    for fields in ("float64 value\n", "string value\n", "float64 other\n", "float64 value\n"):
-        definition.write_text(fields, encoding="utf-8")
+    broken = b"float64 value\n\xff\n"  # not UTF-8: the file is reported, its type is broken
+    for fields in (b"float64 value\n", b"string value\n", b"float64 other\n", broken, broken,
+                   None, broken, None, b"float64 value\n"):  # fmt: skip
+        if fields is None:  # no definition at all: the type is unknown (RMV300)
+            definition.unlink()
+        else:
+            definition.write_bytes(fields)
         _same(path, text)
 
 
 def test_an_edit_reuses_the_declarations_it_did_not_touch(tmp_path) -> None:
-    """The memo is used at all: an edit to one event leaves the others' entries
-    serving the next check (a check from scratch would store nothing)."""
+    """The memo is used at all: after an edit to one event, every other
+    declaration's findings are the very ones the check before kept (a check from
+    scratch keeps none), and only the edited one's are new."""
     text = "".join(
         f'topic T{i}: std_msgs/Float64 = "/t{i}"\nvar V{i} = T{i}.data\nevent E{i} when V{i} > 1\n'
         for i in range(50)
     )
     path = tmp_path / "spec.rmv"
-    RESOLVED.clear()
-    TYPED.clear()
-    check(str(path), text, solver=False, incremental=True)
-    remembered = len(RESOLVED), len(TYPED)
-    assert remembered == (150, 100)  # names: every declaration; types: variables and events
+    first = _kept(check(str(path), text, solver=False, incremental=True))
+    # names: every declaration; types: variables and events
+    assert [len(first[stage]) for stage in ("names", "types")] == [150, 100]
+    fresh = tmp_path / "other.rmv"  # another file: its own parse
+    assert _kept(check(str(fresh), text, solver=False)) == {"names": {}, "types": {}}
     edited = text.replace("E7 when V7 > 1", "E7 when V7 > 12")
-    check(str(path), edited, solver=False, incremental=True)
-    assert (len(RESOLVED), len(TYPED)) == (151, 101)  # only E7 is new
+    second = _kept(check(str(path), edited, solver=False, incremental=True))
+    for stage in ("names", "types"):
+        assert second[stage].keys() == first[stage].keys()
+        renewed = {n for n, found in second[stage].items() if found is not first[stage][n]}
+        assert renewed == {"E7"}
+
+
+def _kept(result: CheckResult) -> dict[str, dict[str, object]]:
+    """Each stage's findings kept with each declaration's parse, by its name."""
+    kept: dict[str, dict[str, object]] = {"names": {}, "types": {}}
+    for decl in result.model.declarations():
+        for (stage, _), found in (findings(decl) or {}).items():
+            kept[stage][decl.name.name] = found  # type: ignore[attr-defined]
+    return kept
 
 
 def test_an_unknown_type_s_suggestion_is_worked_out_once_across_checks(tmp_path, monkeypatch):

@@ -3,14 +3,24 @@ blocks a spec has once, and the events transducers emit (a part of NameChecker).
 
 from __future__ import annotations
 
+from typing import cast
+
 from rmvdsl.check.model import Kind, Model, Symbol
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
-from rmvdsl.grammar.grammars import reserved_names
 from rmvdsl.lang.diagnostics import Diagnostic, Label, did_you_mean, error
 
 TIME_UNIT_NAMES = tuple(fm.TIME_UNITS)  # ns, us, ms, s, m, h, d, w
 _ONE_PER_SPEC = "a spec has one (its imports included): remove or merge the second"
+# Declarations of one named symbol each: its kind (an event's, if boolean) and the
+# model's map of them. Looked up by type: a keystroke declares every declaration.
+_SIMPLE: dict[type, tuple[Kind, str]] = {
+    ast.TopicDecl: (Kind.TOPIC, "topics"),
+    ast.VarDecl: (Kind.VARIABLE, "variables"),
+    ast.EventDecl: (Kind.BOOL_EVENT, "events"),
+    ast.AlertDecl: (Kind.ALERT, "alerts"),
+    ast.PropertyDecl: (Kind.PROPERTY, "properties"),
+}
 
 
 class Declarations:
@@ -19,11 +29,21 @@ class Declarations:
     model: Model
     diagnostics: list[Diagnostic]
     time_unit_decl: ast.TimeUnitDecl | None
+    reserved: frozenset[str]  # rmvdsl.grammar.grammars.reserved_names, read once per check
 
     def report(self, diagnostic: Diagnostic) -> None:
         self.diagnostics.append(diagnostic)
 
     def declare(self, decl: ast.Decl) -> None:
+        simple = _SIMPLE.get(type(decl))
+        if simple is not None:  # most declarations: a name of one kind, kept by name
+            kind, group = simple
+            if kind is Kind.BOOL_EVENT and not cast("ast.EventDecl", decl).boolean:
+                kind = Kind.VALUE_EVENT
+            name = decl.name  # type: ignore[attr-defined]
+            if self.add(name, kind, decl):
+                getattr(self.model, group).setdefault(name.name, decl)
+            return
         model = self.model
         match decl:
             case ast.SystemDecl():
@@ -50,27 +70,8 @@ class Declarations:
                     )
                 else:
                     model.database = decl
-            case ast.TopicDecl():
-                self.add(decl.name, Kind.TOPIC, decl) and model.topics.setdefault(
-                    decl.name.name, decl
-                )
-            case ast.VarDecl():
-                self.add(decl.name, Kind.VARIABLE, decl) and model.variables.setdefault(
-                    decl.name.name, decl
-                )
-            case ast.EventDecl():
-                kind = Kind.BOOL_EVENT if decl.boolean else Kind.VALUE_EVENT
-                self.add(decl.name, kind, decl) and model.events.setdefault(decl.name.name, decl)
-            case ast.AlertDecl():
-                self.add(decl.name, Kind.ALERT, decl) and model.alerts.setdefault(
-                    decl.name.name, decl
-                )
             case ast.TransducerDecl():
                 self.declare_transducer(decl)
-            case ast.PropertyDecl():
-                self.add(decl.name, Kind.PROPERTY, decl) and model.properties.setdefault(
-                    decl.name.name, decl
-                )
             case ast.WhitelistDecl():
                 model.whitelists.append(decl)
             case ast.NodeDecl():
@@ -133,7 +134,7 @@ class Declarations:
         self.model.emitted.setdefault(output.name, []).append(transition)
 
     def add(self, ident: ast.Ident, kind: Kind, decl: ast.Node, owner: str | None = None) -> bool:
-        if ident.name in reserved_names():
+        if ident.name in self.reserved:
             self.report(
                 error(
                     "RMV221",

@@ -6,6 +6,7 @@ The result is the resolved `Model` and the diagnostics of this stage.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import cast
 
@@ -14,7 +15,7 @@ from rmvdsl.check.actions import ActionChecks
 from rmvdsl.check.clauses import EventChecks
 from rmvdsl.check.declaring import Declarations
 from rmvdsl.check.infrastructure import infrastructure_warnings
-from rmvdsl.check.memo import MEMO_SIZE, Key, declaration_key
+from rmvdsl.check.memo import kept_findings
 from rmvdsl.check.model import (
     EVENT_KINDS,
     MEASUREMENT_KINDS,
@@ -28,11 +29,10 @@ from rmvdsl.check.rosnames import message_type_problem
 from rmvdsl.check.structure import StructureChecks
 from rmvdsl.check.whitelists import check_whitelist_agreement
 from rmvdsl.grammar import ast
-from rmvdsl.grammar.shift import shifted
+from rmvdsl.grammar.grammars import reserved_names
 from rmvdsl.lang import builtins
 from rmvdsl.lang.diagnostics import Diagnostic, Label, did_you_mean, error, warning
 from rmvdsl.lang.source import SourceMap, Span
-from rmvdsl.util.bounded import Bounded
 
 ARRAY_AGGREGATES = tuple(builtins.ARRAY_AGGREGATES)
 
@@ -48,10 +48,6 @@ class Resolved:
     references: tuple[tuple[str, Span], ...]
     used: tuple[str, ...]  # the names of its references, once each
     reads: tuple[ast.Ident, ...] | None
-
-
-# Each clean declaration's names, for incremental checks (rmvdsl.check.memo).
-RESOLVED: Bounded[Key, Resolved] = Bounded(MEMO_SIZE)
 
 
 class NameChecker(Declarations, StructureChecks, ActionChecks, EventChecks):
@@ -70,9 +66,11 @@ class NameChecker(Declarations, StructureChecks, ActionChecks, EventChecks):
         self.diagnostics: list[Diagnostic] = []
         self.damaged = damaged
         self.damaged_ranges = damaged_ranges
-        self.used: set[int] = set()  # ids of used symbols
-        self.event_reads: dict[int, list[ast.Ident]] = {}
+        self.used: set[str] = set()  # the names of used symbols
+        self.event_reads: dict[int, Sequence[ast.Ident]] = {}
+        self.reads_moved: dict[int, int] = {}
         self.time_unit_decl: ast.TimeUnitDecl | None = None
+        self.reserved = reserved_names()
 
     # ---- driver ----
 
@@ -80,8 +78,6 @@ class NameChecker(Declarations, StructureChecks, ActionChecks, EventChecks):
         decls = self.model.declarations()
         for decl in decls:
             self.declare(decl)
-        if self.incremental:
-            RESOLVED.fit(len(decls))
         for decl in decls:
             self.check_remembered(decl) if self.incremental else self.check_decl(decl)
         self.check_event_cycles()
@@ -111,7 +107,7 @@ class NameChecker(Declarations, StructureChecks, ActionChecks, EventChecks):
                 )
             return None
         self.model.uses.append(Reference(ident.name, ident.span, symbol))
-        self.used.add(id(symbol))
+        self.used.add(symbol.name)
         if symbol.kind not in allowed:
             self.report(
                 error(
@@ -143,11 +139,12 @@ class NameChecker(Declarations, StructureChecks, ActionChecks, EventChecks):
         """check_decl, or what it found the last time this text was checked, when
         every name it looked up is still what it was."""
         model = self.model
-        key = declaration_key(model, decl)
-        if key is None:
+        kept = kept_findings(decl)
+        if kept is None:
             self.check_decl(decl)
             return
-        known = RESOLVED.get(key)
+        entry = ("names", model.time_unit)
+        known = kept.get(entry)
         if known is not None and self.still_holds(known):
             self.replay(decl, known)
             return
@@ -162,15 +159,12 @@ class NameChecker(Declarations, StructureChecks, ActionChecks, EventChecks):
             return  # a finding (or a name not found) is checked again each time
         reads = self.event_reads.get(id(decl))
         made = cast("list[Reference]", model.uses[references:])
-        RESOLVED.put(
-            key,
-            Resolved(
-                decl.span.start,
-                tuple((name, s.kind, s.owner) for name, s in lookups if s is not None),
-                tuple((r.name, r.span) for r in made),
-                tuple(dict.fromkeys(r.name for r in made)),
-                None if reads is None else tuple(reads),
-            ),
+        kept[entry] = Resolved(
+            decl.span.start,
+            tuple((name, s.kind, s.owner) for name, s in lookups if s is not None),
+            tuple((r.name, r.span) for r in made),
+            tuple(dict.fromkeys(r.name for r in made)),
+            None if reads is None else tuple(reads),
         )
 
     def still_holds(self, known: Resolved) -> bool:
@@ -186,10 +180,11 @@ class NameChecker(Declarations, StructureChecks, ActionChecks, EventChecks):
         delta = decl.span.start - known.start
         if known.references:
             self.model.uses.append(ReusedReferences(known.references, delta, symbols))
-        for name in known.used:
-            self.used.add(id(symbols[name]))
+        self.used.update(known.used)
         if known.reads is not None:
-            self.event_reads[id(decl)] = list(shifted(known.reads, delta) if delta else known.reads)
+            self.event_reads[id(decl)] = known.reads
+            if delta:
+                self.reads_moved[id(decl)] = delta
 
     def check_decl(self, decl: ast.Decl) -> None:
         match decl:
@@ -331,7 +326,7 @@ class NameChecker(Declarations, StructureChecks, ActionChecks, EventChecks):
             return  # uses may be in the parts that did not parse
         whitelisted = {self.whitelist_topic(w) for w in self.model.whitelists}
         for symbol in self.model.symbols.values():
-            if id(symbol) in self.used:
+            if symbol.name in self.used:
                 continue
             if symbol.kind is Kind.TOPIC:
                 decl = symbol.decl

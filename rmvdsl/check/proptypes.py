@@ -21,10 +21,10 @@ class PropertyTypes(ExpressionTypes):
     """Alerts' conditions, properties' formulas, windows and duration units."""
 
     # TypeChecker's: a declaration typed once, remembered for incremental checks.
-    remembered: Callable[[ast.Node, Callable[[], Any]], Any]
+    remembered: Callable[[Any, Callable[[Any], Any]], Any]
 
     def check_alert(self, alert: ast.AlertDecl) -> None:
-        self.remembered(alert, lambda: self.type_alert(alert))
+        self.remembered(alert, self.type_alert)
 
     def type_alert(self, alert: ast.AlertDecl) -> None:
         for level in alert.levels:
@@ -51,7 +51,7 @@ class PropertyTypes(ExpressionTypes):
                 )
 
     def check_property(self, prop: ast.PropertyDecl) -> None:
-        found = self.remembered(prop, lambda: self.type_property(prop))
+        found = self.remembered(prop, self.type_property)
         if found is not None:
             self.info.formulas[prop.name.name], self.info.horizons[prop.name.name] = found
 

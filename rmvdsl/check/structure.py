@@ -21,7 +21,7 @@ class StructureChecks:
     model: Model
     diagnostics: list[Diagnostic]
     lookups: list[tuple[str, Symbol | None]] | None
-    used: set[int]  # ids of used symbols
+    used: set[str]  # the names of used symbols
 
     # NameChecker's and ActionChecks', which this class is a part of beside them.
     report: Callable[[Diagnostic], None]
@@ -65,7 +65,7 @@ class StructureChecks:
                 self.lookups.append((ident.name, symbol))
             if symbol is not None and symbol.owner == decl.name.name:
                 self.model.uses.append(Reference(ident.name, ident.span, symbol))
-                self.used.add(id(symbol))
+                self.used.add(symbol.name)
             return
         other = self.model.state_owner(ident.name)
         if other is not None:

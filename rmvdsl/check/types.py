@@ -9,9 +9,9 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, cast
+from typing import Any, TypeVar, cast
 
-from rmvdsl.check.memo import MEMO_SIZE, Key, declaration_key
+from rmvdsl.check.memo import kept_findings
 from rmvdsl.check.model import Kind, Model
 from rmvdsl.check.msgdefs import FieldType, environment_folders
 from rmvdsl.check.msgtypes import DEFAULT_DISTRO, DISTROS, TypeRegistry
@@ -31,7 +31,9 @@ from rmvdsl.check.vtypes import (
 from rmvdsl.grammar import ast
 from rmvdsl.lang.diagnostics import Diagnostic, did_you_mean, error
 from rmvdsl.lang.source import Span
-from rmvdsl.util.bounded import Bounded
+
+# A declaration typed under rmvdsl.check.memo (a variable, an event, an alert, a property).
+_Typeable = TypeVar("_Typeable", bound=ast.Node)
 
 __all__ = [
     "BOOL", "DURATION", "FLOAT", "INT", "NUMERIC", "STRING", "UNKNOWN",
@@ -49,10 +51,6 @@ class Typed:
     lookups: tuple[tuple[str, str, Any], ...]  # what was looked up (TypeChecker.noted)
     types: tuple[VType | None, ...]
     result: Any
-
-
-# Each clean declaration's types, for incremental checks (rmvdsl.check.memo).
-TYPED: Bounded[Key, Typed] = Bounded(MEMO_SIZE)
 
 
 @dataclass
@@ -128,10 +126,6 @@ class TypeChecker(PropertyTypes):
 
     def run(self) -> tuple[TypeInfo, list[Diagnostic]]:
         model = self.model
-        if self.incremental:
-            TYPED.fit(
-                len(model.variables) + len(model.events) + len(model.alerts) + len(model.properties)
-            )
         self.load_messages()
         for name, topic in model.topics.items():
             self.info.topics[name] = self.resolve_topic(topic)
@@ -156,23 +150,21 @@ class TypeChecker(PropertyTypes):
         if name in self._event_stack:
             return UNKNOWN  # a cycle, reported by the names stage
         self._event_stack.add(name)
-        value = self.remembered(decl, lambda: self.type_event(decl))
+        value = self.remembered(decl, self.type_event)
         self._event_stack.discard(name)
         self.info.events[name] = value
         return value
 
     def typed_variable(self, variable: ast.VarDecl) -> VType:
-        name = variable.name.name
-
-        def typed() -> tuple[VType, tuple[FieldType, ...] | None]:
-            self.noted("distro", "", self.info.registry.distro)
-            value = self.type_variable(variable)
-            return value, self.info.paths.get(name)
-
-        value, path = self.remembered(variable, typed)
+        value, path = self.remembered(variable, self._typed_variable)
         if path is not None:
-            self.info.paths[name] = path
+            self.info.paths[variable.name.name] = path
         return cast("VType", value)
+
+    def _typed_variable(self, variable: ast.VarDecl) -> tuple[VType, tuple[FieldType, ...] | None]:
+        self.noted("distro", "", self.info.registry.distro)
+        value = self.type_variable(variable)
+        return value, self.info.paths.get(variable.name.name)
 
     def type_event(self, decl: ast.EventDecl) -> VType:
         value = self.expression(decl.expr)
@@ -184,13 +176,14 @@ class TypeChecker(PropertyTypes):
             value = BOOL
         return value
 
-    def remembered(self, decl: ast.Node, typed: Callable[[], Any]) -> Any:
-        """typed(), or what it found the last time this text was typed, when every
-        lookup it made still gives the same answer (an incremental check's)."""
-        key = declaration_key(self.model, decl) if self.incremental else None
-        if key is None:
-            return typed()
-        known = TYPED.get(key)
+    def remembered(self, decl: _Typeable, typed: Callable[[_Typeable], Any]) -> Any:
+        """typed(decl), or what it found the last time this text was typed, when
+        every lookup it made still gives the same answer (an incremental check's)."""
+        kept = kept_findings(decl) if self.incremental else None
+        if kept is None:
+            return typed(decl)
+        entry = ("types", self.model.time_unit)
+        known = kept.get(entry)
         if known is not None and self.still_holds(known):
             if known.types:
                 self.info.unplaced.append((decl, known.types))
@@ -198,14 +191,14 @@ class TypeChecker(PropertyTypes):
         found = len(self.diagnostics)
         self._reads.append([])
         try:
-            result = typed()
+            result = typed(decl)
         finally:
             reads = self._reads.pop()
         if len(self.diagnostics) == found:
             expressions = self.info.expressions
             types = tuple([expressions.get(id(node)) for node in ast.walk(decl)])
-            kept = types if any(t is not None for t in types) else ()
-            TYPED.put(key, Typed(tuple(reads), kept, result))
+            nodes = types if any(t is not None for t in types) else ()
+            kept[entry] = Typed(tuple(reads), nodes, result)
         return result
 
     def still_holds(self, known: Typed) -> bool:
@@ -213,7 +206,11 @@ class TypeChecker(PropertyTypes):
         same type of a name; the very same definition, read once per file)."""
         for what, name, value in known.lookups:
             if what == "name":
-                if self._name_type(name) != value:
+                now = self._name_type(name)
+                if now is not value and now != value:  # mostly the very type kept
+                    return False
+            elif what == "message":
+                if self.info.registry.get(name) is not value:
                     return False
             elif self.looked_up(what, name) is not value:
                 return False

@@ -28,7 +28,7 @@ from rmvdsl.grammar.grammars import (
 )
 from rmvdsl.grammar.recovery import ChunkParser
 from rmvdsl.grammar.scanner import RawComment, ScanResult, scan
-from rmvdsl.grammar.shift import shifted, with_field
+from rmvdsl.grammar.shift import keep_findings, shifted, with_field
 from rmvdsl.lang.diagnostics import Diagnostic, did_you_mean, error
 from rmvdsl.lang.source import SourceFile, Span
 from rmvdsl.util.bounded import Bounded
@@ -69,7 +69,8 @@ _CHUNK_CACHE: Bounded[tuple[str, str], _Chunk] = Bounded(_CHUNK_CACHE_SIZE)
 
 def _parsed_chunk(
     source: SourceFile, start: int, end: int, line: int, builder: AstBuilder
-) -> _Chunk:
+) -> tuple[_Chunk, int]:
+    """The chunk's parse (kept, or made and kept), and how far it moved since."""
     key = (source.path, source.text[start:end])
     cached = _CHUNK_CACHE.get(key)
     if cached is None:
@@ -81,13 +82,12 @@ def _parsed_chunk(
         if decls is not None:
             decls, latex = _parse_latex_bodies(decls)
         found = (*parser.diagnostics, *builder.diagnostics[before:], *latex)
-        cached = _Chunk(start, None if decls is None else tuple(decls), found, damaged)
+        kept = None if decls is None else tuple(decls)
+        if kept is not None and not damaged:  # a partial tree is checked each time
+            keep_findings(kept)
+        cached = _Chunk(start, kept, found, damaged)
         _CHUNK_CACHE.put(key, cached)
-    delta = start - cached.start
-    if delta == 0:
-        return cached
-    return _Chunk(start, shifted(cached.decls, delta), shifted(cached.diagnostics, delta),
-                  cached.damaged)  # fmt: skip
+    return cached, start - cached.start
 
 
 # The last text parsed of each file (the most recent files) and its scan: the next
@@ -119,10 +119,11 @@ def parse_source(source: SourceFile) -> ParsedSpec:
     bounds = [*scanned.chunks, (len(source.text), 0)]
     _CHUNK_CACHE.fit(len(bounds))
     for (start, line), (end, _) in itertools.pairwise(bounds):
-        chunk = _parsed_chunk(source, start, end, line, builder)
+        chunk, delta = _parsed_chunk(source, start, end, line, builder)
         if chunk.decls:
-            items.extend(chunk.decls)
-        diagnostics.extend(chunk.diagnostics)
+            items.extend(shifted(chunk.decls, delta) if delta else chunk.decls)
+        if chunk.diagnostics:
+            diagnostics.extend(shifted(chunk.diagnostics, delta) if delta else chunk.diagnostics)
         if chunk.damaged:
             damaged.update(_IDENTIFIER.findall(source.text, start, end))
             ranges.append((start, end))

@@ -26,6 +26,10 @@ from rmvdsl.lang.source import Span
 
 # Where a lazily moved node keeps what it is a copy of: (the node, the distance).
 MOVED_FROM = "_moved_from"
+# Where a parsed declaration keeps what the checker's stages found in it (each
+# stage's entries, rmvdsl.check.memo): one dict per parse of a declaration's text,
+# shared by every copy of it the parser hands out, moved or not.
+FINDINGS = "_findings"
 
 Mover = Callable[[Any, int], Any]
 
@@ -51,6 +55,21 @@ def moved_field(node: Any, name: str) -> Any:
     if name not in values:
         raise AttributeError(name)
     return values[name]
+
+
+def keep_findings(decls: tuple[Any, ...]) -> None:
+    """Give each declaration of a chunk the parser keeps (one without syntax
+    errors) a place for findings."""
+    for decl in decls:
+        decl.__dict__[FINDINGS] = {}
+
+
+def findings(decl: Any) -> dict[Any, Any] | None:
+    """The findings kept with the parse this declaration is (a copy of); None for
+    a declaration the parser did not keep, or kept with syntax errors."""
+    values = decl.__dict__
+    origin = values.get(MOVED_FROM)
+    return (values if origin is None else origin[0].__dict__).get(FINDINGS)
 
 
 def with_field(node: Any, name: str, value: Any) -> Any:

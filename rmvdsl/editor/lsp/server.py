@@ -18,6 +18,7 @@ from lsprotocol import types
 
 from rmvdsl.editor.lsp import features
 from rmvdsl.editor.lsp.session import RmvServer
+from rmvdsl.editor.workspace import warm_up
 
 SWITCH_INTERVAL = 0.0005  # seconds
 IDLE_SWEEP = 1.0  # seconds after the last change: a full collection, unnoticed
@@ -30,18 +31,25 @@ def build(own_process: bool = False) -> RmvServer:
     garbage collector; not when it runs beside other code (the LSP fuzz target)."""
     server = RmvServer()
 
+    @server.feature(types.INITIALIZED)
+    def initialized(ls: RmvServer, params: types.InitializedParams) -> None:
+        # On the solver lane, idle until a document's text has rested: the first
+        # completion would otherwise build the grammar's tables itself. Built while
+        # the editor opens its first document, not beside its first keystrokes
+        # (44 ms of CPU, which the first key after open waited for).
+        ls.state.solver_lane.submit(warm_up)
+
     @server.feature(types.TEXT_DOCUMENT_DID_OPEN)
     async def did_open(ls: RmvServer, params: types.DidOpenTextDocumentParams) -> None:
-        await ls.refresh(params.text_document.uri)
         if own_process:
             # What a first check built (parsed declarations, message definitions)
             # lives as long as the document: kept out of the collector's full
             # sweeps, which otherwise stall one keystroke in twenty by 50 ms on a
-            # 2,000-line spec. Unfrozen first, so what earlier documents left behind
-            # is collected, not kept for ever. On the fast lane, between two checks:
-            # frozen during one, the half-built model of the next key's text was
-            # kept for ever once it was garbage.
-            await asyncio.get_running_loop().run_in_executor(ls.state.fast_lane, _refreeze)
+            # 2,000-line spec. Frozen at the first pause (the idle sweep), not at
+            # once: the sweep before the freeze (what earlier documents left
+            # behind is collected, not kept for ever) stalled a key typed then.
+            _sweep_when_idle(ls)
+        await ls.refresh(params.text_document.uri)
 
     @server.feature(types.TEXT_DOCUMENT_DID_CHANGE)
     async def did_change(ls: RmvServer, params: types.DidChangeTextDocumentParams) -> None:
