@@ -5,11 +5,16 @@ by hand or by tests/differential.py, minimised."""
 from __future__ import annotations
 
 import re
+from decimal import Decimal
 from fractions import Fraction
 from pathlib import Path
 
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
 from rmvdsl.check import check
 from rmvdsl.ir import lower
+from rmvdsl.lang.numbers import NumberError, exact
 from rmvdsl.runtime import engine, influx
 from rmvdsl.runtime import spec as ir
 
@@ -519,3 +524,24 @@ def test_a_repeated_boolean_still_makes_a_pulse(tmp_path):
     runtime.message(2 * NS, "/a", {"data": False})
     runtime.end(5 * NS)
     assert _event_changes(runtime, "Both") == [(2, True), (2, False)]
+
+
+@settings(max_examples=2000, deadline=None)
+@given(
+    sign=st.sampled_from(["", "+", "-"]),
+    whole=st.text("0123456789", max_size=30),
+    fraction=st.none() | st.text("0123456789", max_size=30),
+    exponent=st.none() | st.integers(-200, 200),
+)
+def test_a_number_is_read_as_its_exact_decimal_value(sign, whole, fraction, exponent) -> None:
+    """`exact` (every number of a spec, a formula, a trace) gives the decimal's value,
+    as Python's Decimal reads it, for any number within range."""
+    if not (whole or fraction):
+        return
+    text = sign + whole + ("" if fraction is None else "." + fraction)
+    text += "" if exponent is None else f"e{exponent}"
+    try:
+        value = exact(text)
+    except NumberError:
+        return  # out of range: its own tests
+    assert value == Fraction(Decimal(text))

@@ -152,14 +152,21 @@ class TypeRegistry:
     sources: SourceMap = field(default_factory=SourceMap)
     # did-you-mean answers by type name: 1,000 topics of one unknown type ask once
     _closest: dict[str, str | None] = field(default_factory=dict, repr=False)
+    # each name's definition as asked for: a keystroke's check asks for every
+    # variable's messages again (to see they are the ones its memo read)
+    _got: dict[str, MessageDef | None] = field(default_factory=dict, repr=False)
 
     @property
     def ros_version(self) -> int:
         return ros_version(self.distro)
 
     def get(self, name: str) -> MessageDef | None:
+        if name in self._got:
+            return self._got[name]
         full = canonical(name)
-        return self.custom.get(full) or _store_definitions(self.distro).get(full)
+        found = self.custom.get(full) or _store_definitions(self.distro).get(full)
+        self._got[name] = found
+        return found
 
     def names(self) -> Iterable[str]:
         yield from self.custom
@@ -204,6 +211,7 @@ class TypeRegistry:
 
     def add_folder(self, folder: str, declared_at: Span | None = None) -> None:
         self._closest.clear()  # new types: other answers
+        self._got.clear()
         with _CACHE_LOCK:
             _ASKED.add(folder)
         if not os.path.isdir(folder):

@@ -49,7 +49,12 @@ def exact(text: str) -> Fraction:
     magnitude = len(digits) - 1 + exponent
     if not -MAX_MAGNITUDE <= magnitude < MAX_MAGNITUDE:
         raise NumberError(f"`{_short(text)}` is out of range: numbers have {RANGE_TEXT}")
-    value = Fraction(int(digits)) * Fraction(10) ** exponent
+    # One Fraction, normalised once (arithmetic on Fractions normalises at each
+    # step: 2% of a large spec's parse went to reading its numbers so)
+    if exponent >= 0:
+        value = Fraction(int(digits) * 10**exponent)
+    else:
+        value = Fraction(int(digits), 10**-exponent)
     return -value if sign == "-" else value
 
 
