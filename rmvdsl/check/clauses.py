@@ -60,11 +60,9 @@ class EventChecks:
     model: Model
     diagnostics: list[Diagnostic]
     # The names each event reads (its expression and `where` clauses), found while
-    # checking it: the cycle check reads them rather than walking every event again.
+    # checking it: the cycle check (rmvdsl.check.cycles) reads them rather than
+    # walking every event again.
     event_reads: dict[int, Sequence[ast.Ident]]  # by id() of the declaration
-    # How far the reads of a reused declaration moved since they were found (an
-    # incremental check's): only a reported cycle's span needs moving.
-    reads_moved: dict[int, int]
 
     def report(self, diagnostic: Diagnostic) -> None:
         self.diagnostics.append(diagnostic)
@@ -336,69 +334,3 @@ class EventChecks:
                     )
                 )
         return nodes
-
-    def check_event_cycles(self) -> None:
-        """Events and transducers that read each other in a cycle (RMV220): an
-        event reading what a transducer emits depends on the transducer, and a
-        transducer on the events of its transitions (the runtime computes each once
-        per instant, after what it reads)."""
-        model = self.model
-        emitter = {
-            name: owner
-            for owner, decl in model.transducers.items()
-            for transition in decl.transitions
-            if transition.output is not None
-            for name in [transition.output.name]
-        }
-
-        def node_of(ident: ast.Ident) -> list[ast.Ident]:
-            if ident.name in model.events:
-                return [ident]
-            owner = emitter.get(ident.name)
-            return [] if owner is None else [ast.Ident(owner, ident.span)]
-
-        dependencies = {
-            name: [n for i in self.event_reads[id(decl)] for n in node_of(i)]
-            for name, decl in model.events.items()
-        }
-        moved = {
-            name: self.reads_moved[id(decl)]
-            for name, decl in model.events.items()
-            if id(decl) in self.reads_moved
-        }
-        for name, decl in model.transducers.items():
-            # What it emits itself it reads within its own steps (docs/semantics.md).
-            found = (n for t in decl.transitions for n in node_of(t.input))
-            dependencies[name] = [n for n in found if n.name != name]
-        state: dict[str, int] = {}  # 1: on the current path, 2: done
-        for name in dependencies:
-            self._visit_event(name, dependencies, moved, state, [name])
-
-    def _visit_event(
-        self,
-        name: str,
-        deps: dict[str, list[ast.Ident]],
-        moved: dict[str, int],
-        state: dict[str, int],
-        path: list[str],
-    ) -> None:
-        """`path`: the names from the first visited to `name`; `moved`: how far the
-        reads of an event moved since they were found."""
-        if state.get(name) == 2:
-            return
-        state[name] = 1
-        for ident in deps[name]:
-            if state.get(ident.name) == 1:
-                cycle = [*path[path.index(ident.name) :], ident.name]
-                self.report(
-                    error(
-                        "RMV220",
-                        "events defined in a cycle: " + " -> ".join(cycle),
-                        ident.span.shifted(moved.get(name, 0)),
-                        label=f"`{name}` uses `{ident.name}`, which depends on `{name}`",
-                        help="an event or transducer can only use what is defined without it",
-                    )
-                )
-            elif state.get(ident.name) is None:
-                self._visit_event(ident.name, deps, moved, state, [*path, ident.name])
-        state[name] = 2

@@ -13,6 +13,7 @@ from typing import cast
 import rmvdsl.check.settings as schemas
 from rmvdsl.check.actions import ActionChecks
 from rmvdsl.check.clauses import EventChecks
+from rmvdsl.check.cycles import event_cycles
 from rmvdsl.check.declaring import Declarations
 from rmvdsl.check.infrastructure import infrastructure_warnings
 from rmvdsl.check.memo import kept_findings
@@ -68,7 +69,7 @@ class NameChecker(Declarations, StructureChecks, ActionChecks, EventChecks):
         self.damaged_ranges = damaged_ranges
         self.used: set[str] = set()  # the names of used symbols
         self.event_reads: dict[int, Sequence[ast.Ident]] = {}
-        self.reads_moved: dict[int, int] = {}
+        self.reads_moved: dict[int, int] = {}  # how far a reused event's reads moved
         self.time_unit_decl: ast.TimeUnitDecl | None = None
         self.reserved = reserved_names()
 
@@ -80,7 +81,7 @@ class NameChecker(Declarations, StructureChecks, ActionChecks, EventChecks):
             self.declare(decl)
         for decl in decls:
             self.check_remembered(decl) if self.incremental else self.check_decl(decl)
-        self.check_event_cycles()
+        self.diagnostics += event_cycles(self.model, self.event_reads, self.reads_moved)
         self.check_whitelist_duplicates()
         self.diagnostics += check_whitelist_agreement(self.model)
         self.diagnostics += infrastructure_warnings(self.model)
