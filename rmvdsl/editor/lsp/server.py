@@ -41,15 +41,16 @@ def build(own_process: bool = False) -> RmvServer:
 
     @server.feature(types.TEXT_DOCUMENT_DID_OPEN)
     async def did_open(ls: RmvServer, params: types.DidOpenTextDocumentParams) -> None:
+        await ls.refresh(params.text_document.uri)
         if own_process:
             # What a first check built (parsed declarations, message definitions)
             # lives as long as the document: kept out of the collector's full
             # sweeps, which otherwise stall one keystroke in twenty by 50 ms on a
-            # 2,000-line spec. Frozen at the first pause (the idle sweep), not at
-            # once: the sweep before the freeze (what earlier documents left
-            # behind is collected, not kept for ever) stalled a key typed then.
+            # 2,000-line spec. Frozen at the first pause (the idle sweep; a key
+            # typed meanwhile arms it again), not at once: the sweep before the
+            # freeze (what earlier documents left behind is collected, not kept
+            # for ever) stalled a key typed then.
             _sweep_when_idle(ls)
-        await ls.refresh(params.text_document.uri)
 
     @server.feature(types.TEXT_DOCUMENT_DID_CHANGE)
     async def did_change(ls: RmvServer, params: types.DidChangeTextDocumentParams) -> None:
