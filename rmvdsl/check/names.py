@@ -16,7 +16,7 @@ from rmvdsl.check.clauses import EventChecks
 from rmvdsl.check.cycles import event_cycles
 from rmvdsl.check.declaring import Declarations
 from rmvdsl.check.infrastructure import infrastructure_warnings
-from rmvdsl.check.memo import kept_findings
+from rmvdsl.check.memo import Entry, kept_findings
 from rmvdsl.check.model import (
     EVENT_KINDS,
     MEASUREMENT_KINDS,
@@ -144,7 +144,7 @@ class NameChecker(Declarations, StructureChecks, ActionChecks, EventChecks):
         if kept is None:
             self.check_decl(decl)
             return
-        entry = ("names", model.time_unit)
+        entry: Entry = ("names", model.time_unit)
         known = kept.get(entry)
         if known is not None and self.still_holds(known):
             self.replay(decl, known)

@@ -11,7 +11,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, TypeVar, cast
 
-from rmvdsl.check.memo import kept_findings
+from rmvdsl.check.memo import Entry, kept_findings
 from rmvdsl.check.model import Kind, Model
 from rmvdsl.check.msgdefs import FieldType, environment_folders
 from rmvdsl.check.msgtypes import DEFAULT_DISTRO, DISTROS, TypeRegistry
@@ -182,7 +182,7 @@ class TypeChecker(PropertyTypes):
         kept = kept_findings(decl) if self.incremental else None
         if kept is None:
             return typed(decl)
-        entry = ("types", self.model.time_unit)
+        entry: Entry = ("types", self.model.time_unit)
         known = kept.get(entry)
         if known is not None and self.still_holds(known):
             if known.types:
@@ -208,9 +208,6 @@ class TypeChecker(PropertyTypes):
             if what == "name":
                 now = self._name_type(name)
                 if now is not value and now != value:  # mostly the very type kept
-                    return False
-            elif what == "message":
-                if self.info.registry.get(name) is not value:
                     return False
             elif self.looked_up(what, name) is not value:
                 return False

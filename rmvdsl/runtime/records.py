@@ -18,6 +18,7 @@ Record = dict[str, Any]
 
 
 def seconds(ns: int) -> Fraction:
+    """`ns` nanoseconds in seconds, exactly."""
     return Fraction(ns, NS)
 
 
