@@ -100,21 +100,45 @@ def test_a_time_no_float_holds_stays_exact():
     assert changes[1][0] == 200_000_000
 
 
-@pytest.mark.parametrize(
-    "text",
-    ['"t": 1.5,', '"t": 12345678901234.5,', '"t":1e5}', '"t" : 123456789012345.5', '"t": -0',
-     '"t":\t-1234567890123456}', '"t": 1234567890123.5', '"t":-0.5E-3', '"t": "1/3"'],
-)  # fmt: skip
-def test_the_long_time_search_is_the_same_on_every_python(text):
-    """3.10's `re` has no possessive quantifier: its form must find the same."""
-    import re
+EPOCH = st.integers(0, 10**12).map(lambda k: f"{1_700_000_000 + k / 10**6:.6f}")
+LONG_TIMES = st.one_of(
+    EPOCH,  # 16 digits: a logger's Unix time in microseconds
+    st.integers(0, 10**21).map(lambda k: f"1700000000.{k:021d}"),  # floats tie these
+    st.integers(1, 10**6).map(lambda k: f"{k}e-3"),
+    st.integers(1, 10**6).map(lambda k: f"{k}.0E2"),
+)
 
-    portable = trace_chunks._INEXACT.pattern.replace("*+", "*").replace("?+", "?")
-    assert bool(re.search(portable, text)) == bool(trace_chunks._INEXACT.search(text))
-    digits = sum(c.isdigit() for c in text)
-    assert bool(trace_chunks._INEXACT.search(text)) == (
-        "e" in text.lower() or digits + ("." in text) >= 16
+
+@settings(max_examples=150, deadline=None)
+@given(
+    times=st.lists(LONG_TIMES, min_size=1, max_size=40),
+    names=st.lists(st.sampled_from(["A", "B"]), min_size=40, max_size=40),
+    chunk=st.integers(16, 400),
+)
+def test_times_a_float_cannot_hold_are_read_exactly(times, names, chunk):
+    """Times of 16 and more digits, or with an exponent, sorted as decimals (two
+    of them may be one float): the stream reads them as the whole-file reader does,
+    the change points exact."""
+    ordered = sorted(set(times), key=Fraction)
+    text = "".join(
+        f'{{"t": {t}, "state": "{name}"}}\n' for t, name in zip(ordered, names, strict=False)
     )
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(traces, "CHUNK", chunk)
+        assert streamed(text) == whole(text)
+
+
+def test_a_logger_s_unix_times_are_decoded_a_chunk_at_a_time():
+    """Unix times in microseconds (16 digits) take the fast path, exactly."""
+    lines = "".join(
+        f'{{"t": 1700000000.{k:06d}, "state": "{"AB"[k // 3 % 2]}"}}\n' for k in range(30)
+    )
+    decoded = trace_chunks.ChunkDecoder(traces.LineReader("t.jsonl")).decode(lines, 30, 0)
+    assert decoded is not None and decoded[0] == "state"
+    changes = streamed(lines)[1][0]  # type: ignore[index]
+    assert [t for t, _ in changes] == [
+        Fraction(f"1700000000.{k:06d}") * 10**9 for k in range(0, 30, 3)
+    ]
 
 
 def test_lines_of_both_shapes_in_one_chunk_keep_each_lines_state():

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import itertools
+import json
 import math
-import textwrap
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from fractions import Fraction
@@ -95,7 +95,11 @@ class Streamed:
         self.summary = Evaluation()
 
     def segments(self) -> Iterator[Segment]:
-        return (_unscaled(segment) for segment in merged(self._decided()))
+        return map(_unscaled, self.scaled_segments())
+
+    def scaled_segments(self) -> Iterator[Segment]:
+        """The merged segments, their times in billionths of the trace's unit."""
+        return merged(self._decided())
 
     def _decided(self) -> Iterator[Segment]:
         monitor, changes = self.monitor, self.trace.changes()
@@ -129,9 +133,12 @@ def write_all_json(out: TextIO, run: Streamed) -> None:
     as `as_json` of the whole payload, never all of it in memory."""
     out.write('{\n  "segments": [')
     count = 0
-    for count, segment in enumerate(run.segments(), 1):
-        item = textwrap.indent(to_json(segment_json(segment)), "    ")
-        out.write(("," if count > 1 else "") + "\n" + item)
+    for count, (a, b, a_closed, b_closed, value) in enumerate(run.scaled_segments(), 1):
+        item = _SEGMENT_JSON % (
+            _scaled_json(a), _scaled_json(b), _BOOLEANS[a_closed], _BOOLEANS[b_closed],
+            json.dumps(value),
+        )  # fmt: skip
+        out.write(("," if count > 1 else "") + item)
     out.write("\n  ]" if count else "]")
     summary = run.summary
     rest = to_json(
@@ -142,6 +149,30 @@ def write_all_json(out: TextIO, run: Streamed) -> None:
         }
     )
     out.write(",\n" + rest.removeprefix("{\n") + "\n")
+
+
+# A segment as `to_json(segment_json(...))` writes it, indented under "segments":
+# written directly (json.dumps walked each segment's dict a seventh of a long
+# evaluation's time).
+_SEGMENT_JSON = """
+    {
+      "from": %s,
+      "to": %s,
+      "from_closed": %s,
+      "to_closed": %s,
+      "verdict": %s
+    }"""
+_BOOLEANS = {True: "true", False: "false"}
+
+
+def _scaled_json(value: Any) -> str:
+    """A stream time (billionths) as JSON, as `to_json(json_time(...))` writes it
+    back in the trace's unit: the exact decimal, a quotient string, or null."""
+    if type(value) is not int:
+        return to_json(json_time(_time_of(value)))
+    whole, rest = divmod(abs(value), SCALE)
+    sign = "-" if value < 0 else ""
+    return f"{sign}{whole}" if not rest else f"{sign}{whole}.{rest:09d}".rstrip("0")
 
 
 def reference_verdict(formula: Any, trace: TraceFile, t: Fraction) -> str:

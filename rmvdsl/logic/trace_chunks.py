@@ -1,11 +1,10 @@
 """A chunk of JSON Lines decoded at once (msgspec), for `rmv eval`'s trace stream
 (rmvdsl.logic.traces): the records in any key order, extra fields ignored (the
-first one noted), times as floats where a float holds the decimal written exactly."""
+first one noted), each time kept as the text written and read as a float besides."""
 
 from __future__ import annotations
 
 import re
-import sys
 from fractions import Fraction
 from typing import Any
 
@@ -16,56 +15,71 @@ from rmvdsl.logic.trace_lines import LineReader
 
 SCALE = 10**9  # a stream's times: whole billionths of the trace's unit
 
-# A time a float may not hold exactly: 16 or more digits, or an exponent. (A decimal
-# of at most 15 significant digits is its float's shortest repr, and floats order
-# as the decimals they were read from, ties apart.) Possessive where the `re`
-# module has it (3.11): a third faster, and this scan is a tenth of a plain read.
-_ONCE = "+" if sys.version_info >= (3, 11) else ""
-_INEXACT = re.compile(
-    rf'"t"[ \t\r]*{_ONCE}:[ \t\r]*{_ONCE}-?{_ONCE}(?:[0-9.]{{16}}|[0-9.]*{_ONCE}[eE])'
-)
+# Every time of a chunk as a float, from the texts joined into one JSON array: a
+# float orders no two decimals the wrong way round (it may tie them), so the floats
+# check the order and the text of a time gives its exact value where one is needed
+# (the times where the state changes, the last). A time that is no number (a
+# string such as "1/3"), or one out of a float's range, leaves the chunk to the
+# full reader.
+_FLOATS = msgspec.json.Decoder(list[float])
 
 
-class _Plain(msgspec.Struct, forbid_unknown_fields=True):
+# The decoded records hold numbers, strings and tuples of strings, never a cycle:
+# they are kept out of the garbage collector's books (gc=False), which a chunk's
+# 10,000s of new objects would otherwise send through its young generation.
+
+
+class _Plain(msgspec.Struct, gc=False):
     """A sample naming one state, keys in any order: what nearly every line of a
     trace is, decoded a chunk at a time. `props` or `end` present: not plain."""
 
-    t: float
+    t: msgspec.Raw
     state: str
-    props: msgspec.UnsetType = msgspec.UNSET
-    end: msgspec.UnsetType = msgspec.UNSET
 
 
-class _PlainProps(msgspec.Struct, forbid_unknown_fields=True):
+class _PlainProps(msgspec.Struct, gc=False):
     """A sample naming its propositions (`props`), keys in any order: the other
     common shape, decoded a chunk at a time too."""
 
-    t: float
+    t: msgspec.Raw
     props: tuple[str, ...]
-    state: msgspec.UnsetType = msgspec.UNSET
-    end: msgspec.UnsetType = msgspec.UNSET
 
 
 # The plain shapes, each with the field that names its state.
 _PLAIN = {_Plain: "state", _PlainProps: "props"}
+# A plain sample holds none of these: decoded strictly, such a field is unknown,
+# which says the line has another shape; decoded leniently (unknown fields
+# ignored), the plain shapes declare them as fields no value fits.
+_OTHER_SHAPES: dict[type, tuple[str, ...]] = {
+    _Plain: ("props", "end"),
+    _PlainProps: ("state", "end"),
+}
 
 
-class Record(msgspec.Struct, forbid_unknown_fields=True):
+class Record(msgspec.Struct, forbid_unknown_fields=True, gc=False):
     """Any record of the fast reader: a chunk that is not all plain samples is
     taken one record at a time, and a record of another shape still (a time
     written as a string, say) sends the chunk to the full reader."""
 
-    t: float
+    t: msgspec.Raw
     state: str | None = None
     props: tuple[str, ...] | None = None
     end: bool | None = None
     unit: str | None = None
 
 
-_DECODERS = {
-    (shape, strict): msgspec.json.Decoder(
-        msgspec.defstruct(shape.__name__, [], bases=(shape,), forbid_unknown_fields=strict)
+def _decoder(shape: type, strict: bool) -> msgspec.json.Decoder[Any]:
+    """A shape's decoder: strict (an unknown field is an error) or lenient."""
+    guarded = () if strict else _OTHER_SHAPES.get(shape, ())
+    guards = [(name, msgspec.UnsetType, msgspec.UNSET) for name in guarded]
+    struct = msgspec.defstruct(
+        shape.__name__, guards, bases=(shape,), forbid_unknown_fields=strict, gc=False
     )
+    return msgspec.json.Decoder(struct)
+
+
+_DECODERS = {
+    (shape, strict): _decoder(shape, strict)
     for shape in (_Plain, _PlainProps, Record)
     for strict in (True, False)
 }
@@ -80,33 +94,59 @@ class ChunkDecoder:
         self.reader = reader
         self.strict = True
 
-    def decode(self, lines: str, count: int, before: int) -> tuple[str, list[Any]] | None:
+    def decode(
+        self, lines: str, count: int, before: int
+    ) -> tuple[str, list[Any], list[float]] | None:
         """The chunk's records, one per line, in any key order, with any extra fields
-        (the first one noted), and the field naming their states where all are plain
-        samples of one shape ("state" or "props"; else ""); None where a line is
-        blank or holds a record of another shape, or a time a float may not hold
-        exactly."""
-        if "\\u" in lines or _INEXACT.search(lines):
-            return None
+        (the first one noted), their times as floats, and the field naming their
+        states where all are plain samples of one shape ("state" or "props"; else
+        ""); None where a line is blank or holds a record of another shape, or a
+        time that is not a number a float can order."""
+        if "\\" in lines and "\\u" in lines:  # (a backslash is rare: found fast)
+            return None  # json reads escapes msgspec refuses (a lone surrogate)
         for shape in (_Plain, _PlainProps, Record):
             while True:
                 try:
                     records = _DECODERS[shape, self.strict].decode_lines(lines)
                 except msgspec.ValidationError as error:
                     found = _UNKNOWN.search(str(error))
-                    if not self.strict or found is None:
+                    if not self.strict or found is None or _of_another_shape(shape, found[1]):
                         break  # another shape
                     self.strict = False
                     self.reader.ignore(found[1], before + _line_of(lines, int(found[2])))
                     continue
                 except msgspec.DecodeError:
                     return None
-                return (_PLAIN.get(shape, ""), records) if len(records) == count else None
+                if len(records) != count:
+                    return None
+                times = float_times(records)
+                return None if times is None else (_PLAIN.get(shape, ""), records, times)
         return None
 
-    def records(self, lines: str) -> list[Any]:
-        """Every record of a chunk that decoded as plain samples, as general ones."""
-        return _DECODERS[Record, self.strict].decode_lines(lines)
+    def records(self, lines: str) -> tuple[list[Any], list[float]] | None:
+        """Every record of a chunk that decoded as plain samples, as general ones,
+        and their times as floats."""
+        records = _DECODERS[Record, self.strict].decode_lines(lines)
+        times = float_times(records)
+        return None if times is None else (records, times)
+
+
+def _of_another_shape(shape: type, name: str) -> bool:
+    return name in _OTHER_SHAPES.get(shape, ())
+
+
+def float_times(records: list[Any]) -> list[float] | None:
+    """The records' times as floats (None: one is not a number, or out of range)."""
+    try:
+        times: list[float] = _FLOATS.decode(b"[%s]" % b",".join([r.t for r in records]))
+    except msgspec.MsgspecError:
+        return None
+    return times
+
+
+def time_text(record: Any) -> str:
+    """A decoded record's time as written."""
+    return bytes(record.t).decode()
 
 
 def scaled(t: Fraction) -> int | Fraction:
@@ -121,11 +161,9 @@ def decimal_scaled(text: str) -> int:
     return int(whole + fraction.ljust(9, "0"))
 
 
-def float_scaled(value: float) -> int | Fraction:
-    """A time the fast reader took as a float, in billionths: its shortest repr is
-    the decimal written (at most 15 digits, so exact)."""
-    text = repr(value)
-    if "e" in text or len(text.partition(".")[2]) > 9:
+def text_scaled(text: str) -> int | Fraction:
+    """A time as a JSON number writes it, in billionths, exact."""
+    if "e" in text or "E" in text or len(text.partition(".")[2]) > 9:
         return scaled(exact_or_quotient(text))
     return decimal_scaled(text)
 

@@ -18,9 +18,11 @@ sample. Every problem is reported with its line (and column where it helps).
 `TraceStream` reads a file as it is used: its unit at once, then its state changes
 one chunk of lines at a time, so that `rmv eval` holds no more than a chunk however
 long the trace. A JSON Lines chunk is decoded at once by msgspec (keys in any order,
-fields other than these four ignored, the first one noted), its times as floats
-where a float holds them exactly (at most 15 significant digits, no exponent); a CSV
-chunk under a `t,state` header by one regular expression. Any chunk that does not
+fields other than these four ignored, the first one noted), each time kept as
+written and read as a float besides: the floats check the order (no two decimals
+come out of order as floats, ties go to the exact reader), the text gives the exact
+time where the state changes; a CSV chunk under a `t,state` header by one regular
+expression. Any chunk that does not
 decode so, and any line that is not a plain sample after the one before, goes through
 the full reader, which reports each problem. Times come out exact, as whole
 billionths of the trace's unit (an int; a Fraction only for a time finer than that).
@@ -35,7 +37,7 @@ import re
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from fractions import Fraction
-from itertools import groupby, islice
+from itertools import compress, count, islice
 from typing import Any, BinaryIO
 
 from rmvdsl.grammar.formula import TIME_UNITS
@@ -44,8 +46,9 @@ from rmvdsl.logic.trace_chunks import (
     ChunkDecoder,
     Record,
     decimal_scaled,
-    float_scaled,
     scaled,
+    text_scaled,
+    time_text,
 )
 from rmvdsl.logic.trace_lines import NAME, LineReader, TraceError, load_json
 
@@ -111,6 +114,7 @@ class TraceStream:
         self.path, self._handle = path, handle
         self._decoder = codecs.getincrementaldecoder("utf-8-sig")()
         self._newlines = 0  # in the bytes decoded so far
+        self._read_newlines = 0  # in the last of them
         self._tail = 0  # bytes after the last of them
         self._head = self._read()
         self._csv = _is_csv(path, self._head)
@@ -165,20 +169,24 @@ class TraceStream:
         return isinstance(record, dict) and set(record) == {"unit"}
 
     def changes(self) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
-        number, chunk = 0, self._head
+        # the newlines of a chunk are those of the text read last (`_read` counts
+        # them): what stays over from a chunk has none
+        number, chunk, newlines = 0, self._head, self._head.count("\n")
         while chunk:
             complete = chunk.rfind("\n") + 1
             if complete == 0:  # no whole line yet: read on, or this is the last line
                 more = self._read()
                 if more:
                     chunk += more
+                    newlines = self._read_newlines
                     continue
                 complete = len(chunk)
             lines, rest = chunk[:complete], chunk[complete:]
-            count = lines.count("\n") + (not lines.endswith("\n"))
+            count = newlines + (not lines.endswith("\n"))
             yield from self._chunk(lines, count, number)
             number += count
             chunk = rest + self._read()
+            newlines = self._read_newlines
         for key in self._states:
             self.seen.update(_names(key))
         self._finish()
@@ -197,59 +205,67 @@ class TraceStream:
             else:
                 decoded = self._chunks.decode(lines, count, before)
                 if decoded is not None:
-                    plain, records = decoded
+                    plain, records, times = decoded
                     if plain:
-                        yield from self._fast_plain(plain, records, before, lines)
+                        yield from self._fast_plain(plain, records, times, before, lines)
                     else:
-                        yield from self._fast_records(records, before, lines)
+                        yield from self._fast_records(records, times, before, lines)
                     return
+        yield from self._full_lines(lines, count, before)
+
+    def _full_lines(
+        self, lines: str, count: int, before: int
+    ) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
         for index, raw in enumerate(lines.split("\n")[:count]):
             yield from self._full_line(before + index + 1, raw)
 
     def _fast_plain(
-        self, named_by: str, records: list[Any], before: int, lines: str
+        self, named_by: str, records: list[Any], times: list[float], before: int, lines: str
     ) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
         """Plain samples, each naming its state by the field `named_by` ("state" or
-        "props"): their times and keys as lists, checked and grouped by the
-        interpreter's own loops (the hottest path: most chunks of most traces).
-        Anything to explain (a time not above the last, a new name that is no
-        proposition) is left to the record at a time path."""
-        times = [record.t for record in records]
+        "props"): checked by the interpreter's own loops over their times and keys
+        (the hottest path: most chunks of most traces), the records looked at one by
+        one only where the key differs from the sample's before. Anything to explain
+        (a time not above the last, a new name that is no proposition) is left to
+        the record at a time path."""
         keys = list(map(operator.attrgetter(named_by), records))
+        starts = [0, *compress(count(1), map(operator.ne, islice(keys, 1, None), keys))]
         states, reader = self._states, self._reader
-        new = set(keys).difference(states)
+        new = {keys[index] for index in starts}.difference(states)
         if (
             times[0] <= reader.last_float
             or not all(map(operator.lt, times, islice(times, 1, None)))
             or not all(NAME.fullmatch(name) for key in new for name in _names(key))
         ):
             general = self._chunks.records(lines)  # rare: decoded again
-            yield from self._fast_records(general, before, lines)
+            if general is None:
+                yield from self._full_lines(lines, len(records), before)
+            else:
+                yield from self._fast_records(*general, before, lines)
             return
         for key in new:
             states[key] = frozenset(_names(key))
         current = self._current
-        for key, run in groupby(zip(times, keys, strict=True), operator.itemgetter(1)):
-            state = states[key]
+        for index in starts:
+            state = states[keys[index]]
             if state is not current and state != current:
-                value = next(run)[0]
+                text = time_text(records[index])
                 if current is None:
-                    self.first = exact_or_quotient(repr(value))
+                    self.first = exact_or_quotient(text)
                 current = state
-                yield float_scaled(value), state
+                yield text_scaled(text), state
         self._current = current
-        self._settle(times[-1], len(times))
+        self._settle(times[-1], records[-1], len(times))
 
     def _fast_records(
-        self, records: list[Any], before: int, lines: str
+        self, records: list[Any], times: list[float], before: int, lines: str
     ) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
         """Decoded records, the ones after line `before`: the hot loop. A record that
         is not a plain sample after the one before (a new name, a time not above the
         last, the end record) goes to the full reader."""
         reader, states, current = self._reader, self._states, self._current
-        last, taken, raws = reader.last_float, 0, None
-        for index, record in enumerate(records):
-            value = record.t
+        last, newest, taken, raws = reader.last_float, None, 0, None
+        for index, (record, value) in enumerate(zip(records, times, strict=True)):
             state = None
             if value > last and reader.end is None:
                 if record.end is None and record.unit is None:
@@ -260,20 +276,21 @@ class TraceStream:
                 if state is None:
                     state = self._new_state(record)
             if state is None:
-                self._settle(last, taken)
+                self._settle(last, newest, taken)
                 raws = raws or lines.split("\n")
                 self._current = current
                 yield from self._full_line(before + index + 1, raws[index])
                 current, last, taken = self._current, reader.last_float, 0
                 continue
-            last = value
+            last, newest = value, record
             taken += 1
             if state is not current and state != current:
+                text = time_text(record)
                 if current is None:
-                    self.first = exact_or_quotient(repr(value))
+                    self.first = exact_or_quotient(text)
                 current = state
-                yield float_scaled(value), state
-        self._settle(last, taken)
+                yield text_scaled(text), state
+        self._settle(last, newest, taken)
         self._current = current
 
     def _new_state(self, record: Record) -> frozenset[str] | None:
@@ -295,11 +312,12 @@ class TraceStream:
         state = self._states[key] = frozenset(names)
         return state
 
-    def _settle(self, last: float, taken: int) -> None:
-        """The reader learns the newest of `taken` samples read fast."""
+    def _settle(self, last: float, newest: Any, taken: int) -> None:
+        """The reader learns the newest of `taken` samples read fast (its time as a
+        float and as written)."""
         if taken:
             reader = self._reader
-            reader.last_float, reader.last_text, reader._last = last, repr(last), None
+            reader.last_float, reader.last_text, reader._last = last, time_text(newest), None
             self.samples += taken
 
     def _fast_pairs(
@@ -355,6 +373,7 @@ class TraceStream:
             ) from None
         newlines = data.count(b"\n")
         self._newlines += newlines
+        self._read_newlines = newlines
         self._tail = len(data) - data.rfind(b"\n") - 1 if newlines else self._tail + len(data)
         return text
 

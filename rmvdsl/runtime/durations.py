@@ -48,17 +48,10 @@ class Compare(Evaluated):
                 found.add(point - window)
         ordered = sorted(p for p in found if p > start)
         ends = [start, *ordered, (ordered[-1] if ordered else start) + self.future + 1]
-        for a, b in itertools.pairwise(ends):
-            found.update(self._crossings(a, b))
-        return found
-
-    def _crossings(self, a: Any, b: Any) -> list[Any]:
-        (la, ha), (lb, hb) = self._term(self.left, a), self._term(self.right, a)
-        (la2, ha2), (lb2, hb2) = self._term(self.left, b), self._term(self.right, b)
-        found = []
-        for f_a, f_b in ((ha - lb, ha2 - lb2), (la - hb, la2 - hb2)):
-            if (f_a < 0 < f_b) or (f_b < 0 < f_a):
-                found.append(a + _divide((b - a) * (0 - f_a), f_b - f_a))
+        # both sides at each end once (a pair's end is the next pair's start)
+        sides = [(self._term(self.left, t), self._term(self.right, t)) for t in ends]
+        for (a, at_a), (b, at_b) in itertools.pairwise(zip(ends, sides, strict=True)):
+            found.update(_crossings(a, b, at_a, at_b))
         return found
 
     def value_at(self, t: Any) -> int:
@@ -75,6 +68,18 @@ class Compare(Evaluated):
                 return duration(signal, t, t + term[1])
             return integral.duration(t, t + term[1])
         return arithmetic(kind, self._term(term[1], t), self._term(term[2], t))
+
+
+def _crossings(a: Any, b: Any, at_a: Any, at_b: Any) -> list[Any]:
+    """Where, strictly between a and b, the bounds of the two sides (linear there)
+    cross: `at_a` and `at_b` are both sides' intervals at a and at b."""
+    (la, ha), (lb, hb) = at_a
+    (la2, ha2), (lb2, hb2) = at_b
+    found = []
+    for f_a, f_b in ((ha - lb, ha2 - lb2), (la - hb, la2 - hb2)):
+        if (f_a < 0 < f_b) or (f_b < 0 < f_a):
+            found.append(a + _divide((b - a) * (0 - f_a), f_b - f_a))
+    return found
 
 
 def compare(op: str, left: tuple[Any, Any], right: tuple[Any, Any]) -> int:

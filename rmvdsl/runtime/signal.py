@@ -30,11 +30,14 @@ def _mid(a: Any, b: Any) -> Any:
 
 
 def _divide(x: Any, y: Any) -> Any:
+    """x / y exactly: an int where that is whole (a Fraction equal to an int
+    compares with the ints around it many times slower)."""
     if type(x) is float or type(y) is float:
-        return Fraction(x) / Fraction(y)  # exact: halves are exact floats
+        return _plain(Fraction(x) / Fraction(y))  # exact: halves are exact floats
     if type(x) is int and type(y) is int:
-        return Fraction(x, y)
-    return x / y
+        whole, rest = divmod(x, y)
+        return whole if rest == 0 else Fraction(x, y)
+    return _plain(x / y)
 
 
 def _plain(value: Any) -> Any:
