@@ -64,7 +64,7 @@ print(count)
 WHOLE_TRACE = """
 import sys
 from rmvdsl.logic import evaluate as ev
-from rmvdsl.logic.traces import read_trace
+from rmvdsl.logic.trace_lines import read_trace
 
 path, formula = sys.argv[1], sys.argv[2]
 with open(path, encoding="utf-8") as handle:

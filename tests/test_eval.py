@@ -8,8 +8,7 @@ from fractions import Fraction
 import pytest
 from conftest import rmv_process
 
-from rmvdsl.logic.trace_lines import TraceError
-from rmvdsl.logic.traces import read_trace
+from rmvdsl.logic.trace_lines import TraceError, read_trace
 from rmvdsl.runtime.rmtld3 import Monitor, merge
 
 BRAKING = (

@@ -22,7 +22,7 @@ from rmvdsl.logic.compile import compile_formula
 from rmvdsl.logic.reference import FALSE, TRUE, Reference, Trace
 from rmvdsl.logic.sat import Limits, conflict, satisfiable, valid
 from rmvdsl.logic.system import Machine, System
-from rmvdsl.logic.traces import read_trace
+from rmvdsl.logic.trace_lines import read_trace
 from rmvdsl.runtime.rmtld3 import Monitor, facts, merge
 from rmvdsl.runtime.segments import verdict_at
 from rmvdsl.util.cache import Cache

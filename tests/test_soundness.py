@@ -318,7 +318,7 @@ def test_json_output_never_overflows(rmv, tmp_path: Path):
 )
 def test_verdicts_past_the_end_are_what_the_trace_decides(rmv, tmp_path, formula, at, expected):
     from rmvdsl.logic.reference import evaluate
-    from rmvdsl.logic.traces import read_trace
+    from rmvdsl.logic.trace_lines import read_trace
 
     trace = tmp_path / "t.jsonl"
     text = '{"t": 0, "props": ["p"]}\n{"t": 8, "props": []}\n{"t": 12, "end": true}\n'

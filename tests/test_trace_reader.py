@@ -13,8 +13,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rmvdsl.logic import trace_chunks, traces
-from rmvdsl.logic.trace_lines import TraceError
-from rmvdsl.logic.traces import TraceStream, read_trace, scaled
+from rmvdsl.logic.trace_lines import TraceError, read_trace
+from rmvdsl.logic.traces import TraceStream, scaled
 
 NAMES = st.sampled_from(["A", "B", "Brake_2", "x^{1}"])
 BAD_NAMES = st.sampled_from(["A B", "", "A\n"])
@@ -155,3 +155,93 @@ def test_lines_of_both_shapes_in_one_chunk_keep_each_lines_state():
         frozenset(),
         frozenset("B"),
     }
+
+
+CSV_NAMES = st.sampled_from(["A", "B", "Brake_2", "x^{1}", "", " A "])
+BAD_CSV_NAMES = st.sampled_from(["A B", "1x"])
+
+
+@st.composite
+def csv_text(draw: st.DrawFn) -> str:
+    """A CSV trace under a header of t and state or props (or both), with or
+    without an end column, the columns in any order; in one trace of three, rows
+    written otherwise among them (quoted, blank, a quotient, a name that is no
+    proposition, a time not above the last, the end row)."""
+    messy = draw(st.integers(0, 2)) == 0
+    names = st.one_of(CSV_NAMES, BAD_CSV_NAMES) if messy else CSV_NAMES
+    named = draw(st.sampled_from([["state"], ["props"], ["state", "props"]]))
+    columns = draw(st.permutations(["t", *named, *draw(st.sampled_from([[], ["end"]]))]))
+    lines, hundredths = [",".join(columns)], 0
+    for _ in range(draw(st.integers(1, 50))):
+        hundredths += draw(st.sampled_from([1, 7, 100] + ([0, -3] if messy else [])))
+        time = f"{hundredths / 100:.2f}" if hundredths % 100 else str(hundredths // 100)
+        if messy and draw(st.integers(0, 9)) == 0:
+            time = draw(st.sampled_from(["1/3", "1e1", f" {time} "]))
+        end = draw(st.sampled_from(["", "", "", "true", "false"])) if messy else ""
+        props = draw(st.lists(names, max_size=3))
+        joined = draw(st.sampled_from([";", " ; "])).join(props)
+        if messy and draw(st.booleans()):
+            joined = f'"{joined}"'
+        cells = {"t": time, "end": end, "state": draw(names), "props": joined}
+        line = ",".join(cells[column] for column in columns)
+        odd = messy and draw(st.integers(0, 9)) == 0
+        lines.append(draw(st.sampled_from(["", line + "\r"])) if odd else line)
+    return "\n".join(lines) + "\n"
+
+
+@settings(max_examples=200, deadline=None)
+@given(text=csv_text(), chunk=st.integers(16, 400))
+def test_a_csv_stream_reads_what_the_whole_file_reader_reads(text, chunk):
+    """Every header order is read a chunk at a time where its rows allow it, with
+    the same changes, end, notes and errors as the whole-file reader."""
+
+    def csv_whole() -> tuple[str, object]:
+        try:
+            trace = read_trace("t.csv", text)
+        except TraceError as error:
+            return "error", (error.line, error.args[0])
+        changes, current = [], None
+        for t, state in zip(trace.times, trace.states, strict=True):
+            if state != current:
+                changes.append((scaled(t), state))
+                current = state
+        return "ok", (changes, trace.end, trace.notes)
+
+    def csv_streamed() -> tuple[str, object]:
+        stream = TraceStream("t.csv", io.BytesIO(text.encode()))
+        try:
+            changes = list(stream.changes())
+        except TraceError as error:
+            return "error", (error.line, error.args[0])
+        return "ok", (changes, stream.end, stream.notes)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(traces, "CHUNK", chunk)
+        assert csv_streamed() == csv_whole()
+
+
+def _csv_row(columns: list[str], k: int) -> str:
+    cells = {"t": f"{k / 10:.1f}", "state": "AB"[k // 3 % 2], "props": "A;B"[: 1 + k % 2 * 2]}
+    return ",".join(cells.get(column, "") for column in columns)
+
+
+@pytest.mark.parametrize(
+    "header", ["t,state", "state,t", "t,props", "props,end,t", "state,props,t"]
+)
+def test_every_csv_header_is_read_a_chunk_at_a_time(header):
+    """The rows of any header order take the fast path: the full reader reads the
+    header alone."""
+    columns = header.split(",")
+    text = "\n".join([header, *(_csv_row(columns, k) for k in range(60))]) + "\n"
+    stream = TraceStream("t.csv", io.BytesIO(text.encode()))
+    read_alone: list[int] = []
+    full_line = stream._full_line
+
+    def counted(number: int, raw: str):  # type: ignore[no-untyped-def]
+        read_alone.append(number)
+        return full_line(number, raw)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(stream, "_full_line", counted)
+        list(stream.changes())
+    assert read_alone == [1] and stream.samples == 60

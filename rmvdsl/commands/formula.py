@@ -16,7 +16,8 @@ if TYPE_CHECKING:
     from rmvdsl.lang.diagnostics import Diagnostic
     from rmvdsl.logic.answers import Answer
     from rmvdsl.logic.evaluate import Streamed
-    from rmvdsl.logic.traces import TraceFile, TraceStream
+    from rmvdsl.logic.trace_lines import TraceFile
+    from rmvdsl.logic.traces import TraceStream
 
 
 def run_eval(args: argparse.Namespace) -> int:
@@ -105,8 +106,7 @@ def _trace_stream(path: str) -> Iterator[TraceStream]:
 
 def _whole_trace(path: str) -> TraceFile:
     from rmvdsl.check.loader import read_text
-    from rmvdsl.logic.trace_lines import TraceError
-    from rmvdsl.logic.traces import read_trace
+    from rmvdsl.logic.trace_lines import TraceError, read_trace
 
     try:
         return read_trace(path, read_text(path))

@@ -16,7 +16,8 @@ from rmvdsl.lang.diagnostics import Diagnostic, Severity, error
 from rmvdsl.lang.numbers import to_json
 from rmvdsl.logic.compile import CompileError, compile_formula
 from rmvdsl.logic.trace_chunks import SCALE, scaled
-from rmvdsl.logic.traces import TraceFile, TraceStream
+from rmvdsl.logic.trace_lines import TraceFile
+from rmvdsl.logic.traces import TraceStream
 from rmvdsl.logic.validate import check_formula
 from rmvdsl.runtime.rmtld3 import BATCH, Monitor, Segment, merge, merged
 from rmvdsl.runtime.values import exact_text

@@ -146,7 +146,7 @@ def float_times(records: list[Any]) -> list[float] | None:
 
 def time_text(record: Any) -> str:
     """A decoded record's time as written."""
-    return bytes(record.t).decode()
+    return str(record.t, "utf-8")
 
 
 def scaled(t: Fraction) -> int | Fraction:
@@ -155,17 +155,12 @@ def scaled(t: Fraction) -> int | Fraction:
     return value.numerator if value.denominator == 1 else value
 
 
-def decimal_scaled(text: str) -> int:
-    """A decimal of at most 9 decimals, no exponent, in billionths."""
-    whole, _, fraction = text.partition(".")
-    return int(whole + fraction.ljust(9, "0"))
-
-
 def text_scaled(text: str) -> int | Fraction:
     """A time as a JSON number writes it, in billionths, exact."""
-    if "e" in text or "E" in text or len(text.partition(".")[2]) > 9:
+    whole, point, fraction = text.partition(".")
+    if "e" in text or "E" in text or len(fraction) > 9:
         return scaled(exact_or_quotient(text))
-    return decimal_scaled(text)
+    return int(whole + fraction.ljust(9, "0")) if point else int(whole) * SCALE
 
 
 def _line_of(lines: str, index: int) -> int:

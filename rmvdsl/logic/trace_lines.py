@@ -1,5 +1,5 @@
 """One line of a trace file at a time, JSONL or CSV, each problem a TraceError with its
-line and column: the reader that 's trace files and streams share."""
+line and column: the reader that whole trace files and streams share; and the whole-file reader."""
 
 from __future__ import annotations
 
@@ -7,6 +7,7 @@ import csv
 import json
 import re
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from fractions import Fraction
 
 from rmvdsl.grammar.formula import TIME_UNITS
@@ -15,6 +16,45 @@ from rmvdsl.runtime.wording import counted
 
 NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_^{}]*")  # a proposition (fullmatch)
 FIELDS = frozenset({"t", "state", "props", "end"})  # of a JSON Lines record
+
+
+@dataclass
+class TraceFile:
+    times: list[Fraction] = field(default_factory=list)
+    states: list[frozenset[str]] = field(default_factory=list)
+    end: Fraction | None = None
+    unit: str = "s"
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def unit_seconds(self) -> Fraction:
+        return TIME_UNITS[self.unit]
+
+
+def is_csv(path: str, text: str) -> bool:
+    stripped = text.lstrip()
+    return path.endswith(".csv") or bool(stripped and not stripped.startswith("{"))
+
+
+def read_trace(path: str, text: str) -> TraceFile:
+    """A whole trace, every sample kept (the reference evaluator wants them all)."""
+    reader, csv_file = LineReader(path), is_csv(path, text)
+    read_line = reader.csv if csv_file else reader.jsonl
+    for number, raw in enumerate(text.split("\n"), 1):
+        read_line(number, raw)
+    if csv_file and reader.header is None:
+        raise TraceError(path, 1, 1, "the CSV file has no header", "start with `t,state`")
+    trace = TraceFile(unit=reader.unit, end=reader.end, notes=reader.ignored_note())
+    trace.times = [t for t, _ in reader.accepted]
+    trace.states = [state for _, state in reader.accepted]
+    if not trace.times:
+        raise TraceError(
+            path, 1, 1, "the trace has no samples", 'add lines such as {"t": 0, "state": "A"}'
+        )
+    if trace.end is None:
+        trace.end = trace.times[-1]
+        trace.notes.append(f"{path}: no end record: the trace is known up to its last sample")
+    return trace
 
 
 class TraceError(Exception):

@@ -21,8 +21,8 @@ long the trace. A JSON Lines chunk is decoded at once by msgspec (keys in any or
 fields other than these four ignored, the first one noted), each time kept as
 written and read as a float besides: the floats check the order (no two decimals
 come out of order as floats, ties go to the exact reader), the text gives the exact
-time where the state changes; a CSV chunk under a `t,state` header by one regular
-expression. Any chunk that does not
+time where the state changes; a CSV chunk by one regular expression built from its
+header (rmvdsl.logic.trace_csv), its columns in any order. Any chunk that does not
 decode so, and any line that is not a plain sample after the one before, goes through
 the full reader, which reports each problem. Times come out exact, as whole
 billionths of the trace's unit (an int; a Fraction only for a time finer than that).
@@ -33,42 +33,18 @@ from __future__ import annotations
 import codecs
 import json
 import operator
-import re
-from collections.abc import Iterator
-from dataclasses import dataclass, field
+from collections.abc import Callable, Iterator
 from fractions import Fraction
 from itertools import compress, count, islice
 from typing import Any, BinaryIO
 
 from rmvdsl.grammar.formula import TIME_UNITS
 from rmvdsl.lang.numbers import exact_or_quotient
-from rmvdsl.logic.trace_chunks import (
-    ChunkDecoder,
-    Record,
-    decimal_scaled,
-    scaled,
-    text_scaled,
-    time_text,
-)
-from rmvdsl.logic.trace_lines import NAME, LineReader, TraceError, load_json
-
-
-@dataclass
-class TraceFile:
-    times: list[Fraction] = field(default_factory=list)
-    states: list[frozenset[str]] = field(default_factory=list)
-    end: Fraction | None = None
-    unit: str = "s"
-    notes: list[str] = field(default_factory=list)
-
-    @property
-    def unit_seconds(self) -> Fraction:
-        return TIME_UNITS[self.unit]
-
+from rmvdsl.logic.trace_chunks import ChunkDecoder, Record, scaled, text_scaled, time_text
+from rmvdsl.logic.trace_csv import CsvRows, rows_of
+from rmvdsl.logic.trace_lines import NAME, LineReader, TraceError, is_csv, load_json
 
 CHUNK = 1 << 20  # bytes read at a time
-_DECIMAL = r"(-?(?:0|[1-9][0-9]{0,14})(?:\.[0-9]{1,9})?)"  # exact in billionths, in range
-_FAST_CSV = re.compile(rf"^[ \t]*{_DECIMAL}[ \t]*,[ \t]*([A-Za-z_][A-Za-z0-9_]*)[ \t\r]*$", re.M)
 StateKey = str | tuple[str, ...]  # one proposition's name, or the list a `props` line names
 
 
@@ -77,30 +53,11 @@ def _names(key: StateKey) -> tuple[str, ...]:
     return (key,) if isinstance(key, str) else key
 
 
-def _is_csv(path: str, text: str) -> bool:
-    stripped = text.lstrip()
-    return path.endswith(".csv") or bool(stripped and not stripped.startswith("{"))
-
-
-def read_trace(path: str, text: str) -> TraceFile:
-    """A whole trace, every sample kept (the reference evaluator wants them all)."""
-    reader, is_csv = LineReader(path), _is_csv(path, text)
-    read_line = reader.csv if is_csv else reader.jsonl
-    for number, raw in enumerate(text.split("\n"), 1):
-        read_line(number, raw)
-    if is_csv and reader.header is None:
-        raise TraceError(path, 1, 1, "the CSV file has no header", "start with `t,state`")
-    trace = TraceFile(unit=reader.unit, end=reader.end, notes=reader.ignored_note())
-    trace.times = [t for t, _ in reader.accepted]
-    trace.states = [state for _, state in reader.accepted]
-    if not trace.times:
-        raise TraceError(
-            path, 1, 1, "the trace has no samples", 'add lines such as {"t": 0, "state": "A"}'
-        )
-    if trace.end is None:
-        trace.end = trace.times[-1]
-        trace.notes.append(f"{path}: no end record: the trace is known up to its last sample")
-    return trace
+def _propositions(key: StateKey) -> frozenset[str] | None:
+    """The state a JSON Lines key names, if its names are propositions' (else the
+    full reader reports them)."""
+    names = _names(key)
+    return frozenset(names) if all(NAME.fullmatch(name) for name in names) else None
 
 
 class TraceStream:
@@ -117,7 +74,7 @@ class TraceStream:
         self._read_newlines = 0  # in the last of them
         self._tail = 0  # bytes after the last of them
         self._head = self._read()
-        self._csv = _is_csv(path, self._head)
+        self._csv = is_csv(path, self._head)
         self._reader = LineReader(path)
         self.end: Fraction | None = None
         self.first: Fraction | None = None
@@ -127,6 +84,8 @@ class TraceStream:
         self._states: dict[StateKey, frozenset[str]] = {}  # of the common lines
         self._current: frozenset[str] | None = None  # the state of the last sample
         self._chunks = ChunkDecoder(self._reader)
+        self._rows_header: list[str] | None = None  # the CSV header `_rows` reads
+        self._rows: CsvRows | None = None
         self._peek_unit()
 
     @property
@@ -187,8 +146,8 @@ class TraceStream:
             number += count
             chunk = rest + self._read()
             newlines = self._read_newlines
-        for key in self._states:
-            self.seen.update(_names(key))
+        for state in self._states.values():
+            self.seen.update(state)
         self._finish()
 
     def _chunk(
@@ -196,11 +155,19 @@ class TraceStream:
     ) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
         """The lines after line `before`: decoded at once where they allow it, else
         one at a time by the full reader, which explains any problem."""
+        if self._csv and self._reader.header is None:
+            yield from self._csv_header(lines, count, before)
+            return
         if self._fast_ready():
             if self._csv:
-                pairs = _FAST_CSV.findall(lines)
-                if len(pairs) == count:
-                    yield from self._fast_pairs(pairs, before, lines)
+                rows = self._csv_rows()
+                split = rows.split(lines, count) if rows else None
+                if rows and split:
+                    texts, keys = split
+                    yield from self._fast_runs(
+                        keys, list(map(float, texts)), texts.__getitem__, rows.state,
+                        lambda: self._full_lines(lines, count, before),
+                    )  # fmt: skip
                     return
             else:
                 decoded = self._chunks.decode(lines, count, before)
@@ -213,6 +180,21 @@ class TraceStream:
                     return
         yield from self._full_lines(lines, count, before)
 
+    def _csv_header(
+        self, lines: str, count: int, before: int
+    ) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
+        """The lines up to the header (comments, the unit) and the header one at a
+        time; the rest of the chunk as any other."""
+        taken = 0
+        for raw in lines.split("\n")[:count]:
+            yield from self._full_line(before + taken + 1, raw)
+            taken += 1
+            if self._reader.header is not None:
+                break
+        if taken < count:
+            rest = lines[len("\n".join(lines.split("\n", taken)[:taken])) + 1 :]
+            yield from self._chunk(rest, count - taken, before + taken)
+
     def _full_lines(
         self, lines: str, count: int, before: int
     ) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
@@ -223,39 +205,57 @@ class TraceStream:
         self, named_by: str, records: list[Any], times: list[float], before: int, lines: str
     ) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
         """Plain samples, each naming its state by the field `named_by` ("state" or
-        "props"): checked by the interpreter's own loops over their times and keys
-        (the hottest path: most chunks of most traces), the records looked at one by
-        one only where the key differs from the sample's before. Anything to explain
-        (a time not above the last, a new name that is no proposition) is left to
-        the record at a time path."""
+        "props"). Anything to explain (a time not above the last, a new name that is
+        no proposition) is left to the record at a time path."""
+
+        def general() -> Iterator[tuple[int | Fraction, frozenset[str]]]:
+            decoded = self._chunks.records(lines)  # rare: decoded again
+            if decoded is None:
+                return self._full_lines(lines, len(records), before)
+            return self._fast_records(*decoded, before, lines)
+
         keys = list(map(operator.attrgetter(named_by), records))
+        yield from self._fast_runs(
+            keys, times, lambda index: time_text(records[index]), _propositions, general
+        )
+
+    def _fast_runs(
+        self,
+        keys: list[Any],
+        times: list[float],
+        text_at: Callable[[int], str],
+        state_of: Callable[[Any], frozenset[str] | None],
+        general: Callable[[], Iterator[tuple[int | Fraction, frozenset[str]]]],
+    ) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
+        """A chunk of plain samples: each one's key (what names its state), its time
+        as a float and as written (`text_at`). Checked by the interpreter's own loops
+        over the times and keys (the hottest path: most chunks of most traces), a
+        sample looked at on its own only where its key differs from the one before.
+        Where the floats are not in increasing order (a tie, or a time not above the
+        last) or a new key's names are no propositions (`state_of` gives None), the
+        chunk goes to `general`, which explains it."""
         starts = [0, *compress(count(1), map(operator.ne, islice(keys, 1, None), keys))]
         states, reader = self._states, self._reader
-        new = {keys[index] for index in starts}.difference(states)
+        new = {key: state_of(key) for key in {keys[index] for index in starts} if key not in states}
         if (
             times[0] <= reader.last_float
             or not all(map(operator.lt, times, islice(times, 1, None)))
-            or not all(NAME.fullmatch(name) for key in new for name in _names(key))
+            or None in new.values()
         ):
-            general = self._chunks.records(lines)  # rare: decoded again
-            if general is None:
-                yield from self._full_lines(lines, len(records), before)
-            else:
-                yield from self._fast_records(*general, before, lines)
+            yield from general()
             return
-        for key in new:
-            states[key] = frozenset(_names(key))
+        states.update(new)  # (no None: checked above)
         current = self._current
         for index in starts:
             state = states[keys[index]]
             if state is not current and state != current:
-                text = time_text(records[index])
+                text = text_at(index)
                 if current is None:
                     self.first = exact_or_quotient(text)
                 current = state
                 yield text_scaled(text), state
         self._current = current
-        self._settle(times[-1], records[-1], len(times))
+        self._settle(times[-1], text_at(len(times) - 1), len(times))
 
     def _fast_records(
         self, records: list[Any], times: list[float], before: int, lines: str
@@ -276,7 +276,7 @@ class TraceStream:
                 if state is None:
                     state = self._new_state(record)
             if state is None:
-                self._settle(last, newest, taken)
+                self._settle(last, newest and time_text(newest), taken)
                 raws = raws or lines.split("\n")
                 self._current = current
                 yield from self._full_line(before + index + 1, raws[index])
@@ -290,7 +290,7 @@ class TraceStream:
                     self.first = exact_or_quotient(text)
                 current = state
                 yield text_scaled(text), state
-        self._settle(last, newest, taken)
+        self._settle(last, newest and time_text(newest), taken)
         self._current = current
 
     def _new_state(self, record: Record) -> frozenset[str] | None:
@@ -312,36 +312,20 @@ class TraceStream:
         state = self._states[key] = frozenset(names)
         return state
 
-    def _settle(self, last: float, newest: Any, taken: int) -> None:
-        """The reader learns the newest of `taken` samples read fast (its time as a
-        float and as written)."""
+    def _settle(self, last: float, text: str | None, taken: int) -> None:
+        """The reader learns the newest of `taken` samples read fast: its time as a
+        float and as written."""
         if taken:
             reader = self._reader
-            reader.last_float, reader.last_text, reader._last = last, time_text(newest), None
+            reader.last_float, reader.last_text, reader._last = last, text, None
             self.samples += taken
 
-    def _fast_pairs(
-        self, pairs: list[tuple[str, str]], before: int, lines: str
-    ) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
-        """CSV lines of the common shape, the ones after line `before` (their text is
-        `lines`, read again only to report a time out of order)."""
-        reader, states, current = self._reader, self._states, self._current
-        for index, (text, name) in enumerate(pairs):
-            value = float(text)
-            if value <= reader.last_float:  # maybe out of order: compared exactly
-                reader.fast_order(text, before + index + 1, lines.split("\n")[index])
-            reader.last_float, reader.last_text = value, text
-            reader._last = None
-            state = states.get(name)
-            if state is None:
-                state = states[name] = frozenset((name,))
-            if state is not current and state != current:
-                if current is None:
-                    self.first = exact_or_quotient(text)
-                current = state
-                yield decimal_scaled(text), state
-        self._current = current
-        self.samples += len(pairs)
+    def _csv_rows(self) -> CsvRows | None:
+        """The fast reading of the CSV header's rows, built once per header."""
+        header = self._reader.header
+        if header is not self._rows_header:
+            self._rows_header, self._rows = header, rows_of(header) if header else None
+        return self._rows
 
     def _full_line(self, number: int, raw: str) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
         """Any other line, through the full reader and its checks."""
@@ -379,9 +363,9 @@ class TraceStream:
 
     def _fast_ready(self) -> bool:
         """Lines are read fast before the end record (after it, each is an error)
-        and, in CSV, under a `t,state` header only."""
+        and, in CSV, once the header is read."""
         reader = self._reader
-        return reader.end is None and (not self._csv or reader.header == ["t", "state"])
+        return reader.end is None and (not self._csv or reader.header is not None)
 
     def _finish(self) -> None:
         reader = self._reader
