@@ -128,6 +128,46 @@ def test_times_a_float_cannot_hold_are_read_exactly(times, names, chunk):
         assert streamed(text) == whole(text)
 
 
+STRING_TIMES = st.one_of(
+    st.integers(0, 10**6).map(lambda k: f'"{k / 100:.2f}"'),
+    st.integers(1, 10**4).map(lambda k: f'"{k}/3"'),
+    st.integers(0, 10**4).map(lambda k: f'" {k}.5 "'),
+    st.sampled_from(['"x"', '"nan"', '""', '"1/0"', '"1e400"', '"12"']),
+)
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    times=st.lists(STRING_TIMES, min_size=1, max_size=40),
+    names=st.lists(st.sampled_from(["A", "B"]), min_size=40, max_size=40),
+    chunk=st.integers(16, 400),
+)
+def test_times_written_as_strings_are_read_as_the_whole_file_reader_reads_them(times, names, chunk):
+    """Decimals and quotients in strings, and strings that are no time: the stream
+    reads (or refuses) them as the whole-file reader does."""
+
+    def order(text: str) -> tuple[int, Fraction]:
+        try:
+            return 0, Fraction(text.strip('"').strip())
+        except (ValueError, ZeroDivisionError):
+            return 1, Fraction(0)  # no time: last, to be refused
+
+    ordered = sorted(set(times), key=order)
+    text = "".join(
+        f'{{"t": {t}, "state": "{name}"}}\n' for t, name in zip(ordered, names, strict=False)
+    )
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(traces, "CHUNK", chunk)
+        assert streamed(text) == whole(text)
+
+
+def test_a_chunk_of_times_written_as_strings_is_decoded_at_once():
+    lines = "".join(f'{{"t": "{k / 4}", "state": "{"AB"[k // 3 % 2]}"}}\n' for k in range(30))
+    decoded = trace_chunks.ChunkDecoder(traces.LineReader("t.jsonl")).decode(lines, 30, 0)
+    assert decoded is not None and decoded[2] == [k / 4 for k in range(30)]
+    assert streamed(lines) == whole(lines)
+
+
 def test_a_logger_s_unix_times_are_decoded_a_chunk_at_a_time():
     """Unix times in microseconds (16 digits) take the fast path, exactly."""
     lines = "".join(

@@ -10,18 +10,19 @@ from typing import Any
 
 import msgspec
 
-from rmvdsl.lang.numbers import exact_or_quotient
+from rmvdsl.lang.numbers import NumberError, exact_or_quotient
 from rmvdsl.logic.trace_lines import LineReader
 
 SCALE = 10**9  # a stream's times: whole billionths of the trace's unit
 
 # Every time of a chunk as a float, from the texts joined into one JSON array: a
-# float orders no two decimals the wrong way round (it may tie them), so the floats
+# float orders no two times the wrong way round (it may tie them), so the floats
 # check the order and the text of a time gives its exact value where one is needed
-# (the times where the state changes, the last). A time that is no number (a
-# string such as "1/3"), or one out of a float's range, leaves the chunk to the
-# full reader.
+# (the times where the state changes, the last). A time written as a string ("12.5",
+# "1/3") is read exactly and rounded to its float; a time that is no number, or one
+# out of a float's range, leaves the chunk to the full reader.
 _FLOATS = msgspec.json.Decoder(list[float])
+_FLOATS_OR_TEXTS = msgspec.json.Decoder(list[float | str])
 
 
 # The decoded records hold numbers, strings and tuples of strings, never a cycle:
@@ -137,16 +138,42 @@ def _of_another_shape(shape: type, name: str) -> bool:
 
 def float_times(records: list[Any]) -> list[float] | None:
     """The records' times as floats (None: one is not a number, or out of range)."""
+    joined = b"[%s]" % b",".join([r.t for r in records])
     try:
-        times: list[float] = _FLOATS.decode(b"[%s]" % b",".join([r.t for r in records]))
+        times: list[float] = _FLOATS.decode(joined)
     except msgspec.MsgspecError:
-        return None
+        try:
+            values: list[float | str] = _FLOATS_OR_TEXTS.decode(joined)
+            return [v if isinstance(v, float) else _text_float(v) for v in values]
+        except (msgspec.MsgspecError, NumberError, OverflowError):
+            return None
     return times
 
 
+def _text_float(text: str) -> float:
+    """A time written as a string, checked as the full reader reads it, as the
+    float nearest its exact value."""
+    text = text.strip()
+    return float(text) if _is_decimal(text) else float(exact_or_quotient(text))
+
+
+def _is_decimal(text: str) -> bool:
+    """Digits, a sign before them and one point among them (what float() and
+    `exact` read alike)."""
+    whole, point, fraction = text.partition(".")
+    digits = whole[1:] if whole[:1] == "-" else whole
+    return (
+        digits.isascii()
+        and digits.isdigit()
+        and (not point or (fraction.isascii() and fraction.isdigit()))
+    )
+
+
 def time_text(record: Any) -> str:
-    """A decoded record's time as written."""
-    return str(record.t, "utf-8")
+    """A decoded record's time as written: a number's text, or a string's (which
+    the reader strips)."""
+    text = str(record.t, "utf-8")
+    return text if text[0] != '"' else msgspec.json.decode(text, type=str).strip()
 
 
 def scaled(t: Fraction) -> int | Fraction:
@@ -156,11 +183,13 @@ def scaled(t: Fraction) -> int | Fraction:
 
 
 def text_scaled(text: str) -> int | Fraction:
-    """A time as a JSON number writes it, in billionths, exact."""
+    """A time's text (`time_text`), in billionths, exact: a decimal of at most 9
+    decimals by integer arithmetic, anything else (an exponent, a quotient) by
+    `exact_or_quotient`, the full reader's own reading."""
     whole, point, fraction = text.partition(".")
-    if "e" in text or "E" in text or len(fraction) > 9:
-        return scaled(exact_or_quotient(text))
-    return int(whole + fraction.ljust(9, "0")) if point else int(whole) * SCALE
+    if len(fraction) <= 9 and _is_decimal(text):
+        return int(whole + fraction.ljust(9, "0")) if point else int(whole) * SCALE
+    return scaled(exact_or_quotient(text))
 
 
 def _line_of(lines: str, index: int) -> int:
