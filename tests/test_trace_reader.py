@@ -63,9 +63,9 @@ def traces_text(draw: st.DrawFn) -> str:
     return "\n".join(lines) + draw(st.sampled_from(["\n", "", "\n\n"]))
 
 
-def whole(text: str) -> tuple[str, object]:
+def whole(text: str, path: str = "t.jsonl") -> tuple[str, object]:
     try:
-        trace = read_trace("t.jsonl", text)
+        trace = read_trace(path, text)
     except TraceError as error:
         return "error", (error.line, error.args[0])
     changes, current = [], None
@@ -76,8 +76,8 @@ def whole(text: str) -> tuple[str, object]:
     return "ok", (changes, trace.end, trace.notes)
 
 
-def streamed(text: str) -> tuple[str, object]:
-    stream = TraceStream("t.jsonl", io.BytesIO(text.encode()))
+def streamed(text: str, path: str = "t.jsonl") -> tuple[str, object]:
+    stream = TraceStream(path, io.BytesIO(text.encode()))
     try:
         changes = list(stream.changes())
     except TraceError as error:
@@ -109,25 +109,6 @@ LONG_TIMES = st.one_of(
 )
 
 
-@settings(max_examples=150, deadline=None)
-@given(
-    times=st.lists(LONG_TIMES, min_size=1, max_size=40),
-    names=st.lists(st.sampled_from(["A", "B"]), min_size=40, max_size=40),
-    chunk=st.integers(16, 400),
-)
-def test_times_a_float_cannot_hold_are_read_exactly(times, names, chunk):
-    """Times of 16 and more digits, or with an exponent, sorted as decimals (two
-    of them may be one float): the stream reads them as the whole-file reader does,
-    the change points exact."""
-    ordered = sorted(set(times), key=Fraction)
-    text = "".join(
-        f'{{"t": {t}, "state": "{name}"}}\n' for t, name in zip(ordered, names, strict=False)
-    )
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(traces, "CHUNK", chunk)
-        assert streamed(text) == whole(text)
-
-
 STRING_TIMES = st.one_of(
     st.integers(0, 10**6).map(lambda k: f'"{k / 100:.2f}"'),
     st.integers(1, 10**4).map(lambda k: f'"{k}/3"'),
@@ -136,15 +117,17 @@ STRING_TIMES = st.one_of(
 )
 
 
-@settings(max_examples=150, deadline=None)
+@settings(max_examples=300, deadline=None)
 @given(
-    times=st.lists(STRING_TIMES, min_size=1, max_size=40),
+    times=st.lists(st.one_of(LONG_TIMES, STRING_TIMES), min_size=1, max_size=40),
     names=st.lists(st.sampled_from(["A", "B"]), min_size=40, max_size=40),
     chunk=st.integers(16, 400),
 )
-def test_times_written_as_strings_are_read_as_the_whole_file_reader_reads_them(times, names, chunk):
-    """Decimals and quotients in strings, and strings that are no time: the stream
-    reads (or refuses) them as the whole-file reader does."""
+def test_times_of_any_writing_are_read_exactly(times, names, chunk):
+    """Times of 16 and more digits or with an exponent (two of them may be one
+    float), decimals and quotients in strings, and strings that are no time, in
+    increasing order: the stream reads (or refuses) them as the whole-file reader
+    does, the change points exact."""
 
     def order(text: str) -> tuple[int, Fraction]:
         try:
@@ -235,29 +218,9 @@ def test_a_csv_stream_reads_what_the_whole_file_reader_reads(text, chunk):
     """Every header order is read a chunk at a time where its rows allow it, with
     the same changes, end, notes and errors as the whole-file reader."""
 
-    def csv_whole() -> tuple[str, object]:
-        try:
-            trace = read_trace("t.csv", text)
-        except TraceError as error:
-            return "error", (error.line, error.args[0])
-        changes, current = [], None
-        for t, state in zip(trace.times, trace.states, strict=True):
-            if state != current:
-                changes.append((scaled(t), state))
-                current = state
-        return "ok", (changes, trace.end, trace.notes)
-
-    def csv_streamed() -> tuple[str, object]:
-        stream = TraceStream("t.csv", io.BytesIO(text.encode()))
-        try:
-            changes = list(stream.changes())
-        except TraceError as error:
-            return "error", (error.line, error.args[0])
-        return "ok", (changes, stream.end, stream.notes)
-
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(traces, "CHUNK", chunk)
-        assert csv_streamed() == csv_whole()
+        assert streamed(text, "t.csv") == whole(text, "t.csv")
 
 
 def _csv_row(columns: list[str], k: int) -> str:
