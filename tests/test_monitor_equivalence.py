@@ -4,6 +4,7 @@ go or cut anywhere: a cut trace's true/false verdicts are final."""
 
 from __future__ import annotations
 
+import itertools
 from fractions import Fraction
 
 import pytest
@@ -552,3 +553,44 @@ def test_a_formula_scaled_to_nanoseconds_gives_the_verdicts_in_seconds(formula, 
     in_ns = Trace([int(t * ns) for t in trace.times], trace.states, int(trace.end * ns))
     got = monitored(scaled(formula, ns), in_ns, in_ns.end, one_by_one)
     assert [(Fraction(a, ns), Fraction(b, ns), *rest) for a, b, *rest in got] == expected
+
+
+@st.composite
+def unions(draw: st.DrawFn) -> list[list]:
+    """Intervals added in order to a union, as the sweeps add them (ends ordered)."""
+    from rmvdsl.runtime.covers import add
+
+    intervals: list[list] = []
+    low = Fraction(draw(st.integers(-6, 6)), 2)
+    for _ in range(draw(st.integers(0, 6))):
+        low += Fraction(draw(st.integers(0, 4)), 2)
+        high = low + Fraction(draw(st.integers(0, 4)), 2)
+        closed = draw(st.booleans()), draw(st.booleans())
+        if high == low and not all(closed):
+            continue  # an empty interval
+        if draw(st.integers(0, 9)) == 0:
+            high, closed = float("inf"), (closed[0], False)
+        add(intervals, low, closed[0], high, closed[1])
+        low = max(low, high if high != float("inf") else low)
+    return intervals
+
+
+@settings(max_examples=400, deadline=None)
+@given(one=unions(), two=unions(), start=st.integers(-8, 8).map(lambda k: Fraction(k, 2)))
+def test_a_sweep_writes_how_many_of_its_unions_cover_each_time(one, two, start):
+    """`write` reads each union as a step function: at every time from `start` on
+    (every end, and between two ends) the signal is the number of unions that hold
+    it, checked against membership one interval at a time."""
+    from rmvdsl.runtime.covers import write
+    from rmvdsl.runtime.signal import Signal
+
+    def holds(intervals: list[list], t: Fraction) -> int:
+        return int(any((lo < t or (lo == t and lc)) and (t < hi or (t == hi and hc))
+                       for lo, lc, hi, hc in intervals))  # fmt: skip
+
+    signal = Signal(start - 1, 0)
+    write(signal, start, (one, two))
+    ends = sorted({start, *(e for i in one + two for e in (i[0], i[2]) if start < e < 99)})
+    probes = [*ends, *((a + b) / 2 for a, b in itertools.pairwise(ends)), ends[-1] + 1]
+    for t in probes:
+        assert signal.at(t) == holds(one, t) + holds(two, t), (t, one, two)

@@ -186,6 +186,8 @@ def text_scaled(text: str) -> int | Fraction:
     """A time's text (`time_text`), in billionths, exact: a decimal of at most 9
     decimals by integer arithmetic, anything else (an exponent, a quotient) by
     `exact_or_quotient`, the full reader's own reading."""
+    if text.isdigit() and text.isascii():  # a whole number (a row count, say)
+        return int(text) * SCALE
     whole, point, fraction = text.partition(".")
     if len(fraction) <= 9 and _is_decimal(text):
         return int(whole + fraction.ljust(9, "0")) if point else int(whole) * SCALE

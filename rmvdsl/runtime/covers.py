@@ -7,7 +7,6 @@ operators' meaning is docs/semantics.md). Standard library only."""
 from __future__ import annotations
 
 import bisect
-from itertools import islice
 from typing import Any
 
 from rmvdsl.runtime.signal import _INFINITY, Signal, pieces
@@ -40,47 +39,58 @@ def add(intervals: list[Interval], low: Any, low_closed: bool, high: Any,
     intervals.append([low, low_closed, high, high_closed])
 
 
-def covers(intervals: list[Interval], k: int, t: Any) -> tuple[int, int, int]:
-    """Whether the union covers t (1 or 0) and the instants just after t, moving the
-    cursor k past the intervals that end before; times come in increasing order."""
-    count = len(intervals)
-    while k < count and (intervals[k][2] < t or (intervals[k][2] == t and not intervals[k][3])):
-        k += 1
-    low = intervals[k] if k < count else None
-    point = int(low is not None and (low[0] < t or (low[0] == t and low[1])))
-    while k < count and intervals[k][2] <= t:
-        k += 1
-    after = int(k < count and intervals[k][0] <= t)
-    return k, point, after
-
-
 def write(signal: Signal, start: Any, levels: Levels) -> None:
-    """The signal from `start` on: at each time, how many levels cover it."""
+    """The signal from `start` on: at each time, how many levels cover it. Each
+    level's union is a step function read off its intervals in one pass (they are
+    disjoint and in order, and two of them meet only at a point neither holds:
+    `add`); the two are summed in one merge walk."""
     signal.cut(start)
-    ends = {start}
-    for level in levels:
-        for low, _, high, _ in level:
-            if low > start:
-                ends.add(low)
-            if start < high < _INFINITY:
-                ends.add(high)
-    ones, twos = levels
-    one = two = 0  # the first interval of each level not yet behind t
-    times = sorted(ends)
-    one, one_point, one_after = covers(ones, one, start)
-    two, two_point, two_after = covers(twos, two, start)
-    signal.append(start, one_point + two_point, one_after + two_after)
+    ones, twos = (_steps(level, start) for level in levels)
+    signal.append(start, ones[0][1] + twos[0][1], ones[0][2] + twos[0][2])
     # Signal.append inlined (each later time is past the last written)
     starts, points, opens, last = signal.starts, signal.points, signal.opens, signal.opens[-1]
-    for t in islice(times, 1, None):
-        one, one_point, one_after = covers(ones, one, t)
-        two, two_point, two_after = covers(twos, two, t)
+    i = j = 1
+    one_count, two_count = len(ones), len(twos)
+    one_after, two_after = ones[0][2], twos[0][2]
+    while i < one_count or j < two_count:
+        one_next = ones[i][0] if i < one_count else _INFINITY
+        two_next = twos[j][0] if j < two_count else _INFINITY
+        t = one_next if one_next < two_next else two_next
+        if one_next == t:
+            _, one_point, one_after = ones[i]
+            i += 1
+        else:
+            one_point = one_after
+        if two_next == t:
+            _, two_point, two_after = twos[j]
+            j += 1
+        else:
+            two_point = two_after
         point, after = one_point + two_point, one_after + two_after
         if not last == point == after:
             starts.append(t)
             points.append(point)
             opens.append(after)
             last = after
+
+
+def _steps(intervals: list[Interval], start: Any) -> list[tuple[Any, int, int]]:
+    """A union's indicator from `start` on: (time, 1 if covered there, 1 if just
+    after), at `start` and at each end of an interval after it."""
+    steps: list[tuple[Any, int, int]] = [(start, 0, 0)]
+    for low, low_closed, high, high_closed in intervals:
+        if high < start or (high == start and not high_closed):
+            continue  # over before start
+        if low < start or (low == start and steps[-1][0] == start):
+            point = 1 if low < start or low_closed else 0
+            steps[-1] = (start, point, 1 if high > start else 0)
+        elif steps[-1][0] == low:  # where the interval before ends, open both sides
+            steps[-1] = (low, steps[-1][1] or int(low_closed), 1 if high > low else 0)
+        else:
+            steps.append((low, int(low_closed), 1 if high > low else 0))
+        if start < high < _INFINITY and high > low:
+            steps.append((high, int(high_closed), 0))
+    return steps
 
 
 # ---- `phi since[<T] psi` and `phi since[<=T] psi` ----
@@ -128,18 +138,25 @@ def _step(found: tuple[Witness, Witness], phi_at: int, phi_after: int, psi_at: i
           psi_after: int, p: Any) -> tuple[Witness, Witness]:  # fmt: skip
     """From the witnesses at p to those just after it: psi there is its own witness
     (not attained: `_NOW`), else psi at p, else what p carried, each only while phi
-    holds on."""
-    out: list[Witness] = []
-    for level, witness in zip((1, 2), found, strict=True):
-        if phi_after < level:
-            out.append(None)
-        elif psi_after >= level:
-            out.append((_NOW, False))
-        elif psi_at >= level:
-            out.append((p, True))
-        else:
-            out.append(witness if phi_at >= level else None)
-    return out[0], out[1]
+    holds on. (One call per breakpoint: the two levels written out, since a loop
+    over them made a `zip(..., strict=True)` each, whose keyword alone cost more
+    than the rest.)"""
+    first, second = found
+    return (
+        _witness(1, first, phi_at, phi_after, psi_at, psi_after, p),
+        _witness(2, second, phi_at, phi_after, psi_at, psi_after, p),
+    )
+
+
+def _witness(level: int, witness: Witness, phi_at: int, phi_after: int, psi_at: int,
+             psi_after: int, p: Any) -> Witness:  # fmt: skip
+    if phi_after < level:
+        return None
+    if psi_after >= level:
+        return _NOW, False
+    if psi_at >= level:
+        return p, True
+    return witness if phi_at >= level else None
 
 
 _NOW = object()  # a witness at x itself, not attained: psi holds just before x

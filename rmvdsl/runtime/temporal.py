@@ -8,7 +8,7 @@ from abc import ABC, abstractmethod
 from typing import Any
 
 from rmvdsl.runtime.covers import Levels, Witnesses, cover, since_levels, until_levels, write
-from rmvdsl.runtime.signal import _INFINITY, FALSE, TRUE, UNKNOWN, Signal, _mid, pieces
+from rmvdsl.runtime.signal import _INFINITY, AND, FALSE, OR, TRUE, UNKNOWN, Signal, _mid, pieces
 
 
 class Node:
@@ -77,7 +77,7 @@ class Not(Node):
 class Binary(Node):
     def __init__(self, op: str, left: Node, right: Node) -> None:
         super().__init__()
-        self.combine = min if op == "and" else max
+        self.table = AND if op == "and" else OR
         self.left, self.right = left, right
         self.future = max(left.future, right.future)
         self.past = max(left.past, right.past)
@@ -88,14 +88,14 @@ class Binary(Node):
 
     def update(self, start: Any) -> None:
         """One merge walk over both children's breakpoints from `start` on."""
-        a, b, signal, combine = self.left.signal, self.right.signal, self.signal, self.combine
+        a, b, signal, table = self.left.signal, self.right.signal, self.signal, self.table
         signal.cut(start)
         a_starts, a_points, a_opens = a.starts, a.points, a.opens
         b_starts, b_points, b_opens = b.starts, b.points, b.opens
         i, j = a.index(start), b.index(start)
         a_point = a_points[i] if a_starts[i] == start else a_opens[i]
         b_point = b_points[j] if b_starts[j] == start else b_opens[j]
-        signal.append(start, combine(a_point, b_point), combine(a_opens[i], b_opens[j]))
+        signal.append(start, table[a_point][b_point], table[a_opens[i]][b_opens[j]])
         i, j = i + 1, j + 1
         a_count, b_count = len(a_starts), len(b_starts)
         starts, points, opens, last = signal.starts, signal.points, signal.opens, signal.opens[-1]
@@ -113,7 +113,7 @@ class Binary(Node):
                 j += 1
             else:
                 b_point = b_open = b_opens[j - 1]
-            point, after = combine(a_point, b_point), combine(a_open, b_open)
+            point, after = table[a_point][b_point], table[a_open][b_open]
             if not last == point == after:  # Signal.append inlined, as in Not
                 starts.append(t)
                 points.append(point)
@@ -373,9 +373,9 @@ class Ever(Node):
         o_starts, o_points, o_opens = out.starts, out.points, out.opens
         p_starts, p_points, p_opens = pending.starts, pending.points, pending.opens
         for t, phi_at, phi_after, psi_at, psi_after in pieces(phi, psi, start):
-            value = max(min(carried, phi_at), psi_at)
-            carried_after = min(max(value, psi_after), phi_after)
-            after = max(min(value, phi_after), psi_after)
+            value = OR[AND[carried][phi_at]][psi_at]
+            carried_after = AND[OR[value][psi_after]][phi_after]
+            after = OR[AND[value][phi_after]][psi_after]
             if t == o_starts[-1] or t == p_starts[-1]:  # the first piece, where cut
                 out.append(t, value, after)
                 pending.append(t, carried, carried_after)
