@@ -221,7 +221,11 @@ def _remember(memo: Witnesses, phi: Signal, psi: Signal, start: Any,
 def _at(after: tuple[Witness, Witness], t: Any) -> tuple[Witness, Witness]:
     """The witnesses at t from those on the open interval before it: psi held there
     up to t, so t is the latest witness, not attained."""
-    first, second = ((t, False) if w is not None and w[0] is _NOW else w for w in after)
+    first, second = after
+    if first is not None and first[0] is _NOW:
+        first = (t, False)
+    if second is not None and second[0] is _NOW:
+        second = (t, False)
     return first, second
 
 
