@@ -153,8 +153,8 @@ def write_all_json(out: TextIO, run: Streamed) -> None:
 
 
 # A segment as `to_json(segment_json(...))` writes it, indented under "segments":
-# written directly (json.dumps walked each segment's dict a seventh of a long
-# evaluation's time).
+# written directly (json.dumps of each segment's dict was a third of the monitor's
+# and the output's instructions on bench_eval's trace).
 _SEGMENT_JSON = """
     {
       "from": %s,

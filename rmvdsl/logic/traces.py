@@ -192,8 +192,10 @@ class TraceStream:
             if self._reader.header is not None:
                 break
         if taken < count:
-            rest = lines[len("\n".join(lines.split("\n", taken)[:taken])) + 1 :]
-            yield from self._chunk(rest, count - taken, before + taken)
+            offset = 0  # where the line after the header begins
+            for _ in range(taken):
+                offset = lines.index("\n", offset) + 1
+            yield from self._chunk(lines[offset:], count - taken, before + taken)
 
     def _full_lines(
         self, lines: str, count: int, before: int
