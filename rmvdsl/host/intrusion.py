@@ -88,9 +88,14 @@ class IntrusionWatch:
         self.stale: list[str] = []
         self.silent_since: dict[str, float] = {}  # node -> when it first did not answer
 
-    def endpoints(self, seen: Iterable[Seen], now: float) -> set[Endpoint]:
-        """The endpoints to judge at monotonic time `now` (seconds)."""
-        found, provisional = set(), {}
+    def endpoints(self, seen: Iterable[Seen], now: float, complete: bool = True) -> set[Endpoint]:
+        """The endpoints to judge at monotonic time `now` (seconds). An endpoint in
+        its grace that a `complete` poll no longer sees starts its grace again if it
+        comes back; one that an incomplete poll (a node did not answer, so its
+        connections went unseen) misses keeps it: on a busy machine a slow answer
+        now and then would otherwise keep a sneak from ever being judged."""
+        found: set[Endpoint] = set()
+        provisional = {} if complete else dict(self.provisional_since)
         for endpoint in seen:
             if endpoint.grace:
                 key = (endpoint.topic, endpoint.role, endpoint.gid, endpoint.registered)
@@ -119,7 +124,7 @@ class IntrusionWatch:
                                   "does not answer (killed?)"))  # fmt: skip
         self.stale = stale
         alive = [s for s in seen if not s.registered or s.node not in stale]
-        self.runtime.graph(time, self.endpoints(alive, now))
+        self.runtime.graph(time, self.endpoints(alive, now, complete=not silent_since))
         for record in self.runtime.records():
             if record["kind"] != "intrusion":
                 continue

@@ -97,7 +97,8 @@ def main() -> None:
             core.wait_for(lambda: "sneaked" in (logs / "sneak.log").read_text(), 10, "sneak")
             steps["sneak"] = time.monotonic()
             steps["sneak uri"] = (logs / "sneak.log").read_text().split("sneaked ")[1].split()[0]
-            time.sleep(3.0)
+            # long enough that a report later than the 2 s asked shows when it came
+            time.sleep(6.0)
             core.stop(sneak)
             victim = peer("/victim", "subscriber")
             core.wait_for(lambda: registered("/victim", "subscriber"), 10, "/victim")
