@@ -171,9 +171,7 @@ def _scaled_json(value: Any) -> str:
     back in the trace's unit: the exact decimal, a quotient string, or null."""
     if type(value) is not int:
         return to_json(json_time(_time_of(value)))
-    whole, rest = divmod(abs(value), SCALE)
-    sign = "-" if value < 0 else ""
-    return f"{sign}{whole}" if not rest else f"{sign}{whole}.{rest:09d}".rstrip("0")
+    return exact_text(Fraction(value, SCALE))  # billionths: always a decimal
 
 
 def reference_verdict(formula: Any, trace: TraceFile, t: Fraction) -> str:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from rmvdsl.logic.trace_lines import NAME
+from rmvdsl.logic.trace_lines import NAME, csv_state
 
 # A time exact in billionths and within range, as the fast path converts it.
 _DECIMAL = r"(-?(?:0|[1-9][0-9]{0,14})(?:\.[0-9]{1,9})?)"
@@ -45,9 +45,7 @@ class CsvRows:
 
     def state(self, cell: str) -> frozenset[str]:
         """The propositions a names cell holds (its names matched the pattern)."""
-        if self.props:
-            return frozenset(name.strip() for name in cell.split(";") if name.strip())
-        return frozenset((cell,)) if cell else frozenset()
+        return csv_state(cell, self.props)
 
 
 def rows_of(header: list[str]) -> CsvRows | None:

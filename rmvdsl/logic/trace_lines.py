@@ -205,12 +205,8 @@ class LineReader:
         if cells.get("end", "").lower() in ("true", "1", "yes"):
             self.close(number, 1, t)
             return
-        if "state" in header:
-            value = cells["state"]
-            state = frozenset({value}) if value else frozenset()
-        else:
-            state = frozenset(p.strip() for p in cells["props"].split(";") if p.strip())
-        self.add(number, 1, t, state)
+        named_by = "state" if "state" in header else "props"
+        self.add(number, 1, t, csv_state(cells[named_by], named_by == "props"))
 
     def _csv_preamble(self, number: int, raw: str) -> None:
         """Comments (`# unit: ms`) and blank lines, then the header."""
@@ -274,6 +270,14 @@ def _columns(raw: str) -> Callable[[str], int]:
         return raw.find(f'"{key}"') + 1 or 1
 
     return column
+
+
+def csv_state(cell: str, props: bool) -> frozenset[str]:
+    """The propositions a CSV cell names: a `props` cell's, separated by `;`, or a
+    `state` cell's one (none where it is empty)."""
+    if props:
+        return frozenset(name.strip() for name in cell.split(";") if name.strip())
+    return frozenset((cell,)) if cell else frozenset()
 
 
 def _state(

@@ -300,18 +300,12 @@ class TraceStream:
         are propositions' (else the full reader reports them)."""
         if record.end is not None or record.unit is not None:
             return None
-        if record.props is None:
-            if record.state is None:
-                return None
-            key: StateKey = record.state
-            names: tuple[str, ...] = (record.state,)
-        elif record.state is None:
-            key = names = record.props
-        else:
-            return None
-        if not all(NAME.fullmatch(name) for name in names):
-            return None
-        state = self._states[key] = frozenset(names)
+        key: StateKey | None = record.state if record.props is None else record.props
+        if key is None or (record.state is not None and record.props is not None):
+            return None  # neither, or both: the full reader says which to keep
+        state = _propositions(key)
+        if state is not None:
+            self._states[key] = state
         return state
 
     def _settle(self, last: float, text: str | None, taken: int) -> None:
