@@ -350,9 +350,9 @@ EXAMPLE_SPECS = [
 
 
 def test_a_chunk_without_errors_parses_alike_without_recovery():
-    """rmvdsl.grammar.unbroken feeds lark's parser from lark's own patterns: every
-    declaration of the examples, with its spans and the builder's findings, is
-    what the recovering parser builds."""
+    """rmvdsl.grammar.unbroken lexes with lark's own patterns and drives lark's own
+    LALR table: every declaration of the examples, with its spans and the builder's
+    findings, is what the recovering parser builds."""
     pairs = [pair for text in EXAMPLE_SPECS for pair in _both_ways(text)]
     assert len(pairs) > 300
     for fast, slow in pairs:

@@ -3,21 +3,27 @@
 lark's contextual lexer spent about a third of a large spec's parse in its own
 bookkeeping around each regular-expression match (a generator per token, a line
 counter object, a scanner object per state). This loop does the same work with
-lark's own compiled patterns, per parser state, and feeds lark's LALR parser
-directly: the same tokens (type, text, positions, lines, columns), the same
-keyword callbacks, the same parser. Anything it cannot do alike (a character no
-pattern of the state matches, a token the parser refuses) raises NotUnbroken,
-and the chunk is parsed again by rmvdsl.grammar.recovery, which reports the error;
-a lark whose insides are not as expected makes every chunk go that way.
+lark's own compiled patterns, per parser state: the same tokens (type, text,
+positions, lines, columns), the same keyword callbacks. It drives lark's LALR table
+itself too, compiled once into one row per state (a shift is the next state, a
+reduction its length, tree callback and rule name): lark's `feed_token` looks each
+reduction's callback up by its rule, whose hash and equality are Python methods,
+and was a third of the parse again. Anything it cannot do alike (a character no
+pattern of the state matches, a token the table refuses) raises NotUnbroken, and
+the chunk is parsed again by rmvdsl.grammar.recovery, with lark's own parser, which
+reports the error; a lark whose insides are not as expected makes every chunk go
+that way.
 tests/test_parser.py compares both on every chunk of the examples and on
 random edits of them.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 from lark import Token
+from lark.parsers.lalr_analysis import Shift
 
 from rmvdsl.grammar.grammars import spec_parser
 
@@ -29,17 +35,31 @@ class NotUnbroken(Exception):
 # Per parser state: lark's compiled patterns of the terminals it accepts, the
 # ignored and newline-bearing terminals, and the terminals' callbacks.
 _Plan = tuple[tuple[Any, ...], frozenset[str], frozenset[str], dict[str, Any]]
-_PLANS: list[tuple[Any, dict[int, _Plan]]] = []  # the parser's, with the parser
+# Per parser state, by terminal or rule name: a shift (or a goto) is the next
+# state; a reduction is how many values it takes, its tree callback, its rule name.
+_Row = dict[str, Any]
+
+
+@dataclass(frozen=True)
+class _Compiled:
+    parser: Any
+    plans: dict[int, _Plan]
+    rows: list[_Row]
+    start_state: int
+    end_state: int
+
+
+_COMPILED: list[_Compiled] = []  # the parser's, with the parser
 
 
 def parse_unbroken(text: str, start: int, end: int, line: int) -> tuple[Any, Token | None]:
     """The parse of text[start:end] (beginning a line, at `line`) and its last
     token; NotUnbroken where the chunk has an error."""
-    parser, _ = spec_parser()
-    interactive = parser.parse_interactive("", start="start")
-    plans = _plans(parser, interactive)
-    state = interactive.parser_state
-    feed, stack = state.feed_token, state.state_stack
+    compiled = _compiled()
+    plans, rows = compiled.plans, compiled.rows
+    stack: list[int] = [compiled.start_state]
+    values: list[Any] = []
+    push, push_value = stack.append, values.append
     make = Token._future_new  # lark's constructor, without its deprecation check
     position, line_start, last = start, start, None
     while position < end:
@@ -68,21 +88,76 @@ def parse_unbroken(text: str, start: int, end: int, line: int) -> tuple[Any, Tok
             token = callback(token)
         if kind in ignored:
             continue
-        feed(token)
+        kind = token.type  # a keyword's callback names its terminal
+        while True:  # reduce as the table says, then shift the token
+            action = rows[stack[-1]].get(kind)
+            if action is None:
+                raise NotUnbroken
+            if action.__class__ is int:
+                push(action)
+                push_value(token)
+                break
+            size, build, rule = action
+            children = values[-size:] if size else []
+            if size:
+                del stack[-size:], values[-size:]
+            push_value(build(children))
+            push(rows[stack[-1]][rule])
         last = token
-    end_token = Token.new_borrow_pos("$END", "", last) if last else Token("$END", "", 0, 1, 1)
-    return feed(end_token, True), last
+    return _finish(compiled, stack, values), last
 
 
-def _plans(parser: Any, interactive: Any) -> dict[int, _Plan]:
-    if _PLANS and _PLANS[0][0] is parser:
-        return _PLANS[0][1]
+def _finish(compiled: _Compiled, stack: list[int], values: list[Any]) -> Any:
+    """The chunk's tree: the reductions the end of the input calls for."""
+    rows = compiled.rows
+    while True:
+        action = rows[stack[-1]].get("$END")
+        if action is None or action.__class__ is int:
+            raise NotUnbroken
+        size, build, rule = action
+        children = values[-size:] if size else []
+        if size:
+            del stack[-size:], values[-size:]
+        values.append(build(children))
+        stack.append(rows[stack[-1]][rule])
+        if stack[-1] == compiled.end_state:
+            return values[-1]
+
+
+def _compiled() -> _Compiled:
+    parser, _ = spec_parser()
+    if _COMPILED and _COMPILED[0].parser is parser:
+        return _COMPILED[0]
+    interactive = parser.parse_interactive("", start="start")
     try:
-        plans = _built(interactive.lexer_thread.lexer)
-    except (AttributeError, TypeError) as exc:  # another lark: recover every chunk
+        conf = interactive.parser_state.parse_conf
+        compiled = _Compiled(
+            parser,
+            _built(interactive.lexer_thread.lexer),
+            _rows(conf.states, conf.callbacks),
+            conf.start_state,
+            conf.end_state,
+        )
+    except (AttributeError, TypeError, KeyError) as exc:  # another lark: recover every chunk
         raise NotUnbroken from exc
-    _PLANS[:] = [(parser, plans)]
-    return plans
+    _COMPILED[:] = [compiled]
+    return compiled
+
+
+def _rows(states: dict[int, dict[str, Any]], callbacks: dict[Any, Any]) -> list[_Row]:
+    """lark's LALR table as one row per state (states are numbered from 0)."""
+    if sorted(states) != list(range(len(states))):
+        raise TypeError("parser states not numbered from 0")
+    rows: list[_Row] = []
+    for state in range(len(states)):
+        row: _Row = {}
+        for name, (action, argument) in states[state].items():
+            if action is Shift:
+                row[name] = int(argument)
+            else:
+                row[name] = (len(argument.expansion), callbacks[argument], argument.origin.name)
+        rows.append(row)
+    return rows
 
 
 def _built(lexer: Any) -> dict[int, _Plan]:
