@@ -25,9 +25,11 @@ by round with lark's bare parse of the same file as a new process, medians of
          filled the caches (issue 38: <= 2x bare at every scale);
 - edit:  one line of the spec changed before each run (a comment appended), the
          solver's answers cached (issue 38: <= 3x bare);
-- cold:  the first check with empty caches (--cold-runs of them, not paired);
-         `varied` the same of the spec whose transducers are all different
-         (generate(varied=True): every solver question asked, none shared).
+- cold:  the first check with empty caches (--cold-runs of them, each paired
+         with a bare parse run just before it: `cold_ratio` is the median of
+         their wall ratios); `varied` the same of the spec whose transducers are
+         all different (generate(varied=True): every solver question asked,
+         none shared).
 
 In process (`--in-process`): machines here are shared and noisy, so the figures
 are ratios to `bare` in the same run, each the best of --repeat runs (the first
@@ -211,9 +213,10 @@ def processes(scale: int, runs: int, cold_runs: int, folder: str) -> dict[str, o
     varied = os.path.join(folder, f"varied{scale}.rmv")
     Path(varied).write_text(generate(scale, varied=True), encoding="utf-8")
     check_varied = [*rmv(), "check", os.path.basename(varied)]
-    cold, cold_varied = [], []
+    cold, cold_varied, cold_bare = [], [], []
     for run in range(cold_runs):
         empty = os.path.join(folder, f"cold{scale}-{run}")
+        cold_bare.append(child(bare_spec, folder, empty))  # the baseline of this round
         cold.append(child(check_spec, folder, empty))
         cold_varied.append(child(check_varied, folder, empty + "-varied"))
         print(f"  {scale}x cold run {run + 1}: {cold[-1][0]:.1f} s wall, "
@@ -239,6 +242,11 @@ def processes(scale: int, runs: int, cold_runs: int, folder: str) -> dict[str, o
         figures["cold_cpu"] = statistics.median(c for _, c in cold)
         figures["cold_varied_wall"] = statistics.median(w for w, _ in cold_varied)
         figures["cold_varied_cpu"] = statistics.median(c for _, c in cold_varied)
+        figures["cold_bare_wall"] = statistics.median(w for w, _ in cold_bare)
+        pairs = zip(cold, cold_varied, cold_bare, strict=True)
+        ratios = [(w / b, v / b) for (w, _), (v, _), (b, _) in pairs]
+        figures["cold_ratio"] = statistics.median(r for r, _ in ratios)
+        figures["cold_varied_ratio"] = statistics.median(r for _, r in ratios)
         figures["cold_runs"] = len(cold)
     return figures
 
