@@ -49,9 +49,10 @@ def records(draw: st.DrawFn, time: str, messy: bool, plain: str) -> str:
 @st.composite
 def traces_text(draw: st.DrawFn) -> str:
     """Increasing times written as a logger might, most lines naming a `state` or
-    most naming `props` (each a shape the reader takes a chunk at a time); in one
-    trace of three, lines of every other kind among them."""
-    lines, hundredths, messy = [], 0, draw(st.integers(0, 2)) == 0
+    most naming `props` (each a shape the reader takes a chunk at a time), a unit
+    record first or not; in one trace of three, lines of every other kind among them."""
+    lines = list(draw(st.sampled_from([(), (), ('{"unit": "ms"}',), ("", '{"unit": "s"}')])))
+    hundredths, messy = 0, draw(st.integers(0, 2)) == 0
     plain = draw(st.sampled_from(["state", "props"]))
     for _ in range(draw(st.integers(1, 60))):
         hundredths += draw(st.sampled_from([1, 7, 100] + ([0, -3] if messy else [])))

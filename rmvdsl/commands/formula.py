@@ -16,7 +16,6 @@ if TYPE_CHECKING:
     from rmvdsl.lang.diagnostics import Diagnostic
     from rmvdsl.logic.answers import Answer
     from rmvdsl.logic.evaluate import Streamed
-    from rmvdsl.logic.trace_lines import TraceFile
     from rmvdsl.logic.traces import TraceStream
 
 
@@ -48,9 +47,10 @@ def run_eval(args: argparse.Namespace) -> int:
         return EXIT_OK
     assert trace.first is not None and node is not None
     if at < trace.first:  # before the first sample: what the definitions say there
-        whole = _whole_trace(args.trace)
-        plain, _ = ev.compile_or_diagnose(node, whole.unit_seconds, whole.unit, [], args.formula)
-        verdict = ev.reference_verdict(plain, whole, at)
+        plain, _ = ev.compile_or_diagnose(node, trace.unit_seconds, trace.unit, [], args.formula)
+        with _trace_stream(args.trace) as again:  # its start, up to the formula's horizon
+            part = ev.reference_part(again, again.changes(), at, plain)
+        verdict = ev.reference_verdict(plain, part, at)
     if args.format == "json":
         sys.stdout.write(ev.as_json({"t": at, "verdict": verdict}))
     else:
@@ -104,31 +104,25 @@ def _trace_stream(path: str) -> Iterator[TraceStream]:
             raise UsageError(str(exc)) from None
 
 
-def _whole_trace(path: str) -> TraceFile:
-    from rmvdsl.check.loader import read_text
-    from rmvdsl.logic.trace_lines import TraceError, read_trace
-
-    try:
-        return read_trace(path, read_text(path))
-    except TraceError as exc:
-        raise UsageError(str(exc)) from None
-
-
 def _eval_term(
     args: argparse.Namespace, node: Any, diagnostics: list[Diagnostic], at: Fraction
 ) -> int:
     from rmvdsl.logic import evaluate as ev
     from rmvdsl.runtime.values import exact_text
 
-    trace = _whole_trace(args.trace)
-    compiled = None
-    if node is not None:
-        compiled, diagnostics = ev.compile_or_diagnose(
-            node, trace.unit_seconds, trace.unit, diagnostics, args.formula
-        )
-    if compiled is None:
-        return _formula_errors(args, diagnostics)
-    for note in [*trace.notes, *_absent_names(compiled, set().union(*trace.states))]:
+    with _trace_stream(args.trace) as stream:
+        compiled = None
+        if node is not None:
+            compiled, diagnostics = ev.compile_or_diagnose(
+                node, stream.unit_seconds, stream.unit, diagnostics, args.formula
+            )
+        if compiled is None:
+            return _formula_errors(args, diagnostics)
+        changes = stream.changes()
+        trace = ev.reference_part(stream, changes, at, compiled)
+        for _ in changes:  # every line checked, as `eval` does
+            pass
+    for note in [*stream.notes, *_absent_names(compiled, stream.seen)]:
         print(f"rmv eval: {note}", file=sys.stderr)
     low, high = ev.term_at(compiled, trace, at)
     if args.format == "json":

@@ -19,9 +19,12 @@ from rmvdsl.logic.trace_chunks import SCALE, scaled
 from rmvdsl.logic.trace_lines import TraceFile
 from rmvdsl.logic.traces import TraceStream
 from rmvdsl.logic.validate import check_formula
+from rmvdsl.runtime.facts import facts
 from rmvdsl.runtime.rmtld3 import BATCH, Monitor, Segment, merge, merged
 from rmvdsl.runtime.values import exact_text
 from rmvdsl.runtime.wording import counted
+
+Change = tuple[int | Fraction, frozenset[str]]  # a stream's: time in billionths, state
 
 
 @dataclass
@@ -181,6 +184,36 @@ def reference_verdict(formula: Any, trace: TraceFile, t: Fraction) -> str:
 
     assert trace.end is not None
     return NAMES[Reference(Trace(trace.times, trace.states, trace.end)).value(formula, t)]
+
+
+def reference_part(
+    stream: TraceStream, changes: Iterator[Change], t: Fraction, f: Any
+) -> TraceFile:
+    """The part of the trace the reference evaluator reads for the value of `f` (a
+    formula or a term) at t, from the stream's changes: from a past horizon before
+    t (from the start under an unbounded `since`) to the first change past the
+    future horizon after t. Read whole, a trace of a million samples took the
+    reference evaluator a minute; the part is a few horizons long, whatever the
+    trace's length: its first change is the last one at or before the past
+    horizon, which no value at t reads before (docs/semantics.md, "horizon").
+    `changes` is left after the first change it did not take."""
+    found = facts(f)
+    low, high = t - found.past, t + found.future  # low: -inf under an unbounded since
+    trace = TraceFile(unit=stream.unit)
+    times, states = trace.times, trace.states
+    for time, state in changes:
+        at = Fraction(time, SCALE) if isinstance(time, int) else time / SCALE
+        if at > high and times:  # (the first sample is kept: it is where time starts)
+            trace.end = at  # the state before it holds up to it
+            break
+        if at <= low:  # the latest change at or before `low` holds at `low`
+            times[:], states[:] = [at], [state]
+        else:
+            times.append(at)
+            states.append(state)
+    else:
+        trace.end = Fraction(stream.end) if stream.end is not None else None
+    return trace
 
 
 def term_at(term: Any, trace: TraceFile, t: Fraction) -> tuple[Fraction, Fraction]:

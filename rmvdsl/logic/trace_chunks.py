@@ -49,11 +49,12 @@ class _PlainProps(msgspec.Struct, gc=False):
 # The plain shapes, each with the field that names its state.
 _PLAIN = {_Plain: "state", _PlainProps: "props"}
 # A plain sample holds none of these: decoded strictly, such a field is unknown,
-# which says the line has another shape; decoded leniently (unknown fields
-# ignored), the plain shapes declare them as fields no value fits.
+# which says the line has another shape (a unit record's `unit` is no field a
+# sample ignores); decoded leniently (unknown fields ignored), the plain shapes
+# declare them as fields no value fits.
 _OTHER_SHAPES: dict[type, tuple[str, ...]] = {
-    _Plain: ("props", "end"),
-    _PlainProps: ("state", "end"),
+    _Plain: ("props", "end", "unit"),
+    _PlainProps: ("state", "end", "unit"),
 }
 
 
