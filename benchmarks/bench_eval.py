@@ -17,7 +17,10 @@ resident set. In the same run, over the same file:
   record, 1 MB at a time), the floor under any reader built on it;
 - `orjson` per line, where it is installed: the other fast reader measured;
 - the whole trace in memory (plain only): the same monitor fed after reading the
-  whole file into lists (how `rmv eval` worked before it streamed), same output.
+  whole file into lists (how `rmv eval` worked before it streamed), same output;
+- `rmv eval` as first typed, without `--all`: the verdict at 0, the trace read to
+  its end (for `unix`, a time before the first sample: the reference evaluator's
+  value, from the part of the trace within the formula's horizons).
 
 `rmv eval`'s output is the same for every shape (checked; `unix`'s times less
 1,700,000,000). Goals (issue 37): at least
@@ -162,6 +165,9 @@ def commands(trace: Path, shape: str) -> dict[str, list[str]]:
     options = ["--formula", FORMULA, "--trace", str(trace), "--all", "--format", "json"]
     found = {
         "rmv eval": [python, "-m", "rmvdsl.cli", "eval", *options],
+        # the command as first typed: the verdict at 0 (for `unix`, before the first
+        # sample, which the reference evaluator gives from the trace's first horizon)
+        "rmv eval at 0": [python, "-m", "rmvdsl.cli", "eval", *options[:4]],
         "json.loads per line": [python, "-c", BARE_JSON, str(trace)],
         "msgspec per chunk": [python, "-c", MSGSPEC_CHUNKS, str(trace)],
     }

@@ -69,8 +69,8 @@ def monitor_per_change(data: dict[str, Any]) -> str:
 
 
 def eval_end_to_end(data: dict[str, Any]) -> str:
-    names = ("rmv eval", "json.loads per line", "msgspec per chunk", "orjson per line",
-             "whole trace in memory")  # fmt: skip
+    names = ("rmv eval", "rmv eval at 0", "json.loads per line", "msgspec per chunk",
+             "orjson per line", "whole trace in memory")  # fmt: skip
     rows = []
     for key, row in data["rows"].items():
         count, shape = key.split()

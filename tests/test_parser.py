@@ -376,3 +376,25 @@ def test_edited_chunks_parse_alike_or_go_to_recovery(text, data):
         text = text[:position] + snippet + text[position + cut :]
     for fast, slow in _both_ways(text):
         assert fast == slow
+
+
+@pytest.mark.parametrize("broken", ["_built", "_rows"])
+def test_a_lark_whose_insides_differ_is_parsed_by_recovery_alike(monkeypatch, broken):
+    """rmvdsl.grammar.unbroken reads lark's lexer and LALR table: where they are not
+    as it knows them (a TypeError, as a changed lark would give), every chunk goes
+    to the recovering parser, and the spec reads the same."""
+    from rmvdsl.grammar import parser, unbroken
+
+    text = EXAMPLE_SPECS[0]
+    expected = parse(text)
+    parser._CHUNK_CACHE.clear()
+    monkeypatch.setattr(unbroken, "_COMPILED", [])
+
+    def changed(*_: object) -> None:
+        raise TypeError("not lark's as known")
+
+    monkeypatch.setattr(unbroken, broken, changed)
+    with pytest.raises(unbroken.NotUnbroken):
+        unbroken.parse_unbroken(text, 0, len(text), 1)
+    assert parse(text) == expected
+    parser._CHUNK_CACHE.clear()

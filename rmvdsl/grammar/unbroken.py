@@ -148,6 +148,8 @@ def _rows(states: dict[int, dict[str, Any]], callbacks: dict[Any, Any]) -> list[
     """lark's LALR table as one row per state (states are numbered from 0)."""
     if sorted(states) != list(range(len(states))):
         raise TypeError("parser states not numbered from 0")
+    if any(isinstance(key, str) for key in callbacks):  # lark would call it on a shift
+        raise TypeError("a terminal with a tree callback")
     rows: list[_Row] = []
     for state in range(len(states)):
         row: _Row = {}
