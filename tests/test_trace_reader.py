@@ -40,7 +40,7 @@ def records(draw: st.DrawFn, time: str, messy: bool, plain: str) -> str:
         items.append(("props", json.dumps(draw(st.lists(names, max_size=3)))))
     if kind == "end":
         items.append(("end", "true"))
-    for extra in draw(st.lists(st.sampled_from(["seq", "topic", "v"]), max_size=1)):
+    for extra in draw(st.lists(st.sampled_from(["seq", "topic", "v", "unit"]), max_size=1)):
         items.append((extra, draw(st.sampled_from(["1", '"x"', "12.345678901234567", "[1]"]))))
     order = draw(st.permutations(items))
     return "{" + ", ".join(f'"{key}": {value}' for key, value in order) + "}"
