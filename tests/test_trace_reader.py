@@ -22,6 +22,9 @@ TIMES = st.one_of(
     st.integers(-3, 40).map(str),
     st.integers(0, 4000).map(lambda k: f"{k / 100:.2f}"),
     st.sampled_from(["0.1000000000000000055", "1e1", "2.5E-1", '"1/3"', '"7"', "true", "-0.0"]),
+    # times `exact` refuses (more than 100 digits, a magnitude out of 10^+-300),
+    # some of which a float holds
+    st.sampled_from(["1e305", "-1e305", "1e-400", "1e-305", "0e-500", "1." + "1" * 150]),
 )
 
 
@@ -182,6 +185,9 @@ def test_lines_of_both_shapes_in_one_chunk_keep_each_lines_state():
 
 
 CSV_NAMES = st.sampled_from(["A", "B", "Brake_2", "x^{1}", "", " A "])
+# Times written otherwise: each as the full reader reads it, or refuses it.
+CSV_TIMES = ["1/3", "1e1", ".5", "5.", "-0", "007", "-.25", "1-2", "1.2.3", "-", "", "+1",
+             "1" + "0" * 320, "1." + "1" * 150, "nan", "1_0"]  # fmt: skip
 BAD_CSV_NAMES = st.sampled_from(["A B", "1x"])
 
 
@@ -200,7 +206,7 @@ def csv_text(draw: st.DrawFn) -> str:
         hundredths += draw(st.sampled_from([1, 7, 100] + ([0, -3] if messy else [])))
         time = f"{hundredths / 100:.2f}" if hundredths % 100 else str(hundredths // 100)
         if messy and draw(st.integers(0, 9)) == 0:
-            time = draw(st.sampled_from(["1/3", "1e1", f" {time} "]))
+            time = draw(st.sampled_from([*CSV_TIMES, f" {time} ", f"{time}\t"]))
         end = draw(st.sampled_from(["", "", "", "true", "false"])) if messy else ""
         props = draw(st.lists(names, max_size=3))
         joined = draw(st.sampled_from([";", " ; "])).join(props)
@@ -208,6 +214,8 @@ def csv_text(draw: st.DrawFn) -> str:
             joined = f'"{joined}"'
         cells = {"t": time, "end": end, "state": draw(names), "props": joined}
         line = ",".join(cells[column] for column in columns)
+        if messy and draw(st.integers(0, 14)) == 0:  # a row short of a cell, or one long
+            line = draw(st.sampled_from([line.rpartition(",")[0], line + ",7"]))
         odd = messy and draw(st.integers(0, 9)) == 0
         lines.append(draw(st.sampled_from(["", line + "\r"])) if odd else line)
     return "\n".join(lines) + "\n"
@@ -249,3 +257,36 @@ def test_every_csv_header_is_read_a_chunk_at_a_time(header):
         patch.setattr(stream, "_full_line", counted)
         list(stream.changes())
     assert read_alone == [1] and stream.samples == 60
+
+
+LONG = "1." + "1" * 150  # 151 digits: more than `exact` reads, a float holds it
+REFUSED_JSONL = [
+    '{"t": 0, "state": "A"}\n{"t": 1e305, "state": "A"}\n',  # the last time
+    '{"t": 0, "state": "A"}\n{"t": 1e305, "state": "A"}\n{"t": 1e306, "state": "B"}\n',
+    '{"t": -1, "state": "A"}\n{"t": 1e-400, "state": "A"}\n{"t": 2, "state": "A"}\n',
+    '{"t": -1, "state": "A"}\n{"t": 1e-305, "state": "A"}\n{"t": 2, "state": "A"}\n',
+    '{"t": 0, "state": "A"}\n{"t": 0.5, "state": "A"}\n{"t": ' + LONG + ', "state": "A"}\n'
+    '{"t": 2, "state": "B"}\n',
+    '{"t": 0, "props": ["A"]}\n{"t": 0.5, "state": "A", "v": 1}\n{"t": 1e-400, "state": "A"}\n'
+    '{"t": 1, "state": "A"}\n',  # records taken one at a time
+]
+REFUSED_CSV = [
+    f"t,state\n0,A\n0.5,A\n{LONG},A\n2,B\n",
+    "t,state\n0,A\n1" + "0" * 320 + ",A\n",
+    # a short row and a long one: the cells of the rows after would shift into place
+    "t,state,props\n0,A,p\n1,A\n5,2,B,q\n3,A,r\n",
+]
+
+
+@pytest.mark.parametrize("text", REFUSED_JSONL + REFUSED_CSV)
+@pytest.mark.parametrize("chunk", [1 << 20, 30])
+def test_a_time_or_row_the_full_reader_refuses_is_refused_where_it_stands(text, chunk):
+    """What the fast paths would read (a float holds the time, the cells fall into
+    columns) but the full reader refuses gets the full reader's error, at its line:
+    never taken silently, never an internal error."""
+    path = "t.csv" if text.startswith("t,") else "t.jsonl"
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(traces, "CHUNK", chunk)
+        expected = whole(text, path)
+        assert expected[0] == "error"
+        assert streamed(text, path) == expected

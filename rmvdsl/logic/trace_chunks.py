@@ -5,12 +5,14 @@ first one noted), each time kept as the text written and read as a float besides
 from __future__ import annotations
 
 import re
+from bisect import bisect_left, bisect_right
+from collections.abc import Callable
 from fractions import Fraction
 from typing import Any
 
 import msgspec
 
-from rmvdsl.lang.numbers import NumberError, exact_or_quotient
+from rmvdsl.lang.numbers import MAX_DIGITS, MAX_MAGNITUDE, NumberError, exact_or_quotient
 from rmvdsl.logic.trace_lines import LineReader
 
 SCALE = 10**9  # a stream's times: whole billionths of the trace's unit
@@ -23,6 +25,16 @@ SCALE = 10**9  # a stream's times: whole billionths of the trace's unit
 # out of a float's range, leaves the chunk to the full reader.
 _FLOATS = msgspec.json.Decoder(list[float])
 _FLOATS_OR_TEXTS = msgspec.json.Decoder(list[float | str])
+
+# The times `exact` reads (rmvdsl.lang.numbers): at most MAX_DIGITS digits, a
+# magnitude within 10^-MAX_MAGNITUDE..10^MAX_MAGNITUDE. A fast path takes a time
+# only where it surely is one (its text no longer than MAX_DIGITS, its float a
+# little inside those magnitudes, or read exactly); any other goes to the full
+# reader, which reports it. (Before, a time of 150 digits, or of 1e-400, between two
+# changes was taken silently, and 1e305 as a trace's last time stopped `rmv eval`
+# with an internal error.)
+LARGEST = 10.0 ** (MAX_MAGNITUDE - 1)
+SMALLEST = 10.0 ** (1 - MAX_MAGNITUDE)
 
 
 # The decoded records hold numbers, strings and tuples of strings, never a cycle:
@@ -138,8 +150,12 @@ def _of_another_shape(shape: type, name: str) -> bool:
 
 
 def float_times(records: list[Any]) -> list[float] | None:
-    """The records' times as floats (None: one is not a number, or out of range)."""
-    joined = b"[%s]" % b",".join([r.t for r in records])
+    """The records' times as floats (None: one is not a number, or out of range, or
+    written longer than any time `exact` reads)."""
+    texts = [r.t for r in records]
+    if max(map(len, texts), default=0) > MAX_DIGITS:
+        return None
+    joined = b"[%s]" % b",".join(texts)
     try:
         times: list[float] = _FLOATS.decode(joined)
     except msgspec.MsgspecError:
@@ -149,6 +165,21 @@ def float_times(records: list[Any]) -> list[float] | None:
         except (msgspec.MsgspecError, NumberError, OverflowError):
             return None
     return times
+
+
+def readable(times: list[float], text_at: Callable[[int], str]) -> bool:
+    """Whether `exact` reads every time of a chunk whose floats increase: its ends
+    are inside the magnitudes, and the times near 0 (where a float may have lost
+    one below them) are read exactly."""
+    if not (times[0] > -LARGEST and times[-1] < LARGEST):  # (not: a NaN is out too)
+        return False
+    if times[0] < SMALLEST and times[-1] > -SMALLEST:
+        for index in range(bisect_right(times, -SMALLEST), bisect_left(times, SMALLEST)):
+            try:
+                exact_or_quotient(text_at(index))
+            except NumberError:
+                return False
+    return True
 
 
 def _text_float(text: str) -> float:

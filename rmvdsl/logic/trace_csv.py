@@ -1,64 +1,77 @@
-"""CSV chunks read at once, for `rmv eval`'s trace stream (rmvdsl.logic.traces):
-one regular expression per header, built from its columns in the order written
-(`t,state`, `state,t`, `t,props,end`...), matching each row of a plain sample. A
-chunk any of whose rows it does not match (a quoted cell, a time written as a
-quotient, the end row, a blank line) goes to the full reader."""
+"""CSV chunks read at once, for `rmv eval`'s trace stream (rmvdsl.logic.traces): a
+chunk is split at its newlines and commas by the interpreter's string methods, each
+column a slice of the cells, whatever the header's order (`t,state`, `state,t`,
+`t,props,end`...). A chunk where that reading could differ from the full reader's
+(a quoted cell, a row of another width, a time that is not plain digits with a
+point or sign, an end row) goes to the full reader, which explains any problem."""
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
+from itertools import repeat
 
+from rmvdsl.lang.numbers import MAX_DIGITS
 from rmvdsl.logic.trace_lines import NAME, csv_state
 
-# A time exact in billionths and within range, as the fast path converts it.
-_DECIMAL = r"(-?(?:0|[1-9][0-9]{0,14})(?:\.[0-9]{1,9})?)"
-_NAME = NAME.pattern
-_SPACE = r"[ \t]*"
-# Each column's cell; `t` and the column naming the state are captured.
-_CELLS = {
-    "t": _DECIMAL,
-    "state": rf"({_NAME})?",
-    "props": rf"((?:{_NAME}(?:{_SPACE};{_SPACE}{_NAME})*)?)",
-    "end": "",  # empty: a sample (a row that ends the trace goes to the full reader)
-}
-_IGNORED_PROPS = r'[^,"\r\n]*'  # beside a `state` column, `props` is not read
+COLUMNS = frozenset({"t", "state", "props", "end"})
+# What a time the fast path takes is written with: float() reads it as `exact` does
+# (`5.`, `.5`, `-0`, `007`), and anything float() refuses goes to the full reader.
+_NOT_TIME = str.maketrans("", "", "0123456789.-")
 
 
 @dataclass(frozen=True)
 class CsvRows:
-    """The rows of one header: `pattern` finds (time, names) or (names, time) in
-    each, `time_first` says which; `props` whether the names are a `;` list."""
+    """The rows of one header: how many cells each has, where the time and the
+    names are, where the end column is (None: there is none), and whether the names
+    are a `;` list (`props`)."""
 
-    pattern: re.Pattern[str]
-    time_first: bool
+    width: int
+    time_at: int
+    names_at: int
+    end_at: int | None
     props: bool
 
-    def split(self, lines: str, count: int) -> tuple[list[str], list[str]] | None:
-        """The times and names cells of a chunk of `count` rows, or None where a
-        row is not a plain sample written plainly."""
-        found = self.pattern.findall(lines)
-        if not found or len(found) != count:
+    def split(self, lines: str, count: int) -> tuple[list[str], list[float], list[str]] | None:
+        """The times (as written and as floats) and names cells of a chunk of `count`
+        rows, or None where a row is not a plain sample written plainly."""
+        if '"' in lines:  # quoting: the csv module's reading
             return None
-        first, second = (list(column) for column in zip(*found, strict=True))
-        return (first, second) if self.time_first else (second, first)
+        rows = (lines[:-1] if lines.endswith("\n") else lines).split("\n")
+        width = self.width
+        # every row of the header's width (a short row beside a long one would
+        # otherwise shift the columns of the rows after it)
+        if (
+            len(rows) != count
+            or list(map(str.count, rows, repeat(",", count))).count(width - 1) != count
+        ):
+            return None
+        cells = ",".join(rows).split(",")
+        if self.end_at is not None and "".join(cells[self.end_at :: width]).strip():
+            return None  # the end row, or an end cell the full reader reads
+        texts = cells[self.time_at :: width]
+        if max(map(len, texts), default=0) > MAX_DIGITS:  # (`exact` reads no longer time)
+            return None
+        if "".join(texts).translate(_NOT_TIME):  # spaces, a carriage return, or no time
+            texts = [text.strip() for text in texts]
+            if "".join(texts).translate(_NOT_TIME):
+                return None
+        try:
+            times = list(map(float, texts))
+        except ValueError:  # an empty cell, `1.2.3`, `-`
+            return None
+        return texts, times, cells[self.names_at :: width]
 
-    def state(self, cell: str) -> frozenset[str]:
-        """The propositions a names cell holds (its names matched the pattern)."""
-        return csv_state(cell, self.props)
+    def state(self, cell: str) -> frozenset[str] | None:
+        """The propositions a names cell holds; None where one is no proposition
+        name (the full reader reports it)."""
+        names = csv_state(cell.strip(), self.props)
+        return names if all(NAME.fullmatch(name) for name in names) else None
 
 
 def rows_of(header: list[str]) -> CsvRows | None:
     """The fast reading of a header's rows (None: a header it does not take)."""
-    if len(set(header)) != len(header) or not set(header) <= set(_CELLS):
+    if len(set(header)) != len(header) or not set(header) <= COLUMNS:
         return None
     named_by = "state" if "state" in header else "props"
-    cells = []
-    for column in header:
-        cell = _CELLS[column]
-        if column == "props" and named_by == "state":
-            cell = _IGNORED_PROPS
-        cells.append(_SPACE + cell + _SPACE)
-    pattern = re.compile("^" + ",".join(cells) + r"\r?$", re.M)
-    captured = [column for column in header if column in ("t", named_by)]
-    return CsvRows(pattern, captured[0] == "t", named_by == "props")
+    end = header.index("end") if "end" in header else None
+    return CsvRows(len(header), header.index("t"), header.index(named_by), end, named_by == "props")

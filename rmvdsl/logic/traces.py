@@ -21,10 +21,11 @@ long the trace. A JSON Lines chunk is decoded at once by msgspec (keys in any or
 fields other than these four ignored, the first one noted), each time kept as
 written and read as a float besides: the floats check the order (no two decimals
 come out of order as floats, ties go to the exact reader), the text gives the exact
-time where the state changes; a CSV chunk by one regular expression built from its
-header (rmvdsl.logic.trace_csv), its columns in any order. Any chunk that does not
-decode so, and any line that is not a plain sample after the one before, goes through
-the full reader, which reports each problem. Times come out exact, as whole
+time where the state changes; a CSV chunk is split at its newlines and commas
+(rmvdsl.logic.trace_csv), its columns in any order. A time `exact` would refuse
+(too many digits, a magnitude out of range) is never taken fast. Any chunk that
+does not decode so, and any line that is not a plain sample after the one before,
+goes through the full reader, which reports each problem. Times come out exact, as whole
 billionths of the trace's unit (an int; a Fraction only for a time finer than that).
 """
 
@@ -40,7 +41,16 @@ from typing import Any, BinaryIO
 
 from rmvdsl.grammar.formula import TIME_UNITS
 from rmvdsl.lang.numbers import exact_or_quotient
-from rmvdsl.logic.trace_chunks import ChunkDecoder, Record, scaled, text_scaled, time_text
+from rmvdsl.logic.trace_chunks import (
+    LARGEST,
+    SMALLEST,
+    ChunkDecoder,
+    Record,
+    readable,
+    scaled,
+    text_scaled,
+    time_text,
+)
 from rmvdsl.logic.trace_csv import CsvRows, rows_of
 from rmvdsl.logic.trace_lines import NAME, LineReader, TraceError, is_csv, load_json
 
@@ -163,9 +173,9 @@ class TraceStream:
                 rows = self._csv_rows()
                 split = rows.split(lines, count) if rows else None
                 if rows and split:
-                    texts, keys = split
+                    texts, times, keys = split
                     yield from self._fast_runs(
-                        keys, list(map(float, texts)), texts.__getitem__, rows.state,
+                        keys, times, texts.__getitem__, rows.state,
                         lambda: self._full_lines(lines, count, before),
                     )  # fmt: skip
                     return
@@ -243,6 +253,7 @@ class TraceStream:
             times[0] <= reader.last_float
             or not all(map(operator.lt, times, islice(times, 1, None)))
             or None in new.values()
+            or not readable(times, text_at)
         ):
             yield from general()
             return
@@ -269,7 +280,7 @@ class TraceStream:
         last, newest, taken, raws = reader.last_float, None, 0, None
         for index, (record, value) in enumerate(zip(records, times, strict=True)):
             state = None
-            if value > last and reader.end is None:
+            if value > last and reader.end is None and SMALLEST < abs(value) < LARGEST:
                 if record.end is None and record.unit is None:
                     props = record.props
                     state = states.get(record.state if props is None else props)
