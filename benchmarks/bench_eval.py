@@ -2,17 +2,17 @@
 for traces as users write them.
 
 The braking controller of bench_monitor.py at 100 Hz and formula 3.1, at 100,000 and
-1,000,000 samples, written three ways: `plain` (`{"t": 12.34, "state": "A"}`, as
+1,000,000 samples, written four ways: `plain` (`{"t": 12.34, "state": "A"}`, as
 `rmv sat` and most examples write), `logger` (what a logging node writes: the
 keys in a random order on every line, a sequence number on half the lines and a
-17-digit float reading on a third, whole seconds as integers) and `unix` (the plain
+17-digit float reading on a third, whole seconds as integers), `unix` (the plain
 lines with Unix times in microseconds, 16 digits: `1700000012.340000`, as a ROS
-stamp converted to seconds reads). Each command runs as
+stamp converted to seconds reads) and `csv` (`t,state,end` rows). Each command runs as
 its own process (its start-up included); peak memory is the process's own maximum
 resident set. In the same run, over the same file:
 
-- `json.loads` per line: the standard library's reader, doing nothing with what it
-  reads (the speed a JSON Lines tool starts from);
+- `json.loads` per line (for `csv`, `csv.reader` per row): the standard library's
+  reader, doing nothing with what it reads (the speed a tool starts from);
 - `msgspec` per chunk: the reader `rmv eval` uses, bare (decode_lines into a typed
   record, 1 MB at a time), the floor under any reader built on it;
 - `orjson` per line, where it is installed: the other fast reader measured;
@@ -113,15 +113,28 @@ with open(sys.argv[1], "rb") as handle:
         count += 1
 print(count)
 """
-SHAPES = ("plain", "logger", "unix")
+BARE_CSV = """
+import csv, sys
+count = 0
+with open(sys.argv[1], encoding="utf-8", newline="") as handle:
+    for row in csv.reader(handle):
+        count += 1
+print(count)
+"""
+SHAPES = ("plain", "logger", "unix", "csv")
 EPOCH = 1_700_000_000  # the unix shape's first time
 
 
 def write_trace(path: Path, samples: int, shape: str) -> None:
     draw = random.Random(37)
     with path.open("w", encoding="utf-8") as handle:
+        if shape == "csv":
+            handle.write("t,state,end\n")
         for tick, state in generate(samples):
             time = f"{tick // 100}.{tick % 100:02d}"
+            if shape == "csv":
+                handle.write(f"{time},{state},\n")
+                continue
             if shape == "plain":
                 handle.write(f'{{"t": {time}, "state": "{state}"}}\n')
                 continue
@@ -138,7 +151,8 @@ def write_trace(path: Path, samples: int, shape: str) -> None:
             draw.shuffle(fields)
             handle.write("{" + ", ".join(fields) + "}\n")
         start = EPOCH if shape == "unix" else 0
-        handle.write(f'{{"t": {start + samples // 100}.{samples % 100:02d}, "end": true}}\n')
+        end = f"{start + samples // 100}.{samples % 100:02d}"
+        handle.write(f"{end},,true\n" if shape == "csv" else f'{{"t": {end}, "end": true}}\n')
 
 
 def byte_compile() -> None:
@@ -168,9 +182,12 @@ def commands(trace: Path, shape: str) -> dict[str, list[str]]:
         # the command as first typed: the verdict at 0 (for `unix`, before the first
         # sample, which the reference evaluator gives from the trace's first horizon)
         "rmv eval at 0": [python, "-m", "rmvdsl.cli", "eval", *options[:4]],
-        "json.loads per line": [python, "-c", BARE_JSON, str(trace)],
-        "msgspec per chunk": [python, "-c", MSGSPEC_CHUNKS, str(trace)],
     }
+    if shape == "csv":  # the standard library's reader is the baseline
+        found["csv.reader per row"] = [python, "-c", BARE_CSV, str(trace)]
+        return found
+    found["json.loads per line"] = [python, "-c", BARE_JSON, str(trace)]
+    found["msgspec per chunk"] = [python, "-c", MSGSPEC_CHUNKS, str(trace)]
     if importlib.util.find_spec("orjson") is not None:
         found["orjson per line"] = [python, "-c", ORJSON, str(trace)]
     if shape == "plain":
@@ -196,18 +213,19 @@ def run(samples: list[int], repeat: int, folder: Path) -> dict[str, Any]:
                 outputs[f"{shape} {name}"] = out.read_text(encoding="utf-8")
                 row[name] = {"seconds": best[0], "samples_per_s": count / best[0],
                              "peak_mb": best[1]}  # fmt: skip
-            row["rmv eval / json.loads"] = (
-                row["rmv eval"]["samples_per_s"] / row["json.loads per line"]["samples_per_s"]
+            baseline = row["csv.reader per row" if shape == "csv" else "json.loads per line"]
+            row["rmv eval / the standard library's reader"] = (
+                row["rmv eval"]["samples_per_s"] / baseline["samples_per_s"]
             )
             trace.unlink()
             rows[f"{count} {shape}"] = row
         compared = ("plain rmv eval", "logger rmv eval", "plain whole trace in memory",
-                    "unix rmv eval")  # fmt: skip
+                    "unix rmv eval", "csv rmv eval")  # fmt: skip
         evaluated = [json.loads(outputs[key]) for key in compared]
         for result in evaluated:
             result["memory"].pop("held")
         shift(evaluated[3], -EPOCH)
-        if not evaluated[0] == evaluated[1] == evaluated[2] == evaluated[3]:
+        if any(result != evaluated[0] for result in evaluated):
             raise SystemExit("the evaluations of the shapes disagree: no figures")
     return rows
 
@@ -245,8 +263,9 @@ def main() -> int:
             for name, value in row.items()
             if isinstance(value, dict)
         )
-        ratio = row["rmv eval / json.loads"]
-        print(f"{key} ({row['bytes'] / 1e6:.1f} MB): {cells}; rmv eval / json.loads {ratio:.2f}")
+        ratio = row["rmv eval / the standard library's reader"]
+        print(f"{key} ({row['bytes'] / 1e6:.1f} MB): {cells}; rmv eval / the standard "
+              f"library's reader {ratio:.2f}")  # fmt: skip
     largest, smallest = max(args.samples), min(args.samples)
     if largest != smallest:
         for shape in SHAPES:

@@ -242,9 +242,12 @@ def _csv_row(columns: list[str], k: int) -> str:
 )
 def test_every_csv_header_is_read_a_chunk_at_a_time(header):
     """The rows of any header order take the fast path: the full reader reads the
-    header alone."""
+    header alone, and a blank line and the end row, not the rows around them."""
     columns = header.split(",")
-    text = "\n".join([header, *(_csv_row(columns, k) for k in range(60))]) + "\n"
+    rows = [_csv_row(columns, k) for k in range(60)]
+    end = [",".join({"t": "6", "end": "true"}.get(c, "") for c in columns)]
+    lines = [header, *rows[:30], "", *rows[30:], *(end if "end" in columns else [])]
+    text = "\n".join(lines) + "\n"
     stream = TraceStream("t.csv", io.BytesIO(text.encode()))
     read_alone: list[int] = []
     full_line = stream._full_line
@@ -256,7 +259,8 @@ def test_every_csv_header_is_read_a_chunk_at_a_time(header):
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(stream, "_full_line", counted)
         list(stream.changes())
-    assert read_alone == [1] and stream.samples == 60
+    assert read_alone == [1, 32, *([63] if "end" in columns else [])]
+    assert stream.samples == 60 and stream.end == (6 if "end" in columns else Fraction(59, 10))
 
 
 LONG = "1." + "1" * 150  # 151 digits: more than `exact` reads, a float holds it

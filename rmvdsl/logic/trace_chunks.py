@@ -13,7 +13,7 @@ from typing import Any
 import msgspec
 
 from rmvdsl.lang.numbers import MAX_DIGITS, MAX_MAGNITUDE, NumberError, exact_or_quotient
-from rmvdsl.logic.trace_lines import LineReader
+from rmvdsl.logic.trace_lines import NAME, LineReader
 
 SCALE = 10**9  # a stream's times: whole billionths of the trace's unit
 
@@ -147,6 +147,16 @@ class ChunkDecoder:
 
 def _of_another_shape(shape: type, name: str) -> bool:
     return name in _OTHER_SHAPES.get(shape, ())
+
+
+StateKey = str | tuple[str, ...]  # one proposition's name, or the list a `props` line names
+
+
+def propositions(key: StateKey) -> frozenset[str] | None:
+    """The state a JSON Lines key names, if its names are propositions' (else the
+    full reader reports them)."""
+    names = (key,) if isinstance(key, str) else key
+    return frozenset(names) if all(NAME.fullmatch(name) for name in names) else None
 
 
 def float_times(records: list[Any]) -> list[float] | None:

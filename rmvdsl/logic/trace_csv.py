@@ -19,6 +19,10 @@ COLUMNS = frozenset({"t", "state", "props", "end"})
 _NOT_TIME = str.maketrans("", "", "0123456789.-")
 
 
+# A chunk's times as written and as floats, and its names cells.
+Split = tuple[list[str], list[float], list[str]]
+
+
 @dataclass(frozen=True)
 class CsvRows:
     """The rows of one header: how many cells each has, where the time and the
@@ -31,7 +35,7 @@ class CsvRows:
     end_at: int | None
     props: bool
 
-    def split(self, lines: str, count: int) -> tuple[list[str], list[float], list[str]] | None:
+    def split(self, lines: str, count: int) -> Split | None:
         """The times (as written and as floats) and names cells of a chunk of `count`
         rows, or None where a row is not a plain sample written plainly."""
         if '"' in lines:  # quoting: the csv module's reading
@@ -60,6 +64,17 @@ class CsvRows:
         except ValueError:  # an empty cell, `1.2.3`, `-`
             return None
         return texts, times, cells[self.names_at :: width]
+
+    def plain_run(self, lines: str, count: int) -> tuple[int, Split | None]:
+        """How many rows of a chunk, from the first, `split` reads, and their split:
+        all of them mostly; else the rows before the first it does not read (found a
+        row at a time, once: an end row, a blank line)."""
+        whole = self.split(lines, count)
+        if whole is not None:
+            return count, whole
+        rows = lines.split("\n", count)[:count]
+        taken = next((i for i, row in enumerate(rows) if self.split(row, 1) is None), count)
+        return taken, self.split("\n".join(rows[:taken]), taken) if taken else None
 
     def state(self, cell: str) -> frozenset[str] | None:
         """The propositions a names cell holds; None where one is no proposition

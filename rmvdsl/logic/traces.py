@@ -32,6 +32,7 @@ billionths of the trace's unit (an int; a Fraction only for a time finer than th
 from __future__ import annotations
 
 import codecs
+import functools
 import json
 import operator
 from collections.abc import Callable, Iterator
@@ -46,28 +47,17 @@ from rmvdsl.logic.trace_chunks import (
     SMALLEST,
     ChunkDecoder,
     Record,
+    StateKey,
+    propositions,
     readable,
     scaled,
     text_scaled,
     time_text,
 )
 from rmvdsl.logic.trace_csv import CsvRows, rows_of
-from rmvdsl.logic.trace_lines import NAME, LineReader, TraceError, is_csv, load_json
+from rmvdsl.logic.trace_lines import LineReader, TraceError, is_csv, load_json
 
 CHUNK = 1 << 20  # bytes read at a time
-StateKey = str | tuple[str, ...]  # one proposition's name, or the list a `props` line names
-
-
-def _names(key: StateKey) -> tuple[str, ...]:
-    """The propositions a state key names."""
-    return (key,) if isinstance(key, str) else key
-
-
-def _propositions(key: StateKey) -> frozenset[str] | None:
-    """The state a JSON Lines key names, if its names are propositions' (else the
-    full reader reports them)."""
-    names = _names(key)
-    return frozenset(names) if all(NAME.fullmatch(name) for name in names) else None
 
 
 class TraceStream:
@@ -171,13 +161,8 @@ class TraceStream:
         if self._fast_ready():
             if self._csv:
                 rows = self._csv_rows()
-                split = rows.split(lines, count) if rows else None
-                if rows and split:
-                    texts, times, keys = split
-                    yield from self._fast_runs(
-                        keys, times, texts.__getitem__, rows.state,
-                        lambda: self._full_lines(lines, count, before),
-                    )  # fmt: skip
+                if rows is not None:
+                    yield from self._csv_runs(rows, lines, count, before)
                     return
             else:
                 decoded = self._chunks.decode(lines, count, before)
@@ -207,6 +192,28 @@ class TraceStream:
                 offset = lines.index("\n", offset) + 1
             yield from self._chunk(lines[offset:], count - taken, before + taken)
 
+    def _csv_runs(
+        self, rows: CsvRows, lines: str, count: int, before: int
+    ) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
+        """A CSV chunk a run of plain rows at a time (`CsvRows.plain_run`), each row
+        between two runs by the full reader: an end row or a blank line no longer
+        sends the rest of its chunk (up to 1 MB) to the full reader."""
+        while count:
+            taken, split = rows.plain_run(lines, count)
+            if split is not None:
+                texts, times, keys = split
+                again = functools.partial(self._full_lines, lines, taken, before)
+                yield from self._fast_runs(keys, times, texts.__getitem__, rows.state, again)
+            if taken == count:
+                return
+            pieces = lines.split("\n", taken + 1)
+            yield from self._full_line(before + taken + 1, pieces[taken])
+            lines = pieces[taken + 1] if len(pieces) > taken + 1 else ""
+            count, before = count - taken - 1, before + taken + 1
+            if not self._fast_ready():  # after the end row: each line is the full reader's
+                yield from self._full_lines(lines, count, before)
+                return
+
     def _full_lines(
         self, lines: str, count: int, before: int
     ) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
@@ -228,7 +235,7 @@ class TraceStream:
 
         keys = list(map(operator.attrgetter(named_by), records))
         yield from self._fast_runs(
-            keys, times, lambda index: time_text(records[index]), _propositions, general
+            keys, times, lambda index: time_text(records[index]), propositions, general
         )
 
     def _fast_runs(
@@ -314,7 +321,7 @@ class TraceStream:
         key: StateKey | None = record.state if record.props is None else record.props
         if key is None or (record.state is not None and record.props is not None):
             return None  # neither, or both: the full reader says which to keep
-        state = _propositions(key)
+        state = propositions(key)
         if state is not None:
             self._states[key] = state
         return state
