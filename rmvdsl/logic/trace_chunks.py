@@ -192,6 +192,21 @@ def readable(times: list[float], text_at: Callable[[int], str]) -> bool:
     return True
 
 
+def decimal_floats(texts: list[str]) -> list[float] | None:
+    """Texts of digits, points and signs as floats (as float() reads them, and
+    `exact`: `5.`, `.5`, `007`): decoded as one JSON array where they are JSON
+    numbers, as most are (a fifth of the time of float() on each); None where one is
+    no number (`1.2.3`, `-`, an empty text)."""
+    try:
+        floats: list[float] = _FLOATS.decode(("[" + ",".join(texts) + "]").encode())
+        return floats
+    except msgspec.MsgspecError:
+        try:
+            return list(map(float, texts))
+        except ValueError:
+            return None
+
+
 def _text_float(text: str) -> float:
     """A time written as a string, checked as the full reader reads it, as the
     float nearest its exact value."""
