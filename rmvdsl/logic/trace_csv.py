@@ -77,7 +77,8 @@ class CsvRows:
             if but_last is not None:
                 return count - 1, but_last
         taken = next((i for i, row in enumerate(rows) if self.split(row, 1) is None), count)
-        return taken, self.split("\n".join(rows[:taken]), taken) if taken else None
+        run = self.split("\n".join(rows[:taken]), taken) if taken else None
+        return (taken, run) if run is not None else (0, None)  # (0: the first row alone)
 
     def state(self, cell: str) -> frozenset[str] | None:
         """The propositions a names cell holds; None where one is no proposition
