@@ -17,14 +17,12 @@ from rmvdsl.lang.numbers import to_json
 from rmvdsl.logic.compile import CompileError, compile_formula
 from rmvdsl.logic.trace_chunks import SCALE, scaled
 from rmvdsl.logic.trace_lines import TraceFile
-from rmvdsl.logic.traces import TraceStream
+from rmvdsl.logic.traces import Change, TraceStream
 from rmvdsl.logic.validate import check_formula
 from rmvdsl.runtime.facts import facts
 from rmvdsl.runtime.rmtld3 import BATCH, Monitor, Segment, merge, merged
 from rmvdsl.runtime.values import exact_text
 from rmvdsl.runtime.wording import counted
-
-Change = tuple[int | Fraction, frozenset[str]]  # a stream's: time in billionths, state
 
 
 @dataclass
@@ -202,7 +200,7 @@ def reference_part(
     trace = TraceFile(unit=stream.unit)
     times, states = trace.times, trace.states
     for time, state in changes:
-        at = Fraction(time, SCALE) if isinstance(time, int) else time / SCALE
+        at = _time_of(time)
         if at > high and times:  # (the first sample is kept: it is where time starts)
             trace.end = at  # the state before it holds up to it
             break

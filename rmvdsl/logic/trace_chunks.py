@@ -163,7 +163,7 @@ def float_times(records: list[Any]) -> list[float] | None:
     """The records' times as floats (None: one is not a number, or out of range, or
     written longer than any time `exact` reads)."""
     texts = [r.t for r in records]
-    if max(map(len, texts), default=0) > MAX_DIGITS:
+    if too_long(texts):
         return None
     joined = b"[%s]" % b",".join(texts)
     try:
@@ -192,11 +192,19 @@ def readable(times: list[float], text_at: Callable[[int], str]) -> bool:
     return True
 
 
+def too_long(texts: list[Any]) -> bool:
+    """Whether a time is written longer than any `exact` reads (its length, looked
+    at for every time of a chunk, is 4% of reading plain lines)."""
+    return max(map(len, texts), default=0) > MAX_DIGITS
+
+
 def decimal_floats(texts: list[str]) -> list[float] | None:
     """Texts of digits, points and signs as floats (as float() reads them, and
     `exact`: `5.`, `.5`, `007`): decoded as one JSON array where they are JSON
     numbers, as most are (a fifth of the time of float() on each); None where one is
-    no number (`1.2.3`, `-`, an empty text)."""
+    no number (`1.2.3`, `-`, an empty text) or longer than any `exact` reads."""
+    if too_long(texts):
+        return None
     try:
         floats: list[float] = _FLOATS.decode(("[" + ",".join(texts) + "]").encode())
         return floats

@@ -10,7 +10,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from itertools import repeat
 
-from rmvdsl.lang.numbers import MAX_DIGITS
 from rmvdsl.logic.trace_chunks import decimal_floats
 from rmvdsl.logic.trace_lines import NAME, csv_state
 
@@ -54,13 +53,11 @@ class CsvRows:
         if self.end_at is not None and "".join(cells[self.end_at :: width]).strip():
             return None  # the end row, or an end cell the full reader reads
         texts = cells[self.time_at :: width]
-        if max(map(len, texts), default=0) > MAX_DIGITS:  # (`exact` reads no longer time)
-            return None
         if "".join(texts).translate(_NOT_TIME):  # spaces, a carriage return, or no time
             texts = [text.strip() for text in texts]
             if "".join(texts).translate(_NOT_TIME):
                 return None
-        times = decimal_floats(texts)  # None: an empty cell, `1.2.3`, `-`
+        times = decimal_floats(texts)  # None: an empty cell, `1.2.3`, `-`, 101 digits
         return None if times is None else (texts, times, cells[self.names_at :: width])
 
     def plain_run(self, lines: str, count: int) -> tuple[int, Split | None]:

@@ -58,6 +58,7 @@ from rmvdsl.logic.trace_csv import CsvRows, rows_of
 from rmvdsl.logic.trace_lines import LineReader, TraceError, is_csv, load_json
 
 CHUNK = 1 << 20  # bytes read at a time
+Change = tuple[int | Fraction, frozenset[str]]  # a time in billionths, the state from it
 
 
 class TraceStream:
