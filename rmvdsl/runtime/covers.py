@@ -174,7 +174,10 @@ def since_levels(phi: Signal, psi: Signal, start: Any, bound: Any, closed: bool,
     levels: Levels = ([], [])
     first = psi.index(start)
     base = phi.index(start)
-    carried = memo.at(start, phi, psi) if start > psi.starts[0] else (None, None)
+    # A witness just before `start` (psi held up to it) is `start`, not attained:
+    # resolved here, or the walk below would carry `_NOW` on to the next breakpoint
+    # and take that for the witness.
+    carried = _at(memo.at(start, phi, psi), start) if start > psi.starts[0] else (None, None)
     _remember(memo, phi, psi, start, carried)
     starts, points, opens = psi.starts, psi.points, psi.opens
     count = len(starts)
@@ -182,10 +185,9 @@ def since_levels(phi: Signal, psi: Signal, start: Any, bound: Any, closed: bool,
         after_point, after_open = _runs(phi, base, level)
         witness = carried[level - 1]
         if witness is not None:  # t' before start, phi on (t', start): and from start on
-            when = start if witness[0] is _NOW else witness[0]
             run = _run_at(phi, base, start, level, after_point, after_open)
             if run:
-                high = _earlier((when + bound, closed and witness[1]), run)
+                high = _earlier((witness[0] + bound, closed and witness[1]), run)
                 if high[0] > start or (high[0] == start and high[1]):
                     add(intervals, start, True, *high)
         for k in range(first, count):
