@@ -28,19 +28,25 @@ def event_cycles(
         if transition.output is not None
     }
 
-    def node_of(ident: ast.Ident) -> list[ast.Ident]:
-        if ident.name in model.events:
-            return [ident]
-        owner = emitter.get(ident.name)
-        return [] if owner is None else [ast.Ident(owner, ident.span)]
+    events = model.events
 
-    dependencies = {
-        name: [n for i in reads[id(decl)] for n in node_of(i)]
-        for name, decl in model.events.items()
-    }
+    def nodes_of(idents: Sequence[ast.Ident]) -> list[ast.Ident]:
+        """The events and transducers that names read stand for (an emitted
+        event for its transducer)."""
+        nodes = []
+        for ident in idents:
+            if ident.name in events:
+                nodes.append(ident)
+            else:
+                owner = emitter.get(ident.name)
+                if owner is not None:
+                    nodes.append(ast.Ident(owner, ident.span))
+        return nodes
+
+    dependencies = {name: nodes_of(reads[id(decl)]) for name, decl in events.items()}
     for name, decl in model.transducers.items():
         # What it emits itself it reads within its own steps (docs/semantics.md).
-        found = (n for t in decl.transitions for n in node_of(t.input))
+        found = nodes_of([t.input for t in decl.transitions])
         dependencies[name] = [n for n in found if n.name != name]
     distances = {name: moved[id(decl)] for name, decl in model.events.items() if id(decl) in moved}
     search = _Search(dependencies, distances)

@@ -34,6 +34,29 @@ class Declarations:
     def report(self, diagnostic: Diagnostic) -> None:
         self.diagnostics.append(diagnostic)
 
+    def declare_all(self, decls: list[ast.Decl]) -> None:
+        """declare() of each declaration, the most common ones (a name of one kind,
+        neither taken nor reserved) without a call: a keystroke declares them all."""
+        model = self.model
+        symbols, reserved = model.symbols, self.reserved
+        simple = {cls: (kind, getattr(model, group)) for cls, (kind, group) in _SIMPLE.items()}
+        for decl in decls:
+            found = simple.get(type(decl))
+            if found is None:
+                self.declare(decl)
+                continue
+            kind, group = found
+            if kind is Kind.BOOL_EVENT and not cast("ast.EventDecl", decl).boolean:
+                kind = Kind.VALUE_EVENT
+            ident = decl.name  # type: ignore[attr-defined]
+            name = ident.name
+            if name in symbols or name in reserved:
+                if self.add(ident, kind, decl):
+                    group.setdefault(name, decl)
+                continue
+            symbols[name] = Symbol(name, kind, ident.span, decl)
+            group[name] = decl  # a name not declared is in no group
+
     def declare(self, decl: ast.Decl) -> None:
         simple = _SIMPLE.get(type(decl))
         if simple is not None:  # most declarations: a name of one kind, kept by name

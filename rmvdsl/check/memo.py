@@ -6,7 +6,7 @@ An edit changes one declaration; the stages used to visit all of them at every
 keystroke. The parser keeps each declaration chunk by its file and text
 (rmvdsl.grammar.parser) and hands out the same parse, moved to where it now stands,
 until the text changes: a declaration's findings are kept in that parse
-(`kept_findings`), by Entry, with what it looked up outside itself (the kind of each
+(rmvdsl.grammar.shift.findings), by Entry, with what it looked up outside itself (the kind of each
 name it resolved, the type of each name it read, the message definitions a
 variable's path crossed). They are reused only while every such lookup still gives
 the same answer, and only when it had no finding to report: a clean declaration's
@@ -18,10 +18,6 @@ check from scratch.
 
 from __future__ import annotations
 
-from rmvdsl.grammar.shift import findings
-
 # A stage's entry: the stage, the spec's time unit (which gives bare numbers in
 # formulas a unit).
 Entry = tuple[str, str | None]
-
-kept_findings = findings

@@ -16,7 +16,7 @@ from rmvdsl.check.clauses import EventChecks
 from rmvdsl.check.cycles import event_cycles
 from rmvdsl.check.declaring import Declarations
 from rmvdsl.check.infrastructure import infrastructure_warnings
-from rmvdsl.check.memo import Entry, kept_findings
+from rmvdsl.check.memo import Entry
 from rmvdsl.check.model import (
     EVENT_KINDS,
     MEASUREMENT_KINDS,
@@ -31,6 +31,7 @@ from rmvdsl.check.structure import StructureChecks
 from rmvdsl.check.whitelists import check_whitelist_agreement
 from rmvdsl.grammar import ast
 from rmvdsl.grammar.grammars import reserved_names
+from rmvdsl.grammar.shift import FINDINGS
 from rmvdsl.lang import builtins
 from rmvdsl.lang.diagnostics import Diagnostic, Label, did_you_mean, error, warning
 from rmvdsl.lang.source import SourceMap, Span
@@ -77,10 +78,12 @@ class NameChecker(Declarations, StructureChecks, ActionChecks, EventChecks):
 
     def run(self) -> tuple[Model, list[Diagnostic]]:
         decls = self.model.declarations()
-        for decl in decls:
-            self.declare(decl)
-        for decl in decls:
-            self.check_remembered(decl) if self.incremental else self.check_decl(decl)
+        self.declare_all(decls)
+        if self.incremental:
+            self.check_all_remembered(decls)
+        else:
+            for decl in decls:
+                self.check_decl(decl)
         self.diagnostics += event_cycles(self.model, self.event_reads, self.reads_moved)
         self.check_whitelist_duplicates()
         self.diagnostics += check_whitelist_agreement(self.model)
@@ -136,19 +139,54 @@ class NameChecker(Declarations, StructureChecks, ActionChecks, EventChecks):
 
     # ---- checking each declaration ----
 
-    def check_remembered(self, decl: ast.Decl) -> None:
-        """check_decl, or what it found the last time this text was checked, when
-        every name it looked up is still what it was."""
+    def check_all_remembered(self, decls: list[ast.Decl]) -> None:
+        """check_decl of each declaration, or what it found the last time its text
+        was checked, when every name it looked up is still what it was. A keystroke
+        replays most of them: the replay is written out here, without a call, and
+        the references of consecutive ones that moved alike are kept together (made
+        into `Reference`s when first read)."""
         model = self.model
-        kept = kept_findings(decl)
-        if kept is None:
-            self.check_decl(decl)
-            return
+        symbols, uses, used = model.symbols, model.uses, self.used
         entry: Entry = ("names", model.time_unit)
-        known = kept.get(entry)
-        if known is not None and self.still_holds(known):
-            self.replay(decl, known)
-            return
+        pending: list[tuple[str, Span]] = []  # reused references, moved by `moving`
+        moving = 0
+        for decl in decls:
+            kept = decl.__dict__.get(FINDINGS)  # shift.findings(decl), written out
+            known = None if kept is None else kept.get(entry)
+            if known is not None:
+                for name, kind, owner in known.lookups:
+                    symbol = symbols.get(name)
+                    if symbol is None or symbol.kind is not kind or symbol.owner != owner:
+                        known = None
+                        break
+            if known is None:
+                if pending:
+                    uses.append(ReusedReferences(tuple(pending), moving, symbols))
+                    pending = []
+                if kept is None:
+                    self.check_decl(decl)  # a declaration with a syntax error
+                else:
+                    self.check_and_remember(decl, kept, entry)
+                continue
+            delta = decl.span.start - known.start
+            if known.references:
+                if delta != moving and pending:
+                    uses.append(ReusedReferences(tuple(pending), moving, symbols))
+                    pending = []
+                moving = delta
+                pending += known.references
+            used.update(known.used)
+            if known.reads is not None:
+                self.event_reads[id(decl)] = known.reads
+                if delta:
+                    self.reads_moved[id(decl)] = delta
+        if pending:
+            uses.append(ReusedReferences(tuple(pending), moving, symbols))
+
+    def check_and_remember(self, decl: ast.Decl, kept: dict[Entry, object], entry: Entry) -> None:
+        """check_decl, and what it found kept with the declaration's parse, when it
+        found nothing wrong and every name it looked up was declared."""
+        model = self.model
         found, references = len(self.diagnostics), len(model.uses)
         self.lookups = []
         try:
@@ -167,25 +205,6 @@ class NameChecker(Declarations, StructureChecks, ActionChecks, EventChecks):
             tuple(dict.fromkeys(r.name for r in made)),
             None if reads is None else tuple(reads),
         )
-
-    def still_holds(self, known: Resolved) -> bool:
-        symbols = self.model.symbols
-        for name, kind, owner in known.lookups:
-            symbol = symbols.get(name)
-            if symbol is None or symbol.kind is not kind or symbol.owner != owner:
-                return False
-        return True
-
-    def replay(self, decl: ast.Decl, known: Resolved) -> None:
-        symbols = self.model.symbols
-        delta = decl.span.start - known.start
-        if known.references:
-            self.model.uses.append(ReusedReferences(known.references, delta, symbols))
-        self.used.update(known.used)
-        if known.reads is not None:
-            self.event_reads[id(decl)] = known.reads
-            if delta:
-                self.reads_moved[id(decl)] = delta
 
     def check_decl(self, decl: ast.Decl) -> None:
         match decl:
@@ -326,9 +345,10 @@ class NameChecker(Declarations, StructureChecks, ActionChecks, EventChecks):
         if any(self.damaged_ranges.values()):
             return  # uses may be in the parts that did not parse
         whitelisted = {self.whitelist_topic(w) for w in self.model.whitelists}
-        for symbol in self.model.symbols.values():
-            if symbol.name in self.used:
-                continue
+        symbols = self.model.symbols
+        unused = symbols.keys() - self.used
+        for name in filter(unused.__contains__, symbols):  # in declaration order
+            symbol = symbols[name]
             if symbol.kind is Kind.TOPIC:
                 decl = symbol.decl
                 assert isinstance(decl, ast.TopicDecl)

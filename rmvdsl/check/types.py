@@ -11,8 +11,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, TypeVar, cast
 
-from rmvdsl.check.memo import Entry, kept_findings
-from rmvdsl.check.model import Kind, Model
+from rmvdsl.check.memo import Entry
+from rmvdsl.check.model import EVENT_KINDS, Kind, Model
 from rmvdsl.check.msgdefs import FieldType, environment_folders
 from rmvdsl.check.msgtypes import DEFAULT_DISTRO, DISTROS, TypeRegistry
 from rmvdsl.check.proptypes import PropertyTypes
@@ -29,6 +29,7 @@ from rmvdsl.check.vtypes import (
     from_ros,
 )
 from rmvdsl.grammar import ast
+from rmvdsl.grammar.shift import FINDINGS
 from rmvdsl.lang.diagnostics import Diagnostic, did_you_mean, error
 from rmvdsl.lang.source import Span
 
@@ -76,6 +77,7 @@ class TypeChecker(PropertyTypes):
         self._event_stack: set[str] = set()
         # What each declaration being typed looked up (innermost last), remembered.
         self._reads: list[list[tuple[str, str, Any]]] = []
+        self._entry: Entry = ("types", model.time_unit)  # of this check's findings
 
     # ---- configuration ----
 
@@ -179,10 +181,11 @@ class TypeChecker(PropertyTypes):
     def remembered(self, decl: _Typeable, typed: Callable[[_Typeable], Any]) -> Any:
         """typed(decl), or what it found the last time this text was typed, when
         every lookup it made still gives the same answer (an incremental check's)."""
-        kept = kept_findings(decl) if self.incremental else None
+        # shift.findings(decl), written out: a keystroke asks it of most declarations.
+        kept = decl.__dict__.get(FINDINGS) if self.incremental else None
         if kept is None:
             return typed(decl)
-        entry: Entry = ("types", self.model.time_unit)
+        entry = self._entry
         known = kept.get(entry)
         if known is not None and self.still_holds(known):
             if known.types:
@@ -204,21 +207,30 @@ class TypeChecker(PropertyTypes):
     def still_holds(self, known: Typed) -> bool:
         """Whether every lookup of an earlier typing gives what it gave then (the
         same type of a name; the very same definition, read once per file)."""
+        symbols, variables = self.model.symbols, self.info.variables
+        registry = self.info.registry
         for what, name, value in known.lookups:
-            if what == "name":
-                now = self._name_type(name)
+            if what == "name":  # _name_type, written out: most lookups are names
+                symbol = symbols.get(name)
+                if symbol is None:
+                    now = UNKNOWN
+                elif symbol.kind is Kind.VARIABLE:
+                    now = variables.get(name, UNKNOWN)
+                elif symbol.kind in EVENT_KINDS:
+                    now = self.event_type(name)
+                else:
+                    now = UNKNOWN
                 if now is not value and now != value:  # mostly the very type kept
                     return False
-            elif self.looked_up(what, name) is not value:
+            elif what == "topic":
+                if self.info.topics.get(name) is not value:
+                    return False
+            elif what == "message":
+                if registry.get(name) is not value:
+                    return False
+            elif registry.distro is not value:
                 return False
         return True
-
-    def looked_up(self, what: str, name: str) -> Any:
-        if what == "topic":
-            return self.info.topics.get(name)
-        if what == "message":
-            return self.info.registry.get(name)
-        return self.info.registry.distro
 
     def noted(self, what: str, name: str, value: Any) -> None:
         """Remember a lookup of the declaration being typed (an incremental check's)."""
@@ -236,7 +248,7 @@ class TypeChecker(PropertyTypes):
             return UNKNOWN
         if symbol.kind is Kind.VARIABLE:
             return self.info.variables.get(name, UNKNOWN)
-        if symbol.kind in (Kind.VALUE_EVENT, Kind.BOOL_EVENT, Kind.EMITTED_EVENT):
+        if symbol.kind in EVENT_KINDS:
             return self.event_type(name)
         return UNKNOWN
 

@@ -28,7 +28,7 @@ from rmvdsl.grammar.grammars import (
 )
 from rmvdsl.grammar.recovery import ChunkParser
 from rmvdsl.grammar.scanner import RawComment, ScanResult, scan
-from rmvdsl.grammar.shift import keep_findings, shifted, with_field
+from rmvdsl.grammar.shift import keep_findings, moved_nodes, shifted, with_field
 from rmvdsl.lang.diagnostics import Diagnostic, did_you_mean, error
 from rmvdsl.lang.source import SourceFile, Span
 from rmvdsl.util.bounded import Bounded
@@ -118,10 +118,15 @@ def parse_source(source: SourceFile) -> ParsedSpec:
     ranges: list[tuple[int, int]] = []
     bounds = [*scanned.chunks, (len(source.text), 0)]
     _CHUNK_CACHE.fit(len(bounds))
+    text, path, kept = source.text, source.path, _CHUNK_CACHE.reader()
     for (start, line), (end, _) in itertools.pairwise(bounds):
-        chunk, delta = _parsed_chunk(source, start, end, line, builder)
+        chunk = kept((path, text[start:end]))  # most chunks: the call below, written out
+        if chunk is None:
+            chunk, delta = _parsed_chunk(source, start, end, line, builder)
+        else:
+            delta = start - chunk.start
         if chunk.decls:
-            items.extend(shifted(chunk.decls, delta) if delta else chunk.decls)
+            items.extend(moved_nodes(chunk.decls, delta) if delta else chunk.decls)
         if chunk.diagnostics:
             diagnostics.extend(shifted(chunk.diagnostics, delta) if delta else chunk.diagnostics)
         if chunk.damaged:

@@ -40,6 +40,11 @@ def shifted(value: Any, delta: int) -> Any:
     return _SHIFTERS[type(value)](value, delta)
 
 
+def moved_nodes(nodes: tuple[Any, ...], delta: int) -> list[Any]:
+    """Nodes (a chunk's declarations) moved by `delta`: `shifted` of each."""
+    return [_SHIFTERS[type(node)](node, delta) for node in nodes]
+
+
 def moved_field(node: Any, name: str) -> Any:
     """A field of a lazily moved node: its sub-trees are moved now (once: every
     reader, in any thread, gets the same objects)."""
@@ -65,11 +70,10 @@ def keep_findings(decls: tuple[Any, ...]) -> None:
 
 
 def findings(decl: Any) -> dict[Any, Any] | None:
-    """The findings kept with the parse this declaration is (a copy of); None for
-    a declaration the parser did not keep, or kept with syntax errors."""
-    values = decl.__dict__
-    origin = values.get(MOVED_FROM)
-    return (values if origin is None else origin[0].__dict__).get(FINDINGS)
+    """The findings kept with the parse this declaration is (a copy of: a copy
+    holds its original's); None for a declaration the parser did not keep, or kept
+    with syntax errors."""
+    return decl.__dict__.get(FINDINGS)
 
 
 def with_field(node: Any, name: str, value: Any) -> Any:
@@ -143,10 +147,14 @@ def _write_mover(kind: type) -> Mover:
     ]
     if deferred:
         # A moved copy moved again: its sub-trees come from its original, further.
+        # Its findings are its original's (one dict per parse).
         lines += [
             "    origin = fields.get(lazy)",
             "    moved[lazy] = (value, delta) if origin is None else "
             "(origin[0], origin[1] + delta)",
+            "    kept = fields.get(found)",
+            "    if kept is not None:",
+            "        moved[found] = kept",
         ]
     else:
         lines.append("    moved.update(fields)")
@@ -171,6 +179,7 @@ def _write_mover(kind: type) -> Mover:
         "new": object.__new__,
         "kind": kind,
         "lazy": MOVED_FROM,
+        "found": FINDINGS,
         "span": Span.shifted,
         "leaves": _LEAVES,
         "movers": _SHIFTERS,

@@ -8,6 +8,7 @@ so that building the AST stays cheap.
 from __future__ import annotations
 
 import bisect
+import itertools
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 
@@ -50,12 +51,11 @@ class SourceFile:
     _line_starts: list[int] = field(default_factory=list, repr=False)
 
     def __post_init__(self) -> None:
-        starts = [0]
-        find = self.text.find
-        index = find("\n")
-        while index != -1:
-            starts.append(index + 1)
-            index = find("\n", index + 1)
+        # Each line's start: the running sum of the lengths of the lines before it,
+        # newlines included (in C: an editor builds it at every keystroke).
+        lengths = map((1).__add__, map(len, self.text.split("\n")))
+        starts = list(itertools.accumulate(lengths, initial=0))
+        starts.pop()  # the end of the last line
         self._line_starts = starts
 
     @property
