@@ -176,6 +176,23 @@ def test_a_variable_is_typed_again_when_its_message_changed(tmp_path) -> None:
         _same(path, text)
 
 
+def test_a_variable_is_typed_again_when_a_message_along_its_path_changed(tmp_path) -> None:
+    """The topic's own message unchanged, a message its path crosses changes: the
+    variable reading through it is typed again (its kept lookup of that message)."""
+    folder = tmp_path / "msg" / "robot_msgs" / "msg"
+    folder.mkdir(parents=True)
+    (folder / "Outer.msg").write_text("robot_msgs/Inner inner\n", encoding="utf-8")
+    inner = folder / "Inner.msg"
+    path = tmp_path / "spec.rmv"
+    text = (
+        'messages "msg"\ntopic T: robot_msgs/Outer = "/outer"\nvar V = T.inner.value\n'
+        "event E when V > 1\n"
+    )
+    for fields in ("float64 value\n", "string value\n", "float64 other\n", "float64 value\n"):
+        inner.write_text(fields, encoding="utf-8")
+        _same(path, text)
+
+
 def test_an_edit_reuses_the_declarations_it_did_not_touch(tmp_path) -> None:
     """The memo is used at all: after an edit to one event, every other
     declaration's findings are the very ones the check before kept (a check from
