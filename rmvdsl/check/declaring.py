@@ -35,15 +35,16 @@ class Declarations:
         self.diagnostics.append(diagnostic)
 
     def declare_all(self, decls: list[ast.Decl]) -> None:
-        """declare() of each declaration, the most common ones (a name of one kind,
-        neither taken nor reserved) without a call: a keystroke declares them all."""
+        """Declare each declaration: the most common ones (a name of one kind) here,
+        those neither taken nor reserved without a call (a keystroke declares them
+        all), the others by `declare_other`."""
         model = self.model
         symbols, reserved = model.symbols, self.reserved
         simple = {cls: (kind, getattr(model, group)) for cls, (kind, group) in _SIMPLE.items()}
         for decl in decls:
             found = simple.get(type(decl))
             if found is None:
-                self.declare(decl)
+                self.declare_other(decl)
                 continue
             kind, group = found
             if kind is Kind.BOOL_EVENT and not cast("ast.EventDecl", decl).boolean:
@@ -57,16 +58,8 @@ class Declarations:
             symbols[name] = Symbol(name, kind, ident.span, decl)
             group[name] = decl  # a name not declared is in no group
 
-    def declare(self, decl: ast.Decl) -> None:
-        simple = _SIMPLE.get(type(decl))
-        if simple is not None:  # most declarations: a name of one kind, kept by name
-            kind, group = simple
-            if kind is Kind.BOOL_EVENT and not cast("ast.EventDecl", decl).boolean:
-                kind = Kind.VALUE_EVENT
-            name = decl.name  # type: ignore[attr-defined]
-            if self.add(name, kind, decl):
-                getattr(self.model, group).setdefault(name.name, decl)
-            return
+    def declare_other(self, decl: ast.Decl) -> None:
+        """A declaration that is not a name of one kind (`_SIMPLE`)."""
         model = self.model
         match decl:
             case ast.SystemDecl():

@@ -31,7 +31,7 @@ from rmvdsl.check.structure import StructureChecks
 from rmvdsl.check.whitelists import check_whitelist_agreement
 from rmvdsl.grammar import ast
 from rmvdsl.grammar.grammars import reserved_names
-from rmvdsl.grammar.shift import FINDINGS
+from rmvdsl.grammar.shift import findings
 from rmvdsl.lang import builtins
 from rmvdsl.lang.diagnostics import Diagnostic, Label, did_you_mean, error, warning
 from rmvdsl.lang.source import SourceMap, Span
@@ -151,7 +151,7 @@ class NameChecker(Declarations, StructureChecks, ActionChecks, EventChecks):
         pending: list[tuple[str, Span]] = []  # reused references, moved by `moving`
         moving = 0
         for decl in decls:
-            kept = decl.__dict__.get(FINDINGS)  # shift.findings(decl), written out
+            kept = findings(decl)
             known = None if kept is None else kept.get(entry)
             if known is not None:
                 for name, kind, owner in known.lookups:

@@ -29,7 +29,7 @@ from rmvdsl.check.vtypes import (
     from_ros,
 )
 from rmvdsl.grammar import ast
-from rmvdsl.grammar.shift import FINDINGS
+from rmvdsl.grammar.shift import findings
 from rmvdsl.lang.diagnostics import Diagnostic, did_you_mean, error
 from rmvdsl.lang.source import Span
 
@@ -181,8 +181,7 @@ class TypeChecker(PropertyTypes):
     def remembered(self, decl: _Typeable, typed: Callable[[_Typeable], Any]) -> Any:
         """typed(decl), or what it found the last time this text was typed, when
         every lookup it made still gives the same answer (an incremental check's)."""
-        # shift.findings(decl), written out: a keystroke asks it of most declarations.
-        kept = decl.__dict__.get(FINDINGS) if self.incremental else None
+        kept = findings(decl) if self.incremental else None
         if kept is None:
             return typed(decl)
         entry = self._entry
@@ -207,19 +206,10 @@ class TypeChecker(PropertyTypes):
     def still_holds(self, known: Typed) -> bool:
         """Whether every lookup of an earlier typing gives what it gave then (the
         same type of a name; the very same definition, read once per file)."""
-        symbols, variables = self.model.symbols, self.info.variables
         registry = self.info.registry
         for what, name, value in known.lookups:
-            if what == "name":  # _name_type, written out: most lookups are names
-                symbol = symbols.get(name)
-                if symbol is None:
-                    now = UNKNOWN
-                elif symbol.kind is Kind.VARIABLE:
-                    now = variables.get(name, UNKNOWN)
-                elif symbol.kind in EVENT_KINDS:
-                    now = self.event_type(name)
-                else:
-                    now = UNKNOWN
+            if what == "name":
+                now = self._name_type(name)
                 if now is not value and now != value:  # mostly the very type kept
                     return False
             elif what == "topic":

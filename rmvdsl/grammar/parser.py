@@ -28,7 +28,7 @@ from rmvdsl.grammar.grammars import (
 )
 from rmvdsl.grammar.recovery import ChunkParser
 from rmvdsl.grammar.scanner import RawComment, ScanResult, scan
-from rmvdsl.grammar.shift import keep_findings, moved_nodes, shifted, with_field
+from rmvdsl.grammar.shift import keep_findings, shifted, with_field
 from rmvdsl.lang.diagnostics import Diagnostic, did_you_mean, error
 from rmvdsl.lang.source import SourceFile, Span
 from rmvdsl.util.bounded import Bounded
@@ -67,27 +67,24 @@ _CHUNK_CACHE_SIZE = 50_000
 _CHUNK_CACHE: Bounded[tuple[str, str], _Chunk] = Bounded(_CHUNK_CACHE_SIZE)
 
 
-def _parsed_chunk(
+def _parse_chunk(
     source: SourceFile, start: int, end: int, line: int, builder: AstBuilder
-) -> tuple[_Chunk, int]:
-    """The chunk's parse (kept, or made and kept), and how far it moved since."""
-    key = (source.path, source.text[start:end])
-    cached = _CHUNK_CACHE.get(key)
-    if cached is None:
-        before = len(builder.diagnostics)
-        parser = ChunkParser(source, start, end, line)
-        decls = parser.parse()
-        damaged = bool(parser.diagnostics) or decls is None
-        latex: list[Diagnostic] = []
-        if decls is not None:
-            decls, latex = _parse_latex_bodies(decls)
-        found = (*parser.diagnostics, *builder.diagnostics[before:], *latex)
-        kept = None if decls is None else tuple(decls)
-        if kept is not None and not damaged:  # a partial tree is checked each time
-            keep_findings(kept)
-        cached = _Chunk(start, kept, found, damaged)
-        _CHUNK_CACHE.put(key, cached)
-    return cached, start - cached.start
+) -> _Chunk:
+    """A chunk not in the cache: parsed, and kept by its file and text."""
+    before = len(builder.diagnostics)
+    parser = ChunkParser(source, start, end, line)
+    decls = parser.parse()
+    damaged = bool(parser.diagnostics) or decls is None
+    latex: list[Diagnostic] = []
+    if decls is not None:
+        decls, latex = _parse_latex_bodies(decls)
+    found = (*parser.diagnostics, *builder.diagnostics[before:], *latex)
+    kept = None if decls is None else tuple(decls)
+    if kept is not None and not damaged:  # a partial tree is checked each time
+        keep_findings(kept)
+    chunk = _Chunk(start, kept, found, damaged)
+    _CHUNK_CACHE.put((source.path, source.text[start:end]), chunk)
+    return chunk
 
 
 # The last text parsed of each file (the most recent files) and its scan: the next
@@ -118,15 +115,14 @@ def parse_source(source: SourceFile) -> ParsedSpec:
     ranges: list[tuple[int, int]] = []
     bounds = [*scanned.chunks, (len(source.text), 0)]
     _CHUNK_CACHE.fit(len(bounds))
+    # Each chunk's parse, kept or made, and how far it moved since: most are kept,
+    # looked up here through the cache's own dict (without a call each).
     text, path, kept = source.text, source.path, _CHUNK_CACHE.reader()
     for (start, line), (end, _) in itertools.pairwise(bounds):
-        chunk = kept((path, text[start:end]))  # most chunks: the call below, written out
-        if chunk is None:
-            chunk, delta = _parsed_chunk(source, start, end, line, builder)
-        else:
-            delta = start - chunk.start
+        chunk = kept((path, text[start:end])) or _parse_chunk(source, start, end, line, builder)
+        delta = start - chunk.start
         if chunk.decls:
-            items.extend(moved_nodes(chunk.decls, delta) if delta else chunk.decls)
+            items.extend(shifted(chunk.decls, delta) if delta else chunk.decls)
         if chunk.diagnostics:
             diagnostics.extend(shifted(chunk.diagnostics, delta) if delta else chunk.diagnostics)
         if chunk.damaged:

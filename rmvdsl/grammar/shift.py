@@ -40,11 +40,6 @@ def shifted(value: Any, delta: int) -> Any:
     return _SHIFTERS[type(value)](value, delta)
 
 
-def moved_nodes(nodes: tuple[Any, ...], delta: int) -> list[Any]:
-    """Nodes (a chunk's declarations) moved by `delta`: `shifted` of each."""
-    return [_SHIFTERS[type(node)](node, delta) for node in nodes]
-
-
 def moved_field(node: Any, name: str) -> Any:
     """A field of a lazily moved node: its sub-trees are moved now (once: every
     reader, in any thread, gets the same objects)."""
