@@ -64,6 +64,11 @@ def traces_text(draw: st.DrawFn) -> str:
         odd = messy and draw(st.integers(0, 9)) == 0
         line = draw(st.sampled_from(ODD)) if odd else draw(records(time, messy, plain))
         lines.append(line)
+    if draw(st.booleans()):  # an end record, as most traces have, and lines after it or not
+        lines.append(f'{{"t": {hundredths / 100 + 1}, "end": true}}')
+        lines.extend(
+            draw(st.lists(st.sampled_from([*ODD, '{"t": 1000, "state": "A"}']), max_size=2))
+        )
     return "\n".join(lines) + draw(st.sampled_from(["\n", "", "\n\n"]))
 
 
@@ -166,6 +171,22 @@ def test_a_logger_s_unix_times_are_decoded_a_chunk_at_a_time():
     assert [t for t, _ in changes] == [
         Fraction(f"1700000000.{k:06d}") * 10**9 for k in range(0, 30, 3)
     ]
+
+
+@pytest.mark.parametrize("plain", ['"state": "A"', '"props": ["A"]'])
+@pytest.mark.parametrize("blank", [False, True])
+def test_plain_lines_before_a_record_of_another_shape_are_decoded_at_once(plain, blank):
+    """Plain samples, then the end record (or a sample of the other shape): the
+    decoder gives how many records came first, and the stream reads those at once,
+    that line by record and on, as the whole-file reader reads the lines."""
+    other = '"props": ["B"]' if plain.startswith('"state"') else '"state": "B"'
+    rows = [f'{{"t": {k}, {plain if k % 7 else other}}}' for k in range(1, 30)]
+    text = "\n".join([*rows, *([""] if blank else []), '{"t": 30, "end": true}', ""])
+    decoder = trace_chunks.ChunkDecoder(traces.LineReader("t.jsonl"))
+    decoded = decoder.decode(text, text.count("\n"), 0)
+    assert decoded == 6  # the 7th record names its state the other way
+    assert streamed(text) == whole(text)
+    assert streamed(text)[1][1] == 30  # type: ignore[index]
 
 
 def test_lines_of_both_shapes_in_one_chunk_keep_each_lines_state():

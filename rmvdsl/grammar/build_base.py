@@ -4,7 +4,6 @@ parsed on its own (`rmv eval`) loads none of them (rmvdsl.grammar.build_literals
 
 from __future__ import annotations
 
-import re
 import threading
 from collections.abc import Callable, Sequence
 from fractions import Fraction
@@ -13,14 +12,10 @@ from typing import Any
 from lark import Token, Transformer
 
 from rmvdsl.grammar import formula as fm
+from rmvdsl.grammar.quantities import QUANTITY, RATE_UNITS, TIME_UNIT_ALIASES
 from rmvdsl.lang.diagnostics import Diagnostic, Label, error
 from rmvdsl.lang.numbers import NumberError, decimal, exact
 from rmvdsl.lang.source import Span
-
-_QUANTITY = re.compile(r"^((?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?)([A-Za-z]*)$")
-RATE_UNITS = {"Hz": Fraction(1), "kHz": Fraction(1000)}
-# InfluxDB also writes microseconds as `u`.
-TIME_UNIT_ALIASES = {"u": "us"}
 
 SpanOf = Callable[[Token], Span]
 
@@ -136,7 +131,7 @@ class BuilderBase(Transformer[Token, Any]):
     # ---- quantities: numbers, times, rates ----
 
     def split_quantity(self, token: Token) -> tuple[Fraction, str, str]:
-        match = _QUANTITY.match(str(token))
+        match = QUANTITY.match(str(token))
         if match is None:  # cannot happen: the lexer's pattern is the same
             return Fraction(0), "", str(token)
         try:

@@ -7,8 +7,9 @@ from lark import Token
 
 from rmvdsl.grammar import ast
 from rmvdsl.grammar import formula as fm
-from rmvdsl.grammar.build_base import RATE_UNITS, TIME_UNIT_ALIASES, unescape
+from rmvdsl.grammar.build_base import unescape
 from rmvdsl.grammar.build_formulas import FormulaRules
+from rmvdsl.grammar.quantities import RATE_UNITS, TIME_UNIT_ALIASES
 
 
 class LiteralRules(FormulaRules):

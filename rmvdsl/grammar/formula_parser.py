@@ -1,15 +1,16 @@
-"""One formula (or term) given on its own, as `rmv eval` and `rmv sat` take it: the
-spec grammar's `formula` rule with the formula builder alone, so that a command
-reading one formula loads no declaration's node or rule (a third of its start-up)."""
+"""One formula (or term) given on its own, as `rmv eval` and `rmv sat` take it.
+
+Read without lark where it can be (rmvdsl.grammar.formula_reader); else by the spec
+grammar's `formula` rule with the formula builder alone, so that a command reading
+one formula loads no declaration's node or rule (a third of its start-up), and
+lark's parser words whatever is wrong."""
 
 from __future__ import annotations
 
 from typing import Any, cast
 
-from lark.exceptions import UnexpectedCharacters, UnexpectedToken
-
 from rmvdsl.grammar.formula import Formula
-from rmvdsl.grammar.grammars import describe_expected, formula_parser
+from rmvdsl.grammar.formula_reader import read_formula
 from rmvdsl.lang.diagnostics import Diagnostic, error
 from rmvdsl.lang.source import Span
 
@@ -26,6 +27,18 @@ def parse_formula(
 
         literal = ast.StringLit(text, Span(path, -1, len(text) + 1), tuple(range(len(text))))
         return parse_latex(literal, "start" if kind == "formula" else "term")
+    read = read_formula(text, path, kind)
+    if read is not None:
+        return read, []
+    return parse_with_lark(text, path, kind)
+
+
+def parse_with_lark(text: str, path: str, kind: str = "formula") -> tuple[Any, list[Diagnostic]]:
+    """The formula (or term) as lark's parser and the formula builder read it."""
+    from lark.exceptions import UnexpectedCharacters, UnexpectedToken
+
+    from rmvdsl.grammar.grammars import describe_expected, formula_parser
+
     parser, builder = formula_parser()
     builder.start_parse(path)
     try:

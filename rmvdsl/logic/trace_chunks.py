@@ -98,6 +98,7 @@ _DECODERS = {
     for strict in (True, False)
 }
 _UNKNOWN = re.compile(r"unknown field `(.*)` - at `\$\[(\d+)\]")
+_AT = re.compile(r"- at `\$\[(\d+)\]")
 
 
 class ChunkDecoder:
@@ -110,12 +111,14 @@ class ChunkDecoder:
 
     def decode(
         self, lines: str, count: int, before: int
-    ) -> tuple[str, list[Any], list[float]] | None:
+    ) -> tuple[str, list[Any], list[float]] | int | None:
         """The chunk's records, one per line, in any key order, with any extra fields
         (the first one noted), their times as floats, and the field naming their
         states where all are plain samples of one shape ("state" or "props"; else
         ""); None where a line is blank or holds a record of another shape, or a
-        time that is not a number a float can order."""
+        time that is not a number a float can order. Where the first records are
+        plain samples of one shape and a later one is not (the end record, say),
+        the number of those first ones (records, not lines: a blank line is none)."""
         if "\\" in lines and "\\u" in lines:  # (a backslash is rare: found fast)
             return None  # json reads escapes msgspec refuses (a lone surrogate)
         for shape in (_Plain, _PlainProps, Record):
@@ -125,6 +128,9 @@ class ChunkDecoder:
                 except msgspec.ValidationError as error:
                     found = _UNKNOWN.search(str(error))
                     if not self.strict or found is None or _of_another_shape(shape, found[1]):
+                        plain = _plain_before(shape, str(error))
+                        if plain:
+                            return plain
                         break  # another shape
                     self.strict = False
                     self.reader.ignore(found[1], before + _line_of(lines, int(found[2])))
@@ -143,6 +149,13 @@ class ChunkDecoder:
         records = _DECODERS[Record, self.strict].decode_lines(lines)
         times = float_times(records)
         return None if times is None else (records, times)
+
+
+def _plain_before(shape: type, error: str) -> int:
+    """How many records a plain shape's decoder read before the one its error is
+    about (0 for the general shape)."""
+    found = _AT.search(error)
+    return int(found[1]) if found and shape in _PLAIN else 0
 
 
 def _of_another_shape(shape: type, name: str) -> bool:

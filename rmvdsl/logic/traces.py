@@ -166,15 +166,40 @@ class TraceStream:
                     yield from self._csv_runs(rows, lines, count, before)
                     return
             else:
-                decoded = self._chunks.decode(lines, count, before)
-                if decoded is not None:
-                    plain, records, times = decoded
-                    if plain:
-                        yield from self._fast_plain(plain, records, times, before, lines)
-                    else:
-                        yield from self._fast_records(records, times, before, lines)
-                    return
+                yield from self._json_runs(lines, count, before)
+                return
         yield from self._full_lines(lines, count, before)
+
+    def _json_runs(
+        self, lines: str, count: int, before: int
+    ) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
+        """A JSON Lines chunk at once where it can be. Where its first lines are
+        plain samples and a later one is not (the end record ends every trace's
+        last chunk), those first lines at once, that line by the full reader, and
+        on with the rest, as `_csv_runs` does."""
+        decoded = self._chunks.decode(lines, count, before)
+        while isinstance(decoded, int):
+            # `decoded` records read well: as many lines hold no other (fewer, if
+            # one is blank)
+            pieces = lines.split("\n", decoded + 1)
+            yield from self._chunk("\n".join(pieces[:decoded]) + "\n", decoded, before)
+            yield from self._full_line(before + decoded + 1, pieces[decoded])
+            lines = pieces[decoded + 1] if len(pieces) > decoded + 1 else ""
+            count, before = count - decoded - 1, before + decoded + 1
+            if not count:
+                return
+            if not self._fast_ready():  # after the end record: each line is the full reader's
+                yield from self._full_lines(lines, count, before)
+                return
+            decoded = self._chunks.decode(lines, count, before)
+        if decoded is None:
+            yield from self._full_lines(lines, count, before)
+            return
+        plain, records, times = decoded
+        if plain:
+            yield from self._fast_plain(plain, records, times, before, lines)
+        else:
+            yield from self._fast_records(records, times, before, lines)
 
     def _csv_header(
         self, lines: str, count: int, before: int

@@ -12,7 +12,6 @@ parser accepts, up to 1,000,000 nested levels.
 from __future__ import annotations
 
 import contextvars
-import ctypes
 import sys
 import threading
 from collections.abc import Callable
@@ -93,6 +92,8 @@ def _wait(thread: threading.Thread, finished: threading.Event) -> None:
         while not finished.wait(0.1):
             pass
     except KeyboardInterrupt:
+        import ctypes  # here only: its import is 2% of a short command's start
+
         assert thread.ident is not None
         ctypes.pythonapi.PyThreadState_SetAsyncExc(
             ctypes.c_ulong(thread.ident), ctypes.py_object(KeyboardInterrupt)
