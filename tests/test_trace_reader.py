@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import io
 import json
+import threading
 from fractions import Fraction
 
 import pytest
@@ -28,7 +29,10 @@ TIMES = st.one_of(
 )
 
 
-ODD = ["", "  ", "{", "[]", '{"unit": "ms"}']
+# Lines that are no record, or not one: msgspec reads `{...} "x"` as two values, and
+# an object may span two lines.
+ODD = ["", "  ", "{", "[]", '{"unit": "ms"}', '{"t": 99, "state": "A"}"end": true}',
+       '{"t": 99, "state": "A"} {"t": 100, "state": "B"}', '{"t": 99,\n"state": "A"}']  # fmt: skip
 
 
 @st.composite
@@ -187,6 +191,26 @@ def test_plain_lines_before_a_record_of_another_shape_are_decoded_at_once(plain,
     assert decoded == 6  # the 7th record names its state the other way
     assert streamed(text) == whole(text)
     assert streamed(text)[1][1] == 30  # type: ignore[index]
+
+
+@pytest.mark.parametrize(
+    "text",
+    [  # found by the fuzzer: it hung `rmv eval` (the split read the same lines again)
+        '{"t": 0, "state": "a"}\n{"t": 1.5, "state": "b"}"end": trueend": true}\n',
+        '{"t": 0, "state": "a"}\n{"t": 1, "state": "b"} {"t": 2, "end": true}\n',
+        '{"t": 0, "state": "a"}\n{"t": 1, "state": "b"}\n{"t": 2,\n"end": true}\n{"t": 3}\n',
+        '{"t": 0, "state": "a"} {"t": 1, "state": "b"}\n{"t": 2, "end": true}\n',
+    ],
+)
+def test_records_that_are_not_lines_are_the_full_reader_s(text):
+    """Plain samples, then values that are not one a line: the stream ends, as the
+    whole-file reader does (here, with its error)."""
+    results: list[object] = []
+    worker = threading.Thread(target=lambda: results.append(streamed(text)), daemon=True)
+    worker.start()
+    worker.join(timeout=20)
+    assert results, "the stream did not end"
+    assert results[0] == whole(text)
 
 
 def test_lines_of_both_shapes_in_one_chunk_keep_each_lines_state():

@@ -101,6 +101,11 @@ _UNKNOWN = re.compile(r"unknown field `(.*)` - at `\$\[(\d+)\]")
 _AT = re.compile(r"- at `\$\[(\d+)\]")
 
 
+# A chunk decoded at once: the field naming the states of all its records where they
+# are plain samples of one shape (else ""), the records, their times as floats.
+Decoded = tuple[str, list[Any], list[float]]
+
+
 class ChunkDecoder:
     """Decodes chunks strictly (an unknown field is an error) until the first field
     the trace does not use is noted in `reader`, then leniently."""
@@ -109,9 +114,7 @@ class ChunkDecoder:
         self.reader = reader
         self.strict = True
 
-    def decode(
-        self, lines: str, count: int, before: int
-    ) -> tuple[str, list[Any], list[float]] | int | None:
+    def decode(self, lines: str, count: int, before: int) -> Decoded | int | None:
         """The chunk's records, one per line, in any key order, with any extra fields
         (the first one noted), their times as floats, and the field naming their
         states where all are plain samples of one shape ("state" or "props"; else

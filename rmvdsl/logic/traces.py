@@ -46,6 +46,7 @@ from rmvdsl.logic.trace_chunks import (
     LARGEST,
     SMALLEST,
     ChunkDecoder,
+    Decoded,
     Record,
     StateKey,
     propositions,
@@ -173,16 +174,20 @@ class TraceStream:
     def _json_runs(
         self, lines: str, count: int, before: int
     ) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
-        """A JSON Lines chunk at once where it can be. Where its first lines are
+        """A JSON Lines chunk at once where it can be. Where its first records are
         plain samples and a later one is not (the end record ends every trace's
-        last chunk), those first lines at once, that line by the full reader, and
-        on with the rest, as `_csv_runs` does."""
+        last chunk), the lines before that one at once, the next by the full
+        reader, and on with the rest, as `_csv_runs` does. Records need not be
+        lines (msgspec reads `{...} "x"` as two, an object may span two lines):
+        a piece is read at once only where it decodes to one record a line, and
+        by the full reader otherwise; each turn takes at least two lines."""
         decoded = self._chunks.decode(lines, count, before)
-        while isinstance(decoded, int):
-            # `decoded` records read well: as many lines hold no other (fewer, if
-            # one is blank)
+        while isinstance(decoded, int) and decoded < count:
             pieces = lines.split("\n", decoded + 1)
-            yield from self._chunk("\n".join(pieces[:decoded]) + "\n", decoded, before)
+            first = "\n".join(pieces[:decoded]) + "\n"
+            yield from self._decoded(
+                self._chunks.decode(first, decoded, before), first, decoded, before
+            )
             yield from self._full_line(before + decoded + 1, pieces[decoded])
             lines = pieces[decoded + 1] if len(pieces) > decoded + 1 else ""
             count, before = count - decoded - 1, before + decoded + 1
@@ -192,7 +197,14 @@ class TraceStream:
                 yield from self._full_lines(lines, count, before)
                 return
             decoded = self._chunks.decode(lines, count, before)
-        if decoded is None:
+        yield from self._decoded(decoded, lines, count, before)
+
+    def _decoded(
+        self, decoded: Decoded | int | None, lines: str, count: int, before: int
+    ) -> Iterator[tuple[int | Fraction, frozenset[str]]]:
+        """Lines as `ChunkDecoder.decode` read them at once, or by the full reader
+        where it did not."""
+        if not isinstance(decoded, tuple):
             yield from self._full_lines(lines, count, before)
             return
         plain, records, times = decoded
