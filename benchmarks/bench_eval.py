@@ -14,7 +14,8 @@ resident set. In the same run, over the same file:
 - `json.loads` per line (for `csv`, `csv.reader` per row): the standard library's
   reader, doing nothing with what it reads (the speed a tool starts from);
 - `msgspec` per chunk: the reader `rmv eval` uses, bare (decode_lines into a typed
-  record, 1 MB at a time), the floor under any reader built on it;
+  record, 1 MB at a time; `rmv eval` decodes a chunk as one array, a line an item,
+  which refuses two objects on a line), the floor under any reader built on it;
 - `orjson` per line, where it is installed: the other fast reader measured;
 - the whole trace in memory (plain only): the same monitor fed after reading the
   whole file into lists (how `rmv eval` worked before it streamed), same output;

@@ -200,6 +200,12 @@ def test_plain_lines_before_a_record_of_another_shape_are_decoded_at_once(plain,
         '{"t": 0, "state": "a"}\n{"t": 1, "state": "b"} {"t": 2, "end": true}\n',
         '{"t": 0, "state": "a"}\n{"t": 1, "state": "b"}\n{"t": 2,\n"end": true}\n{"t": 3}\n',
         '{"t": 0, "state": "a"} {"t": 1, "state": "b"}\n{"t": 2, "end": true}\n',
+        # as many values as lines: read at once, these were taken, where the full
+        # reader refuses them
+        '{"t": 0, "state": "a"} {"t": 1, "state": "b"}\n{"t": 2,\n"state": "a"}\n'
+        '{"t": 3, "end": true}\n',
+        '{"t": 0, "state": "a"} {"t": 1, "state": "b"}\n\n{"t": 3, "end": true}\n',
+        '{"t": 0, "state": "a"}\r\n {"t": 1, "state": "b"} \r\n{"t": 3, "end": true}',
     ],
 )
 def test_records_that_are_not_lines_are_the_full_reader_s(text):
