@@ -32,7 +32,8 @@ TIMES = st.one_of(
 # Lines that are no record, or not one: msgspec reads `{...} "x"` as two values, and
 # an object may span two lines.
 ODD = ["", "  ", "{", "[]", '{"unit": "ms"}', '{"t": 99, "state": "A"}"end": true}',
-       '{"t": 99, "state": "A"} {"t": 100, "state": "B"}', '{"t": 99,\n"state": "A"}']  # fmt: skip
+       '{"t": 99, "state": "A"} {"t": 100, "state": "B"}', '{"t": 99,\n"state": "A"}',
+       '{"t": 99, "state": "A"}, {"t": 100, "state": "B"}']  # fmt: skip
 
 
 @st.composite
@@ -206,6 +207,10 @@ def test_plain_lines_before_a_record_of_another_shape_are_decoded_at_once(plain,
         '{"t": 3, "end": true}\n',
         '{"t": 0, "state": "a"} {"t": 1, "state": "b"}\n\n{"t": 3, "end": true}\n',
         '{"t": 0, "state": "a"}\r\n {"t": 1, "state": "b"} \r\n{"t": 3, "end": true}',
+        # two items of the chunk's array on a line, before and after the odd record
+        '{"t": 0, "state": "a"}\n{"t": 1, "props": ["b"]}, {"t": 2, "state": "a"}\n'
+        '{"t": 3, "end": true}\n',
+        '{"t": 0, "state": "a"}, {"t": 1, "state": "b"}\n{"t": 2, "end": true}\n\n',
     ],
 )
 def test_records_that_are_not_lines_are_the_full_reader_s(text):

@@ -1,8 +1,8 @@
 """A formula (or term) given on its own, read without lark where it can be.
 
 `rmv eval` and `rmv sat` read one formula from the command line. lark's import and
-its tables were more than a third of `rmv eval`'s start (about 190 M of 490 M
-instructions in a fresh install). This reader takes the infix grammar's `formula`
+its tables were a third of `rmv eval`'s start (167 M of 494 M instructions in a
+fresh install). This reader takes the infix grammar's `formula`
 and `term` rules (formula.lark, lexical.lark) by recursive descent and builds the
 same nodes, with the same spans, as lark's parser with `FormulaRules` does.
 
@@ -122,7 +122,8 @@ class _Reader:
 
     def formula(self) -> fm.Formula:
         """`f_or -> formula` (to the right) or `f_or <-> f_or`: a chain of `->`
-        whose last operand may be an `<->` (read in a loop, not a call a link)."""
+        whose last operand may be an `<->`, read in a loop (a long chain does not
+        recurse)."""
         operands = [self.f_or()]
         while self.taking("->"):
             operands.append(self.f_or())
@@ -175,7 +176,7 @@ class _Reader:
             self.take(")")
             return inner
         if token.kind == "word" and token.text != "duration":
-            if token.text in _OPERATOR_WORDS or token.text in _PREFIXES:
+            if token.text in _OPERATOR_WORDS:
                 raise _Decline
             self.index += 1
             if token.text in _CONSTANTS:

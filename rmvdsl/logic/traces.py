@@ -177,10 +177,11 @@ class TraceStream:
         """A JSON Lines chunk at once where it can be. Where its first records are
         plain samples and a later one is not (the end record ends every trace's
         last chunk), the lines before that one at once, the next by the full
-        reader, and on with the rest, as `_csv_runs` does. Records need not be
-        lines (msgspec reads `{...} "x"` as two, an object may span two lines):
-        a piece is read at once only where it decodes to one record a line, and
-        by the full reader otherwise; each turn takes at least two lines."""
+        reader, and on with the rest, as `_csv_runs` does. The count of records
+        before that one need not be one of lines (`{...}, {...}` on a line is two
+        items of the chunk's array): a piece is read at once only where it
+        decodes to one record a line, and by the full reader otherwise; each turn
+        takes at least two lines."""
         decoded = self._chunks.decode(lines, count, before)
         while isinstance(decoded, int) and decoded < count:
             pieces = lines.split("\n", decoded + 1)
