@@ -183,25 +183,52 @@ def test_an_unregistered_connection_is_judged_once_it_lasts_and_always_refused(t
     assert watch.poll(1, [], now=grace / 2) == []  # gone: the grace starts again
     assert watch.poll(2, [sneak], now=grace) == []
     # unseen while a node did not answer (its connections unknown): still lasting
-    assert watch.poll(3, [], now=1.5 * grace, silent=["/base"]) == []
+    assert watch.poll(3, [], now=1.5 * grace, silent={"/base": intrusion.SLOW}) == []
     assert watch.poll(4, [sneak], now=2 * grace) == [
         ("error", "intrusion: 127.0.0.1:4711 publishes on /vehicle/twist without registering "
                   "with the ROS master"),
     ]  # fmt: skip
     assert watch.status().message == "1 intrusion: 127.0.0.1:4711 publisher /vehicle/twist"
     # Silent once is not stale (a node that stops may be caught between closing its
-    # server and unregistering); silent for STALE_GRACE is, and said once.
-    assert watch.poll(4, [sneak], now=3 * grace, silent=["/killed"]) == []
-    later = 3 * grace + intrusion.STALE_GRACE
-    lines = watch.poll(5, [sneak], now=later, silent=["/killed"])
+    # server and unregistering); refused for STALE_GRACE over STALE_POLLS polls is,
+    # and said once.
+    gone = {"/killed": intrusion.GONE}
+    start = 3 * grace
+    assert watch.poll(4, [sneak], now=start, silent=gone) == []
+    later = start + intrusion.STALE_GRACE
+    assert watch.poll(5, [sneak], now=later, silent=gone) == []  # 2 polls: the poll stalled
+    lines = watch.poll(6, [sneak], now=later + 0.2, silent=gone)
     assert lines == [("warn", "stale: /killed is registered with the ROS master but does not "
                               "answer (killed?)")]  # fmt: skip
-    assert watch.poll(6, [sneak], now=later + 1, silent=["/killed"]) == []
+    assert watch.poll(7, [sneak], now=later + 1, silent=gone) == []
     stale = watch.statuses()[1]
     assert (stale.level, stale.message) == (
         status.WARN,
         "1 node registered but not answering: /killed",
     )
+    assert watch.poll(8, [sneak], now=later + 2) == []  # it answers again: no longer stale
+    assert watch.statuses()[1].level == status.OK
+
+
+def test_a_node_answering_late_is_stale_only_after_the_hung_grace(tmp_path):
+    """ROS 1: a call that timed out (a busy machine, a live node answering late) is
+    weaker evidence than a refused one: stale only after HUNG_GRACE, said once; a
+    node that answers in between starts over."""
+    watch = intrusion.IntrusionWatch(_spec(tmp_path), Outputs().actions(), own=(), ros_version=1)
+    slow = {"/busy": intrusion.SLOW}
+    polls = [0.5 * k for k in range(int(intrusion.HUNG_GRACE / 0.5))]
+    assert all(watch.poll(k, [], now=t, silent=slow) == [] for k, t in enumerate(polls))
+    assert watch.poll(100, [], now=polls[-1] + 0.5) == []  # answered
+    assert watch.poll(101, [], now=polls[-1] + 1, silent=slow) == []  # a new silence
+    hung = polls[-1] + 1 + intrusion.HUNG_GRACE
+    assert watch.poll(102, [], now=hung - 0.5, silent=slow) == []
+    assert watch.poll(103, [], now=hung, silent=slow) == [
+        ("warn", "stale: /busy is registered with the ROS master but has not answered for "
+                 "15 s (hung?)"),
+    ]  # fmt: skip
+    # refused from then on (it was killed): stale already, not said again
+    assert watch.poll(104, [], now=hung + 1, silent={"/busy": intrusion.GONE}) == []
+    assert watch.stale == ["/busy"]
 
 
 def test_ros1_messages_decode_from_the_definition_their_publisher_sent():

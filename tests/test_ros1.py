@@ -183,7 +183,8 @@ def test_the_intrusion_node_reports_rogues_sneaks_and_stale_nodes_and_no_allowed
     from its folder: 20 allowed nodes starting and stopping give no report; a rogue
     publisher and a rogue subscriber are each reported within 2 s; so is a publisher
     that unregistered and reached a subscriber directly (by its XML-RPC address: the
-    master never lists it); a node killed with SIGKILL is reported stale (after its 3 s grace)."""
+    master never lists it); a node frozen with SIGSTOP for 6 s (its calls time out) is
+    not stale, a node killed with SIGKILL is (after its 3 s grace)."""
     spec = tmp_path / "guard.rmv"
     spec.write_text(GUARD, encoding="utf-8")
     package = _build(spec, tmp_path / "guard")

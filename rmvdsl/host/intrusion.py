@@ -6,7 +6,7 @@ status, and registered nodes that no longer answer (ROS 1) a second one."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 from rmvdsl.host.status import ERROR, OK, WARN, Status
@@ -35,9 +35,18 @@ GONE_GRACE = 5.0
 # A registered ROS 1 node that does not answer is stale once it has not answered
 # this long: a node that stops closes its XML-RPC server around the time it
 # unregisters, so a poll may catch it between the two, and a busy machine stretches
-# that moment (and a live node's answer) past a second: with 1 s, one of twenty
-# nodes stopping beside a parallel test run was called stale.
+# that moment past a second: with 1 s, one of twenty nodes stopping beside a
+# parallel test run was called stale.
 STALE_GRACE = 3.0
+# ... if its server refused the call (GONE: no process listens there). A call that
+# timed out (SLOW) may be a live node on a loaded machine (an allowed node answering
+# late for over 3 s was called stale beside a parallel test run), or a hung one: it
+# is stale only once that lasts this long.
+HUNG_GRACE = 15.0
+# ... and only after this many polls in a row found it silent, so that one long
+# stall of the poll itself (the machine busy) is not taken for the grace.
+STALE_POLLS = 3
+GONE, SLOW = "gone", "slow"  # how a registered node did not answer
 
 
 @dataclass(frozen=True)
@@ -86,7 +95,8 @@ class IntrusionWatch:
         # When each endpoint still in its grace was first seen: topic, role, gid, registered.
         self.provisional_since: dict[tuple[str, str, bytes, bool], float] = {}
         self.stale: list[str] = []
-        self.silent_since: dict[str, float] = {}  # node -> when it first did not answer
+        # node -> when it first did not answer, and in how many polls in a row
+        self.silent_since: dict[str, tuple[float, int]] = {}
 
     def endpoints(self, seen: Iterable[Seen], now: float, complete: bool = True) -> set[Endpoint]:
         """The endpoints to judge at monotonic time `now` (seconds). An endpoint in
@@ -109,19 +119,23 @@ class IntrusionWatch:
         return found
 
     def poll(
-        self, time: int, seen: Iterable[Seen], now: float, silent: Iterable[str] = ()
+        self, time: int, seen: Iterable[Seen], now: float, silent: Mapping[str, str] | None = None
     ) -> list[tuple[str, str]]:
         """Judge the graph at `time` (the node's clock, nanoseconds), given the
-        registered nodes that did not answer this time (`silent`: stale once they
-        have not answered for STALE_GRACE, and their endpoints then no longer
-        judged: a dead node carries no traffic); the log lines (level, text)."""
+        registered nodes that did not answer this time and how (`silent`: GONE or
+        SLOW, stale once that has lasted its grace over STALE_POLLS polls, and their
+        endpoints then no longer judged: a dead node carries no traffic); the log
+        lines (level, text)."""
         lines = []
-        silent_since = {n: self.silent_since.get(n, now) for n in silent if n not in self.own}
+        silent = silent or {}
+        silent_since = {}
+        for node in sorted(set(silent) - self.own):
+            since, polls = self.silent_since.get(node, (now, 0))
+            silent_since[node] = (since, polls + 1)
         self.silent_since = silent_since
-        stale = sorted(n for n, since in silent_since.items() if now - since >= STALE_GRACE)
+        stale = sorted(n for n in silent_since if self._is_stale(n, silent[n], now))
         for node in sorted(set(stale) - set(self.stale)):
-            lines.append(("warn", f"stale: {node} is registered with the ROS master but "
-                                  "does not answer (killed?)"))  # fmt: skip
+            lines.append(("warn", _stale_line(node, silent[node])))
         self.stale = stale
         alive = [s for s in seen if not s.registered or s.node not in stale]
         self.runtime.graph(time, self.endpoints(alive, now, complete=not silent_since))
@@ -137,6 +151,11 @@ class IntrusionWatch:
                 self.open.pop(endpoint, None)
                 lines.append(("info", f"intrusion ended: {endpoint.node} on {endpoint.topic}"))
         return lines
+
+    def _is_stale(self, node: str, how: str, now: float) -> bool:
+        since, polls = self.silent_since[node]
+        grace = STALE_GRACE if how == GONE else HUNG_GRACE
+        return polls >= STALE_POLLS and now - since >= grace
 
     def statuses(self) -> list[Status]:
         """The intrusions, and the registered nodes that do not answer."""
@@ -157,3 +176,10 @@ class IntrusionWatch:
         who = ", ".join(values)
         message = f"{counted(len(values), 'intrusion')}: {who}" if values else "no intrusion"
         return Status(NODE_NAME, "intrusions", ERROR if values else OK, message, values)
+
+
+def _stale_line(node: str, how: str) -> str:
+    if how == GONE:
+        return f"stale: {node} is registered with the ROS master but does not answer (killed?)"
+    return (f"stale: {node} is registered with the ROS master but has not answered "
+            f"for {HUNG_GRACE:g} s (hung?)")  # fmt: skip

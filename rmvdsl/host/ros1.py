@@ -195,7 +195,7 @@ class IntrusionNode:
             return
         self.unreachable = False
         seen = graph.registered + graph.unregistered
-        for level, text in self.watch.poll(now_ns(), seen, time.monotonic(), graph.stale):
+        for level, text in self.watch.poll(now_ns(), seen, time.monotonic(), graph.silent):
             log_at(level, text)
         self.diagnostics.publish(diagnostics(self.watch.statuses()))
 

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 from typing import Any
 from urllib.parse import urlsplit
 
-from rmvdsl.host.intrusion import Seen
+from rmvdsl.host.intrusion import GONE, SLOW, Seen
 
 # Seconds an XML-RPC call may take before its node counts as not answering.
 TIMEOUT = 1.0
@@ -37,11 +37,12 @@ class MasterError(Exception):
 @dataclass
 class Graph:
     """One reading: endpoints the master registered, connections it did not,
-    and the registered nodes that did not answer this time."""
+    and the registered nodes that did not answer this time, and how (GONE: the
+    call was refused; SLOW: it timed out)."""
 
     registered: list[Seen] = field(default_factory=list)
     unregistered: list[Seen] = field(default_factory=list)
-    stale: list[str] = field(default_factory=list)
+    silent: dict[str, str] = field(default_factory=dict)
     # What the master listed, as a connection names it: (topic, "publisher", the
     # publisher's address) and (topic, "subscriber", the subscriber's name); each
     # with the node's name.
@@ -130,7 +131,8 @@ def read(master_uri: str, caller: str, timeout: float = TIMEOUT) -> Graph:
     nodes = sorted({n for names in registered.values() for n in names})
     uris = _lookup(master, caller, nodes)
     buses = _bus_info(caller, uris, timeout)
-    graph = Graph(stale=sorted(n for n in nodes if buses.get(n) is None))
+    silent = {n: buses.get(n, GONE) for n in nodes}  # not looked up: gone
+    graph = Graph(silent={n: how for n, how in silent.items() if isinstance(how, str)})
     for (topic, role), names in sorted(registered.items()):
         for node in sorted(names):
             graph.registered.append(Seen(topic, role, *split_name(node), node.encode()))
@@ -151,14 +153,17 @@ def _lookup(master: Any, caller: str, nodes: Iterable[str]) -> dict[str, str]:
     return found
 
 
-def _bus_info(caller: str, uris: dict[str, str], timeout: float) -> dict[str, list[Any] | None]:
-    """Each node's connections, asked of all at once; None: it did not answer."""
+def _bus_info(caller: str, uris: dict[str, str], timeout: float) -> dict[str, list[Any] | str]:
+    """Each node's connections, asked of all at once; or how it did not answer:
+    SLOW (no answer in `timeout`: busy or hung), GONE (anything else: refused)."""
 
-    def ask(uri: str) -> list[Any] | None:
+    def ask(uri: str) -> list[Any] | str:
         try:
             return list(_call(proxy(uri, timeout).getBusInfo, caller))
+        except TimeoutError:
+            return SLOW
         except (OSError, xmlrpc.client.Error, MasterError, ValueError):
-            return None
+            return GONE
 
     if not uris:
         return {}
@@ -170,7 +175,7 @@ def _bus_info(caller: str, uris: dict[str, str], timeout: float) -> dict[str, li
 def _unregistered(
     registered: dict[tuple[str, str], set[str]],
     uris: dict[str, str],
-    buses: dict[str, list[Any] | None],
+    buses: dict[str, list[Any] | str],
 ) -> list[Seen]:
     """Connections no registration accounts for. A subscriber's inbound
     connection names the publisher's XML-RPC URI; a publisher's outbound one, the
@@ -181,7 +186,7 @@ def _unregistered(
     }  # fmt: skip
     found: dict[tuple[str, str, str], Seen] = {}
     for connections in buses.values():
-        for connection in connections or ():
+        for connection in connections if isinstance(connections, list) else ():
             if len(connection) < 5:
                 continue
             peer, direction, topic = str(connection[1]), connection[2], str(connection[4])

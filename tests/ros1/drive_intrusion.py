@@ -1,6 +1,8 @@
 """Inside the namespace: roscore, the generated intrusion node, allowed nodes, then
 in turn: churn (allowed nodes starting and stopping), a rogue publisher, a rogue
-subscriber, a publisher that skips the master, and a node killed with SIGKILL.
+subscriber, a publisher that skips the master, an allowed node frozen with SIGSTOP
+for longer than the stale grace (its calls time out: late, not gone), and a node
+killed with SIGKILL.
 Prints one JSON object: when each step happened and every status the node put
 on /diagnostics (monotonic seconds), and its log.
 
@@ -100,6 +102,16 @@ def main() -> None:
             # long enough that a report later than the 2 s asked shows when it came
             time.sleep(6.0)
             core.stop(sneak)
+            frozen = peer("/allowed_frozen", "publisher")
+            core.wait_for(lambda: registered("/allowed_frozen", "publisher"), 10, "frozen")
+            time.sleep(1.0)
+            frozen.send_signal(signal.SIGSTOP)
+            steps["frozen"] = time.monotonic()
+            time.sleep(6.0)  # past the stale grace (3 s) and its polls, short of 15 s
+            frozen.send_signal(signal.SIGCONT)
+            steps["thawed"] = time.monotonic()
+            time.sleep(1.0)
+            core.stop(frozen)
             victim = peer("/victim", "subscriber")
             core.wait_for(lambda: registered("/victim", "subscriber"), 10, "/victim")
             time.sleep(1.0)
