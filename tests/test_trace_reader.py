@@ -14,8 +14,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rmvdsl.logic import trace_chunks, traces
+from rmvdsl.logic.trace_chunks import scaled
 from rmvdsl.logic.trace_lines import TraceError, read_trace
-from rmvdsl.logic.traces import TraceStream, scaled
+from rmvdsl.logic.traces import TraceStream
 
 NAMES = st.sampled_from(["A", "B", "Brake_2", "x^{1}"])
 BAD_NAMES = st.sampled_from(["A B", "", "A\n"])
