@@ -169,6 +169,20 @@ def replay_speed(data: dict[str, Any]) -> str:
     return _table(header, rows)
 
 
+def replay_start(data: dict[str, Any]) -> str:
+    rows = []
+    for storage, row in data.items():
+        if storage == "repeat":
+            continue
+        rows.append([STORAGE_NAMES.get(storage, storage), f"{row['bare_wall']:.2f} s",
+                     f"{row['checked_wall']:.2f} s ({row['checked_over_bare']:.1f}x)",
+                     f"{row['stored_wall']:.2f} s ({row['stored_over_bare']:.1f}x)",
+                     f"{row['stored_over_checked']:.0%}"])  # fmt: skip
+    header = ["storage", "bare read", "replay checking the spec (/ bare)",
+              "replay of the stored spec (/ bare)", "stored / checking"]  # fmt: skip
+    return _table(header, rows)
+
+
 def replay_decoding(data: dict[str, Any]) -> str:
     rows = [
         [STORAGE_NAMES.get(storage, storage), msgtype, f"{row['messages']:,}",
@@ -255,6 +269,7 @@ BLOCKS: dict[str, tuple[str, Callable[[dict[str, Any]], str]]] = {
     "ros2-workload": ("ros2.json", ros2_workload),
     "replay-speed": ("replay.json", replay_speed),
     "replay-decoding": ("decoding.json", replay_decoding),
+    "replay-start": ("replay_start.json", replay_start),
     "check-scaling": ("check.json", check_scaling),
     "sat-families": ("sat.json", sat_families),
     "sat-requirements": ("sat.json", sat_requirements),

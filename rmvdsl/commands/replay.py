@@ -4,19 +4,19 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from rmvdsl.commands import message_options, warn_if_nothing_checked
 from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, EXIT_USAGE, UsageError
 from rmvdsl.runtime.wording import counted
 
+if TYPE_CHECKING:
+    from rmvdsl.runtime import spec as ir
+
 
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from rmvdsl.check import check
-    from rmvdsl.ir import lower
-    from rmvdsl.lang.render import render_text
     from rmvdsl.tools import fleet, replay
     from rmvdsl.tools.recordings import ReplayError
 
@@ -27,23 +27,18 @@ def run(args: argparse.Namespace) -> int:
         reason = unavailable(args.report)
         if reason is not None:
             raise UsageError(reason)
-    result = check(args.spec, ros=args.ros, messages=tuple(args.messages))
-    if result.errors:
-        sys.stderr.write(render_text(result.errors, result.model.sources, False))
-        print(f"rmv replay: {args.spec}: {counted(len(result.errors), 'error')}", file=sys.stderr)
-        return EXIT_ERRORS
-    if warn_if_nothing_checked(result):
-        raise UsageError(f"{args.spec}: the spec checks nothing: a replay of it would pass "
-                         "any recording")  # fmt: skip
+    spec = _checked(args)
+    if isinstance(spec, int):
+        return spec
     scheduler = fleet.scheduler_of(args.scheduler, args.dask)
     if args.merge and args.chunk is not None:
         raise UsageError("--chunk replays each recording on its own: leave out --merge")
     if not args.merge and fleet.is_fleet(args.recordings, scheduler, args.chunk):
-        return _fleet(args, lower(result), scheduler)
+        return _fleet(args, spec, scheduler)
     progress = replay.progress_bar() if sys.stderr.isatty() and not args.quiet else None
     try:
         summary = replay.run(
-            lower(result), [Path(p) for p in args.recordings], sys.stdout,
+            spec, [Path(p) for p in args.recordings], sys.stdout,
             output=args.format, start=args.start, stop=args.stop, report=args.report,
             run_actions=args.run_actions, progress=progress,
         )  # fmt: skip
@@ -53,6 +48,33 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_ERRORS
     # Input lost to a mismatch with the spec: the verdicts cannot be trusted.
     return EXIT_USAGE if summary.warnings else EXIT_OK
+
+
+def _checked(args: argparse.Namespace) -> ir.Spec | int:
+    """The spec checked and lowered, or the exit code of a check that failed. A spec
+    whose every input is as it was at its last clean check is not checked again:
+    its IR is loaded from the store (rmvdsl.commands.stored_spec)."""
+    from rmvdsl.commands import stored_spec
+
+    key = stored_spec.entry(args.spec, args.ros, args.messages)
+    spec = stored_spec.lookup(key)
+    if spec is not None:
+        return spec
+    from rmvdsl.check import check
+    from rmvdsl.ir import lower
+    from rmvdsl.lang.render import render_text
+
+    result = check(args.spec, ros=args.ros, messages=tuple(args.messages))
+    if result.errors:
+        sys.stderr.write(render_text(result.errors, result.model.sources, False))
+        print(f"rmv replay: {args.spec}: {counted(len(result.errors), 'error')}", file=sys.stderr)
+        return EXIT_ERRORS
+    if warn_if_nothing_checked(result):
+        raise UsageError(f"{args.spec}: the spec checks nothing: a replay of it would pass "
+                         "any recording")  # fmt: skip
+    spec = lower(result)
+    stored_spec.store(key, args.spec, result, spec)
+    return spec
 
 
 def _fleet(args: argparse.Namespace, spec: Any, scheduler: str | None) -> int:

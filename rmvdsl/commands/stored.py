@@ -2,16 +2,16 @@
 whose every input is unchanged prints the stored output without parsing anything.
 
 An entry is keyed by what the command was asked (the files named, the options,
-the folder it ran in, the environment variables that choose message folders, and
-the versions of rmvdsl, rosbags and z3, and the size and modification time of
-each of rmvdsl's own files, so an edited checkout never answers with what its
-older code printed) and holds what it printed, its exit code,
-and the inputs it read: every file (the specs, their imports, rmv.toml, each
-message definition) by the SHA-256 of its bytes, each file looked for and not
-found, and each message folder by its modification time (a file added or removed
-changes it). The entry answers only while every one of them is as it was; then
-the check runs as usual and replaces it. One entry per key: editing a spec
-replaces its entry, so the folder grows only with the specs and options checked.
+the folder it ran in, the environment variables that choose message folders, the
+version of rmvdsl and the install of rosbags and z3, and the size and
+modification time of each of rmvdsl's own files, so an edited checkout never
+answers with what its older code printed) and holds what it printed, its exit
+code, and the inputs it read: every file (the specs, their imports, rmv.toml,
+each message definition) by the SHA-256 of its bytes, each file looked for and
+not found, and each message folder by its modification time (a file added or
+removed changes it). The entry answers only while every one of them is as it
+was; then the check runs as usual and replaces it. One entry per key: editing a
+spec replaces its entry, so the folder grows only with the specs and options checked.
 """
 
 from __future__ import annotations
@@ -22,8 +22,9 @@ import json
 import os
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from importlib import metadata, resources
+from importlib.util import find_spec
 
+import rmvdsl
 from rmvdsl import __version__
 from rmvdsl.util.cache import STORED_CHECKS, cache_folder, prune
 
@@ -56,7 +57,7 @@ def key(arguments: Sequence[str]) -> str:
         "arguments": list(arguments),
         "folder": os.getcwd(),
         "environment": {name: os.environ.get(name) for name in ENVIRONMENT},
-        "versions": [__version__, *(_version(p) for p in ("rosbags", "z3-solver"))],
+        "versions": [__version__, *(_installed(m) for m in ("rosbags", "z3"))],
         "code": _code_stamp(),
     }
     return hashlib.sha256(json.dumps(parts, sort_keys=True).encode()).hexdigest()[:32]
@@ -65,7 +66,7 @@ def key(arguments: Sequence[str]) -> str:
 def _code_stamp() -> list[tuple[str, int, int]]:
     """Each file of the rmvdsl package with its size and modification time (about
     150 `stat` calls: a millisecond)."""
-    root = str(resources.files("rmvdsl"))
+    root = os.path.dirname(os.path.abspath(rmvdsl.__file__))
     out: list[tuple[str, int, int]] = []
     stack = [root]
     while stack:
@@ -80,11 +81,20 @@ def _code_stamp() -> list[tuple[str, int, int]]:
     return sorted(out)
 
 
-def _version(package: str) -> str | None:
-    try:
-        return metadata.version(package)
-    except metadata.PackageNotFoundError:
+def _installed(module: str) -> tuple[str, int, int] | None:
+    """Which install of a package this is, without importing it or reading its
+    metadata (importlib.metadata's import was a sixth of a stored re-check): where
+    its `__init__` is, with its size and modification time, which an upgrade
+    rewrites."""
+    spec = find_spec(module)
+    origin = spec.origin if spec is not None else None
+    if origin is None:
         return None
+    try:
+        info = os.stat(origin)
+    except OSError:
+        return None
+    return origin, info.st_size, info.st_mtime_ns
 
 
 def _path(entry: str) -> str | None:
