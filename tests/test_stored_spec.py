@@ -133,3 +133,18 @@ def test_what_the_store_keeps_loads_as_the_spec_it_was(rmv):
         if not result.errors:
             lowered = lower(result)
             assert ir.load(ir.dump(lowered, indent=None)) == lowered, path
+
+
+def test_the_key_names_the_installed_versions_without_importlib_metadata():
+    """A stored check or spec is keyed by the installs of rosbags and z3: their
+    versions as their .dist-info folders name them (an upgrade checks again), read
+    without importlib.metadata; a package with none is asked of importlib.metadata."""
+    from importlib import metadata
+
+    from rmvdsl.commands.stored import _installed
+
+    for module, distribution in (("rosbags", "rosbags"), ("z3", "z3-solver")):
+        found = _installed(module, distribution)
+        assert isinstance(found, list) and len(found) == 1, found
+        assert found[0].endswith(f"-{metadata.version(distribution)}.dist-info")
+    assert _installed("no_such_module_here", "no-such-module-here") is None

@@ -57,7 +57,7 @@ def key(arguments: Sequence[str]) -> str:
         "arguments": list(arguments),
         "folder": os.getcwd(),
         "environment": {name: os.environ.get(name) for name in ENVIRONMENT},
-        "versions": [__version__, *(_installed(m) for m in ("rosbags", "z3"))],
+        "versions": [__version__, _installed("rosbags", "rosbags"), _installed("z3", "z3-solver")],
         "code": _code_stamp(),
     }
     return hashlib.sha256(json.dumps(parts, sort_keys=True).encode()).hexdigest()[:32]
@@ -81,20 +81,27 @@ def _code_stamp() -> list[tuple[str, int, int]]:
     return sorted(out)
 
 
-def _installed(module: str) -> tuple[str, int, int] | None:
-    """Which install of a package this is, without importing it or reading its
-    metadata (importlib.metadata's import was a sixth of a stored re-check): where
-    its `__init__` is, with its size and modification time, which an upgrade
-    rewrites."""
+def _installed(module: str, distribution: str) -> list[str] | str | None:
+    """The version of `distribution` (which holds `module`) installed, as the name
+    of its `.dist-info` folder beside the module says it (`rosbags-0.11.9.dist-info`),
+    without importing either or importlib.metadata (whose import was a sixth of a
+    stored re-check); where no such folder is found, importlib.metadata's answer."""
     spec = find_spec(module)
-    origin = spec.origin if spec is not None else None
-    if origin is None:
-        return None
+    places = spec.submodule_search_locations if spec is not None else None
+    if places:
+        folder = os.path.dirname(next(iter(places)))
+        prefix = distribution.replace("-", "_") + "-"
+        with contextlib.suppress(OSError):
+            found = sorted(n for n in os.listdir(folder)
+                           if n.startswith(prefix) and n.endswith(".dist-info"))  # fmt: skip
+            if found:
+                return found
+    from importlib import metadata
+
     try:
-        info = os.stat(origin)
-    except OSError:
+        return metadata.version(distribution)
+    except metadata.PackageNotFoundError:
         return None
-    return origin, info.st_size, info.st_mtime_ns
 
 
 def _path(entry: str) -> str | None:
