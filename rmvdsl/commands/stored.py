@@ -66,7 +66,7 @@ def key(arguments: Sequence[str]) -> str:
 def _code_stamp() -> list[tuple[str, int, int]]:
     """Each file of the rmvdsl package with its size and modification time (about
     150 `stat` calls: a millisecond)."""
-    root = os.path.dirname(os.path.abspath(rmvdsl.__file__))
+    root = os.path.abspath(next(iter(rmvdsl.__path__)))  # no importlib.resources: 15 ms
     out: list[tuple[str, int, int]] = []
     stack = [root]
     while stack:
