@@ -50,9 +50,7 @@ def run(args: argparse.Namespace, color: bool, entry: str | None) -> stored.Stor
     code = EXIT_USAGE if usage_problems else EXIT_ERRORS if failed else EXIT_OK
     output = stored.Stored(out.getvalue(), "".join(usage_problems), code)
     if entry and not usage_problems and stored.storable(d.code for d in all_diagnostics):
-        configs = [os.path.join(os.path.dirname(p) or ".", "rmv.toml") for p in checked]
-        read = [s.path for s in sources if os.path.isfile(s.path)]
-        stored.store(entry, output, [*read, *configs], folders_read())
+        stored.store(entry, output, stored.inputs(checked, sources), folders_read())
     return output
 
 

@@ -23,6 +23,7 @@ import os
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from importlib.util import find_spec
+from typing import Any
 
 import rmvdsl
 from rmvdsl import __version__
@@ -145,6 +146,14 @@ def store(entry: str, output: Stored, files: Iterable[str], folders: Iterable[st
             json.dump(value, handle)
         os.replace(temporary, path)
     prune(os.path.dirname(path), STORED_CHECKS)
+
+
+def inputs(specs: Iterable[str], sources: Iterable[Any]) -> list[str]:
+    """The files a check of `specs` read, to store with what it found: each source
+    it read that is a file (specs, imports, message definitions), and the
+    `rmv.toml` it looked for beside each spec, there or not."""
+    read = [source.path for source in sources if os.path.isfile(source.path)]
+    return [*read, *(os.path.join(os.path.dirname(p) or ".", "rmv.toml") for p in specs)]
 
 
 def _digest(path: str) -> str | None:

@@ -14,7 +14,6 @@ had, and every message folder its modification time.
 
 from __future__ import annotations
 
-import os
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
@@ -54,6 +53,5 @@ def store(key: str, path: str, result: CheckResult, spec: ir.Spec) -> None:
     text = ir.dump(spec, indent=None)
     if ir.load(text) != spec:
         return  # a value its JSON does not give back: never answered from the store
-    read = [s.path for s in result.model.sources if os.path.isfile(s.path)]
-    config = os.path.join(os.path.dirname(path) or ".", "rmv.toml")  # looked for, if not there
-    stored.store(key, stored.Stored(text, "", 0), [*read, config], folders_read())
+    read = stored.inputs([path], result.model.sources)
+    stored.store(key, stored.Stored(text, "", 0), read, folders_read())
