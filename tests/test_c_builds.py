@@ -9,6 +9,7 @@ from __future__ import annotations
 import subprocess
 from fractions import Fraction
 from pathlib import Path
+from typing import Any
 
 import pytest
 from c_harness import (
@@ -221,3 +222,29 @@ def test_the_generated_makefile_and_cmake_build_the_driver(tmp_path: Path) -> No
     subprocess.run(["cmake", "-S", str(out), "-B", str(build)], check=True, capture_output=True)
     subprocess.run(["cmake", "--build", str(build)], check=True, capture_output=True)
     assert (build / "rmv_carla_abs_replay").exists()
+
+
+def test_a_formula_makes_one_table_whatever_its_objects_share(rmv, tmp_path: Path) -> None:
+    """Equal subformulas share one node whether the formula shares their objects
+    (a fresh check's does, here and there) or not (one loaded from its JSON, as a
+    build from the stored spec reads it): a spec builds the same monitor either
+    way, byte for byte."""
+    from rmvdsl.runtime import formulas as f
+
+    def window() -> Any:
+        return f.temporal("until", "<=", 10, f.const(True), f.prop("p"))
+
+    part = window()
+    shared = f.binary("or", f.binary("and", part, part), f.not_(part))
+    separate = f.binary("or", f.binary("and", window(), window()), f.not_(window()))
+    assert compile_formula(shared) == compile_formula(separate)
+    assert len(compile_formula(separate).nodes) == 6  # p, true, until, and, not, or
+    loaded = f.from_lists(f.to_lists(shared))
+    assert compile_formula(loaded) == compile_formula(shared)
+    # The example built twice: the second build loads the spec the first stored.
+    first, second = tmp_path / "first", tmp_path / "second"
+    for out in (first, second):
+        assert rmv("build", "--target", "c", "examples/carla/abs.rmv", "-o", str(out)).code == 0
+    assert {p.name: p.read_bytes() for p in first.iterdir()} == {
+        p.name: p.read_bytes() for p in second.iterdir()
+    }

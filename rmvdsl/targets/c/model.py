@@ -89,6 +89,10 @@ def compile_formula(formula: Any) -> Formula:
     props: dict[str, int] = {}
     prop_nodes: dict[str, int] = {}
     done: dict[int, int] = {}
+    # Each distinct node once, by what it is (its children by index): equal
+    # subformulas share a node whether or not the formula shares their objects (a
+    # spec loaded from its JSON shares none), so a spec builds one table.
+    seen: dict[Node, int] = {}
     stack: list[tuple[Any, bool]] = [(formula, False)]
     while stack:
         item, expanded = stack.pop()
@@ -99,7 +103,12 @@ def compile_formula(formula: Any) -> Formula:
             stack.append((item, True))
             stack.extend((child, False) for child in reversed(children))
             continue
+        before = len(nodes)
         index = _add(item, [done[id(c)] for c in children], nodes, props, prop_nodes)
+        if index >= before:  # made now (with the pending node before it, for `ever`)
+            index = seen.setdefault(nodes[index], index)
+            if index < before:
+                del nodes[before:]
         done[id(item)] = index
     if any(n.future + n.past > LIMIT for n in nodes):
         raise Unsupported("the formula looks further ahead and back than the C monitor's 18 years")
