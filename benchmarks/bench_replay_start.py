@@ -11,7 +11,9 @@ bare read and deserialisation of the same recording:
 
 Each is run `--repeat` times, interleaved, in a cache folder of this run's own;
 reported: the median wall and CPU seconds of each, and each replay's against the
-bare read of the same round (the machine is shared: read the ratios).
+bare read of the same round (the machine is shared: read the ratios). Then `rmv
+build --target ros2` of the same spec, checking and from the stored spec, in
+rounds the same way (a build shares the replay's stored spec).
 
     python benchmarks/bench_replay_start.py --json benchmarks/results/replay_start.json
 """
@@ -74,6 +76,25 @@ def measure(recording: Path, cache: Path, repeat: int) -> dict[str, Any]:
     return out
 
 
+def measure_build(cache: Path, out: Path, repeat: int) -> dict[str, Any]:
+    """`rmv build --target ros2` checking the spec and from its stored IR."""
+    build = [sys.executable, "-m", "rmvdsl.cli", "build", str(SPEC), "--target", "ros2",
+             "-o", str(out)]  # fmt: skip
+    runs: dict[str, list[tuple[float, float]]] = {"checked": [], "stored": []}
+    for _ in range(repeat):
+        shutil.rmtree(cache / "checks", ignore_errors=True)
+        runs["checked"].append(_run(build))
+        runs["stored"].append(_run(build))
+    result: dict[str, Any] = {}
+    for name, values in runs.items():
+        result[f"{name}_wall"] = statistics.median(w for w, _ in values)
+        result[f"{name}_cpu"] = statistics.median(c for _, c in values)
+    result["stored_over_checked"] = statistics.median(
+        s[0] / c[0] for s, c in zip(runs["stored"], runs["checked"], strict=True)
+    )
+    return result
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=5)
@@ -92,6 +113,9 @@ def main(argv: list[str] | None = None) -> int:
                 f"{row['checked_wall']:.2f} s ({row['checked_over_bare']:.1f}x), from the "
                 f"stored spec {row['stored_wall']:.2f} s ({row['stored_over_bare']:.1f}x)"
             )
+        row = results["build"] = measure_build(cache, Path(folder) / "package", args.repeat)
+        print(f"build: checking the spec {row['checked_wall']:.2f} s, from the stored spec "
+              f"{row['stored_wall']:.2f} s ({row['stored_over_checked']:.0%})")  # fmt: skip
     if args.json:
         Path(args.json).write_text(json.dumps(results, indent=2) + "\n", encoding="utf-8")
     return 0

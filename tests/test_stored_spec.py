@@ -1,6 +1,6 @@
-"""`rmv replay` of a spec whose inputs are unchanged since its last clean check
-loads the IR it stored then (rmvdsl.commands.stored_spec) and imports no checker;
-any change of what the check read checks again."""
+"""`rmv replay` and `rmv build` of a spec whose inputs are unchanged since its last
+clean check load the IR it stored then (rmvdsl.commands.stored_spec) and import no
+checker; any change of what the check read checks again."""
 
 from __future__ import annotations
 
@@ -13,16 +13,18 @@ from pathlib import Path
 import pytest
 from conftest import ROOT
 
-# The replay in a process of its own, as a user's shell starts it, saying which of
-# the checker's modules it imported.
-REPLAY = (
+# A command in a process of its own, as a user's shell starts it (its arguments in
+# place of ARGS), saying which of the checker's modules it imported.
+COMMAND = (
     "import sys\n"
     "from rmvdsl.cli import main\n"
-    "code = main(['replay', *sys.argv[1:], '--format', 'jsonl', '--quiet'])\n"
+    "code = main(ARGS)\n"
     "checker = sorted(m for m in sys.modules if m.split('.')[0] in ('lark', 'z3', 'networkx')\n"
     "                 or m.startswith('rmvdsl.check'))\n"
     "print(json.dumps({'code': code, 'checker': checker}))\n"
 )
+REPLAY = COMMAND.replace("ARGS", "['replay', *sys.argv[1:], '--format', 'jsonl', '--quiet']")
+BUILD = COMMAND.replace("ARGS", "['build', sys.argv[1], '--target', 'ir', '-o', sys.argv[2]]")
 
 
 def _spec(folder: Path, limit: str = "5", field: str = "value") -> Path:
@@ -64,6 +66,15 @@ def _replay(cache: Path, *args: str) -> tuple[dict, list[dict], str]:
     return json.loads(lines[-1]), [json.loads(line) for line in lines[:-1]], run.stderr
 
 
+def _build(cache: Path, spec: Path, out: Path) -> tuple[dict, str]:
+    run = subprocess.run(
+        [sys.executable, "-c", "import json\n" + BUILD, str(spec), str(out)],
+        capture_output=True, text=True, timeout=120, cwd=cache.parent,
+        env={**os.environ, "RMV_CACHE_DIR": str(cache)},
+    )  # fmt: skip
+    return json.loads(run.stdout.splitlines()[-1]), run.stderr
+
+
 def _verdicts(records: list[dict]) -> list[tuple]:
     return [(r["verdict"], r["from"], r["to"]) for r in records if r["kind"] == "verdict"]
 
@@ -97,7 +108,7 @@ def test_an_edit_of_the_spec_or_a_message_definition_checks_again(setup):
     _spec(spec.parent, limit="7", field="reading")
     broken, records, err = _replay(cache, str(spec), str(bag))
     assert broken["code"] == 1 and not records and "RMV" in err, err
-    assert "rmv replay:" in err and "error" in err
+    assert "rmv replay:" in err and "error: nothing replayed" in err
 
 
 def test_options_that_change_the_check_have_entries_of_their_own(setup):
@@ -148,3 +159,45 @@ def test_the_key_names_the_installed_versions_without_importlib_metadata():
         assert isinstance(found, list) and len(found) == 1, found
         assert found[0].endswith(f"-{metadata.version(distribution)}.dist-info")
     assert _installed("no_such_module_here", "no-such-module-here") is None
+
+
+def test_a_build_of_an_unchanged_spec_imports_no_checker(setup):
+    """A build loads the IR a replay or a build stored (one entry for both) and
+    writes what a build that checks writes; an edit checks again."""
+    spec, bag, cache = setup
+    first, _ = _build(cache, spec, cache.parent / "first.json")
+    assert first["code"] == 0 and "rmvdsl.check" in first["checker"], first
+    second, _ = _build(cache, spec, cache.parent / "second.json")
+    assert second == {"code": 0, "checker": []}
+    written = (cache.parent / "first.json").read_bytes()
+    assert (cache.parent / "second.json").read_bytes() == written
+    replayed, _, _ = _replay(cache, str(spec), str(bag))
+    assert replayed["checker"] == []  # the build's entry
+    _spec(spec.parent, limit="7")
+    edited, _ = _build(cache, spec, cache.parent / "edited.json")
+    assert "rmvdsl.check" in edited["checker"]
+    assert (cache.parent / "edited.json").read_bytes() != written
+
+
+def test_a_spec_that_checks_nothing_is_never_stored(tmp_path):
+    """A build of a spec that checks nothing says so (RMV226) every time and builds
+    it; its IR is not stored, so a replay of it is still refused."""
+    spec = _spec(tmp_path)
+    spec.write_text(spec.read_text().replace("property Small: not Big\n", ""))
+    cache = tmp_path / "cache"
+    for name in ("first", "second"):
+        built, err = _build(cache, spec, tmp_path / f"{name}.json")
+        assert built["code"] == 0 and "rmvdsl.check" in built["checker"], built
+        assert "RMV226" in err and (tmp_path / f"{name}.json").exists()
+    replayed, records, err = _replay(cache, str(spec), str(_bag(tmp_path / "run.bag")))
+    assert replayed["code"] == 2 and not records and "checks nothing" in err, err
+
+
+def test_a_spec_with_errors_builds_nothing_and_is_not_stored(tmp_path):
+    spec = _spec(tmp_path, field="reading")  # the definition lacks the field read
+    cache = tmp_path / "cache"
+    for _ in range(2):
+        built, err = _build(cache, spec, tmp_path / "out.json")
+        assert built["code"] == 1 and "rmvdsl.check" in built["checker"], built
+        assert "error" in err and ": nothing built" in err, err
+    assert not (tmp_path / "out.json").exists()

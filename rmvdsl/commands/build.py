@@ -7,29 +7,20 @@ import argparse
 import sys
 
 from rmvdsl import targets
-from rmvdsl.commands import message_options, warn_if_nothing_checked
-from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, UsageError
-from rmvdsl.runtime.wording import counted, os_words
+from rmvdsl.commands import message_options
+from rmvdsl.lang.errors import EXIT_OK, UsageError
+from rmvdsl.runtime.wording import os_words
 
 
 def run(args: argparse.Namespace) -> int:
-    from rmvdsl.check import check
-    from rmvdsl.ir import lower
-    from rmvdsl.lang.render import render_text
-
-    message_options(args)
-    result = check(args.spec, ros=args.ros, messages=tuple(args.messages))
-    if result.errors:
-        sys.stderr.write(render_text(result.errors, result.model.sources, False))
-        print(
-            f"rmv build: {args.spec}: {counted(len(result.errors), 'error')}: nothing built",
-            file=sys.stderr,
-        )
-        return EXIT_ERRORS
     from pathlib import Path
 
-    warn_if_nothing_checked(result)
-    spec = lower(result)
+    from rmvdsl.commands import stored_spec
+
+    message_options(args)
+    spec = stored_spec.checked("build", args.spec, args.ros, args.messages, refuse_empty=False)
+    if isinstance(spec, int):
+        return spec
     target = targets.target(args.target)
     options = {o.name: getattr(args, o.name) for o in target.options}
     for other in targets.targets():  # an option of another target is a mistake

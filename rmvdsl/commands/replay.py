@@ -4,14 +4,10 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from rmvdsl.commands import message_options, warn_if_nothing_checked
+from rmvdsl.commands import message_options
 from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, EXIT_USAGE, UsageError
-from rmvdsl.runtime.wording import counted
-
-if TYPE_CHECKING:
-    from rmvdsl.runtime import spec as ir
 
 
 def run(args: argparse.Namespace) -> int:
@@ -27,7 +23,9 @@ def run(args: argparse.Namespace) -> int:
         reason = unavailable(args.report)
         if reason is not None:
             raise UsageError(reason)
-    spec = _checked(args)
+    from rmvdsl.commands import stored_spec
+
+    spec = stored_spec.checked("replay", args.spec, args.ros, args.messages, refuse_empty=True)
     if isinstance(spec, int):
         return spec
     scheduler = fleet.scheduler_of(args.scheduler, args.dask)
@@ -48,33 +46,6 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_ERRORS
     # Input lost to a mismatch with the spec: the verdicts cannot be trusted.
     return EXIT_USAGE if summary.warnings else EXIT_OK
-
-
-def _checked(args: argparse.Namespace) -> ir.Spec | int:
-    """The spec checked and lowered, or the exit code of a check that failed. A spec
-    whose every input is as it was at its last clean check is not checked again:
-    its IR is loaded from the store (rmvdsl.commands.stored_spec)."""
-    from rmvdsl.commands import stored_spec
-
-    key = stored_spec.entry(args.spec, args.ros, args.messages)
-    spec = stored_spec.lookup(key)
-    if spec is not None:
-        return spec
-    from rmvdsl.check import check
-    from rmvdsl.ir import lower
-    from rmvdsl.lang.render import render_text
-
-    result = check(args.spec, ros=args.ros, messages=tuple(args.messages))
-    if result.errors:
-        sys.stderr.write(render_text(result.errors, result.model.sources, False))
-        print(f"rmv replay: {args.spec}: {counted(len(result.errors), 'error')}", file=sys.stderr)
-        return EXIT_ERRORS
-    if warn_if_nothing_checked(result):
-        raise UsageError(f"{args.spec}: the spec checks nothing: a replay of it would pass "
-                         "any recording")  # fmt: skip
-    spec = lower(result)
-    stored_spec.store(key, args.spec, result, spec)
-    return spec
 
 
 def _fleet(args: argparse.Namespace, spec: Any, scheduler: str | None) -> int:

@@ -15,7 +15,7 @@ if TYPE_CHECKING:
 
 
 def _build(spec: ir.Spec, out: Path | None, options: Mapping[str, str | None]) -> Built:
-    from rmvdsl.ir import dump
+    from rmvdsl.runtime.spec import dump
 
     text = dump(spec) + "\n"
     if out is None:
