@@ -255,7 +255,11 @@ def run(
     summary = Summary()
     kept: list[Record] = []
     host = ExecutingHost() if run_actions else None
-    record = ("state", "event", "variable") if report else ("state", "event")
+    record: tuple[str, ...] = ("state", "event")
+    if report:
+        record = ("state", "event", "variable")
+    elif output == "text":
+        record = ("state",)  # text shows no value of an event (report.text.text_line)
     records = replay(
         spec, paths, host=host, start=start, stop=stop,
         record=record, progress=progress,
