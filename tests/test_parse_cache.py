@@ -157,3 +157,26 @@ def test_a_moved_declaration_behaves_as_a_node():
     documented = shift.with_field(shift.shifted(original, 1), "doc", "what it means")
     assert documented.doc == "what it means" and documented.body == original.body
     assert shift.shifted(documented, 2).doc == "what it means"  # its own leaves, moved on
+
+
+def test_after_the_warm_up_a_keystroke_compiles_no_mover():
+    """A class's mover is compiled when the class is first moved: an editor's
+    warm-up (rmvdsl.editor.workspace.warm_up) writes them all, so that its first
+    keystrokes after opening a spec do not."""
+    from rmvdsl.editor.workspace import warm_up
+
+    written = dict(shift._SHIFTERS)
+    shift._SHIFTERS.clear()
+    shift._SHIFTERS.update({k: written[k] for k in (Span, tuple, list)})
+    try:
+        warm_up()
+        ready = set(shift._SHIFTERS)
+        for spec in SPECS:
+            text = spec.read_text(encoding="utf-8")
+            _parse(str(spec), text)
+            moved = _parse(str(spec), "// moved\n" + text + "\nevent E when\n")
+            _positions(moved.spec, [])  # every tree read: each moved at once
+            assert set(shift._SHIFTERS) == ready, spec
+    finally:
+        shift._SHIFTERS.clear()
+        shift._SHIFTERS.update(written)

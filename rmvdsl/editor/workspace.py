@@ -91,11 +91,17 @@ class Workspace:
 
 def warm_up() -> None:
     """Build what requests build on first use: the grammar's tables that completion
-    (and the recovery from a syntax error) replay tokens on. An editor calls it
-    once its first text is checked, so no keystroke pays for it."""
+    (and the recovery from a syntax error) replay tokens on, and the movers of the
+    syntax tree's classes a keystroke moves (rmvdsl.grammar.shift). An editor
+    calls it once its first text is checked, so no keystroke pays for it."""
+    from rmvdsl.grammar import ast, formula
     from rmvdsl.grammar.grammars import recognizer
+    from rmvdsl.grammar.shift import write_movers
+    from rmvdsl.lang import diagnostics
 
     recognizer()
+    for module in (ast, formula, diagnostics):
+        write_movers(module)
 
 
 @dataclass(frozen=True)
