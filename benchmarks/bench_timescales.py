@@ -21,13 +21,16 @@ Each tool reads the trace as JSON Lines (`{"t": 12, "props": ["p", "q"]}`): `rmv
 eval --all --format json`, and a Python process that reads each line with
 json.loads and feeds reelay (25.0, from PyPI) a row per line: its discrete monitor
 (rows) and its dense one (rows with their time). Figures are CPU seconds (user and
-system) of each whole process and its peak resident memory. The verdicts are
+system) of each whole process and its peak resident memory, medians of --repeat
+rounds (each round runs the three tools one after another, starting with the
+next one each round), and each ratio the median of the rounds' ratios: paired
+runs, as the machine is shared. The verdicts are
 compared at every row (rmvdsl's value at the row's time against reelay's discrete
 output) and on every open interval between change points (against reelay's dense
 output): a disagreement ends the benchmark, exit status 1, before any figure.
 
     python benchmarks/bench_timescales.py                      # 10^4, 10^5, 10^6 rows
-    python benchmarks/bench_timescales.py --rows 10000 --json benchmarks/results/timescales.json
+    python benchmarks/bench_timescales.py --repeat 5 --json benchmarks/results/timescales.json
 """
 
 from __future__ import annotations
@@ -419,7 +422,10 @@ def run(sizes: list[int], a: int, b: int, repeat: int, only: list[str]) -> Itera
 
 def one(name: str, texts: dict[str, tuple[str, str]], path: Path, length: int,
         repeat: int) -> dict[str, Any]:  # fmt: skip
-    """One pattern over one trace: the three tools timed, the verdicts compared."""
+    """One pattern over one trace: the three tools timed in `repeat` rounds, each
+    round running each tool once in turn (the first tool moving on by one each
+    round), the verdicts compared. Each tool's figures are its medians; the ratios
+    are the medians of each round's ratio (paired runs: the machine is shared)."""
     pattern, formula = texts["dense"]
     names = ",".join(GENERATORS[name][1])
     reelay = [sys.executable, "-c", READ_AND_FEED]
@@ -428,12 +434,17 @@ def one(name: str, texts: dict[str, tuple[str, str]], path: Path, length: int,
         "reelay discrete": [*reelay, "discrete", pattern, str(path), names],
         "reelay dense": [*reelay, "dense", pattern, str(path), names],
     }
+    tools = list(timed)
+    rounds: list[dict[str, tuple[float, float, str]]] = []
+    for turn in range(repeat):
+        order = tools[turn % len(tools) :] + tools[: turn % len(tools)]
+        rounds.append({tool: measure(timed[tool]) for tool in order})
     row: dict[str, Any] = {"pattern": name, "rows": length}
     outputs: dict[str, Any] = {}
-    for tool, command in timed.items():
-        best = min((measure(command) for _ in range(repeat)), key=lambda m: m[0])
-        row[tool] = {"cpu_s": best[0], "peak_mb": best[1]}
-        outputs[tool] = json.loads(best[2])
+    for tool in tools:
+        row[tool] = {"cpu_s": median([r[tool][0] for r in rounds]),
+                     "peak_mb": median([r[tool][1] for r in rounds])}  # fmt: skip
+        outputs[tool] = json.loads(rounds[0][tool][2])
     # reelay's two readings of `since`, written in rmvdsl, give reelay's verdicts
     by_rows = json.loads(measure(eval_command(texts["rows"][1], path))[2])
     strong = json.loads(measure(eval_command(texts["strong"][1], path))[2])
@@ -444,8 +455,15 @@ def one(name: str, texts: dict[str, tuple[str, str]], path: Path, length: int,
     compare_dense(name, steps(strong["segments"]), outputs["reelay dense"], length)
     row["false rows"] = len(false)
     row["rows false in dense time"] = len(false_rows(outputs["rmv eval"]["segments"], length))
-    row["rmv eval / reelay discrete"] = row["rmv eval"]["cpu_s"] / row["reelay discrete"]["cpu_s"]
+    for baseline in ("reelay discrete", "reelay dense"):
+        row[f"rmv eval / {baseline}"] = median([r["rmv eval"][0] / r[baseline][0] for r in rounds])
     return row
+
+
+def median(values: list[float]) -> float:
+    ordered = sorted(values)
+    middle = len(ordered) // 2
+    return ordered[middle] if len(ordered) % 2 else (ordered[middle - 1] + ordered[middle]) / 2
 
 
 def main() -> int:
@@ -455,7 +473,8 @@ def main() -> int:
     parser.add_argument("--rows", type=int, nargs="+", default=[10_000, 100_000, 1_000_000])
     parser.add_argument("--lower", type=int, default=3)
     parser.add_argument("--upper", type=int, default=10)
-    parser.add_argument("--repeat", type=int, default=1, help="best of this many runs")
+    parser.add_argument("--repeat", type=int, default=3,
+                        help="rounds: the figures are medians, the ratios paired")  # fmt: skip
     parser.add_argument("--pattern", action="append", default=[], help="only these")
     parser.add_argument("--json", metavar="FILE")
     parser.add_argument("--write", nargs=5, help=argparse.SUPPRESS)
