@@ -63,16 +63,10 @@ def measure(recording: Path, cache: Path, repeat: int) -> dict[str, Any]:
         shutil.rmtree(cache / "checks", ignore_errors=True)  # the answers stay
         runs["checked"].append(_run(replay))
         runs["stored"].append(_run(replay))
-    out: dict[str, Any] = {}
-    for name, values in runs.items():
-        out[f"{name}_wall"] = statistics.median(w for w, _ in values)
-        out[f"{name}_cpu"] = statistics.median(c for _, c in values)
+    out = _medians(runs)
     for name in ("checked", "stored"):
         ratios = [r[0] / b[0] for r, b in zip(runs[name], runs["bare"], strict=True)]
         out[f"{name}_over_bare"] = statistics.median(ratios)
-    out["stored_over_checked"] = statistics.median(
-        s[0] / c[0] for s, c in zip(runs["stored"], runs["checked"], strict=True)
-    )
     return out
 
 
@@ -85,14 +79,20 @@ def measure_build(cache: Path, out: Path, repeat: int) -> dict[str, Any]:
         shutil.rmtree(cache / "checks", ignore_errors=True)
         runs["checked"].append(_run(build))
         runs["stored"].append(_run(build))
-    result: dict[str, Any] = {}
+    return _medians(runs)
+
+
+def _medians(runs: dict[str, list[tuple[float, float]]]) -> dict[str, Any]:
+    """Each command's median wall and CPU seconds, and the median of each round's
+    wall time from the stored spec against the one checking it."""
+    out: dict[str, Any] = {}
     for name, values in runs.items():
-        result[f"{name}_wall"] = statistics.median(w for w, _ in values)
-        result[f"{name}_cpu"] = statistics.median(c for _, c in values)
-    result["stored_over_checked"] = statistics.median(
+        out[f"{name}_wall"] = statistics.median(w for w, _ in values)
+        out[f"{name}_cpu"] = statistics.median(c for _, c in values)
+    out["stored_over_checked"] = statistics.median(
         s[0] / c[0] for s, c in zip(runs["stored"], runs["checked"], strict=True)
     )
-    return result
+    return out
 
 
 def main(argv: list[str] | None = None) -> int:
