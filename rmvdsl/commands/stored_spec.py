@@ -4,15 +4,14 @@ unchanged loads the IR of its last clean check (the JSON of rmvdsl.runtime.spec,
 which a built node loads too) instead of checking the spec again, and imports no
 checker.
 
-Only a check with no error is stored, only one `storable` (a missing file, or
-a property the solver could not decide in time, checks again next time), and only
-a spec that checks something (RMV226: a replay refuses one that does not, a build
-warns of it each time). The
-entry is keyed as a stored check is (the versions, rmvdsl's own files, the
-folder, the environment that chooses message folders) and by the options that
-change the check (`--ros`, `--messages`); it answers while every file the check
-read (the spec, its imports, rmv.toml, each message definition) has the bytes it
-had, and every message folder its modification time.
+Only a check with no error is stored, only one `storable` (a missing file, or a
+property the solver could not decide in time, checks again next time), and only a
+spec that checks something (RMV226: a replay refuses one that does not, a build
+warns of it each time). The entry is keyed as a stored check is (the versions,
+rmvdsl's own files, the folder, the environment that chooses message folders) and
+by the options that change the check (`--ros`, `--messages`); it answers while
+every file the check read (the spec, its imports, rmv.toml, each message
+definition) has the bytes it had, and every message folder its modification time.
 """
 
 from __future__ import annotations
@@ -35,10 +34,10 @@ def checked(
 ) -> ir.Spec | int:
     """The spec at `path` checked and lowered, or the exit code of a check with
     errors (said on standard error: `rmv build: SPEC: 2 errors: nothing built`,
-    `command` being "build" or "replay"). A spec whose every input is
-    as it was at its last clean check is not checked again: its IR is loaded. A spec
-    that checks nothing is said to (RMV226), and with `refuse_empty` (a replay of it
-    would pass any recording) refused."""
+    `command` being "build" or "replay"). A spec whose every input is as it was at
+    its last clean check is not checked again: its IR is loaded. A spec that checks
+    nothing is said to (RMV226), and with `refuse_empty` (a replay of it would pass
+    any recording) refused."""
     key = entry(path, ros, messages)
     spec = lookup(key)
     if spec is not None:
