@@ -6,6 +6,7 @@ spec (rmvdsl.runtime.spec) is written and read with it."""
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import re
 import types
@@ -32,6 +33,10 @@ class Codec:
         self.conversions = conversions
         self.layouts: dict[type, tuple[str | None, tuple[str, ...]]] = {}
         self.hints: dict[type, dict[str, Any]] = {}
+        # Made once per annotation, per class: a spec holds thousands of each.
+        self.decoders: dict[Any, Callable[[Any], Any]] = {}
+        self.readers: dict[type, tuple[frozenset[str], tuple[_Field, ...]]] = {}
+        self.writers: dict[type, tuple[dict[str, Any], tuple[_Field, ...]]] = {}
 
     def dump(self, value: Any, indent: int | None = 2) -> str:
         """The JSON text: exact numbers (a decimal where one is exact, else the
@@ -49,25 +54,44 @@ class Codec:
         return re.sub(r'"\\u0000(\d+)\\u0000"', lambda m: numbers[int(m.group(1))], text)
 
     def encode(self, value: Any, number: Any) -> Any:
-        if isinstance(value, bool) or value is None or isinstance(value, str):
+        kind = type(value)
+        if kind is str or kind is bool or value is None:
+            return value
+        if kind is Fraction:
+            return number(value)
+        if kind is int:
+            return number(Fraction(value))
+        if kind is tuple or kind is list:
+            return [self.encode(item, number) for item in value]
+        if kind not in self.writers and not dataclasses.is_dataclass(value):
+            return self._encode_other(value, number)  # a subclass of the above
+        head, fields = self.writer(kind)
+        out = dict(head)
+        for name, conversion, _ in fields:
+            content = getattr(value, name)
+            out[name] = self.encode(content if conversion is None else conversion[0](content),
+                                    number)  # fmt: skip
+        return out
+
+    def _encode_other(self, value: Any, number: Any) -> Any:
+        if isinstance(value, bool | str):
             return value
         if isinstance(value, int):
             return number(Fraction(value))
         if isinstance(value, Fraction):
             return number(value)
-        if dataclasses.is_dataclass(value):
-            tag, names = self.layout(type(value))
-            out: dict[str, Any] = {"node": tag} if tag is not None else {}
-            for name in names:
-                content = getattr(value, name)
-                conversion = self.conversions.get((type(value), name))
-                if conversion is not None:
-                    content = conversion[0](content)
-                out[name] = self.encode(content, number)
-            return out
         if isinstance(value, tuple | list):
             return [self.encode(item, number) for item in value]
         raise TypeError(f"cannot encode {type(value).__name__}")
+
+    def writer(self, cls: type) -> tuple[dict[str, Any], tuple[_Field, ...]]:
+        """What a class's objects start as (their tag) and their fields, once."""
+        found = self.writers.get(cls)
+        if found is None:
+            tag, names = self.layout(cls)
+            fields = tuple((n, self.conversions.get((cls, n)), None) for n in names)
+            found = self.writers[cls] = ({"node": tag} if tag is not None else {}, fields)
+        return found
 
     def layout(self, cls: type) -> tuple[str | None, tuple[str, ...]]:
         """A class's tag and field names, looked up once."""
@@ -82,40 +106,64 @@ class Codec:
         return self.hints[cls]
 
     def decode(self, annotation: Any, value: Any) -> Any:
+        return self.decoder(annotation)(value)
+
+    def decoder(self, annotation: Any) -> Callable[[Any], Any]:
+        """What reads a value of `annotation` from JSON, made once per annotation
+        (the ones inside it are looked up when first read: a class may hold its
+        own kind)."""
+        found = self.decoders.get(annotation)
+        if found is None:
+            found = self.decoders[annotation] = self._made(annotation)
+        return found
+
+    def _made(self, annotation: Any) -> Callable[[Any], Any]:
         origin = typing.get_origin(annotation)
         if annotation is Any:
-            return value
+            return _as_is
         if origin in (typing.Union, types.UnionType):
-            options = [a for a in typing.get_args(annotation) if a is not type(None)]
+            return self._union(annotation)
+        if origin is tuple:
+            arguments = typing.get_args(annotation)
+            if len(arguments) == 2 and arguments[1] is Ellipsis:
+                return functools.partial(self._many, arguments[0])
+            return functools.partial(self._fixed, arguments)
+        if annotation is Fraction:
+            return _fraction
+        if annotation is int:
+            return _integer
+        if annotation is bool or annotation is str:
+            return functools.partial(_exactly, annotation)
+        if dataclasses.is_dataclass(annotation):
+            return functools.partial(self._decode_object, annotation)
+        raise TypeError(f"cannot decode {annotation}")
+
+    def _union(self, annotation: Any) -> Callable[[Any], Any]:
+        arguments = typing.get_args(annotation)
+        options = [a for a in arguments if a is not type(None)]
+        optional = len(options) < len(arguments)
+
+        def read(value: Any) -> Any:
             if value is None:
-                if len(options) == len(typing.get_args(annotation)):
+                if not optional:
                     raise ValueError("null where a value is needed")
                 return None
             if len(options) == 1:
-                return self.decode(options[0], value)
+                return self.decoder(options[0])(value)
             return self._decode_tagged(options, value)
-        if origin is tuple:
-            arguments = typing.get_args(annotation)
-            if not isinstance(value, list):
-                raise ValueError(f"expected a list, not {str(value)[:40]}")
-            if len(arguments) == 2 and arguments[1] is Ellipsis:
-                return tuple(self.decode(arguments[0], item) for item in value)
-            return tuple(self.decode(a, item) for a, item in zip(arguments, value, strict=True))
-        if annotation is Fraction:
-            if not isinstance(value, str):
-                raise ValueError(f"expected a number, not {str(value)[:40]}")
-            return Fraction(value)
-        if annotation is int:
-            if not isinstance(value, str) or not re.fullmatch(r"-?\d+", value):
-                raise ValueError(f"expected an integer, not {str(value)[:40]}")
-            return int(value)
-        if annotation is bool or annotation is str:
-            if not isinstance(value, annotation):
-                raise ValueError(f"expected a {annotation.__name__}, not {str(value)[:40]}")
-            return value
-        if dataclasses.is_dataclass(annotation):
-            return self._decode_object(annotation, value)
-        raise TypeError(f"cannot decode {annotation}")
+
+        return read
+
+    def _many(self, item: Any, value: Any) -> tuple[Any, ...]:
+        if not isinstance(value, list):
+            raise ValueError(f"expected a list, not {str(value)[:40]}")
+        read = self.decoder(item)
+        return tuple([read(v) for v in value])
+
+    def _fixed(self, arguments: tuple[Any, ...], value: Any) -> tuple[Any, ...]:
+        if not isinstance(value, list):
+            raise ValueError(f"expected a list, not {str(value)[:40]}")
+        return tuple(self.decode(a, item) for a, item in zip(arguments, value, strict=True))
 
     def _decode_tagged(self, options: list[Any], value: Any) -> Any:
         if not isinstance(value, dict) or value.get("node") not in self.tagged:
@@ -128,21 +176,59 @@ class Codec:
     def _decode_object(self, cls: Any, value: Any) -> Any:
         if not isinstance(value, dict):
             raise ValueError(f"expected an object for {cls.__name__}, not {str(value)[:40]}")
-        hints = self.type_hints(cls)
-        names = [f.name for f in dataclasses.fields(cls)]
-        extra = set(value) - set(names) - {"node"}
-        if extra:
+        known, fields = self.reader(cls)
+        if not known.issuperset(value):
+            extra = set(value) - known
             raise ValueError(f"unknown keys in {cls.__name__}: {', '.join(sorted(extra))}")
         arguments = {}
-        for name in names:
+        for name, conversion, annotation in fields:
             if name not in value:
                 raise ValueError(f"{cls.__name__} has no `{name}`")
-            conversion = self.conversions.get((cls, name))
             if conversion is not None:
                 arguments[name] = conversion[1](value[name])
             else:
-                arguments[name] = self.decode(hints[name], value[name])
+                arguments[name] = self.decoder(annotation)(value[name])
         return cls(**arguments)
+
+    def reader(self, cls: type) -> tuple[frozenset[str], tuple[_Field, ...]]:
+        """A class's keys (its fields and the tag) and its fields' annotations, once."""
+        found = self.readers.get(cls)
+        if found is None:
+            hints = self.type_hints(cls)
+            names = [f.name for f in dataclasses.fields(cls)]
+            fields = tuple((n, self.conversions.get((cls, n)), hints[n]) for n in names)
+            found = self.readers[cls] = (frozenset([*names, "node"]), fields)
+        return found
+
+
+# A field: its name, its conversion (to JSON, from JSON) if it travels in another
+# form, its annotation (a reader's).
+_Field = tuple[str, "tuple[Callable[[Any], Any], Callable[[Any], Any]] | None", Any]
+
+
+def _as_is(value: Any) -> Any:
+    return value
+
+
+def _fraction(value: Any) -> Fraction:
+    if not isinstance(value, str):
+        raise ValueError(f"expected a number, not {str(value)[:40]}")
+    return Fraction(value)
+
+
+def _integer(value: Any) -> int:
+    if not isinstance(value, str) or not _INTEGER.fullmatch(value):
+        raise ValueError(f"expected an integer, not {str(value)[:40]}")
+    return int(value)
+
+
+_INTEGER = re.compile(r"-?\d+")
+
+
+def _exactly(kind: type, value: Any) -> Any:
+    if not isinstance(value, kind):
+        raise ValueError(f"expected a {kind.__name__}, not {str(value)[:40]}")
+    return value
 
 
 def _pretty(value: Any, indent: int, depth: int) -> str:
