@@ -31,8 +31,6 @@ class Codec:
         self.tagged = tagged
         self.namespace = namespace
         self.conversions = conversions
-        self.layouts: dict[type, tuple[str | None, tuple[str, ...]]] = {}
-        self.hints: dict[type, dict[str, Any]] = {}
         # Made once per annotation, per class: a spec holds thousands of each.
         self.decoders: dict[Any, Callable[[Any], Any]] = {}
         self.readers: dict[type, tuple[frozenset[str], tuple[_Field, ...]]] = {}
@@ -88,22 +86,11 @@ class Codec:
         """What a class's objects start as (their tag) and their fields, once."""
         found = self.writers.get(cls)
         if found is None:
-            tag, names = self.layout(cls)
-            fields = tuple((n, self.conversions.get((cls, n)), None) for n in names)
+            tag = getattr(cls, "TAG", None)
+            fields = tuple((f.name, self.conversions.get((cls, f.name)), None)
+                           for f in dataclasses.fields(cls))  # fmt: skip
             found = self.writers[cls] = ({"node": tag} if tag is not None else {}, fields)
         return found
-
-    def layout(self, cls: type) -> tuple[str | None, tuple[str, ...]]:
-        """A class's tag and field names, looked up once."""
-        if cls not in self.layouts:
-            names = tuple(f.name for f in dataclasses.fields(cls))
-            self.layouts[cls] = (getattr(cls, "TAG", None), names)
-        return self.layouts[cls]
-
-    def type_hints(self, cls: type) -> dict[str, Any]:
-        if cls not in self.hints:
-            self.hints[cls] = typing.get_type_hints(cls, self.namespace)
-        return self.hints[cls]
 
     def decode(self, annotation: Any, value: Any) -> Any:
         return self.decoder(annotation)(value)
@@ -194,7 +181,7 @@ class Codec:
         """A class's keys (its fields and the tag) and its fields' annotations, once."""
         found = self.readers.get(cls)
         if found is None:
-            hints = self.type_hints(cls)
+            hints = typing.get_type_hints(cls, self.namespace)
             names = [f.name for f in dataclasses.fields(cls)]
             fields = tuple((n, self.conversions.get((cls, n)), hints[n]) for n in names)
             found = self.readers[cls] = (frozenset([*names, "node"]), fields)
