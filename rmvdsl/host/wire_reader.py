@@ -243,6 +243,11 @@ class _Compiler:
         kind, detail = int(element[0]), element[1]
         if kind == BASE and detail[0] != "string":
             return self._primitives(body, detail[0], count, read, fixed)
+        if kind == NAME and fixed == 0 and not self.ros1:
+            # rosbags takes what follows as aligned to the element's last field,
+            # which holds only when there are elements: it lays out the next
+            # field unlike CDR, and its full decoder is the one that reads alike
+            raise Unsupported("an array of no messages in CDR")
         if not read and kind == NAME:
             stride, alignment = self._stride(detail)
             if stride >= 0:
@@ -261,8 +266,7 @@ class _Compiler:
         if body.offset:
             body.lines.append(f"p = {self._position(body)}")
         if fixed is None:  # a damaged count must not make the loop run for ever
-            least = max(1, self._least(element))  # no loop needed for a size of 0
-            body.lines.append(f"if {count} * {least} > len(raw) - p: "
+            body.lines.append(f"if {self._too_many(element, count)}: "
                               "raise _Error('a sequence longer than the message')")  # fmt: skip
         variable = body.name("a") if read else None
         if read:
@@ -321,6 +325,16 @@ class _Compiler:
         return name
 
     # ---- sizes and alignment ----
+
+    def _too_many(self, element: Any, count: str) -> str:
+        """The test that a sequence's count is more than its message can hold.
+        Elements of no bytes (empty messages in ROS 1, arrays of length 0) fit any
+        number of times: their count is bounded by the message's length only, so a
+        damaged count still cannot make the loop run for ever."""
+        least = self._least(element)
+        if least == 0:
+            return f"{count} > len(raw)"
+        return f"{count}{f' * {least}' if least > 1 else ''} > len(raw) - p"
 
     def _least(self, description: Any) -> int:
         """The fewest bytes a value takes (a sequence's count is checked against
@@ -457,6 +471,7 @@ def _message_class(type_name: str, names: tuple[str, ...]) -> type:
     source = "\n".join([
         f"def __init__(_self, {', '.join(names)}):",  # no field is named `_self`
         *(f"    _self.{name} = {name}" for name in names),
+        "    pass",  # a message of no fields read (an empty one, read whole)
     ])  # fmt: skip
     namespace: dict[str, Any] = {}
     exec(source, namespace)  # the names: identifiers, checked

@@ -95,6 +95,7 @@ def main() -> None:
                 steps[name] = time.monotonic()
                 time.sleep(3.0)
                 core.stop(process)
+            steps["sneak start"] = time.monotonic()
             sneak = peer("/sneak", "sneak", "/base")
             core.wait_for(lambda: "sneaked" in (logs / "sneak.log").read_text(), 10, "sneak")
             steps["sneak"] = time.monotonic()
