@@ -84,6 +84,32 @@ def test_the_same_output_from_bag_mcap_and_db3(rmv, recordings):
     assert outputs[0] == outputs[1] == outputs[2]
 
 
+def test_a_recording_without_definitions_is_read_with_the_default_types(rmv, recordings, tmp_path):
+    """rosbag2 recorded no message definitions before Iron (Humble's .db3): the
+    replay reads them with the spec's distribution's types and its resolved
+    messages (CARLA's here), made only then, and gives the same output."""
+    import sqlite3
+
+    bare = tmp_path / "braking_db3"
+    shutil.copytree(recordings / "braking_db3", bare)
+    (database,) = bare.glob("*.db3")
+    with sqlite3.connect(database) as connection:
+        assert connection.execute("DELETE FROM message_definitions").rowcount > 0
+    from rosbags.highlevel import AnyReader, AnyReaderError
+
+    with pytest.raises(AnyReaderError, match="no type definitions"):
+        AnyReader([bare]).open()
+    from rmvdsl.tools import typestores
+
+    typestores._DEFAULTS.clear()
+    with_them = _replay(rmv, recordings / "braking_db3", "--format", "jsonl")
+    assert not typestores._DEFAULTS  # not made for a recording that has its own
+    without = _replay(rmv, bare, "--format", "jsonl")
+    assert len(typestores._DEFAULTS) == 1
+    assert (without.code, without.err) == (with_them.code, with_them.err) == (1, "")
+    assert without.out == with_them.out
+
+
 def test_text_output_and_a_report(rmv, recordings, tmp_path):
     png = tmp_path / "timeline.png"
     result = _replay(rmv, recordings / "braking.bag", "--report", str(png))

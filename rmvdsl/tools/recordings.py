@@ -18,7 +18,7 @@ from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.engine import Runtime, seconds
 from rmvdsl.runtime.wording import os_words
 from rmvdsl.tools.report.text import decimal_text
-from rmvdsl.tools.typestores import default_store, shared_store
+from rmvdsl.tools.typestores import deferred_default_store, shared_store
 
 
 class ReplayError(Exception):
@@ -104,7 +104,7 @@ def open_reader(paths: Sequence[Path], spec: ir.Spec) -> Any:
         if not path.exists():
             raise ReplayError(f"{path}: no such file or directory")
     try:
-        reader = AnyReader(list(paths), default_typestore=default_store(spec))
+        reader = AnyReader(list(paths), default_typestore=deferred_default_store(spec))
         reader.open()
     except AnyReaderError as error:
         raise ReplayError(
