@@ -4,6 +4,7 @@ modules, copied into a package, run under ROS in tests/test_ros2.py."""
 
 from __future__ import annotations
 
+import hashlib
 import http.server
 import json
 import socket
@@ -254,6 +255,20 @@ def test_ros1_messages_decode_from_the_definition_their_publisher_sent():
         decoder.decode({**header, "md5sum": "other", "message_definition": ""}, raw)
     with pytest.raises(DecodeError, match="does not parse"):
         decoder.decode({**header, "md5sum": "x", "message_definition": "float32 ]["}, raw)
+
+
+@pytest.mark.parametrize("needs", [None, {}])
+def test_a_message_of_no_fields_has_an_empty_definition_and_decodes(needs):
+    """std_msgs/Empty's definition is empty text, its md5sum that of nothing: a
+    heartbeat topic's messages decode (they were all counted damaged: "sent no
+    message definition"); an empty definition under another md5sum is refused."""
+    from rmvdsl.host.ros1_decoding import EMPTY_MD5, DecodeError, Decoder
+
+    assert hashlib.md5(b"").hexdigest() == EMPTY_MD5
+    header = {"type": "std_msgs/Empty", "md5sum": EMPTY_MD5, "message_definition": ""}
+    assert type(Decoder().decode(header, b"", needs)).__name__.endswith("Empty")
+    with pytest.raises(DecodeError, match="no message definition"):
+        Decoder().decode({**header, "md5sum": "*"}, b"", needs)
 
 
 class _Influx(http.server.BaseHTTPRequestHandler):

@@ -110,6 +110,59 @@ def test_a_recording_without_definitions_is_read_with_the_default_types(rmv, rec
     assert without.out == with_them.out
 
 
+HEARTBEAT = """system heartbeat "a topic of std_msgs/Empty beside a read one"
+ros noetic
+topic beat: std_msgs/Empty = "/beat"
+topic cmd: geometry_msgs/Twist = "/cmd"
+var Speed = cmd.linear.x
+event Fast when Speed > 100
+property NeverFast: not Fast
+whitelist beat {
+    publishers: "/heart"
+}
+"""
+
+
+def _heartbeats(path, ros1):
+    """20 s of std_msgs/Empty on /beat and a speed rising by 10 a second on /cmd."""
+    from rosbags.rosbag1 import Writer as Bag
+    from rosbags.rosbag2 import StoragePlugin
+    from rosbags.rosbag2 import Writer as Rosbag2
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+    serialize = store.serialize_ros1 if ros1 else store.serialize_cdr
+    empty, twist = store.types["std_msgs/msg/Empty"], store.types["geometry_msgs/msg/Twist"]
+    vector = store.types["geometry_msgs/msg/Vector3"]
+    writer = Bag(path) if ros1 else Rosbag2(path, version=9, storage_plugin=StoragePlugin.MCAP)
+    with writer:
+        beat = writer.add_connection("/beat", "std_msgs/msg/Empty", typestore=store)
+        cmd = writer.add_connection("/cmd", "geometry_msgs/msg/Twist", typestore=store)
+        for second in range(1, 21):
+            speed = twist(vector(10.0 * second, 0.0, 0.0), vector(0.0, 0.0, 0.0))
+            writer.write(beat, second * 10**9, serialize(empty(), "std_msgs/msg/Empty"))
+            writer.write(cmd, second * 10**9 + 5, serialize(speed, "geometry_msgs/msg/Twist"))
+
+
+def test_a_topic_of_messages_with_no_fields_is_read_alike_from_bag_and_mcap(rmv, tmp_path):
+    """ROS 1 sends std_msgs/Empty with an empty definition: a bag's heartbeats were
+    all counted damaged (and moved the replay's start); now both storages give the
+    same output, nothing damaged."""
+    spec = tmp_path / "heartbeat.rmv"
+    spec.write_text(HEARTBEAT, encoding="utf-8")
+    _heartbeats(tmp_path / "beats.bag", ros1=True)
+    _heartbeats(tmp_path / "beats_mcap", ros1=False)
+    outputs = [rmv("replay", str(spec), str(tmp_path / name), "--format", "jsonl")
+               for name in ("beats.bag", "beats_mcap")]  # fmt: skip
+    assert [(o.code, o.err) for o in outputs] == [(1, ""), (1, "")]
+    assert outputs[0].out == outputs[1].out
+    assert "damaged" not in outputs[0].out and '"warning"' not in outputs[0].out
+    verdicts = [r for r in _records(outputs[0].out) if r["kind"] == "verdict"]
+    assert [(v["verdict"], v["from"]) for v in verdicts] == [
+        ("true", Fraction("1.000000005")), ("false", Fraction("11.000000005"))
+    ]  # fmt: skip
+
+
 def test_text_output_and_a_report(rmv, recordings, tmp_path):
     png = tmp_path / "timeline.png"
     result = _replay(rmv, recordings / "braking.bag", "--report", str(png))

@@ -70,7 +70,8 @@ class Decoder:
         found = self.decoders.get(key)
         if found is None or found[0] is not needs:
             try:
-                decode = _reader(key[0], header.get("message_definition", ""), needs, self.optional)
+                definition = _definition(key[0], header)
+                decode = _reader(key[0], definition, needs, self.optional)
             except DecodeError as error:  # once: every message of it fails alike
                 decode = _refusing(error)
             found = self.decoders[key] = (needs, decode)
@@ -111,6 +112,20 @@ def _refusing(error: DecodeError) -> Decode:
     return decode
 
 
+# The md5sum of a message of no fields (std_msgs/Empty's): ROS 1 hashes its
+# definition's text, here nothing.
+EMPTY_MD5 = "d41d8cd98f00b204e9800998ecf8427e"
+
+
+def _definition(type_name: str, header: Mapping[str, str]) -> str:
+    """The definition a connection header gives; an empty one only for a message
+    of no fields, told by its md5sum (a publisher that sent none is refused)."""
+    definition = header.get("message_definition", "")
+    if not definition.strip() and header.get("md5sum") != EMPTY_MD5:
+        raise DecodeError(f"the publisher of {type_name} sent no message definition")
+    return definition
+
+
 @functools.lru_cache(maxsize=256)
 def _store(type_name: str, definition: str) -> Any:
     """The type store of `type_name` from its definition text, made once per
@@ -119,8 +134,6 @@ def _store(type_name: str, definition: str) -> Any:
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
     name = ros2_style(type_name)
-    if not definition.strip():
-        raise DecodeError(f"the publisher of {type_name} sent no message definition")
     try:
         store = get_typestore(Stores.EMPTY)
         store.register(get_types_from_msg(definition, name))
