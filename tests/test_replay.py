@@ -84,17 +84,24 @@ def test_the_same_output_from_bag_mcap_and_db3(rmv, recordings):
     assert outputs[0] == outputs[1] == outputs[2]
 
 
-def test_a_recording_without_definitions_is_read_with_the_default_types(rmv, recordings, tmp_path):
-    """rosbag2 recorded no message definitions before Iron (Humble's .db3): the
-    replay reads them with the spec's distribution's types and its resolved
-    messages (CARLA's here), made only then, and gives the same output."""
+def _without_definitions(recordings, tmp_path, where: str = ""):
+    """The example's .db3 with its message definitions (those `where` picks)
+    taken out, as rosbag2 before Iron recorded it."""
     import sqlite3
 
     bare = tmp_path / "braking_db3"
     shutil.copytree(recordings / "braking_db3", bare)
     (database,) = bare.glob("*.db3")
     with sqlite3.connect(database) as connection:
-        assert connection.execute("DELETE FROM message_definitions").rowcount > 0
+        assert connection.execute(f"DELETE FROM message_definitions {where}").rowcount > 0
+    return bare
+
+
+def test_a_recording_without_definitions_is_read_with_the_default_types(rmv, recordings, tmp_path):
+    """rosbag2 recorded no message definitions before Iron (Humble's .db3): the
+    replay reads them with the spec's distribution's types and its resolved
+    messages (CARLA's here), made only then, and gives the same output."""
+    bare = _without_definitions(recordings, tmp_path)
     from rosbags.highlevel import AnyReader, AnyReaderError
 
     with pytest.raises(AnyReaderError, match="no type definitions"):
@@ -108,6 +115,38 @@ def test_a_recording_without_definitions_is_read_with_the_default_types(rmv, rec
     assert len(typestores._DEFAULTS) == 1
     assert (without.code, without.err) == (with_them.code, with_them.err) == (1, "")
     assert without.out == with_them.out
+
+
+def test_a_recording_with_some_definitions_reads_the_rest_from_the_default_types(
+    rmv, recordings, tmp_path
+):
+    """One type's definition missing, the other's there (recordings merged from
+    two distributions): rosbags then uses none of the default types, and the
+    replay stopped with an internal error (KeyError) on the type it lacked."""
+    partly = _without_definitions(recordings, tmp_path, "WHERE topic_type LIKE '%ObjectArray'")
+    whole = _replay(rmv, recordings / "braking_db3", "--format", "jsonl")
+    result = _replay(rmv, partly, "--format", "jsonl")
+    assert (result.code, result.err, result.out) == (1, "", whole.out)
+
+
+def test_a_type_defined_nowhere_skips_its_topic_with_a_warning():
+    """A type no definition reaches (neither the recording's nor the default
+    types): its topic's messages are skipped and counted, with a warning at the
+    topic, never a KeyError."""
+    from types import SimpleNamespace
+
+    from rmvdsl.tools.recordings import plan
+
+    spec = lower(check("heartbeat.rmv", HEARTBEAT, use_environment=False))
+    fields = {"geometry_msgs/msg/Twist": ([], [("linear", (2, "geometry_msgs/msg/Vector3"))])}
+    connection = SimpleNamespace(topic="/cmd", msgtype="geometry_msgs/msg/Twist", msgcount=7)
+    reader = SimpleNamespace(connections=[connection],
+                             typestore=SimpleNamespace(fielddefs=fields))  # fmt: skip
+    found = plan(spec, reader)
+    assert found.connections == [] and found.skipped_messages == {
+        "messages without a definition: /cmd": 7
+    }
+    assert any("no definition of geometry_msgs/msg/Vector3" in text for _, text in found.problems)
 
 
 HEARTBEAT = """system heartbeat "a topic of std_msgs/Empty beside a read one"

@@ -46,7 +46,8 @@ from rmvdsl.host.wire_reader import (
 from rmvdsl.runtime import spec as ir
 
 __all__ = [
-    "FieldsOf", "Needs", "PartialDecodeError", "Reader", "Unsupported", "compile_reader",
+    "FieldsOf", "Needs", "PartialDecodeError", "Reader", "Undefined", "Unsupported",
+    "compile_reader", "definitions_reached",
     "falling_back", "merged", "needs_of", "or_full", "spec_needs",
 ]  # fmt: skip
 
@@ -154,7 +155,24 @@ _COMPILED: OrderedDict[tuple[str, str, bool, str], Reader] = OrderedDict()
 
 def _fingerprint(type_name: str, fields_of: FieldsOf) -> str:
     """The definitions `type_name` reaches, as text: two versions of a type differ."""
-    seen: dict[str, Any] = {}
+    try:
+        return repr(sorted(definitions_reached(type_name, fields_of).items()))
+    except Undefined as error:
+        raise Unsupported(f"no definition of {error.name}") from None
+
+
+class Undefined(KeyError):
+    """A type reached that has no definition (`name`)."""
+
+    def __init__(self, name: str) -> None:
+        super().__init__(name)
+        self.name = name
+
+
+def definitions_reached(type_name: str, fields_of: FieldsOf) -> dict[str, tuple[Any, ...]]:
+    """The fields of `type_name` and of every type it holds, by name; raises
+    Undefined naming the first one `fields_of` has no definition of."""
+    seen: dict[str, tuple[Any, ...]] = {}
     waiting = [type_name]
     while waiting:
         name = waiting.pop()
@@ -162,12 +180,12 @@ def _fingerprint(type_name: str, fields_of: FieldsOf) -> str:
             continue
         try:
             fields = seen[name] = tuple(fields_of(name))
-        except KeyError as error:
-            raise Unsupported(f"no definition of {name}") from error
+        except KeyError:
+            raise Undefined(name) from None
         for _, (kind, detail) in fields:
             kind = int(kind)
             if kind == NAME:
                 waiting.append(detail)
             elif kind in (ARRAY, SEQUENCE) and int(detail[0][0]) == NAME:
                 waiting.append(detail[0][1])
-    return repr(sorted(seen.items()))
+    return seen

@@ -18,7 +18,7 @@ from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.engine import Runtime, seconds
 from rmvdsl.runtime.wording import os_words
 from rmvdsl.tools.report.text import decimal_text
-from rmvdsl.tools.typestores import deferred_default_store, shared_store
+from rmvdsl.tools.typestores import default_store, deferred_default_store, shared_store
 
 
 class ReplayError(Exception):
@@ -58,6 +58,30 @@ def _path_problem(store: Any, msgtype: str, variable: ir.Variable) -> str | None
     return None
 
 
+def _undefined(store: Any, msgtype: str) -> str | None:
+    """The first type of a message (itself or one it holds) the store has no
+    definition of."""
+    try:
+        partial_decoding.definitions_reached(msgtype, lambda name: store.fielddefs[name][1])
+    except partial_decoding.Undefined as error:
+        return error.name
+    return None
+
+
+def _fill_undefined(reader: Any, spec: ir.Spec) -> None:
+    """A rosbag2 recording may hold the definitions of some types and not of others
+    (recordings merged from two distributions): rosbags then reads none of the
+    default types, and the replay stopped on the first type it lacked. The types
+    it lacks are taken from the default store, as for a recording holding none."""
+    store = reader.typestore
+    if not reader.is2 or all(_undefined(store, c.msgtype) is None for c in reader.connections):
+        return
+    default = default_store(spec).fielddefs
+    store.register(
+        {name: fields for name, fields in default.items() if name not in store.fielddefs}
+    )
+
+
 def plan(spec: ir.Spec, reader: Any) -> Plan:
     """Match the spec's topics with the recording's connections."""
     found = Plan()
@@ -87,6 +111,18 @@ def plan(spec: ir.Spec, reader: Any) -> Plan:
                 skipped = found.skipped_messages
                 skipped[key] = skipped.get(key, 0) + connection.msgcount
                 continue
+            missing = _undefined(reader.typestore, connection.msgtype)
+            if missing is not None:
+                found.problems.append((
+                    topic.origin,
+                    f"topic `{topic.name}` ({topic.ros_name}): the recording holds no "
+                    f"definition of {missing}, nor do ROS 2's types or the spec's: "
+                    "its messages are skipped",
+                ))  # fmt: skip
+                key = f"messages without a definition: {topic.ros_name}"
+                skipped = found.skipped_messages
+                skipped[key] = skipped.get(key, 0) + connection.msgcount
+                continue
             found.connections.append(connection)
             for variable in variables.get(topic.name, []):
                 problem = _path_problem(reader.typestore, connection.msgtype, variable)
@@ -106,6 +142,7 @@ def open_reader(paths: Sequence[Path], spec: ir.Spec) -> Any:
     try:
         reader = AnyReader(list(paths), default_typestore=deferred_default_store(spec))
         reader.open()
+        _fill_undefined(reader, spec)
     except AnyReaderError as error:
         raise ReplayError(
             f"{', '.join(map(str, paths))}: cannot read the recording: {_reader_words(error)}"
