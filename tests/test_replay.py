@@ -149,6 +149,37 @@ def test_a_type_defined_nowhere_skips_its_topic_with_a_warning():
     assert any("no definition of geometry_msgs/msg/Vector3" in text for _, text in found.problems)
 
 
+@pytest.mark.parametrize(
+    ("recorded", "problem"),
+    [("float32", None), ("int64", None),
+     ("string", "is string in the recording, the spec reads float64"),
+     ("bool", "is bool in the recording, the spec reads float64")],
+)  # fmt: skip
+def test_a_field_of_another_kind_in_the_recording_is_said_and_skipped(recorded, problem):
+    """The runtime converts a field to the variable's kind: a string recorded where
+    the spec reads a number (or a bool: any text was true) is not read, and said
+    at the variable; a number of another width, or an integer, is read."""
+    from types import SimpleNamespace
+
+    from rmvdsl.tools.recordings import plan
+
+    spec = lower(check("heartbeat.rmv", HEARTBEAT, use_environment=False))
+    vector = [("x", (1, (recorded, 0))), ("y", (1, ("float64", 0)))]
+    fields = {"geometry_msgs/msg/Twist": ([], [("linear", (2, "geometry_msgs/msg/Vector3"))]),
+              "geometry_msgs/msg/Vector3": ([], vector)}  # fmt: skip
+    connection = SimpleNamespace(topic="/cmd", msgtype="geometry_msgs/msg/Twist", msgcount=7)
+    reader = SimpleNamespace(connections=[connection],
+                             typestore=SimpleNamespace(fielddefs=fields))  # fmt: skip
+    found = plan(spec, reader)
+    assert found.connections == [connection]
+    texts = [text for _, text in found.problems if "Speed" in text]
+    if problem is None:
+        assert not texts and not found.skipped_variables
+    else:
+        assert found.skipped_variables == {"Speed"}
+        assert texts == [f"variable `Speed` on /cmd: `geometry_msgs/msg/Twist.linear.x` {problem}"]
+
+
 HEARTBEAT = """system heartbeat "a topic of std_msgs/Empty beside a read one"
 ros noetic
 topic beat: std_msgs/Empty = "/beat"

@@ -55,7 +55,47 @@ def _path_problem(store: Any, msgtype: str, variable: ir.Variable) -> str | None
             if kind not in (Nodetype.ARRAY, Nodetype.SEQUENCE):
                 return f"`{where}` is not an array"
             current = detail[0]
-    return None
+    return _leaf_problem(current, variable, where)
+
+
+# The runtime converts a field to the variable's kind (rmvdsl.runtime.fields): a
+# number of another width reads alike, and so does an integer read as a float or
+# a bool (ROS 1's bool is a uint8); but a string read as a bool is true whatever
+# it says, and a float read as an int is cut. Each type's family:
+_INTEGERS = ("byte", "char", "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64",
+             "uint64")  # fmt: skip
+_FAMILIES = {
+    "bool": "bool", "float32": "float", "float64": "float",
+    "time": "time", "builtin_interfaces/msg/Time": "time",
+    "duration": "duration", "builtin_interfaces/msg/Duration": "duration",
+    **dict.fromkeys(_INTEGERS, "int"),
+}  # fmt: skip
+
+
+# (the spec's family, the recording's) that read alike: each with itself, and these
+_ALIKE = {("float", "int"), ("bool", "int"), ("int", "bool")}
+
+
+def _family(type_name: str) -> str:
+    base = type_name.split("[")[0].split("<")[0]
+    return _FAMILIES.get(base, "string" if base in ("string", "wstring") else base)
+
+
+def _leaf_problem(leaf: Any, variable: ir.Variable, where: str) -> str | None:
+    """Whether the recording's type of what the path reads is one the spec's reads
+    alike (None), or what differs."""
+    from rosbags.typesys.base import Nodetype
+
+    kind, detail = leaf
+    step = next((s for s in reversed(variable.path) if isinstance(s, ir.FieldStep)), None)
+    if step is None or kind not in (Nodetype.BASE, Nodetype.NAME):
+        return None
+    recorded = detail[0] if kind == Nodetype.BASE else detail
+    expected = step.type.split("[")[0]
+    families = (_family(expected), _family(recorded))
+    if families[0] == families[1] or families in _ALIKE:
+        return None
+    return f"`{where}` is {recorded} in the recording, the spec reads {expected}"
 
 
 def _undefined(store: Any, msgtype: str) -> str | None:
