@@ -129,20 +129,26 @@ def test_a_recording_with_some_definitions_reads_the_rest_from_the_default_types
     assert (result.code, result.err, result.out) == (1, "", whole.out)
 
 
+def _reader_of(fields: dict[str, Any]) -> Any:
+    """A reader holding 7 messages of geometry_msgs/msg/Twist on /cmd, with these
+    definitions (`fielddefs`) and none of the connection's own."""
+    from types import SimpleNamespace
+
+    none = SimpleNamespace(format=SimpleNamespace(name="NONE"), data="")
+    connection = SimpleNamespace(topic="/cmd", msgtype="geometry_msgs/msg/Twist", msgcount=7,
+                                 msgdef=none)  # fmt: skip
+    return SimpleNamespace(connections=[connection], typestore=SimpleNamespace(fielddefs=fields))
+
+
 def test_a_type_defined_nowhere_skips_its_topic_with_a_warning():
     """A type no definition reaches (neither the recording's nor the default
     types): its topic's messages are skipped and counted, with a warning at the
     topic, never a KeyError."""
-    from types import SimpleNamespace
-
     from rmvdsl.tools.recordings import plan
 
     spec = lower(check("heartbeat.rmv", HEARTBEAT, use_environment=False))
     fields = {"geometry_msgs/msg/Twist": ([], [("linear", (2, "geometry_msgs/msg/Vector3"))])}
-    connection = SimpleNamespace(topic="/cmd", msgtype="geometry_msgs/msg/Twist", msgcount=7)
-    reader = SimpleNamespace(connections=[connection],
-                             typestore=SimpleNamespace(fielddefs=fields))  # fmt: skip
-    found = plan(spec, reader)
+    found = plan(spec, _reader_of(fields))
     assert found.connections == [] and found.skipped_messages == {
         "messages without a definition: /cmd": 7
     }
@@ -159,17 +165,14 @@ def test_a_field_of_another_kind_in_the_recording_is_said_and_skipped(recorded, 
     """The runtime converts a field to the variable's kind: a string recorded where
     the spec reads a number (or a bool: any text was true) is not read, and said
     at the variable; a number of another width, or an integer, is read."""
-    from types import SimpleNamespace
-
     from rmvdsl.tools.recordings import plan
 
     spec = lower(check("heartbeat.rmv", HEARTBEAT, use_environment=False))
     vector = [("x", (1, (recorded, 0))), ("y", (1, ("float64", 0)))]
     fields = {"geometry_msgs/msg/Twist": ([], [("linear", (2, "geometry_msgs/msg/Vector3"))]),
               "geometry_msgs/msg/Vector3": ([], vector)}  # fmt: skip
-    connection = SimpleNamespace(topic="/cmd", msgtype="geometry_msgs/msg/Twist", msgcount=7)
-    reader = SimpleNamespace(connections=[connection],
-                             typestore=SimpleNamespace(fielddefs=fields))  # fmt: skip
+    reader = _reader_of(fields)
+    (connection,) = reader.connections
     found = plan(spec, reader)
     assert found.connections == [connection]
     texts = [text for _, text in found.problems if "Speed" in text]
@@ -178,6 +181,60 @@ def test_a_field_of_another_kind_in_the_recording_is_said_and_skipped(recorded, 
     else:
         assert found.skipped_variables == {"Speed"}
         assert texts == [f"variable `Speed` on /cmd: `geometry_msgs/msg/Twist.linear.x` {problem}"]
+
+
+VERSIONS = """system versions "two versions of a type"
+ros humble
+messages "msg"
+topic s: my_msgs/Speed = "/speed"
+var V = s.value
+event Fast when V > 100
+property P: not Fast
+"""
+
+
+@pytest.mark.parametrize("ros1", [False, True])
+def test_recordings_merged_with_two_versions_of_a_type_read_each_with_its_own(rmv, tmp_path, ros1):
+    """rosbags keeps one definition of a type for recordings read together (the
+    last): with --merge, the older recording's messages were decoded with the newer
+    definition, all damaged, and its violation (at 5 s) was missed."""
+    from rosbags.rosbag1 import Writer as Bag
+    from rosbags.rosbag2 import StoragePlugin
+    from rosbags.rosbag2 import Writer as Rosbag2
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    (tmp_path / "msg" / "my_msgs" / "msg").mkdir(parents=True)
+    (tmp_path / "msg" / "my_msgs" / "msg" / "Speed.msg").write_text("float64 value\n")
+    (tmp_path / "versions.rmv").write_text(VERSIONS, encoding="utf-8")
+    paths = []
+    for name, text, first in (
+        ("old", "float64 value\n", 0),
+        ("new", "uint8 flag\nfloat64 value\n", 10),
+    ):
+        store = get_typestore(Stores.EMPTY)
+        store.register(get_types_from_msg(text, "my_msgs/msg/Speed"))
+        cls, serialize = (
+            store.types["my_msgs/msg/Speed"],
+            store.serialize_ros1 if ros1 else store.serialize_cdr,
+        )
+        path = tmp_path / (f"{name}.bag" if ros1 else name)
+        writer = Bag(path) if ros1 else Rosbag2(path, version=9, storage_plugin=StoragePlugin.MCAP)
+        with writer:
+            connection = writer.add_connection("/speed", "my_msgs/msg/Speed", typestore=store)
+            for second in range(first, first + 10):
+                speed = cls(30.0 * second) if name == "old" else cls(1, float(second))
+                writer.write(
+                    connection, (second + 1) * 10**9, serialize(speed, "my_msgs/msg/Speed")
+                )
+        paths.append(str(path))
+    spec = str(tmp_path / "versions.rmv")
+    merged = rmv("replay", spec, *paths, "--merge", "--format", "jsonl")
+    assert (merged.code, merged.err) == (1, ""), merged.out
+    records = _records(merged.out)
+    assert not [r for r in records if r["kind"] == "diagnostic"]
+    assert [(r["verdict"], r["from"], r["to"]) for r in records if r["kind"] == "verdict"] == [
+        ("true", 1, 5), ("false", 5, 11), ("true", 11, 20)
+    ]  # fmt: skip
 
 
 HEARTBEAT = """system heartbeat "a topic of std_msgs/Empty beside a read one"

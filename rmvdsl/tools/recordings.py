@@ -18,7 +18,12 @@ from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.engine import Runtime, seconds
 from rmvdsl.runtime.wording import os_words
 from rmvdsl.tools.report.text import decimal_text
-from rmvdsl.tools.typestores import default_store, deferred_default_store, shared_store
+from rmvdsl.tools.typestores import (
+    connection_store,
+    default_store,
+    deferred_default_store,
+    shared_store,
+)
 
 
 class ReplayError(Exception):
@@ -151,7 +156,8 @@ def plan(spec: ir.Spec, reader: Any) -> Plan:
                 skipped = found.skipped_messages
                 skipped[key] = skipped.get(key, 0) + connection.msgcount
                 continue
-            missing = _undefined(reader.typestore, connection.msgtype)
+            store = connection_store(reader, connection)
+            missing = _undefined(store, connection.msgtype)
             if missing is not None:
                 found.problems.append((
                     topic.origin,
@@ -165,7 +171,7 @@ def plan(spec: ir.Spec, reader: Any) -> Plan:
                 continue
             found.connections.append(connection)
             for variable in variables.get(topic.name, []):
-                problem = _path_problem(reader.typestore, connection.msgtype, variable)
+                problem = _path_problem(store, connection.msgtype, variable)
                 if problem is not None and variable.name not in found.skipped_variables:
                     found.skipped_variables.add(variable.name)
                     text = f"variable `{variable.name}` on {topic.ros_name}: {problem}"
@@ -244,9 +250,10 @@ def decoder(reader: Any, needs: dict[str, partial_decoding.Needs]) -> Callable[[
     the recording's definitions. ROS 1: by the live ROS 1 node's decoder
     (rmvdsl.host.ros1_decoding), from the connection's own definition and md5sum,
     so a bag and a live system are read alike, and two bags holding two versions
-    of a type each with its own; ROS 2: from the reader's type store."""
+    of a type each with its own; ROS 2: from the connection's types (the reader's,
+    or its own where they differ: typestores.connection_store)."""
     if reader.is2:
-        return _ros2_decoder(shared_store(reader.typestore), needs)
+        return _ros2_decoder(reader, needs)
     from rmvdsl.host.ros1_decoding import Decoder
 
     ros1 = Decoder()
@@ -265,12 +272,15 @@ def decoder(reader: Any, needs: dict[str, partial_decoding.Needs]) -> Callable[[
 
 
 def _ros2_decoder(
-    store: Any, needs: dict[str, partial_decoding.Needs]
+    reader: Any, needs: dict[str, partial_decoding.Needs]
 ) -> Callable[[Any, bytes], Any]:
-    readers: dict[tuple[str, str], partial_decoding.Reader] = {}
-    fields_of = lambda type_name: store.fielddefs[type_name][1]  # noqa: E731
+    readers: dict[tuple[int, int], partial_decoding.Reader] = {}
 
-    def made(topic: str, msgtype: str) -> partial_decoding.Reader:
+    def made(connection: Any) -> partial_decoding.Reader:
+        store = shared_store(connection_store(reader, connection))
+        topic, msgtype = connection.topic, connection.msgtype
+        fields_of = lambda type_name: store.fielddefs[type_name][1]  # noqa: E731
+
         def full(raw: bytes | memoryview) -> Any:
             return store.deserialize_cdr(raw, msgtype)
 
@@ -278,10 +288,9 @@ def _ros2_decoder(
         return partial_decoding.or_full(full, msgtype, wanted, fields_of, ros1=False)
 
     def decode(connection: Any, raw: bytes) -> Any:
-        which = (connection.topic, connection.msgtype)
-        read = readers.get(which)
+        read = readers.get(key(connection))
         if read is None:
-            read = readers[which] = made(*which)
+            read = readers[key(connection)] = made(connection)
         return read(raw)
 
     return decode

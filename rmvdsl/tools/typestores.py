@@ -8,6 +8,7 @@ A recording whose definitions were read before decodes with that store.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import threading
 from collections import OrderedDict
@@ -56,6 +57,53 @@ class _Deferred:
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self._make(), name)
+
+
+def connection_store(reader: Any, connection: Any) -> Any:
+    """The types that read `connection`'s messages: the reader's, unless the
+    connection's own definitions differ from them. Recordings read together
+    (`rmv replay --merge`) may hold two versions of a type, and rosbags keeps the
+    one it read last: the older recording's messages were decoded with the newer
+    definition (damaged, or misread where the sizes agree). Such a connection
+    gets the reader's types with its own in their place, one store per
+    definition, made once per process."""
+    own = _own_types(connection.msgtype, connection.msgdef.format.name, connection.msgdef.data)
+    store = reader.typestore
+    if all(store.fielddefs.get(name) == fields for name, fields in own):
+        return store
+    return _kept(_SHARED, f"own {own!r}", lambda: _replaced(store, dict(own)))
+
+
+@functools.lru_cache(maxsize=256)
+def _own_types(msgtype: str, form: str, data: str) -> tuple[tuple[str, Any], ...]:
+    """The types a connection's definition text gives (as rosbags' AnyReader parses
+    it), by name; none where it has no text or it does not parse. Parsed once per
+    process for each text (the plan and the decoder both ask)."""
+    from rosbags.typesys import get_types_from_idl, get_types_from_msg
+
+    found: dict[str, Any] = {}
+    try:
+        if form == "MSG":
+            found.update(get_types_from_msg(data, msgtype))
+        elif form == "IDL" and data.startswith(f"{_IDL_SEPARATOR}IDL: "):
+            for section in data.split(_IDL_SEPARATOR)[1:]:
+                found.update(get_types_from_idl(section.split("\n", 1)[1]))
+        elif form == "IDL":
+            found.update(get_types_from_idl(data))
+    except Exception:  # rosbags read the recording's types already; keep those
+        return ()
+    return tuple(sorted(found.items()))
+
+
+_IDL_SEPARATOR = "=" * 80 + "\n"  # rosbag2's, between several IDL texts
+
+
+def _replaced(store: Any, own: dict[str, Any]) -> Any:
+    from rosbags.typesys import Stores, get_typestore
+
+    made = get_typestore(Stores.EMPTY)
+    made.register({**store.fielddefs, **own})
+    return made
 
 
 def shared_store(store: Any) -> Any:
