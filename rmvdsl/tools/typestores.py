@@ -71,7 +71,8 @@ def connection_store(reader: Any, connection: Any) -> Any:
     store = reader.typestore
     if all(store.fielddefs.get(name) == fields for name, fields in own):
         return store
-    return _kept(_SHARED, f"own {own!r}", lambda: _replaced(store, dict(own)))
+    text = f"{own!r} over {sorted(store.fielddefs.items())!r}"
+    return _kept(_SHARED, hashlib.sha256(text.encode()).hexdigest(), lambda: _replaced(store, own))
 
 
 @functools.lru_cache(maxsize=256)
@@ -98,11 +99,11 @@ def _own_types(msgtype: str, form: str, data: str) -> tuple[tuple[str, Any], ...
 _IDL_SEPARATOR = "=" * 80 + "\n"  # rosbag2's, between several IDL texts
 
 
-def _replaced(store: Any, own: dict[str, Any]) -> Any:
+def _replaced(store: Any, own: tuple[tuple[str, Any], ...]) -> Any:
     from rosbags.typesys import Stores, get_typestore
 
     made = get_typestore(Stores.EMPTY)
-    made.register({**store.fielddefs, **own})
+    made.register({**store.fielddefs, **dict(own)})
     return made
 
 
