@@ -250,8 +250,9 @@ whitelist beat {
 """
 
 
-def _heartbeats(path, ros1):
-    """20 s of std_msgs/Empty on /beat and a speed rising by 10 a second on /cmd."""
+def _heartbeats(path, ros1, beat=None):
+    """20 s of std_msgs/Empty on /beat (or these bytes) and a speed rising by 10 a
+    second on /cmd."""
     from rosbags.rosbag1 import Writer as Bag
     from rosbags.rosbag2 import StoragePlugin
     from rosbags.rosbag2 import Writer as Rosbag2
@@ -263,11 +264,12 @@ def _heartbeats(path, ros1):
     vector = store.types["geometry_msgs/msg/Vector3"]
     writer = Bag(path) if ros1 else Rosbag2(path, version=9, storage_plugin=StoragePlugin.MCAP)
     with writer:
-        beat = writer.add_connection("/beat", "std_msgs/msg/Empty", typestore=store)
+        beats = writer.add_connection("/beat", "std_msgs/msg/Empty", typestore=store)
         cmd = writer.add_connection("/cmd", "geometry_msgs/msg/Twist", typestore=store)
         for second in range(1, 21):
             speed = twist(vector(10.0 * second, 0.0, 0.0), vector(0.0, 0.0, 0.0))
-            writer.write(beat, second * 10**9, serialize(empty(), "std_msgs/msg/Empty"))
+            heart = serialize(empty(), "std_msgs/msg/Empty") if beat is None else beat
+            writer.write(beats, second * 10**9, heart)
             writer.write(cmd, second * 10**9 + 5, serialize(speed, "geometry_msgs/msg/Twist"))
 
 
@@ -288,6 +290,24 @@ def test_a_topic_of_messages_with_no_fields_is_read_alike_from_bag_and_mcap(rmv,
     assert [(v["verdict"], v["from"]) for v in verdicts] == [
         ("true", Fraction("1.000000005")), ("false", Fraction("11.000000005"))
     ]  # fmt: skip
+
+
+@pytest.mark.parametrize("ros1", [True, False])
+def test_the_messages_of_a_topic_nothing_reads_are_not_decoded(rmv, tmp_path, ros1):
+    """A topic declared for its whitelist only: its messages count, their bytes
+    are not read, so bytes that would not decode change nothing (they were
+    counted damaged, with a warning, and opened the run at their time)."""
+    spec = tmp_path / "heartbeat.rmv"
+    spec.write_text(HEARTBEAT, encoding="utf-8")
+    name = "beats.bag" if ros1 else "beats"
+    (tmp_path / "whole").mkdir()
+    (tmp_path / "garbled").mkdir()
+    _heartbeats(tmp_path / "whole" / name, ros1=ros1)
+    _heartbeats(tmp_path / "garbled" / name, ros1=ros1, beat=b"\xff\x07")
+    whole, garbled = (rmv("replay", str(spec), str(tmp_path / folder / name), "--format", "jsonl")
+                      for folder in ("whole", "garbled"))  # fmt: skip
+    assert (garbled.code, garbled.err, garbled.out) == (whole.code, whole.err, whole.out)
+    assert "damaged" not in garbled.out
 
 
 def test_text_output_and_a_report(rmv, recordings, tmp_path):

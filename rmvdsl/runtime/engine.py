@@ -148,6 +148,10 @@ class Runtime(Reporting):
 
     # ---- input ----
 
+    def reads(self, topic: str) -> bool:
+        """Whether a message of `topic` is looked into (else it may be None)."""
+        return topic in self.by_topic
+
     def message(self, time: int, topic: str, message: Any) -> None:
         """One message of a ROS topic received at `time` (integer nanoseconds); a
         topic with `time = header` takes its time from the message's stamp."""

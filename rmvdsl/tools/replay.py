@@ -122,11 +122,13 @@ def replay(
             if key(connection) not in read:
                 continue
             position.read += 1
-            try:
-                message = decode(connection, raw)
-            except Exception as error:
-                runtime.damaged(timestamp, connection.topic, str(error))
-                continue
+            message = None  # a topic nothing reads (a whitelist's): its bytes unread
+            if runtime.reads(connection.topic):
+                try:
+                    message = decode(connection, raw)
+                except Exception as error:
+                    runtime.damaged(timestamp, connection.topic, str(error))
+                    continue
             runtime.message(timestamp, connection.topic, message)
             position.fed += 1
             if progress is not None and position.fed % 2000 == 0:
