@@ -310,6 +310,16 @@ def test_the_messages_of_a_topic_nothing_reads_are_not_decoded(rmv, tmp_path, ro
     assert "damaged" not in garbled.out
 
 
+def test_a_bag_and_a_rosbag2_recording_are_not_merged(rmv, recordings):
+    """rosbags reads ROS 1 bags or rosbag2 recordings together, not both: said so
+    (it was "it is not a recording", of two recordings)."""
+    bag, mcap = recordings / "braking.bag", recordings / "braking_mcap"
+    result = rmv("replay", str(EXAMPLES / "carla" / "abs.rmv"), str(bag), str(mcap), "--merge")
+    assert result.code == 2 and result.out == ""
+    assert result.err == (f"rmv: error: {bag} is a ROS 1 bag and {mcap} a rosbag2 recording: "
+                          "they cannot be read as one; replay them without --merge\n")  # fmt: skip
+
+
 def test_text_output_and_a_report(rmv, recordings, tmp_path):
     png = tmp_path / "timeline.png"
     result = _replay(rmv, recordings / "braking.bag", "--report", str(png))

@@ -185,6 +185,11 @@ def open_reader(paths: Sequence[Path], spec: ir.Spec) -> Any:
     for path in paths:
         if not path.exists():
             raise ReplayError(f"{path}: no such file or directory")
+    bags = [p for p in paths if p.suffix == ".bag"]
+    if bags and len(bags) != len(paths):  # rosbags reads ROS 1 or rosbag2, not both
+        other = next(p for p in paths if p.suffix != ".bag")
+        raise ReplayError(f"{bags[0]} is a ROS 1 bag and {other} a rosbag2 recording: "
+                          "they cannot be read as one; replay them without --merge")  # fmt: skip
     try:
         reader = AnyReader(list(paths), default_typestore=deferred_default_store(spec))
         reader.open()
