@@ -237,6 +237,39 @@ def test_recordings_merged_with_two_versions_of_a_type_read_each_with_its_own(rm
     ]  # fmt: skip
 
 
+SPEED_IDL = """module my_msgs {
+  module msg {
+    struct Speed {
+      double value;
+    };
+  };
+};
+"""
+
+
+@pytest.mark.parametrize("form", ["msg", "idl", "idl sections"])
+def test_a_connection_s_own_definition_is_read_in_each_of_rosbag2_s_forms(form):
+    """rosbag2 stores a definition as .msg text, as IDL, or as IDL sections: each
+    gives the connection its own types where the reader's differ; the reader's
+    are kept where they agree."""
+    from types import SimpleNamespace
+
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    from rmvdsl.tools.typestores import connection_store
+
+    text = {"msg": "float64 value\n", "idl": SPEED_IDL,
+            "idl sections": "=" * 80 + "\nIDL: my_msgs/msg/Speed\n" + SPEED_IDL}[form]  # fmt: skip
+    definition = SimpleNamespace(format=SimpleNamespace(name=form.split()[0].upper()), data=text)
+    connection = SimpleNamespace(msgtype="my_msgs/msg/Speed", msgdef=definition)
+    for other, kept in (("uint8 flag\nfloat64 value\n", False), ("float64 value\n", True)):
+        store = get_typestore(Stores.EMPTY)
+        store.register(get_types_from_msg(other, "my_msgs/msg/Speed"))
+        found = connection_store(SimpleNamespace(typestore=store), connection)
+        assert (found is store) == kept
+        assert [name for name, _ in found.fielddefs["my_msgs/msg/Speed"][1]] == ["value"]
+
+
 HEARTBEAT = """system heartbeat "a topic of std_msgs/Empty beside a read one"
 ros noetic
 topic beat: std_msgs/Empty = "/beat"
