@@ -6,6 +6,7 @@ package it imports."""
 from __future__ import annotations
 
 import ast
+import os
 import re
 import subprocess
 import sys
@@ -82,6 +83,38 @@ def test_a_child_python_imports_the_installed_package(tmp_path: Path):
     assert Path(where).resolve() == Path(rmvdsl.__file__).resolve()
     if INSTALLED:
         assert Path(where).resolve().parent != ROOT / "rmvdsl"
+
+
+def test_the_oldest_rosbags_the_package_accepts_replays_alike(tmp_path: Path):
+    """The package accepts rosbags from the version its metadata names: that
+    version replays the example's recordings (ROS 1 .bag, .db3, .mcap) to the
+    same bytes as the one the suite runs with. (`>=0.10` was declared while
+    0.10.x to 0.11.0 stopped every replay with an ImportError.)"""
+    import importlib.metadata
+
+    pins = [r for r in importlib.metadata.requires("rmvdsl") or [] if r.startswith("rosbags")]
+    oldest = re.fullmatch(r"rosbags>=([\d.]+)", pins[0])
+    assert oldest, pins
+    old = tmp_path / "old"
+    subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "--target", str(old),
+                    f"rosbags=={oldest[1]}"],
+                   check=True, capture_output=True, timeout=300)  # fmt: skip
+
+    def replay(recording: Path, path: str | None) -> str:
+        env = {**os.environ, "RMV_CACHE_DIR": str(tmp_path / "cache")}
+        if path is not None:
+            env["PYTHONPATH"] = path
+        done = subprocess.run(
+            [sys.executable, "-m", "rmvdsl.cli", "replay", str(EXAMPLES / "carla" / "abs.rmv"),
+             str(recording), "--format", "jsonl"],
+            capture_output=True, text=True, env=env, timeout=300, cwd=tmp_path,
+        )  # fmt: skip
+        assert done.returncode == 1 and not done.stderr, done.stderr
+        return done.stdout
+
+    for name in ("braking.bag", "braking_db3", "braking_mcap"):
+        recording = EXAMPLES / "carla" / "recordings" / name
+        assert replay(recording, str(old)) == replay(recording, None)
 
 
 # Modules that may name __file__: to find the package itself, not data beside it.

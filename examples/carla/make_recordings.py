@@ -24,7 +24,7 @@ from rosbags.rosbag1 import Writer as Bag1Writer
 from rosbags.rosbag2 import StoragePlugin
 from rosbags.rosbag2 import Writer as Bag2Writer
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-from rosbags.typesys.base import Nodetype
+from rosbags.interfaces import Nodetype
 
 HERE = Path(__file__).resolve().parent
 START = 1_700_000_000 * 10**9  # 2023-11-14 22:13:20 UTC: 20 s into a minute

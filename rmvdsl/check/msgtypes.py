@@ -113,7 +113,7 @@ def _field_type(base: str, array: bool, size: int | None, bounded: bool) -> Fiel
 
 def _read_store(distro: str, store_name: str) -> dict[str, MessageDef]:
     from rosbags.typesys import Stores, get_typestore
-    from rosbags.typesys.base import Nodetype
+    from rosbags.interfaces import Nodetype
 
     store = getattr(Stores, store_name)
     typestore = get_typestore(store)

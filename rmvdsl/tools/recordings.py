@@ -43,7 +43,7 @@ class Plan:
 
 def _path_problem(store: Any, msgtype: str, variable: ir.Variable) -> str | None:
     """Whether the recording's definition of `msgtype` has the variable's path."""
-    from rosbags.typesys.base import Nodetype
+    from rosbags.interfaces import Nodetype
 
     current: Any = (Nodetype.NAME, msgtype)
     where = msgtype
@@ -89,7 +89,7 @@ def _family(type_name: str) -> str:
 def _leaf_problem(leaf: Any, variable: ir.Variable, where: str) -> str | None:
     """Whether the recording's type of what the path reads is one the spec's reads
     alike (None), or what differs."""
-    from rosbags.typesys.base import Nodetype
+    from rosbags.interfaces import Nodetype
 
     kind, detail = leaf
     step = next((s for s in reversed(variable.path) if isinstance(s, ir.FieldStep)), None)
