@@ -125,8 +125,8 @@ _PREPROCESSOR = re.compile(r"(?m)^[ \t]*#.*$")
 
 def _read_idl(name: str, path: str, ros1: bool) -> _FileRead:
     """A ROS 2 .idl file, read by rosbags; its errors come with an offset."""
-    from rosbags.typesys import get_types_from_idl
     from rosbags.interfaces import Nodetype
+    from rosbags.typesys import get_types_from_idl
 
     source = _read_source(name, path)
     if isinstance(source, _FileRead):

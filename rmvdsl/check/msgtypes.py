@@ -112,8 +112,8 @@ def _field_type(base: str, array: bool, size: int | None, bounded: bool) -> Fiel
 
 
 def _read_store(distro: str, store_name: str) -> dict[str, MessageDef]:
-    from rosbags.typesys import Stores, get_typestore
     from rosbags.interfaces import Nodetype
+    from rosbags.typesys import Stores, get_typestore
 
     store = getattr(Stores, store_name)
     typestore = get_typestore(store)
