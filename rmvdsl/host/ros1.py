@@ -13,6 +13,7 @@ the ROS 2 names' `.` (`~topics/NAME`, `~time/NAME`).
 
 from __future__ import annotations
 
+import faulthandler
 import signal
 import threading
 import time
@@ -239,6 +240,9 @@ def run(make: Callable[[ir.Spec], RosNode], name: str) -> None:
     """Start a node (renamed by `__name:=`), run it until SIGINT, SIGTERM or a
     shutdown ROS asks for, then let it finish and leave."""
     rospy.init_node(name, disable_signals=True)
+    # a node that does not stop can be asked where it is: `kill -USR1 PID` writes
+    # every thread's stack to its log
+    faulthandler.register(signal.SIGUSR1, all_threads=True)
     node = make(load_spec())
     stop = threading.Event()
     for number in (signal.SIGINT, signal.SIGTERM):

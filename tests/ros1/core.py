@@ -69,6 +69,9 @@ def stop(process: subprocess.Popen, signal_number: int = signal.SIGINT, timeout:
         try:
             process.wait(timeout)
         except subprocess.TimeoutExpired:
+            # an rmvdsl node writes each thread's stack to its log: the hang shows
+            process.send_signal(signal.SIGUSR1)
+            time.sleep(2.0)
             process.kill()
             process.wait()
     return process.returncode
