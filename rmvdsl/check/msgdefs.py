@@ -10,14 +10,7 @@ from dataclasses import dataclass, field
 
 from rmvdsl.lang.diagnostics import Diagnostic, error
 from rmvdsl.lang.source import SourceFile
-
-INTEGERS = {
-    "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64", "byte", "char",
-}  # fmt: skip
-
-
-FLOATS = {"float32", "float64"}
-
+from rmvdsl.runtime.spec_terms import FLOATS, INTEGERS
 
 PRIMITIVES = INTEGERS | FLOATS | {"bool", "string", "wstring", "time", "duration"}
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from rmvdsl.check.msgdefs import FLOATS, INTEGERS
+from rmvdsl.runtime.spec_terms import value_kind
 
 NUMERIC = frozenset({"int", "float"})
 
@@ -53,16 +53,5 @@ DURATION = VType("duration")
 
 
 def from_ros(base: str) -> VType:
-    if base == "bool":
-        return VType("bool", base)
-    if base in INTEGERS:
-        return VType("int", base)
-    if base in FLOATS:
-        return VType("float", base)
-    if base in ("string", "wstring"):
-        return VType("string", base)
-    if base in ("time", "builtin_interfaces/msg/Time"):
-        return VType("time", base)
-    if base in ("duration", "builtin_interfaces/msg/Duration"):
-        return VType("duration", base)
-    return UNKNOWN
+    kind = value_kind(base)
+    return UNKNOWN if kind is None else VType(kind, base)

@@ -10,6 +10,24 @@ from typing import ClassVar
 
 # ---- values ----
 
+INTEGERS = frozenset({
+    "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64", "byte", "char",
+})  # fmt: skip
+FLOATS = frozenset({"float32", "float64"})
+# The kind of value (ValueType.kind) a field of each ROS type holds.
+_KINDS = {
+    "bool": "bool", **dict.fromkeys(INTEGERS, "int"), **dict.fromkeys(FLOATS, "float"),
+    "string": "string", "wstring": "string",
+    "time": "time", "builtin_interfaces/msg/Time": "time",
+    "duration": "duration", "builtin_interfaces/msg/Duration": "duration",
+}  # fmt: skip
+
+
+def value_kind(ros_type: str) -> str | None:
+    """The kind of value a field of `ros_type` holds (a primitive, or a time or a
+    duration); None for any other message."""
+    return _KINDS.get(ros_type)
+
 
 @dataclass(frozen=True)
 class ValueType:

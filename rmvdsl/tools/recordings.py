@@ -16,6 +16,7 @@ from typing import Any
 from rmvdsl.host import partial_decoding
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.engine import Runtime, seconds
+from rmvdsl.runtime.spec_terms import value_kind
 from rmvdsl.runtime.wording import os_words
 from rmvdsl.tools.report.text import decimal_text
 from rmvdsl.tools.typestores import (
@@ -66,24 +67,15 @@ def _path_problem(store: Any, msgtype: str, variable: ir.Variable) -> str | None
 # The runtime converts a field to the variable's kind (rmvdsl.runtime.fields): a
 # number of another width reads alike, and so does an integer read as a float or
 # a bool (ROS 1's bool is a uint8); but a string read as a bool is true whatever
-# it says, and a float read as an int is cut. Each type's family:
-_INTEGERS = ("byte", "char", "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64",
-             "uint64")  # fmt: skip
-_FAMILIES = {
-    "bool": "bool", "float32": "float", "float64": "float",
-    "time": "time", "builtin_interfaces/msg/Time": "time",
-    "duration": "duration", "builtin_interfaces/msg/Duration": "duration",
-    **dict.fromkeys(_INTEGERS, "int"),
-}  # fmt: skip
-
-
-# (the spec's family, the recording's) that read alike: each with itself, and these
+# it says, and a float read as an int is cut. (The spec's kind, the recording's)
+# that read alike besides each kind with itself:
 _ALIKE = {("float", "int"), ("bool", "int"), ("int", "bool")}
 
 
 def _family(type_name: str) -> str:
+    """A type's kind of value (ValueType.kind), or the type itself (a message)."""
     base = type_name.split("[")[0].split("<")[0]
-    return _FAMILIES.get(base, "string" if base in ("string", "wstring") else base)
+    return value_kind(base) or base
 
 
 def _leaf_problem(leaf: Any, variable: ir.Variable, where: str) -> str | None:
