@@ -8,6 +8,7 @@ import hashlib
 import http.server
 import json
 import socket
+import socketserver
 import threading
 from fractions import Fraction
 from typing import Any, ClassVar
@@ -489,6 +490,41 @@ def test_a_connection_to_a_peer_that_is_gone_waits_longer_than_a_live_sneak(tmp_
     assert found[ros1_graph.address(gone)].grace == intrusion.GONE_GRACE
 
 
+def test_a_node_the_master_is_slow_to_look_up_is_slow_not_gone():
+    """ROS 1: a registered node the master does not look up in time is not known to
+    be gone (CI saw an allowed node called stale beside a loaded test run): it is
+    SLOW, judged stale only after HUNG_GRACE; a node the master forgot between its
+    two calls unregistered, and is not silent at all; one that refuses is GONE."""
+    import time
+    from xmlrpc.server import SimpleXMLRPCServer
+
+    from rmvdsl.host import ros1_graph
+
+    alive = _serve({"getBusInfo": lambda caller: [1, "", []]})
+    with socket.socket() as probe:  # a port nothing listens on: a node that is gone
+        probe.bind(("127.0.0.1", 0))
+        gone = f"http://127.0.0.1:{probe.getsockname()[1]}/"
+
+    def lookup(caller: str, node: str) -> list:
+        if node == "/busy":
+            time.sleep(0.6)
+        if node == "/left":
+            return [-1, "unknown node [/left]", ""]
+        return [1, "", gone if node == "/dead" else alive]
+
+    nodes = ["/alive", "/busy", "/dead", "/left"]
+    master = _serve(
+        {
+            "getSystemState": lambda caller: [1, "", [[["/cmd", nodes]], [], []]],
+            "lookupNode": lookup,
+        },
+        server=type("Threaded", (socketserver.ThreadingMixIn, SimpleXMLRPCServer), {}),
+    )
+    graph = ros1_graph.read(master, "/rmv_intrusion", timeout=0.3)
+    assert graph.silent == {"/busy": intrusion.SLOW, "/dead": intrusion.GONE}
+    assert {s.node_name for s in graph.registered} == {n.lstrip("/") for n in nodes}
+
+
 def test_a_departed_endpoint_s_connection_is_still_that_endpoint():
     """ROS 1: the soak found a publisher that never writes keeping a connection to
     a subscriber that had left, and subscribers retrying a publisher that had
@@ -532,12 +568,13 @@ def test_a_departed_endpoint_s_connection_is_still_that_endpoint():
     assert {(s.node, s.role) for s in never.unregistered} == {("/listener", "subscriber")}
 
 
-def _serve(functions: dict) -> str:
+def _serve(functions: dict, server: type | None = None) -> str:
     """An XML-RPC server on loopback answering `functions` (a stand-in ROS 1 master
-    or node), in a thread of its own; its URI."""
+    or node), in a thread of its own; its URI. `server`: the class, if not
+    SimpleXMLRPCServer (one that answers calls at once, say)."""
     from xmlrpc.server import SimpleXMLRPCServer
 
-    server = SimpleXMLRPCServer(("127.0.0.1", 0), logRequests=False, allow_none=True)
+    server = (server or SimpleXMLRPCServer)(("127.0.0.1", 0), logRequests=False, allow_none=True)
     for name, function in functions.items():
         server.register_function(function, name)
     threading.Thread(target=server.serve_forever, daemon=True).start()

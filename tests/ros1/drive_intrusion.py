@@ -36,6 +36,8 @@ def main() -> None:
     steps: dict[str, float] = {}
     lock = threading.Lock()
     peers = []
+    names: dict[int, str] = {}  # pid -> node name
+    exits: dict[str, int] = {}  # node name -> exit code (0: stopped cleanly)
 
     def peer(name: str, role: str, *extra: str):
         process = core.start(
@@ -43,7 +45,13 @@ def main() -> None:
             logs / f"{name.strip('/')}.log",
         )
         peers.append(process)
+        names[process.pid] = name
         return process
+
+    def stop(process) -> None:
+        """Stop a peer; its exit is kept (a peer killed after 15 s stays registered,
+        and so is rightly reported stale)."""
+        exits[names[process.pid]] = core.stop(process)
 
     def registered(name: str, role: str) -> bool:
         return (core.publishes if role == "publisher" else core.subscribes)(name, topic)
@@ -83,9 +91,9 @@ def main() -> None:
                 running.append(peer(f"/allowed_{k}", role))
                 time.sleep(0.25)
                 if len(running) > 4:
-                    core.stop(running.pop(0))
+                    stop(running.pop(0))
             for process in running:
-                core.stop(process)
+                stop(process)
             time.sleep(2.0)
             steps["churn end"] = time.monotonic()
             for name, role in (("/rogue_pub", "publisher"), ("/rogue_sub", "subscriber")):
@@ -94,7 +102,7 @@ def main() -> None:
                 core.wait_for(lambda n=name, r=role: registered(n, r), 10, name)
                 steps[name] = time.monotonic()
                 time.sleep(3.0)
-                core.stop(process)
+                stop(process)
             steps["sneak start"] = time.monotonic()
             sneak = peer("/sneak", "sneak", "/base")
             core.wait_for(lambda: "sneaked" in (logs / "sneak.log").read_text(), 10, "sneak")
@@ -102,7 +110,7 @@ def main() -> None:
             steps["sneak uri"] = (logs / "sneak.log").read_text().split("sneaked ")[1].split()[0]
             # long enough that a report later than the 2 s asked shows when it came
             time.sleep(6.0)
-            core.stop(sneak)
+            stop(sneak)
             frozen = peer("/allowed_frozen", "publisher")
             core.wait_for(lambda: registered("/allowed_frozen", "publisher"), 10, "frozen")
             time.sleep(1.0)
@@ -112,7 +120,7 @@ def main() -> None:
             frozen.send_signal(signal.SIGCONT)
             steps["thawed"] = time.monotonic()
             time.sleep(1.0)
-            core.stop(frozen)
+            stop(frozen)
             victim = peer("/victim", "subscriber")
             core.wait_for(lambda: registered("/victim", "subscriber"), 10, "/victim")
             time.sleep(1.0)
@@ -122,7 +130,7 @@ def main() -> None:
             time.sleep(5.0)  # past its stale grace (3 s) and a poll
         finally:
             for process in peers:
-                core.stop(process)
+                stop(process)
             code = core.stop(guard)
             rospy.signal_shutdown("done")
     with lock:
@@ -132,6 +140,7 @@ def main() -> None:
                     "steps": steps,
                     "statuses": statuses,
                     "exit": code,
+                    "peer exits": exits,
                     "log": (logs / "intrusion.log").read_text(errors="replace")[-6000:],
                 }
             )

@@ -19,6 +19,12 @@ STOP = threading.Event()
 for _number in (signal.SIGINT, signal.SIGTERM):
     signal.signal(_number, lambda *_: STOP.set())
 
+import faulthandler  # noqa: E402
+
+# A peer that does not stop in time is sent SIGUSR1 before it is killed: its
+# threads' stacks go to its log, which the tests show.
+faulthandler.register(signal.SIGUSR1)
+
 import sys  # noqa: E402
 import time  # noqa: E402
 import xmlrpc.client  # noqa: E402
