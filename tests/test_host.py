@@ -114,6 +114,42 @@ def test_the_monitor_hands_out_what_the_runtime_decides(tmp_path):
     assert last["monitor"].values["messages"] == "5"
 
 
+def test_a_variable_a_publisher_cannot_give_is_skipped_from_then_on(tmp_path):
+    """A host that finds a publisher's definition lacking a variable (`unread` in
+    the message's info, from rmvdsl.host.definitions) skips it from that message on,
+    as a replay skips it from the start: the monitor's runtime reads no more of it
+    (no Fast from 30.0) and warns once at the variable's declaration; the collector
+    neither stores nor reads it, and says so once in its log."""
+    spec = _spec(tmp_path)
+    unread = {"Speed": "variable `Speed` on /vehicle/twist: it is not there"}
+    infos = [{}, {"unread": unread}, {"unread": unread}]
+    out, now = Outputs(), [0]
+    node = monitor.Monitor(spec, out.actions(), out, lambda: now[0], decide_period=0.01)
+    node.start()
+    for k, info in enumerate(infos):
+        now[0] = 10**9 + k * 10**8
+        node.take("/vehicle/twist", _twist(30.0 if k else 10.0), info)
+    node.finish()
+    origin = next(v.origin for v in spec.variables if v.name == "Speed")
+    assert out.warnings == [f"{origin}: {unread['Speed']}"], out.warnings
+    assert "false" not in "".join(out.verdicts), out.verdicts  # Speed was never 30
+
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), _Influx)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    _Influx.batches, _Influx.refuse = [], False
+    out, clock = Outputs(), iter(range(10**9, 10**12, 10**8))
+    stored = collector.Collector(spec, _settings(server.server_port), out, lambda: next(clock))
+    stored.start()
+    for k, info in enumerate(infos):
+        stored.take("/vehicle/twist", _twist(30.0 if k else 10.0), info)
+    stored.finish()
+    server.shutdown()
+    lines = [line for batch in _Influx.batches for line in batch.splitlines()]
+    assert [line for line in lines if "Speed=" in line] == [lines[0]], lines
+    assert "Quick" not in "".join(lines)
+    assert [text for level, text in out.logged if "Speed" in text] == [unread["Speed"]]
+
+
 def test_lost_messages_are_counted_from_sequence_gaps():
     gaps = Gaps()
     first = {"publication_sequence_number": 1, "publisher_gid": {"data": b"a"}}

@@ -324,6 +324,90 @@ def test_sim_time_parameters_renames_lost_and_wrong_messages(tmp_path):
     )
 
 
+DEFINITIONS = """system definitions "a publisher's definition unlike the spec's"
+ros noetic
+topic v: geometry_msgs/Vector3Stamped = "/v" qos {
+    depth = 1000
+    time = header
+}
+topic hb: std_msgs/String = "/hb"
+var X = v.vector.x
+var Y = v.vector.y
+event Fast when X > 100
+event Far when Y > 100
+property NeverFast: not Fast
+property NeverFar: not Far
+whitelist hb {
+    publishers: "/play_*"
+}
+"""
+
+
+def _definitions_bag(path: Path) -> Path:
+    """2 s of Vector3Stamped on /v at 10 Hz, defined with `string x` (numbers as
+    text, "150": past Fast's bound if read as a number), `y` past Far's bound from
+    1 s; and /hb, which the spec reads no field of, whose bytes do not decode."""
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    store = get_typestore(Stores.EMPTY)
+    for name, text in (
+        ("builtin_interfaces/msg/Time", "int32 sec\nuint32 nanosec"),
+        ("std_msgs/msg/Header", "uint32 seq\ntime stamp\nstring frame_id"),
+        ("std_msgs/msg/String", "string data"),
+        ("geometry_msgs/msg/Vector3", "string x\nfloat64 y\nfloat64 z"),
+        (
+            "geometry_msgs/msg/Vector3Stamped",
+            "std_msgs/Header header\ngeometry_msgs/Vector3 vector",
+        ),
+    ):
+        store.register(get_types_from_msg(text, name))
+    Header, Time = store.types["std_msgs/msg/Header"], store.types["builtin_interfaces/msg/Time"]
+    Stamped, Vector3 = (
+        store.types["geometry_msgs/msg/Vector3Stamped"],
+        store.types["geometry_msgs/msg/Vector3"],
+    )
+    with Writer(path) as writer:
+        v = writer.add_connection("/v", Stamped.__msgtype__, typestore=store)
+        hb = writer.add_connection("/hb", "std_msgs/msg/String", typestore=store)
+        for k in range(1, 21):
+            t = SIM_START + k * 100_000_000
+            stamp = Time(sec=t // 10**9, nanosec=t % 10**9)
+            vector = Vector3(x="150", y=200.0 if k > 10 else 1.0, z=0.0)
+            message = Stamped(header=Header(seq=k, stamp=stamp, frame_id=""), vector=vector)
+            writer.write(v, t, store.serialize_ros1(message, Stamped.__msgtype__))
+            writer.write(hb, t, (1000).to_bytes(4, "little") + b"abc")  # 1,000 bytes said
+    return path
+
+
+def test_a_publisher_s_definition_is_judged_as_the_replay_judges_a_recording(tmp_path, rmv):
+    """A ROS 1 publisher's definition (its connection header, here `rosbag play`'s
+    from the bag) holding a field of another kind than the spec reads (`string x`
+    for a float64) skips that variable, with the replay's warning, in place of
+    reading "150" as 150; and a topic the spec reads no field of is not decoded
+    (its garbled bytes are no damage): the live monitor's verdicts and counters are
+    the replay's of the same bag."""
+    spec = tmp_path / "definitions.rmv"
+    spec.write_text(DEFINITIONS, encoding="utf-8")
+    package = _build(spec, tmp_path / "definitions")
+    bag = _definitions_bag(tmp_path / "definitions.bag")
+    seen = _drive("drive_monitor.py", str(package), str(bag), home=tmp_path / "run")
+    assert seen["play_exit"] == 0 and seen["monitor_exit"] == 0, seen["monitor_log"]
+    replay = rmv("replay", str(spec), str(bag), "--format", "jsonl")
+    assert replay.code == 1, replay.err
+    records = [json.loads(line) for line in replay.out.splitlines()]
+    warned = [r["message"] for r in records if r["kind"] == "diagnostic"]
+    kind = "`geometry_msgs/msg/Vector3Stamped.vector.x` is string in {}, the spec reads float64"
+    assert warned == ["variable `X` on /v: " + kind.format("the recording")], warned
+    assert "variable `X` on /v: " + kind.format("its publisher's definition") in seen["monitor_log"]
+    from_replay = [r for r in records if r["kind"] == "verdict"]
+    assert per_property(seen["verdicts"]) == per_property(from_replay), seen["monitor_log"]
+    assert [v["verdict"] for v in per_property(from_replay)["NeverFar"]] == ["true", "false"]
+    counters = seen["counters"]
+    assert counters["messages"] == "40", counters
+    assert not [k for k in counters if "damaged" in k or "matching" in k], counters
+
+
 def test_the_kapacitor_collector_on_ros1_stores_every_message(tmp_path):
     """`rmv build --target kapacitor --collector ros1`: the thesis's rostopicmon as a
     catkin package; the CARLA bag played into it by `rosbag play` arrives in a real

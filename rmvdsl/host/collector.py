@@ -136,6 +136,8 @@ class Collector:
             self.count(f"lost messages: {topic}", lost,
                        f"{topic}: {counted(lost, 'message')} lost before the collector "
                        f"read {'it' if lost == 1 else 'them'}")  # fmt: skip
+        if "unread" in info:  # variables its publisher's definition does not give
+            self.skip(topic, info["unread"])
         if isinstance(message, Undecodable):
             self.count(f"damaged messages: {topic}", 1, f"{topic}: {message.reason}")
             return
@@ -153,6 +155,18 @@ class Collector:
         lines += self.states()
         for line in lines:
             self.enqueue(line, arrival)
+
+    def skip(self, topic: str, unread: dict[str, str]) -> None:
+        """Variables no longer read nor stored, each warned of once (the runtime's
+        records but states are not the collector's to say)."""
+        self.writer.skip(topic, unread)
+        self.runtime.skip(self.received, topic, unread)
+        for name, text in unread.items():
+            with self.lock:
+                first = f"unread: {name}" not in self.reported
+                self.reported.add(f"unread: {name}")
+            if first:
+                self.logs.log("warn", text)
 
     def states(self) -> list[str]:
         """The states the runtime has decided since the last call, as points."""

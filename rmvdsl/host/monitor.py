@@ -159,6 +159,8 @@ class Monitor:
             self.runtime.lost(now, topic, lost)
         elif lost < 0:
             self.runtime.found_again(now, topic)
+        if "unread" in info:  # variables its publisher's definition does not give
+            self.runtime.skip(now, topic, info["unread"])
         if isinstance(message, Undecodable):
             self.runtime.damaged(now, topic, message.reason)
         else:

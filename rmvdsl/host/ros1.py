@@ -97,7 +97,19 @@ def subscribe(spec: ir.Spec, take: Callable[[str, Any, dict[str, Any]], None]) -
         raise SystemExit(f"{rospy.get_name()}: {problem}")
     # each topic's fields the spec reads, and its header's `seq` (monitor.Gaps)
     decoder = ros1_decoding.Decoder(optional={"header": {"seq": None}})
-    needs = partial_decoding.spec_needs(spec)
+    variables: dict[str, list[ir.Variable]] = {}
+    for variable in spec.variables:
+        variables.setdefault(variable.topic, []).append(variable)
+    # what is read of each topic, but the variables a publisher's definition
+    # does not give (kept: the decoder knows a topic's needs by their identity)
+    needs_without: dict[frozenset[str], dict[str, partial_decoding.Needs]] = {}
+
+    def needs(ros_name: str, unread: dict[str, str]) -> partial_decoding.Needs | None:
+        skipped = frozenset(unread)
+        if skipped not in needs_without:
+            needs_without[skipped] = partial_decoding.spec_needs(spec, skipped)
+        return needs_without[skipped].get(ros_name)
+
     for topic in spec.topics:
         ros_name = str(parameter(f"topics.{topic.name}", topic.ros_name))
 
@@ -108,13 +120,18 @@ def subscribe(spec: ir.Spec, take: Callable[[str, Any, dict[str, Any]], None]) -
                 "received_timestamp": time.time_ns(),  # for the latency figures
             }
             sent = decoder.message_type(header)
-            message: Any
+            message: Any = None  # a topic no variable reads (a whitelist's): not decoded
+            read = variables.get(topic.name)
             if sent != topic.message_type:
                 message = Undecodable(f"its publisher sends {sent} on {ros_name}, the spec "
                                       f"reads {topic.message_type}")  # fmt: skip
-            else:
+            elif read:
+                unread = decoder.unread(header, read, topic.ros_name)
+                if unread:
+                    info["unread"] = unread
                 try:
-                    message = decoder.decode(header, raw._buff, needs.get(topic.ros_name))
+                    wanted = needs(topic.ros_name, unread)
+                    message = decoder.decode(header, raw._buff, wanted)
                 except ros1_decoding.DecodeError as error:
                     message = Undecodable(str(error))
                 else:

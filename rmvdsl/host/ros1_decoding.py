@@ -11,10 +11,11 @@ installed (the thesis's type-agnostic subscription). The objects are the ones
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
-from rmvdsl.host import partial_decoding
+from rmvdsl.host import definitions, partial_decoding
+from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.wording import counted
 
 Decode = Callable[[bytes], Any]
@@ -57,6 +58,7 @@ class Decoder:
         self.decoders: dict[tuple[str, str, int], tuple[Any, Decode]] = {}
         # read too where the definition has it (the live node's `header.seq`)
         self.optional = optional
+        self.problems: dict[tuple[str, str, str], dict[str, str]] = {}
 
     def message_type(self, header: Mapping[str, str]) -> str:
         return ros2_style(header.get("type", ""))
@@ -83,6 +85,32 @@ class Decoder:
         except Exception as error:  # rosbags raises what struct and numpy raise
             size = counted(len(raw), "byte")
             raise DecodeError(f"a {key[0]} message of {size}: {error}") from None
+
+    def unread(
+        self, header: Mapping[str, str], variables: Sequence[ir.Variable], ros_name: str
+    ) -> dict[str, str]:
+        """The variables (of one topic) that the publisher's definition does not give
+        as the spec reads them, with the warning of each (rmvdsl.host.definitions):
+        found once per definition and topic. A definition that does not parse gives
+        none: each of its messages is reported damaged instead."""
+        key = (header.get("type", ""), header.get("md5sum", ""), ros_name)
+        found = self.problems.get(key)
+        if found is None:
+            try:
+                store = _store(key[0], _definition(key[0], header))
+            except DecodeError:
+                found = {}
+            else:
+                fields_of = lambda name: store.fielddefs[name][1]  # noqa: E731
+                source = "its publisher's definition"
+                try:
+                    found = definitions.problems(
+                        fields_of, ros2_style(key[0]), variables, ros_name, source
+                    )
+                except KeyError:  # a type the definition names and does not define
+                    found = {}
+            self.problems[key] = found
+        return found
 
 
 def _reader(

@@ -256,7 +256,9 @@ class _Compiler:
                     body.offset += fixed * stride
                     return None
                 self._flush(body)
-                body.lines.append(f"p = {self._position(body)} + {count} * {stride}")
+                body.lines.append(f"p = {self._position(body)}")
+                self._check_count(body, element, count)
+                body.lines.append(f"p += {count} * {stride}")
                 body.offset, body.known = 0, min(4, alignment)
                 return None
         function = self._function(kind, detail, needs, read)
@@ -266,8 +268,7 @@ class _Compiler:
         if body.offset:
             body.lines.append(f"p = {self._position(body)}")
         if fixed is None:  # a damaged count must not make the loop run for ever
-            body.lines.append(f"if {self._too_many(element, count)}: "
-                              "raise _Error('a sequence longer than the message')")  # fmt: skip
+            self._check_count(body, element, count)
         variable = body.name("a") if read else None
         if read:
             body.lines.append(f"{variable} = []")
@@ -326,14 +327,23 @@ class _Compiler:
 
     # ---- sizes and alignment ----
 
+    def _check_count(self, body: _Body, element: Any, count: str) -> None:
+        """Refuse a sequence's count (at `p`) longer than the message can hold, as
+        rosbags' full decoder does, whether its elements are walked or skipped."""
+        body.lines.append(f"if {self._too_many(element, count)}: "
+                          "raise _Error('a sequence longer than the message')")  # fmt: skip
+
     def _too_many(self, element: Any, count: str) -> str:
         """The test that a sequence's count is more than its message can hold.
-        Elements of no bytes (empty messages in ROS 1, arrays of length 0) fit any
-        number of times: their count is bounded by the message's length only, so a
-        damaged count still cannot make the loop run for ever."""
+        Elements of no bytes (empty messages in ROS 1, messages of arrays of length
+        0) fit any number of times: in ROS 1 their count is bounded by the message's
+        length only, so a damaged count still cannot make the loop run for ever. In
+        CDR rosbags' full decoder takes each message element for a byte at least (a
+        ROS 2 message has a field), and refuses a longer count: so does this."""
         least = self._least(element)
-        if least == 0:
+        if least == 0 and self.ros1:
             return f"{count} > len(raw)"
+        least = max(least, 1)
         return f"{count}{f' * {least}' if least > 1 else ''} > len(raw) - p"
 
     def _least(self, description: Any) -> int:

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from typing import Any
 
 from rmvdsl.runtime import fields
@@ -87,6 +87,12 @@ class PointWriter:
             self.readers.setdefault(topic, []).append((variable.name, fields.reader(variable)))
         self.stamped = fields.stamped_topics(spec.topics)
         self.dropped: Counter[str] = Counter()
+
+    def skip(self, topic: str, names: Iterable[str]) -> None:
+        """Variables of `topic` no longer read (Runtime.skip)."""
+        left_out = set(names)
+        if topic in self.readers:
+            self.readers[topic] = [r for r in self.readers[topic] if r[0] not in left_out]
 
     def point(self, time: int, topic: str, message: Any) -> tuple[int, str] | None:
         """The point of one message received at `time` (ns): its time (the header's

@@ -193,6 +193,21 @@ class Reporting:
         """Something about the input as a whole (a diagnostic record)."""
         self._note(time, text, "")
 
+    def skip(self, time: int, topic: str, problems: dict[str, str]) -> None:
+        """Variables of `topic` its input cannot give as the spec reads them (a live
+        publisher's definition lacks the field, or holds another kind): from `time`
+        on, not read, each warned of once at its declaration, as the replay skips
+        them (rmvdsl.host.definitions; `problems`: name -> the warning)."""
+        readers = self.by_topic.get(topic, [])
+        kept = [(v, read) for v, read in readers if v.name not in problems]
+        if len(kept) == len(readers):
+            return
+        self.by_topic[topic] = kept
+        self.reaches.pop(topic, None)
+        for variable, _ in readers:
+            if variable.name in problems:
+                self._note(time, problems[variable.name], topic, variable.origin)
+
     def _field_error(self, time: int, topic: str, variable: ir.Variable, reason: str) -> None:
         text = f"{topic}: `{variable.name}` cannot be read: {reason}"
         counter = f"messages not matching the spec: {variable.name}"

@@ -13,10 +13,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from rmvdsl.host import partial_decoding
+from rmvdsl.host import definitions, partial_decoding
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.engine import Runtime, seconds
-from rmvdsl.runtime.spec_terms import value_kind
 from rmvdsl.runtime.wording import os_words
 from rmvdsl.tools.report.text import decimal_text
 from rmvdsl.tools.typestores import (
@@ -40,59 +39,6 @@ class Plan:
     problems: list[tuple[str, str]] = field(default_factory=list)  # (origin, text)
     skipped_variables: set[str] = field(default_factory=set)
     skipped_messages: dict[str, int] = field(default_factory=dict)  # counter -> count
-
-
-def _path_problem(store: Any, msgtype: str, variable: ir.Variable) -> str | None:
-    """Whether the recording's definition of `msgtype` has the variable's path."""
-    from rosbags.interfaces import Nodetype
-
-    current: Any = (Nodetype.NAME, msgtype)
-    where = msgtype
-    for step in variable.path:
-        kind, detail = current
-        if isinstance(step, ir.FieldStep):
-            if kind != Nodetype.NAME:
-                return f"`{where}` is not a message, so it has no field `{step.name}`"
-            fields = dict(store.fielddefs[detail][1])
-            if step.read not in fields:
-                return f"{detail} has no field `{step.read}` (it has {', '.join(fields)})"
-            current, where = fields[step.read], f"{where}.{step.read}"
-        else:
-            if kind not in (Nodetype.ARRAY, Nodetype.SEQUENCE):
-                return f"`{where}` is not an array"
-            current = detail[0]
-    return _leaf_problem(current, variable, where)
-
-
-# The runtime converts a field to the variable's kind (rmvdsl.runtime.fields): a
-# number of another width reads alike, and so does an integer read as a float or
-# a bool (ROS 1's bool is a uint8); but a string read as a bool is true whatever
-# it says, and a float read as an int is cut. (The spec's kind, the recording's)
-# that read alike besides each kind with itself:
-_ALIKE = {("float", "int"), ("bool", "int"), ("int", "bool")}
-
-
-def _family(type_name: str) -> str:
-    """A type's kind of value (ValueType.kind), or the type itself (a message)."""
-    base = type_name.split("[")[0].split("<")[0]
-    return value_kind(base) or base
-
-
-def _leaf_problem(leaf: Any, variable: ir.Variable, where: str) -> str | None:
-    """Whether the recording's type of what the path reads is one the spec's reads
-    alike (None), or what differs."""
-    from rosbags.interfaces import Nodetype
-
-    kind, detail = leaf
-    step = next((s for s in reversed(variable.path) if isinstance(s, ir.FieldStep)), None)
-    if step is None or kind not in (Nodetype.BASE, Nodetype.NAME):
-        return None
-    recorded = detail[0] if kind == Nodetype.BASE else detail
-    expected = step.type.split("[")[0]
-    families = (_family(expected), _family(recorded))
-    if families[0] == families[1] or families in _ALIKE:
-        return None
-    return f"`{where}` is {recorded} in the recording, the spec reads {expected}"
 
 
 def _undefined(store: Any, msgtype: str) -> str | None:
@@ -128,6 +74,7 @@ def plan(spec: ir.Spec, reader: Any) -> Plan:
     variables: dict[str, list[ir.Variable]] = {}
     for variable in spec.variables:
         variables.setdefault(variable.topic, []).append(variable)
+    origins = {v.name: v.origin for v in spec.variables}
     for topic in spec.topics:
         connections = by_topic.get(topic.ros_name, [])
         if not connections:
@@ -162,12 +109,14 @@ def plan(spec: ir.Spec, reader: Any) -> Plan:
                 skipped[key] = skipped.get(key, 0) + connection.msgcount
                 continue
             found.connections.append(connection)
-            for variable in variables.get(topic.name, []):
-                problem = _path_problem(store, connection.msgtype, variable)
-                if problem is not None and variable.name not in found.skipped_variables:
-                    found.skipped_variables.add(variable.name)
-                    text = f"variable `{variable.name}` on {topic.ros_name}: {problem}"
-                    found.problems.append((variable.origin, text))
+            fields_of = lambda name, store=store: store.fielddefs[name][1]  # noqa: E731
+            unread = definitions.problems(
+                fields_of, connection.msgtype, variables.get(topic.name, []), topic.ros_name
+            )
+            for name, text in unread.items():
+                if name not in found.skipped_variables:
+                    found.skipped_variables.add(name)
+                    found.problems.append((origins[name], text))
     return found
 
 
