@@ -70,15 +70,19 @@ class InProcess:
 class Wire:
     """One server process and what it sent, read by a thread of its own."""
 
-    def __init__(self, cwd: Path | None = None, in_process: bool = False) -> None:
-        """`rmv lsp` as its own process, or (`in_process`) the same server in a
-        thread of this one: what the LSP fuzz target talks to, so that atheris's
-        coverage of rmvdsl's code guides it."""
+    def __init__(
+        self, cwd: Path | None = None, in_process: bool = False, env: dict[str, str] | None = None
+    ) -> None:
+        """`rmv lsp` as its own process (with `env`, if given), or (`in_process`) the
+        same server in a thread of this one: what the LSP fuzz target talks to, so
+        that atheris's coverage of rmvdsl's code guides it."""
         pipe = subprocess.PIPE
         self.process: Any = (
             InProcess()
             if in_process
-            else subprocess.Popen([*RMV, "lsp"], stdin=pipe, stdout=pipe, stderr=pipe, cwd=cwd)
+            else subprocess.Popen(
+                [*RMV, "lsp"], stdin=pipe, stdout=pipe, stderr=pipe, cwd=cwd, env=env
+            )
         )
         self.inbox: queue.Queue[dict[str, Any] | None] = queue.Queue()
         self.seen: list[dict[str, Any]] = []

@@ -8,10 +8,12 @@ from __future__ import annotations
 import ast
 import os
 import re
+import shutil
 import subprocess
 import sys
 import zipfile
 from pathlib import Path
+from typing import Any
 
 import pytest
 from conftest import EXAMPLES, FIXTURES, INSTALLED, INSTALLED_WHEEL, ROOT
@@ -85,36 +87,130 @@ def test_a_child_python_imports_the_installed_package(tmp_path: Path):
         assert Path(where).resolve().parent != ROOT / "rmvdsl"
 
 
-def test_the_oldest_rosbags_the_package_accepts_replays_alike(tmp_path: Path):
-    """The package accepts rosbags from the version its metadata names: that
-    version replays the example's recordings (ROS 1 .bag, .db3, .mcap) to the
-    same bytes as the one the suite runs with. (`>=0.10` was declared while
-    0.10.x to 0.11.0 stopped every replay with an ImportError.)"""
+def _oldest_pins() -> list[str]:
+    """`name==version` for each dependency the installed package declares for this
+    Python, at the lowest version it accepts."""
     import importlib.metadata
 
-    pins = [r for r in importlib.metadata.requires("rmvdsl") or [] if r.startswith("rosbags")]
-    oldest = re.fullmatch(r"rosbags>=([\d.]+)", pins[0])
-    assert oldest, pins
+    from packaging.requirements import Requirement
+
+    pins = []
+    for text in importlib.metadata.requires("rmvdsl") or []:
+        requirement = Requirement(text)
+        if requirement.marker is not None and not requirement.marker.evaluate({"extra": ""}):
+            continue
+        lowest = [s.version for s in requirement.specifier if s.operator == ">="]
+        assert len(lowest) == 1, f"{text}: a dependency names the lowest version it takes"
+        pins.append(f"{requirement.name}=={lowest[0]}")
+    return pins
+
+
+SPEC_WITH_ERRORS = """system typed "an unsaved buffer"
+ros humble
+topic twist: geometry_msgs/msg/Twist = "/cmd"
+var Speed =   twist.linear.x
+event Fast when Speed > 25
+property NeverFast: not Fsat
+"""
+
+
+def _editor_session(cwd: Path, env: dict[str, str]) -> list[Any]:
+    """`rmv lsp` as an editor meets it: the diagnostics of a buffer with an
+    unknown name, a completion in its formula, a hover, a formatting."""
+    from lsp_wire import Wire
+
+    wire = Wire(cwd=cwd, env=env)
+    try:
+        return _edits(wire, cwd)
+    except (EOFError, TimeoutError, BrokenPipeError) as error:
+        wire.process.kill()
+        wire.stderr_reader.join(10)
+        raise AssertionError(f"{error}; the server said: {wire.stderr[-3000:]!r}") from None
+    finally:
+        if wire.process.poll() is None:
+            assert wire.close() == 0, wire.stderr
+
+
+def _edits(wire: Any, cwd: Path) -> list[Any]:
+    """What the server answered, each answer asked to hold something."""
+    wire.initialize(cwd)
+    uri = wire.open(cwd / "typed.rmv", SPEC_WITH_ERRORS)
+    published = wire.diagnostics_until(uri, lambda p: bool(p["diagnostics"]))
+    line = SPEC_WITH_ERRORS.splitlines().index("property NeverFast: not Fsat")
+    at = {"textDocument": {"uri": uri}, "position": {"line": line, "character": 24}}
+    completion = wire.call("textDocument/completion", at)["result"]
+    items = completion["items"] if isinstance(completion, dict) else completion
+    hover = wire.call("textDocument/hover", {**at, "position": {"line": 3, "character": 5}})
+    formatting = wire.call(
+        "textDocument/formatting",
+        {"textDocument": {"uri": uri}, "options": {"tabSize": 4, "insertSpaces": True}},
+    )
+    assert items and hover["result"] and formatting["result"], (items, hover, formatting)
+    return [published["diagnostics"], sorted(i["label"] for i in items),
+            hover["result"], formatting["result"]]  # fmt: skip
+
+
+def test_the_oldest_dependencies_the_package_accepts_work_alike(tmp_path: Path):
+    """The package accepts each dependency from the version its metadata names:
+    with all of those at once (installed beside the suite's, first on the path),
+    `rmv check` of every example (lark, networkx, z3), `rmv build` of every target
+    (jinja2), `rmv eval` of a trace (msgspec), `rmv replay` of the example's three
+    recordings (rosbags) and an editor's session with `rmv lsp` (pygls) give what
+    the suite's versions give, in new processes. (`rosbags>=0.10` was declared
+    while 0.10.x to 0.11.0 stopped every replay with an ImportError.)"""
+    from rmvdsl.targets import REGISTRY
+
     old = tmp_path / "old"
+    pins = _oldest_pins()
     subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "--target", str(old),
-                    f"rosbags=={oldest[1]}"],
-                   check=True, capture_output=True, timeout=300)  # fmt: skip
+                    *pins], check=True, capture_output=True, timeout=600)  # fmt: skip
+    trace = tmp_path / "trace.jsonl"
+    trace.write_text('{"state": "A", "t": 0}\n{"t": 1, "x": [1], "state": "B"}\n'
+                     '{"t": 2.5, "state": "A"}\n{"end": true, "t": 4}\n')  # fmt: skip
+    specs = sorted(str(p) for p in EXAMPLES.rglob("*.rmv"))
+    carla = str(EXAMPLES / "carla" / "abs.rmv")
+    recordings = EXAMPLES / "carla" / "recordings"
 
-    def replay(recording: Path, path: str | None) -> str:
-        env = {**os.environ, "RMV_CACHE_DIR": str(tmp_path / "cache")}
+    def outcome(path: Path | None) -> list[Any]:
+        home = tmp_path / "home"  # one place for both: outputs name their paths
+        shutil.rmtree(home, ignore_errors=True)
+        home.mkdir()
+        env = {**os.environ, "RMV_CACHE_DIR": str(home / "cache")}
+        env.pop("PYTHONPATH", None)
         if path is not None:
-            env["PYTHONPATH"] = path
-        done = subprocess.run(
-            [sys.executable, "-m", "rmvdsl.cli", "replay", str(EXAMPLES / "carla" / "abs.rmv"),
-             str(recording), "--format", "jsonl"],
-            capture_output=True, text=True, env=env, timeout=300, cwd=tmp_path,
-        )  # fmt: skip
-        assert done.returncode == 1 and not done.stderr, done.stderr
-        return done.stdout
+            env["PYTHONPATH"] = str(path)
 
-    for name in ("braking.bag", "braking_db3", "braking_mcap"):
-        recording = EXAMPLES / "carla" / "recordings" / name
-        assert replay(recording, str(old)) == replay(recording, None)
+        def rmv(*args: str) -> tuple[int, str, str]:
+            done = subprocess.run([sys.executable, "-m", "rmvdsl.cli", *args], cwd=home,
+                                  capture_output=True, text=True, env=env, timeout=300)  # fmt: skip
+            return done.returncode, done.stdout, done.stderr
+
+        found: list[Any] = [rmv("check", "--jobs", "1", *specs)]
+        for target in REGISTRY:
+            out = tmp_path / "built" / target  # one place: a package names its own path
+            shutil.rmtree(out, ignore_errors=True)
+            out.parent.mkdir(parents=True, exist_ok=True)
+            found.append(rmv("build", "--target", target, carla, "-o", str(out)))
+            built = sorted(p for p in out.rglob("*") if p.is_file())
+            found.append({str(p.relative_to(out)): p.read_bytes() for p in built})
+        found.append(rmv("eval", "--formula", "always[<=4] (A or B)", "--trace", str(trace)))
+        for recording in ("braking.bag", "braking_db3", "braking_mcap"):
+            found.append(rmv("replay", carla, str(recordings / recording), "--format", "jsonl"))
+        found.append(_editor_session(home, env))
+        return found
+
+    versions = subprocess.run(
+        [sys.executable, "-c", "import importlib.metadata as m, sys; "
+         "print([m.version(p.split('==')[0]) for p in sys.argv[1:]])", *pins],
+        env={**os.environ, "PYTHONPATH": str(old)}, capture_output=True, text=True, check=True,
+    )  # fmt: skip
+    from packaging.version import Version
+
+    installed = [Version(v) for v in ast.literal_eval(versions.stdout)]
+    assert installed == [Version(p.split("==")[1]) for p in pins], versions.stdout
+    oldest, newest = outcome(old), outcome(None)
+    for given, expected in zip(oldest, newest, strict=True):
+        assert given == expected
 
 
 # Modules that may name __file__: to find the package itself, not data beside it.
