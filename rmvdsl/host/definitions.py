@@ -3,7 +3,7 @@ the one judgement of a recording's connection (`rmv replay`) and of a live ROS 1
 publisher's connection header (the nodes decode with the definition the publisher
 sent). A variable whose path the definition lacks, or whose field it declares of
 another kind, is not read at all, with a warning at the variable's declaration
-(docs/replay.md, "What a replay skips").
+(docs/replay.md, "Before the first message"; docs/ros1.md, "Any message type").
 
 `fields_of(type name)` gives a type's fields as rosbags' type stores hold them
 (`store.fielddefs[name][1]`; kinds as rosbags.interfaces.Nodetype numbers them).
