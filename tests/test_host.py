@@ -150,6 +150,64 @@ def test_a_variable_a_publisher_cannot_give_is_skipped_from_then_on(tmp_path):
     assert [text for level, text in out.logged if "Speed" in text] == [unread["Speed"]]
 
 
+def test_an_installed_class_unlike_the_spec_s_messages_skips_what_it_does_not_give(
+    tmp_path, monkeypatch
+):
+    """ROS 2: the robot's installed message class and the spec's messages folder
+    can disagree. The monitor judges the class it subscribes with as the replay
+    judges a recording (a field of another kind, or none, skips the variable with a
+    warning): a stand-in class, described as rosidl describes it (SLOT_TYPES), holds
+    `x` as a string where the spec reads float64."""
+    import sys
+    import types
+
+    from rmvdsl.host import ros2_definitions
+
+    (tmp_path / "msg" / "fake_msgs" / "msg").mkdir(parents=True)
+    (tmp_path / "msg" / "fake_msgs" / "msg" / "Reading.msg").write_text(
+        "float64 x\nfloat64 y\nint32[3] z\n"
+    )
+    spec = _spec(
+        tmp_path,
+        """system installed
+messages "msg"
+topic r: fake_msgs/msg/Reading = "/r"
+var X = r.x
+var Y = r.y
+var Z = r.z[0]
+event High when X + Y + Z > 1
+property NeverHigh: not High
+""",
+    )
+
+    class BasicType:
+        def __init__(self, typename: str) -> None:
+            self.typename = typename
+
+    class UnboundedString:
+        pass
+
+    class Array:
+        def __init__(self, value_type: Any, size: int) -> None:
+            self.value_type, self.size = value_type, size
+
+    class Reading:
+        SLOT_TYPES = (UnboundedString(), BasicType("double"), Array(BasicType("int32"), 3))
+
+        @staticmethod
+        def get_fields_and_field_types() -> dict[str, str]:
+            return {"x": "string", "y": "double", "z": "int32[3]"}
+
+    monkeypatch.setitem(sys.modules, "fake_msgs", types.ModuleType("fake_msgs"))
+    monkeypatch.setitem(sys.modules, "fake_msgs.msg", types.SimpleNamespace(Reading=Reading))
+    (topic,) = spec.topics
+    unread = ros2_definitions.unread(topic, spec.variables)
+    assert unread == {"X": "variable `X` on /r: `fake_msgs/msg/Reading.x` is string in the "
+                           "installed definition, the spec reads float64"}  # fmt: skip
+    Reading.SLOT_TYPES = (BasicType("float"), *Reading.SLOT_TYPES[1:])
+    assert ros2_definitions.unread(topic, spec.variables) == {}  # float32 reads as float64
+
+
 def test_lost_messages_are_counted_from_sequence_gaps():
     gaps = Gaps()
     first = {"publication_sequence_number": 1, "publisher_gid": {"data": b"a"}}

@@ -582,6 +582,46 @@ def _finish_ros1_soak(process: Any, spec: Path, out: Path) -> tuple[dict, Path]:
     return json.loads(stdout), spec
 
 
+DESCRIBE = """
+import json, sys
+from std_braking.rmv_host.ros2_definitions import fields_of
+out = {}
+for name in json.loads(open(sys.argv[1]).read()):
+    try:
+        out[name] = [[field, kind] for field, kind in fields_of(name)]
+    except (ImportError, AttributeError):
+        continue  # a package this venv does not install
+print(json.dumps(out))
+"""
+
+
+def test_an_installed_class_is_described_as_rosbags_describes_its_definition(workspace, tmp_path):
+    """The monitor judges its subscription's class as the replay judges a
+    recording's definition (rmvdsl.host.definitions): the class's description
+    (rosidl's SLOT_TYPES, read by the package's rmv_host/ros2_definitions.py) is
+    rosbags' of the same type, for every type the ROS venv installs that rosbags'
+    Kilted store defines (rclpy 9.1 is Kilted's; rosidl gives `char` as uint8)."""
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_KILTED)
+    names = tmp_path / "names.json"
+    names.write_text(json.dumps(sorted(store.fielddefs)), encoding="utf-8")
+    run = rosenv.run([rosenv.python(), "-c", DESCRIBE, str(names)], rosenv.DOMAIN + 30, workspace)
+    assert run.returncode == 0, run.stderr[-3000:]
+    described = json.loads(run.stdout)
+    assert len(described) >= 100 and "geometry_msgs/msg/TwistStamped" in described
+
+    def plain(kind: Any) -> Any:  # as JSON gives it back; char as rosidl names it
+        number, detail = int(kind[0]), kind[1]
+        if number == 1:
+            return [1, ["uint8" if detail[0] == "char" else detail[0], detail[1]]]
+        return [number, detail] if number == 2 else [number, [plain(detail[0]), detail[1]]]
+
+    for name, fields in described.items():
+        expected = [[field, plain(kind)] for field, kind in store.fielddefs[name][1]]
+        assert [[field, plain(kind)] for field, kind in fields] == expected, name
+
+
 def test_generated_python_is_lint_clean_and_names_are_quoted(specs, tmp_path):
     resolved = lower(check(str(specs["std_braking"])))
     package = tmp_path / "package"

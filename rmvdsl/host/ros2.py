@@ -5,6 +5,7 @@ generated package's node modules only call `monitor_main`, `intrusion_main` or
 
 from __future__ import annotations
 
+import functools
 import importlib
 import os
 import signal
@@ -28,7 +29,7 @@ from rclpy.qos import (
 from rclpy.signals import SignalHandlerOptions
 from std_msgs.msg import String
 
-from rmvdsl.host import collector, intrusion, monitor
+from rmvdsl.host import collector, intrusion, monitor, ros2_definitions
 from rmvdsl.host.actions import NodeActions
 from rmvdsl.host.gaps import TypeWatch
 from rmvdsl.host.packaged import load_spec, package, use_discovery_profile, with_time_sources
@@ -103,13 +104,29 @@ def subscribe(
     for topic in spec.topics:
         ros_name = node.declare_parameter(f"topics.{topic.name}", topic.ros_name).value
         read[ros_name] = topic.message_type
+        variables = [v for v in spec.variables if v.topic == topic.name]
+        unread = ros2_definitions.unread(topic, variables)
         node.create_subscription(
             message_class(topic.message_type),
             ros_name,
-            lambda message, info, name=topic.ros_name: callback(name, message, info),
+            functools.partial(_received, callback, topic.ros_name, unread),
             qos_profile(topic.qos),
         )
     return read
+
+
+def _received(
+    callback: Callable[[str, Any, dict[str, Any]], None],
+    topic: str,
+    unread: dict[str, str],
+    message: Any,
+    info: Any,
+) -> None:
+    """A message of `topic`, with the variables its installed class does not give
+    (monitor.Monitor.feed skips them, as the replay does)."""
+    if unread:
+        info = {**info, "unread": unread}
+    callback(topic, message, info)
 
 
 def log_at(node: Node, level: str, text: str) -> None:
