@@ -286,7 +286,7 @@ def test_a_generated_package_declares_what_it_imports(name: str):
     imported -= PYPI[ros]
     assert imported - declared == set(), f"imported but not in package.xml: {imported - declared}"
     # ROS 2: message packages are imported by name when the node starts
-    # (rmv_host.ros2.message_class); ROS 1 decodes them from the connection header.
+    # (rmv_host.ros2_definitions.class_of); ROS 1 decodes them from the connection header.
     spec = lower(check(str(_spec_of(name))))
     messages = set(ros2.message_packages(spec)) if ros == "ros2" else set()
     unused = declared - imported - messages - {"catkin"}

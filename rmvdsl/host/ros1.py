@@ -100,11 +100,14 @@ def subscribe(spec: ir.Spec, take: Callable[[str, Any, dict[str, Any]], None]) -
     variables: dict[str, list[ir.Variable]] = {}
     for variable in spec.variables:
         variables.setdefault(variable.topic, []).append(variable)
-    # what is read of each topic, but the variables a publisher's definition
-    # does not give (kept: the decoder knows a topic's needs by their identity)
+    # what is read of each topic; and of it but the variables a publisher's
+    # definition does not give (kept: the decoder knows needs by their identity)
+    everything = partial_decoding.spec_needs(spec)
     needs_without: dict[frozenset[str], dict[str, partial_decoding.Needs]] = {}
 
     def needs(ros_name: str, unread: dict[str, str]) -> partial_decoding.Needs | None:
+        if not unread:
+            return everything.get(ros_name)
         skipped = frozenset(unread)
         if skipped not in needs_without:
             needs_without[skipped] = partial_decoding.spec_needs(spec, skipped)
@@ -112,8 +115,14 @@ def subscribe(spec: ir.Spec, take: Callable[[str, Any, dict[str, Any]], None]) -
 
     for topic in spec.topics:
         ros_name = str(parameter(f"topics.{topic.name}", topic.ros_name))
+        reads = variables.get(topic.name)
 
-        def received(raw: rospy.AnyMsg, topic: ir.Topic = topic, ros_name: str = ros_name) -> None:
+        def received(
+            raw: rospy.AnyMsg,
+            topic: ir.Topic = topic,
+            ros_name: str = ros_name,
+            read: list[ir.Variable] | None = reads,
+        ) -> None:
             header = getattr(raw, "_connection_header", None) or {}
             info: dict[str, Any] = {
                 "publisher_gid": {"data": header.get("callerid")},
@@ -121,7 +130,6 @@ def subscribe(spec: ir.Spec, take: Callable[[str, Any, dict[str, Any]], None]) -
             }
             sent = decoder.message_type(header)
             message: Any = None  # a topic no variable reads (a whitelist's): not decoded
-            read = variables.get(topic.name)
             if sent != topic.message_type:
                 message = Undecodable(f"its publisher sends {sent} on {ros_name}, the spec "
                                       f"reads {topic.message_type}")  # fmt: skip

@@ -6,7 +6,6 @@ generated package's node modules only call `monitor_main`, `intrusion_main` or
 from __future__ import annotations
 
 import functools
-import importlib
 import os
 import signal
 import threading
@@ -48,12 +47,6 @@ ACTION_QOS = QoSProfile(
     reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.TRANSIENT_LOCAL,
 )
-
-
-def message_class(name: str) -> Any:
-    """The rclpy class of `pkg/msg/Type`, imported when the node starts."""
-    pkg, _, type_name = name.split("/")
-    return getattr(importlib.import_module(f"{pkg}.msg"), type_name)
 
 
 def qos_profile(qos: ir.Qos) -> QoSProfile:
@@ -107,7 +100,7 @@ def subscribe(
         variables = [v for v in spec.variables if v.topic == topic.name]
         unread = ros2_definitions.unread(topic, variables)
         node.create_subscription(
-            message_class(topic.message_type),
+            ros2_definitions.class_of(topic.message_type),
             ros_name,
             functools.partial(_received, callback, topic.ros_name, unread),
             qos_profile(topic.qos),
