@@ -289,6 +289,14 @@ def test_a_csv_stream_reads_what_the_whole_file_reader_reads(text, chunk):
         assert streamed(text, "t.csv") == whole(text, "t.csv")
 
 
+@pytest.mark.parametrize("text", ["t,state\n\n,A\n", "t,state\n,A\n", "state,t\nA,\n"])
+def test_a_csv_row_with_no_time_is_explained_as_the_whole_file_reader_explains_it(text):
+    """A row whose time cell is empty, alone in its run: its one empty text read as
+    an empty list of times, and the stream stopped on an IndexError (found by the
+    random test above)."""
+    assert streamed(text, "t.csv") == whole(text, "t.csv")
+
+
 def _csv_row(columns: list[str], k: int) -> str:
     cells = {"t": f"{k / 10:.1f}", "state": "AB"[k // 3 % 2], "props": "A;B"[: 1 + k % 2 * 2]}
     return ",".join(cells.get(column, "") for column in columns)

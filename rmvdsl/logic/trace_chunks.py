@@ -234,7 +234,8 @@ def decimal_floats(texts: list[str]) -> list[float] | None:
         return None
     try:
         floats: list[float] = _FLOATS.decode(("[" + ",".join(texts) + "]").encode())
-        return floats
+        # one empty text is an empty array: a float for each text, or none at all
+        return floats if len(floats) == len(texts) else None
     except msgspec.MsgspecError:
         try:
             return list(map(float, texts))
