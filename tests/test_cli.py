@@ -199,6 +199,21 @@ def test_fmt_stdin_to_stdout():
     assert result.out == 'var X = t.a\ntopic t: a/B = "/t"\n'
 
 
+def test_fmt_loads_no_stage_of_the_checker():
+    """`rmv fmt` parses and prints: the checker's stages (a fifth of its start, when
+    it read files through the checker's loader) stay unloaded."""
+    import subprocess
+
+    probe = (
+        "import sys\nfrom rmvdsl.cli import main\n"
+        "code = main(['fmt', '--check', sys.argv[1]])\n"
+        "print(code, sorted(m for m in sys.modules if m.startswith('rmvdsl.check')))\n"
+    )
+    spec = str(ROOT / "examples" / "carla" / "abs.rmv")
+    run = subprocess.run([sys.executable, "-c", probe, spec], capture_output=True, text=True)
+    assert run.stdout.strip() == "0 []", run.stdout + run.stderr
+
+
 def test_console_script_is_installed():
     # `pip install .` (as the README and CI do) provides the `rmv` command itself.
     import shutil

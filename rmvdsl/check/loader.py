@@ -11,36 +11,10 @@ from rmvdsl.grammar import ast
 from rmvdsl.grammar.parser import parse_source
 from rmvdsl.lang.diagnostics import Diagnostic, closest, error
 from rmvdsl.lang.errors import UsageError, unreadable
+from rmvdsl.lang.files import decode, read_stdin, read_text
 from rmvdsl.lang.source import SourceFile, SourceMap
 
-__all__ = ["UsageError", "unreadable"]
-
-
-def read_text(path: str) -> str:
-    """Read a UTF-8 file; raise UsageError with a one-line reason otherwise."""
-    try:
-        with open(path, "rb") as handle:
-            data = handle.read()
-    except OSError as exc:
-        raise unreadable(path, exc) from None
-    return decode(data, path)
-
-
-def read_stdin() -> str:
-    """Standard input, read as a file is: UTF-8, a byte-order mark dropped."""
-    import sys
-
-    return decode(sys.stdin.buffer.read(), "<stdin>")
-
-
-def decode(data: bytes, path: str) -> str:
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise UsageError(
-            f"{path}: not UTF-8 text (invalid byte 0x{data[exc.start]:02x} at offset {exc.start})"
-        ) from None
-    return text.removeprefix("\ufeff")
+__all__ = ["UsageError", "decode", "read_stdin", "read_text", "unreadable"]
 
 
 # Reads a file's text by its path (raises UsageError when it cannot).

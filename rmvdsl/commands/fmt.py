@@ -10,8 +10,8 @@ from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK
 
 
 def run(args: argparse.Namespace) -> int:
-    from rmvdsl.check.loader import read_stdin, read_text
     from rmvdsl.grammar.formatter import format_source
+    from rmvdsl.lang.files import read_stdin, read_text
     from rmvdsl.lang.render import render_text
     from rmvdsl.lang.source import SourceFile, SourceMap
 

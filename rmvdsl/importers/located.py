@@ -7,7 +7,8 @@ from typing import Any
 
 import yaml
 
-from rmvdsl.check.loader import UsageError, read_text
+from rmvdsl.lang.errors import UsageError
+from rmvdsl.lang.files import read_text
 from rmvdsl.runtime.wording import counted
 
 

@@ -7,12 +7,13 @@ import os
 import re
 from typing import Any
 
-from rmvdsl.check.loader import UsageError, read_text
 from rmvdsl.grammar.printer import quote
 from rmvdsl.importers.draft import Draft, claim, identifier, parses, short
 from rmvdsl.importers.influxql import influx_expression
 from rmvdsl.importers.located import Located
 from rmvdsl.importers.tickscript import convert_tickscript
+from rmvdsl.lang.errors import UsageError
+from rmvdsl.lang.files import read_text
 
 # Message types of the CARLA topics of thesis table 4.1 (the YAML files of
 # rostopicmon name no type: it read them at run time).
