@@ -194,6 +194,19 @@ def build_start(data: dict[str, Any]) -> str:
     )
 
 
+def command_start(data: dict[str, Any]) -> str:
+    words = {"version": "`rmv --version`", "fmt": "`rmv fmt --check abs.rmv`",
+             "check": "`rmv check abs.rmv` after an edit", "build": "`rmv build --target c`",
+             "eval": "`rmv eval`, 1,000 samples"}  # fmt: skip
+    rows = [
+        [words.get(name, name), f"{row['kept_cpu_s']:.3f} s", f"{row['compiled_cpu_s']:.3f} s",
+         f"{row['kept / compiled']:.2f}x"]
+        for name, row in data["commands"].items()
+    ]  # fmt: skip
+    header = ["command (CARLA example)", "code kept", "compiled in the process", "kept / compiled"]
+    return _table(header, rows)
+
+
 def replay_decoding(data: dict[str, Any]) -> str:
     rows = [
         [STORAGE_NAMES.get(storage, storage), msgtype, f"{row['messages']:,}",
@@ -287,6 +300,7 @@ BLOCKS: dict[str, tuple[str, Callable[[dict[str, Any]], str]]] = {
     "sat-families": ("sat.json", sat_families),
     "sat-requirements": ("sat.json", sat_requirements),
     "timescales": ("timescales.json", timescales),
+    "command-start": ("start.json", command_start),
 }
 
 

@@ -21,6 +21,8 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
+from rmvdsl.util.folders import cache_folder
+
 # How much is kept, in one place: answers in memory (a long editor session), files
 # per folder of the cache, and how old an unread file may grow.
 MEMORY_ENTRIES = 200_000
@@ -192,16 +194,6 @@ class Layered(Cache):
 
     def put(self, key: str, value: dict[str, Any]) -> None:
         self.below.put(key, value)
-
-
-def cache_folder() -> str | None:
-    """Where rmvdsl keeps files between processes: `RMV_CACHE_DIR`, else
-    `$XDG_CACHE_HOME/rmvdsl` or `~/.cache/rmvdsl`; None when RMV_CACHE_DIR is empty."""
-    folder = os.environ.get("RMV_CACHE_DIR")
-    if folder is None:
-        base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-        folder = os.path.join(base, "rmvdsl")
-    return folder or None
 
 
 def digest(*parts: object) -> str:
