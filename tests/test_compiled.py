@@ -18,31 +18,52 @@ from rmvdsl.grammar import ast
 from rmvdsl.lang.source import Span
 from rmvdsl.util import compiled
 
-# Imports rmvdsl's stages in a new process, and says how many sources it compiled
-# (dataclasses' exec is the kept code's: its `new` and `used`), and what a frozen
-# node, its equality, hash and repr give.
+# Imports rmvdsl's stages in a new process (with dataclasses' plain exec, when asked),
+# and says how many sources it compiled (dataclasses' exec is the kept code's: its
+# `new` and `used`), what a frozen node, its equality, hash and repr give, and the
+# code of every method dataclasses wrote for rmvdsl's classes.
 PROBE = """
-import dataclasses, json
+import dataclasses, json, sys
+if sys.argv[1] == "plain":
+    import builtins
+    dataclasses.exec = builtins.exec
 import rmvdsl.check, rmvdsl.check.analysis, rmvdsl.runtime.engine
 from rmvdsl.grammar import ast
 from rmvdsl.lang.source import Span
-kept = dataclasses.exec.__self__
+kept = getattr(dataclasses.exec, "__self__", None)  # builtins' exec: the module
+kept = kept if hasattr(kept, "used") else None
 one, two = ast.Ident("x", Span("a", 1, 2)), ast.Ident("x", Span("b", 3, 4))
 try:
     one.name = "y"
     frozen = False
 except dataclasses.FrozenInstanceError:
     frozen = True
+methods = {}
+for name, module in sorted(sys.modules.items()):
+    if not name.startswith("rmvdsl."):
+        continue
+    for value in vars(module).values():
+        if dataclasses.is_dataclass(value) and value.__module__ == name:
+            for method in ("__init__", "__eq__", "__repr__", "__hash__", "__setattr__",
+                           "__delattr__"):
+                code = getattr(vars(value).get(method), "__code__", None)
+                if code is not None:
+                    found = vars(value)[method]
+                    methods[f"{name}.{value.__qualname__}.{method}"] = [
+                        code.co_code.hex(), code.co_flags, repr(code.co_consts),
+                        code.co_names, repr(getattr(found, "__annotations__", None)),
+                    ]
 print(json.dumps({
-    "new": kept.new, "used": len(kept.used),
+    "new": kept and kept.new, "used": kept and len(kept.used), "methods": methods,
     "equal": one == two, "hash": hash(one) == hash(two), "repr": repr(one), "frozen": frozen,
 }))
 """
 
 
-def _probe(cache: Path | str) -> dict:
+def _probe(cache: Path | str, plain: bool = False) -> dict:
     env = {**os.environ, "RMV_CACHE_DIR": str(cache)}
-    run = subprocess.run([sys.executable, "-c", PROBE], env=env, capture_output=True, text=True)
+    command = [sys.executable, "-c", PROBE, "plain" if plain else "kept"]
+    run = subprocess.run(command, env=env, capture_output=True, text=True)
     assert run.returncode == 0, run.stderr
     return json.loads(run.stdout)
 
@@ -62,9 +83,13 @@ def test_a_process_that_finds_the_code_kept_compiles_none_and_makes_the_same_cla
     second = _probe(tmp_path)
     assert not second["new"], "the second process compiled what the first one kept"
     assert second["used"] == first["used"]
+    plain = _probe(tmp_path / "none", plain=True)
+    assert plain["new"] is None and len(plain["methods"]) > 300
     for found in (first, second):
         assert found["equal"] and found["hash"] and found["frozen"]
         assert found["repr"] == repr(ast.Ident("x", Span("a", 1, 2)))
+        # the very methods Python writes alone: code, flags, constants, annotations
+        assert found["methods"] == plain["methods"]
 
 
 def test_the_commands_give_the_same_output_with_the_code_kept_and_without(tmp_path: Path):

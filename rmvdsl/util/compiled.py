@@ -39,8 +39,10 @@ from rmvdsl.util.folders import cache_folder
 # adds the message classes rosbags makes (a file of 1,200 reads in 9 ms here).
 MAX_KEPT = 3_000
 # By the interpreter and its exact version: marshal's format and the bytecode are
-# its own (importlib.util's MAGIC_NUMBER would say less, and import more).
-_FILE_NAME = f"dataclasses-{sys.implementation.cache_tag}-{sys.hexversion:x}.marshal"
+# its own (importlib.util's MAGIC_NUMBER would say less, and import more); and by
+# how this module compiles (FORMAT: code kept by an earlier way is not read).
+FORMAT = 2
+_FILE_NAME = f"dataclasses-{FORMAT}-{sys.implementation.cache_tag}-{sys.hexversion:x}.marshal"
 
 
 class _Kept:
@@ -69,7 +71,9 @@ class _Kept:
                 code = None
             if type(code) is CodeType:
                 return code, kept
-        code = compile(source, "<string>", "exec")
+        # Compiled as `exec` compiles the source for `dataclasses`, whose module has
+        # no `from __future__` import: this one's would make annotations strings.
+        code = compile(source, "<string>", "exec", dont_inherit=True)
         self.codes[source] = kept = marshal.dumps(code)
         self.new = True
         return code, kept
