@@ -39,7 +39,7 @@ resolved spec costs less than reading the spec); issue 15: the cached check <= 3
 bare at every scale, the 10x spec <= 11x the 1x spec for both the cached and the
 first check, and the first check of the 1x spec <= 10 s on 2 cores.
 
-    python benchmarks/bench_check.py --scale 1 --scale 3 --json benchmarks/results/check_cli.json
+    python benchmarks/bench_check.py --runs 3 --cold-runs 2 --json benchmarks/results/check_cli.json
     python benchmarks/bench_check.py --in-process --scale 1 --repeat 3 --json out.json
 """
 
