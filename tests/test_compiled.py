@@ -153,3 +153,23 @@ def test_the_file_keeps_at_most_max_kept_sources_this_process_s_first(tmp_path: 
     assert list(written)[:2] == ["x1 = 1", "y = 2"]  # what this process used, first
     assert len(written) == 30
     assert list(written)[2:] == [k for k in old if k != "x1 = 1"][:28]
+
+
+def test_code_another_user_wrote_is_never_run(tmp_path: Path, monkeypatch):
+    """A cache folder shared with others: the file of code is read only when the user
+    owns it (as if another user had written it: this process's uid said otherwise)."""
+    path = tmp_path / "kept.marshal"
+    planted = compile("import os; os.environ['RMV_PLANTED'] = '1'", "<string>", "exec")
+    source = "x = 1"
+    path.write_bytes(marshal.dumps({source: marshal.dumps(planted)}))
+    assert compiled._Kept(str(path)).codes  # the user's own file: read
+    real = os.getuid()
+    monkeypatch.setattr(compiled.os, "getuid", lambda: real + 1)
+    kept = compiled._Kept(str(path))
+    assert kept.codes == {}
+    namespace: dict = {}
+    kept.exec(source, {}, namespace)
+    assert namespace == {"x": 1} and "RMV_PLANTED" not in os.environ
+    kept.write()  # written over with this process's code
+    monkeypatch.setattr(compiled.os, "getuid", lambda: real)
+    assert marshal.loads(compiled._Kept(str(path)).codes[source]).co_names == ("x",)

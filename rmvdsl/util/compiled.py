@@ -17,7 +17,7 @@ did not hold.
 source is the same code (same text, same file name "<string>", same flags), so
 the classes are the same; a source not kept is compiled as before, and a missing,
 unreadable or damaged file only costs the compiling. The file is trusted as
-Python trusts its own __pycache__: it lives in the user's own cache folder.
+Python trusts its own __pycache__, and only when the user owns it.
 """
 
 from __future__ import annotations
@@ -83,7 +83,9 @@ class _Kept:
         written whole or not at all, when this process compiled anything."""
         if not self.new or self.path is None:
             return
-        codes = {**self.used, **_read(self.path)}
+        codes = dict(self.used)  # this process's code wins over the file's
+        for source, code in _read(self.path).items():
+            codes.setdefault(source, code)
         codes = dict(itertools.islice(codes.items(), MAX_KEPT))
         temporary = f"{self.path}.{os.getpid()}"
         try:
@@ -97,14 +99,23 @@ class _Kept:
 
 
 def _read(path: str) -> dict[str, bytes]:
+    """The kept code, if the file is the user's own: code another user wrote (a
+    cache folder shared with others) is never run, and is written over."""
     try:
         with open(path, "rb") as handle:
+            if not _own(handle.fileno()):
+                return {}
             found = marshal.loads(handle.read())  # marshal.load reads a file in bits: 8x slower
     except (OSError, EOFError, ValueError, TypeError):
         return {}
     if not isinstance(found, dict):
         return {}
     return {k: v for k, v in found.items() if type(k) is str and type(v) is bytes}
+
+
+def _own(descriptor: int) -> bool:
+    getuid = getattr(os, "getuid", None)  # not on Windows, where folders are per user
+    return getuid is None or os.fstat(descriptor).st_uid == getuid()
 
 
 def install() -> None:
