@@ -214,6 +214,24 @@ def test_fmt_loads_no_stage_of_the_checker():
     assert run.stdout.strip() == "0 []", run.stdout + run.stderr
 
 
+@pytest.mark.parametrize(
+    ("spec", "loaded"), [("gazebo/network.rmv", False), ("carla/abs.rmv", True)]
+)
+def test_networkx_is_loaded_by_a_spec_with_a_transducer_alone(spec: str, loaded: bool):
+    """A check of a spec with no transducer (a whitelist, alerts) makes no graph:
+    networkx's import was a third of such a check's CPU after an edit."""
+    import subprocess
+
+    probe = (
+        "import sys\nfrom rmvdsl.check import check\n"
+        "result = check(sys.argv[1])\n"
+        "print(len(result.errors), 'networkx' in sys.modules)\n"
+    )
+    path = str(ROOT / "examples" / spec)
+    run = subprocess.run([sys.executable, "-c", probe, path], capture_output=True, text=True)
+    assert run.stdout.split() == ["0", str(loaded)], run.stdout + run.stderr
+
+
 def test_console_script_is_installed():
     # `pip install .` (as the README and CI do) provides the `rmv` command itself.
     import shutil

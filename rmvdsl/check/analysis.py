@@ -13,8 +13,8 @@ operator semantics (rmvdsl/check/conditions.py, rmvdsl/check/operators.py).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
-import networkx as nx
 import z3
 
 from rmvdsl.check.conditions import Conditions
@@ -27,6 +27,9 @@ from rmvdsl.lang.diagnostics import Diagnostic, Label, error, warning
 from rmvdsl.logic.terms import Z3_VERSION
 from rmvdsl.util.cache import default_cache, digest
 from rmvdsl.util.cancel import checkpoint
+
+if TYPE_CHECKING:  # imported where a transducer's graph is made: a spec with no
+    import networkx as nx  # transducer loads none of it (75 ms of its import here)
 
 
 @dataclass
@@ -45,6 +48,8 @@ class AnalysisResult:
 
 def _unreachable(decl: ast.TransducerDecl, graph: nx.MultiDiGraph, untaken: set[int]) -> set[str]:
     """The states no path of takeable transitions leads to from the initial state."""
+    import networkx as nx
+
     if decl.initial is None or decl.initial.name not in graph:
         return set()
     usable = nx.subgraph_view(
@@ -93,6 +98,8 @@ class Analyzer:
 
     @staticmethod
     def graph(decl: ast.TransducerDecl) -> nx.MultiDiGraph:
+        import networkx as nx
+
         graph = nx.MultiDiGraph()
         graph.add_nodes_from(s.name for s in decl.states)
         for transition in decl.transitions:
