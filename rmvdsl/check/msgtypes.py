@@ -27,7 +27,8 @@ from rmvdsl.lang import builtins
 from rmvdsl.lang.diagnostics import Diagnostic, closest, error
 from rmvdsl.lang.source import SourceMap, Span
 from rmvdsl.util.bounded import Bounded
-from rmvdsl.util.cache import Cache, cache_folder, digest
+from rmvdsl.util.cache import Cache, digest
+from rmvdsl.util.folders import cache_folder
 
 ROS1_DISTROS = ("noetic", "melodic", "kinetic")
 ROS2_DISTROS = ("dashing", "eloquent", "foxy", "galactic", "humble", "iron", "jazzy", "kilted")

@@ -27,7 +27,8 @@ from typing import Any
 
 import rmvdsl
 from rmvdsl import __version__
-from rmvdsl.util.cache import STORED_CHECKS, cache_folder, prune
+from rmvdsl.util.cache import STORED_CHECKS, prune
+from rmvdsl.util.folders import cache_folder
 
 FORMAT = 1
 # Environment variables that change which message definitions a check finds.

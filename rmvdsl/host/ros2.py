@@ -94,11 +94,13 @@ def subscribe(
     `topics.<name>` holds the ROS name to read (a topic can be remapped). The ROS
     names read, with their types."""
     read = {}
+    variables: dict[str, list[ir.Variable]] = {}  # by topic, found once for all
+    for variable in spec.variables:
+        variables.setdefault(variable.topic, []).append(variable)
     for topic in spec.topics:
         ros_name = node.declare_parameter(f"topics.{topic.name}", topic.ros_name).value
         read[ros_name] = topic.message_type
-        variables = [v for v in spec.variables if v.topic == topic.name]
-        unread = ros2_definitions.unread(topic, variables)
+        unread = ros2_definitions.unread(topic, variables.get(topic.name, []))
         node.create_subscription(
             ros2_definitions.class_of(topic.message_type),
             ros_name,

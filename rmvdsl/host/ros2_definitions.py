@@ -16,7 +16,7 @@ from collections.abc import Iterable
 from typing import Any
 
 from rmvdsl.host import definitions
-from rmvdsl.host.wire_reader import ARRAY, BASE, NAME, SEQUENCE
+from rmvdsl.host.wire_reader import ARRAY, BASE, NAME, PLACEHOLDER, SEQUENCE
 from rmvdsl.runtime import spec as ir
 
 # rosidl's basic type names -> rosbags' (ROS 2 .msg names; the integers are alike)
@@ -37,7 +37,7 @@ def fields_of(name: str) -> list[tuple[str, tuple[int, Any]]]:
     cls = class_of(name)
     names = list(cls.get_fields_and_field_types())
     if not names:  # rosidl gives an empty message a member it does not list
-        return [("structure_needs_at_least_one_member", (BASE, ("uint8", 0)))]
+        return [(PLACEHOLDER, (BASE, ("uint8", 0)))]
     return [(field, describe(slot)) for field, slot in zip(names, cls.SLOT_TYPES, strict=True)]
 
 

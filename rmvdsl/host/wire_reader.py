@@ -27,7 +27,7 @@ FORMATS = {
     "int64": "q", "uint64": "Q", "float32": "f", "float64": "d",
 }  # fmt: skip
 # ROS 2 gives an empty message one member, which ROS 1's wire format leaves out.
-_PLACEHOLDER = "structure_needs_at_least_one_member"
+PLACEHOLDER = "structure_needs_at_least_one_member"
 
 # What is read of a message: field name -> what is read of that field (None: all
 # of it). An array's entry says what is read of each of its elements.
@@ -152,7 +152,7 @@ class _Compiler:
         except KeyError as error:
             raise Unsupported(f"no definition of {type_name}") from error
         if self.ros1:
-            fields = [(n, d) for n, d in fields if n != _PLACEHOLDER]
+            fields = [(n, d) for n, d in fields if n != PLACEHOLDER]
         return fields
 
     def _message(self, body: _Body, type_name: str, needs: Needs | None, read: bool) -> str | None:

@@ -15,7 +15,8 @@ from rmvdsl.editor.workspace import TOKEN_TYPES, Token
 from rmvdsl.lang.codes import diagnostics_markdown
 from rmvdsl.lang.diagnostics import Diagnostic, Severity, fixes_of
 from rmvdsl.lang.source import SourceFile, SourceMap, Span
-from rmvdsl.util.cache import cache_folder, digest
+from rmvdsl.util.cache import digest
+from rmvdsl.util.folders import cache_folder
 
 SEVERITY = {
     Severity.ERROR: types.DiagnosticSeverity.Error,
