@@ -11,10 +11,10 @@ from rmvdsl.grammar import ast
 from rmvdsl.grammar.parser import parse_source
 from rmvdsl.lang.diagnostics import Diagnostic, closest, error
 from rmvdsl.lang.errors import UsageError, unreadable
-from rmvdsl.lang.files import decode, read_stdin, read_text
+from rmvdsl.lang.files import read_text
 from rmvdsl.lang.source import SourceFile, SourceMap
 
-__all__ = ["UsageError", "decode", "read_stdin", "read_text", "unreadable"]
+__all__ = ["UsageError", "unreadable"]
 
 
 # Reads a file's text by its path (raises UsageError when it cannot).
@@ -123,4 +123,4 @@ def _import_help(importer: str, wanted: str) -> str:
     return f"paths are relative to the importing file's folder, {folder}"
 
 
-__all__ = ["Loaded", "UsageError", "load", "read_stdin", "read_text"]
+__all__ = ["Loaded", "UsageError", "load", "read_text"]
