@@ -7,9 +7,10 @@ from __future__ import annotations
 import asyncio
 import functools
 import json
+import sys
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, BinaryIO
 
 from lsprotocol import types
 from pygls.exceptions import JsonRpcInvalidParams, JsonRpcParseError
@@ -20,6 +21,7 @@ from rmvdsl import __version__
 from rmvdsl.check.model import Model, Symbol
 from rmvdsl.editor.lsp import convert
 from rmvdsl.editor.lsp.protocol import Protocol
+from rmvdsl.editor.lsp.stdio import serve
 from rmvdsl.editor.mentions import Mention, mention_at, mentions
 from rmvdsl.editor.solver_process import Solved, SolverEnded, SolverProcess
 from rmvdsl.editor.workspace import (
@@ -72,6 +74,10 @@ class RmvServer(LanguageServer):
             text_document_sync_kind=types.TextDocumentSyncKind.Incremental,
         )
         self.state = State()
+
+    def start_io(self, stdin: BinaryIO | None = None, stdout: BinaryIO | None = None) -> None:
+        """Serve over stdio (or the streams given) until the client ends it."""
+        serve(self, stdin or sys.stdin.buffer, stdout or sys.stdout.buffer)
 
     def report_server_error(self, error: Exception, source: Any) -> None:
         """A frame that is not JSON (or not UTF-8) gets JSON-RPC's parse error (id
