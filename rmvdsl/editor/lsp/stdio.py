@@ -73,12 +73,14 @@ class ChunkedStdin:
 
     async def readline(self) -> bytes:
         """Up to and including the next newline; the rest at the end of the input."""
+        searched = 0  # a long line arriving in many chunks is searched once
         while True:
-            end = self._buffer.find(b"\n")
+            end = self._buffer.find(b"\n", searched)
             if end >= 0:
                 return self._take(end + 1)
             if self._ended:
                 return self._take(len(self._buffer))
+            searched = len(self._buffer)
             await self._more()
 
     async def readexactly(self, n: int) -> bytes:
