@@ -113,6 +113,27 @@ def test_nothing_that_matches_better_is_left_out(labels, word, limit):
     starting = sorted((label for label in labels if label.startswith(word)), key=len)
     head = min(len(starting), limit)
     assert sent[:head] == starting[:head]
+    # and all of it in the order of (not as typed, not in any case, length, index)
+    wanted = word.lower()
+    ranked = sorted(
+        (not label.startswith(word), not label.lower().startswith(wanted), len(label), index)
+        for index, label in enumerate(labels)
+        if _in_order(wanted, label.lower())
+    )
+    assert sent == [labels[entry[3]] for entry in ranked[:limit]]
+
+
+@pytest.mark.parametrize("spec", SPECS[:12], ids=lambda p: str(p.relative_to(EXAMPLES)))
+def test_what_is_sent_is_the_shortlist_of_every_completion(spec):
+    """The server makes a name's completion only if it is sent: what it sends is
+    what shortlisting every completion sends (a small limit, so lists are cut)."""
+    text = spec.read_text(encoding="utf-8")
+    result = check(str(spec))
+    for offset in _offsets(text, spec.name):
+        every = completions(result, text, offset)
+        word = ranking.typed_word(text, offset)
+        expected = ranking.shortlist(every, [c.label for c in every], word, 3)
+        assert workspace.sent_completions(result, text, offset, limit=3) == expected, offset
 
 
 def _in_order(letters: str, label: str) -> bool:

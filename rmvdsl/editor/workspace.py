@@ -9,17 +9,20 @@ and may be abandoned when the text changes again (the editor's `generation`).
 
 from __future__ import annotations
 
+import bisect
 import os
 import re
 import threading
 from dataclasses import dataclass
-from typing import Any
+from itertools import compress
+from operator import attrgetter
+from typing import Any, NamedTuple
 
 from rmvdsl.check import CheckResult, check
 from rmvdsl.check.loader import read_text
 from rmvdsl.check.model import BOOLEAN_KINDS, EVENT_KINDS, PROPOSITION_KINDS, Kind, Model, Symbol
 from rmvdsl.editor.mentions import Mention
-from rmvdsl.editor.ranking import typed_word
+from rmvdsl.editor.ranking import LIMIT, shortlist, typed_word
 from rmvdsl.lang.source import SourceFile, Span
 
 __all__ = [
@@ -149,8 +152,11 @@ _SEGMENT = re.compile(r"\.([A-Za-z_]\w*)(\[[^\]\n]*\])?")
 _WITH_FUNCTIONS = frozenset({"event", "alert", "var"})
 
 
-@dataclass(frozen=True)
-class Completion:
+class Completion(NamedTuple):
+    """What may be written at a position. A tuple: a completion in a spec of
+    10,000 names makes one per name, and a frozen dataclass's `__init__` (a
+    `setattr` per field) took most of its time."""
+
     label: str
     kind: str  # keyword | function | setting | value | message | field | a name's kind
     detail: str = ""
@@ -188,6 +194,36 @@ def completions(
     segment; else what the grammar accepts there (its keywords and, where a name
     may stand, the names in scope and InfluxQL's functions). `path`: the file the
     text is of, whose last scan is then reused (an editor's)."""
+    found, names = _candidates(result, text, offset, path)
+    return [*found, *map(_named, names)]
+
+
+def sent_completions(
+    result: CheckResult | None,
+    text: str,
+    offset: int,
+    path: str | None = None,
+    limit: int = LIMIT,
+) -> tuple[list[Completion], bool]:
+    """`completions` as an editor is sent them (rmvdsl.editor.ranking.shortlist),
+    and whether the list was cut: a name's completion is made only if it is sent
+    (in a spec of 10,000 names, making one for each took most of a request)."""
+    found, names = _candidates(result, text, offset, path)
+    items: list[Completion | Symbol] = [*found, *names]
+    labels = [c.label for c in found] + list(map(attrgetter("name"), names))
+    sent, cut = shortlist(items, labels, typed_word(text, offset), limit)
+    return [c if isinstance(c, Completion) else _named(c) for c in sent], cut
+
+
+def _named(symbol: Symbol) -> Completion:
+    return Completion(symbol.name, symbol.kind.value, symbol.kind.described())
+
+
+def _candidates(
+    result: CheckResult | None, text: str, offset: int, path: str | None
+) -> tuple[list[Completion], list[Symbol]]:
+    """`completions`: the names in scope apart (each made a Completion by
+    `_named`), the rest made."""
     from rmvdsl.grammar.parser import scan_file
     from rmvdsl.grammar.scanner import scan
 
@@ -196,17 +232,18 @@ def completions(
     # The declaration the cursor is in (blocks never span two). A chunk starting
     # at `start` is the word being completed: what came before decides, as a scan
     # of the text before it says.
-    chunk = max((c for c, _ in scanned.chunks if c < start), default=0)
+    before = bisect.bisect_left(scanned.chunks, (start,))  # chunks are (start, line)
+    chunk = scanned.chunks[before - 1][0] if before else 0
     line_start = text.rfind("\n", 0, start) + 1
     line = text[line_start:start]
     settings = _block_settings(text[chunk:start], line)
     if settings is not None:
-        return settings
+        return settings, []
     if _MESSAGE_TYPE.match(text[line_start:offset]):
-        return _message_types(result)
+        return _message_types(result), []
     field_path = _FIELD_PATH.search(line)
     if field_path is not None and result is not None and field_path.group(1) in result.model.topics:
-        return _fields(result, field_path.group(1), field_path.group(2))
+        return _fields(result, field_path.group(1), field_path.group(2)), []
     return _grammar_completions(result, text, chunk, start)
 
 
@@ -261,7 +298,7 @@ def _fields(result: CheckResult, topic: str, path: str) -> list[Completion]:
 
 def _grammar_completions(
     result: CheckResult | None, text: str, chunk: int, start: int
-) -> list[Completion]:
+) -> tuple[list[Completion], list[Symbol]]:
     from rmvdsl.grammar.grammars import accepted_words
     from rmvdsl.grammar.scanner import TOP_LEVEL_KEYWORDS
     from rmvdsl.lang import builtins
@@ -275,18 +312,18 @@ def _grammar_completions(
         words |= TOP_LEVEL_KEYWORDS
     found = [Completion(w, "keyword", "keyword") for w in sorted(words)]
     if not names:
-        return found
+        return found, []
     opener = _OPENER.match(text[chunk:start])
     if opener is not None and opener.group(1) in _WITH_FUNCTIONS:
         found += [Completion(f.name, "function", f.group, f.doc)
                   for f in builtins.FUNCTIONS.values()]  # fmt: skip
-    if result is not None:
-        kinds = _NAMES_IN.get(opener.group(1) if opener else "")
-        labels = {kind: (kind.value, kind.described()) for kind in Kind}
-        found += [Completion(s.name, *labels[s.kind])
-                  for s in result.model.symbols.values()
-                  if kinds is None or s.kind in kinds]  # fmt: skip
-    return found
+    if result is None:
+        return found, []
+    kinds = _NAMES_IN.get(opener.group(1) if opener else "")
+    symbols = list(result.model.symbols.values())
+    if kinds is None:
+        return found, symbols
+    return found, list(compress(symbols, map(kinds.__contains__, map(attrgetter("kind"), symbols))))
 
 
 # The kinds of names that may stand in each declaration (the names stage's rules).

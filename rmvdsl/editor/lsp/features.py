@@ -11,16 +11,15 @@ from rmvdsl.check.model import Kind, Model, Symbol
 from rmvdsl.editor.lsp import convert
 from rmvdsl.editor.lsp.session import RmvServer
 from rmvdsl.editor.mentions import describe, same
-from rmvdsl.editor.ranking import shortlist, typed_word
 from rmvdsl.editor.workspace import (
     TOKEN_TYPES,
-    completions,
     details,
     folds,
     formatted,
     references,
     rename,
     semantic_tokens,
+    sent_completions,
 )
 
 COMPLETION_KINDS = {
@@ -117,9 +116,7 @@ def register(server: RmvServer) -> None:
         # typing. Only a document with no check yet waits for its first.
         result = ls.state.results.get(document.path) or await ls.analysed(params.text_document.uri)
         offset = convert.offset_at(document, params.position)
-        found = completions(result, document.source, offset, document.path)
-        word = typed_word(document.source, offset)
-        sent, cut = shortlist(found, [c.label for c in found], word)
+        sent, cut = sent_completions(result, document.source, offset, document.path)
         items = [
             types.CompletionItem(
                 label=c.label,

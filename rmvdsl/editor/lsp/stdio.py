@@ -32,13 +32,13 @@ def serve(server: JsonRPCServer, stdin: BinaryIO, stdout: BinaryIO) -> None:
     with SystemExit, its code 0 after `shutdown` and 1 without, as LSP asks
     (pygls's own `start_io` swallows it: the process ended with 0 either way)."""
     # pygls's shutdown (the `exit` notification's) sets this to end the loop.
-    server._stop_event = threading.Event()
+    stop = server._stop_event = threading.Event()
     server.protocol.set_writer(StdoutWriter(stdout))
 
     async def messages() -> None:
         asyncio.get_running_loop().set_exception_handler(_cancelled_quietly)
         await run_async(
-            stop_event=server._stop_event,
+            stop_event=stop,
             reader=ChunkedStdin(stdin),
             protocol=server.protocol,
             logger=logging.getLogger("pygls.server"),
