@@ -109,11 +109,15 @@ def test_messages_batched_and_split_are_all_answered_and_exit_codes_follow_lsp(
 ):
     """Several messages in one write, one split mid-header and mid-body across
     writes; `exit` after `shutdown` ends the process with 0, and without it with 1
-    (LSP's rule: pygls's own start_io swallowed the exit, giving 0 either way)."""
+    (LSP's rule: pygls's own start_io swallowed the exit, giving 0 either way).
+    Frames that are not JSON, not UTF-8 or of params of the wrong shape get their
+    answers and leave no traceback on stderr (pygls logged one for each)."""
+
+    def raw(body: bytes) -> bytes:
+        return b"Content-Length: %d\r\n\r\n" % len(body) + body
 
     def frame(message: dict[str, object]) -> bytes:
-        body = json.dumps({"jsonrpc": "2.0", **message}).encode()
-        return b"Content-Length: %d\r\n\r\n" % len(body) + body
+        return raw(json.dumps({"jsonrpc": "2.0", **message}).encode())
 
     spec = tmp_path / "a.rmv"
     text = 'topic T: std_msgs/Float64 = "/t"\nvar V = T.data\nevent E when V > 1\n'
@@ -127,6 +131,9 @@ def test_messages_batched_and_split_are_all_answered_and_exit_codes_follow_lsp(
             batch = frame({"id": 1, "method": "initialize", "params": init})
             batch += frame({"method": "initialized", "params": {}})
             batch += frame({"method": "textDocument/didOpen", "params": {"textDocument": opened}})
+            batch += raw(b'{"jsonrpc": "2.0", "id": 7, "meth') + raw(b"\xff\xfe")
+            batch += frame({"method": "textDocument/didChange", "params": {"x": 1}})
+            batch += frame({"id": 8, "method": "textDocument/hover", "params": {}})
             wire.send_bytes(batch)
             hover = frame({"id": 2, "method": "textDocument/hover", "params": position})
             for piece in (hover[:9], hover[9:40], hover[40:]):
@@ -134,12 +141,14 @@ def test_messages_batched_and_split_are_all_answered_and_exit_codes_follow_lsp(
                 time.sleep(0.1)
             assert wire.answer(1)["result"]["capabilities"]
             assert "V" in json.dumps(wire.answer(2)["result"])
+            assert wire.answer(8)["error"]["code"] == -32602  # invalid params
             if shut_down:
                 wire.answer(wire.request("shutdown", None))
             wire.notify("exit", None)
             assert wire.process.wait(30) == code
             wire.stderr_reader.join(30)
-            assert b"Traceback" not in wire.stderr, wire.stderr.decode(errors="replace")
+            said = wire.stderr.decode(errors="replace")
+            assert "Traceback" not in said and "Unable to" not in said, said
         finally:
             if wire.process.poll() is None:
                 wire.process.kill()

@@ -4,8 +4,12 @@ handler and answering every request, malformed ones included."""
 from __future__ import annotations
 
 import asyncio
+import json
+import logging
+import sys
 from typing import Any
 
+from cattrs.errors import ClassValidationError
 from pygls.exceptions import JsonRpcException, JsonRpcInvalidParams, JsonRpcInvalidRequest
 from pygls.protocol import LanguageServerProtocol
 
@@ -66,6 +70,33 @@ class Protocol(LanguageServerProtocol):
 
 
 ANSWERED = object()  # a request structure_message has answered with an error
+
+# Failures of a message that the server answers itself (Protocol.structure_message,
+# rmvdsl.editor.lsp.session.RmvServer.report_server_error): a frame that is not
+# JSON or not UTF-8, params of the wrong shape.
+ANSWERED_FAILURES = (
+    json.JSONDecodeError,
+    UnicodeDecodeError,
+    JsonRpcInvalidParams,
+    ClassValidationError,
+)
+
+
+def quiet_answered_failures() -> None:
+    """pygls's loggers, but for their records of the failures the server answers:
+    pygls logs each with its traceback on stderr (an editor's log of the server),
+    besides the answer the client gets."""
+    for name in ("pygls.server", "pygls.protocol.json_rpc"):
+        logger = logging.getLogger(name)
+        if not any(isinstance(f, _Answered) for f in logger.filters):
+            logger.addFilter(_Answered())
+
+
+class _Answered(logging.Filter):
+    """Drops a record logged while a failure the server answers is handled."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return not isinstance(sys.exc_info()[1], ANSWERED_FAILURES)
 
 
 def _validation_errors(error: BaseException) -> str:

@@ -20,7 +20,7 @@ from pygls.workspace import TextDocument
 from rmvdsl import __version__
 from rmvdsl.check.model import Model, Symbol
 from rmvdsl.editor.lsp import convert
-from rmvdsl.editor.lsp.protocol import Protocol
+from rmvdsl.editor.lsp.protocol import Protocol, quiet_answered_failures
 from rmvdsl.editor.lsp.stdio import serve
 from rmvdsl.editor.mentions import Mention, mention_at, mentions
 from rmvdsl.editor.solver_process import Solved, SolverEnded, SolverProcess
@@ -77,6 +77,7 @@ class RmvServer(LanguageServer):
 
     def start_io(self, stdin: BinaryIO | None = None, stdout: BinaryIO | None = None) -> None:
         """Serve over stdio (or the streams given) until the client ends it."""
+        quiet_answered_failures()
         serve(self, stdin or sys.stdin.buffer, stdout or sys.stdout.buffer)
 
     def report_server_error(self, error: Exception, source: Any) -> None:
