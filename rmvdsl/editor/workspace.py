@@ -153,9 +153,9 @@ _WITH_FUNCTIONS = frozenset({"event", "alert", "var"})
 
 
 class Completion(NamedTuple):
-    """What may be written at a position. A tuple: a completion in a spec of
-    10,000 names makes one per name, and a frozen dataclass's `__init__` (a
-    `setattr` per field) took most of its time."""
+    """What may be written at a position. A tuple: `completions` makes one per
+    name in scope, and a frozen dataclass's `__init__` (a `setattr` per field)
+    took most of its time in a spec of 10,000 names."""
 
     label: str
     kind: str  # keyword | function | setting | value | message | field | a name's kind
