@@ -13,8 +13,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rmvdsl.check import check
-from rmvdsl.editor import ranking, workspace
-from rmvdsl.editor.workspace import completions
+from rmvdsl.editor import completion, ranking
+from rmvdsl.editor.completion import completions
 from rmvdsl.grammar.scanner import scan
 
 # Every example a user may open (one is Latin-1 on purpose: not text to complete in).
@@ -69,7 +69,7 @@ def test_the_enclosing_block_is_found_within_the_declaration(spec):
         word = re.search(r"\w*\Z", text[:offset])
         start = word.start() if word else offset
         chunk = max((c for c, _ in scan(text[:start]).chunks if c < start), default=0)
-        found = workspace._enclosing_block(text[chunk:start])
+        found = completion._enclosing_block(text[chunk:start])
         assert found == _walked_block(text[:start]), offset
 
 
@@ -133,7 +133,7 @@ def test_what_is_sent_is_the_shortlist_of_every_completion(spec):
         every = completions(result, text, offset)
         word = ranking.typed_word(text, offset)
         expected = ranking.shortlist(every, [c.label for c in every], word, 3)
-        assert workspace.sent_completions(result, text, offset, limit=3) == expected, offset
+        assert completion.sent_completions(result, text, offset, limit=3) == expected, offset
 
 
 def _in_order(letters: str, label: str) -> bool:

@@ -1,6 +1,7 @@
 """The language server's features over a checked document: hover, definition,
 references, symbols, completion, rename, code actions, semantic tokens, folding
-and formatting, each through rmvdsl.editor.workspace."""
+and formatting, each through rmvdsl.editor.workspace (completion through
+rmvdsl.editor.completion)."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from lsprotocol import types
 from pygls.exceptions import JsonRpcInvalidParams
 
 from rmvdsl.check.model import Kind, Model, Symbol
+from rmvdsl.editor.completion import sent_completions
 from rmvdsl.editor.lsp import convert
 from rmvdsl.editor.lsp.session import RmvServer
 from rmvdsl.editor.mentions import describe, same
@@ -19,7 +21,6 @@ from rmvdsl.editor.workspace import (
     references,
     rename,
     semantic_tokens,
-    sent_completions,
 )
 
 COMPLETION_KINDS = {
