@@ -22,12 +22,14 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, cast
 
 from rmvdsl.check.lateness import lateness_warnings
-from rmvdsl.check.loader import Reader, UsageError, load, read_text
+from rmvdsl.check.loader import Reader, load
 from rmvdsl.check.model import Model
 from rmvdsl.check.msgtypes import DISTROS
 from rmvdsl.check.names import check_names, nothing_checked
 from rmvdsl.check.types import TypeConfig, TypeInfo, check_types
 from rmvdsl.lang.diagnostics import Diagnostic, Severity, did_you_mean, error, sort_key, warning
+from rmvdsl.lang.errors import UsageError
+from rmvdsl.lang.files import read_text
 from rmvdsl.lang.source import SourceFile, Span
 from rmvdsl.util.cache import flush
 from rmvdsl.util.deep import deep

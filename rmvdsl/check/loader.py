@@ -10,12 +10,9 @@ from dataclasses import dataclass, field
 from rmvdsl.grammar import ast
 from rmvdsl.grammar.parser import parse_source
 from rmvdsl.lang.diagnostics import Diagnostic, closest, error
-from rmvdsl.lang.errors import UsageError, unreadable
+from rmvdsl.lang.errors import UsageError
 from rmvdsl.lang.files import read_text
 from rmvdsl.lang.source import SourceFile, SourceMap
-
-__all__ = ["UsageError", "unreadable"]
-
 
 # Reads a file's text by its path (raises UsageError when it cannot).
 Reader = Callable[[str], str]
@@ -123,4 +120,4 @@ def _import_help(importer: str, wanted: str) -> str:
     return f"paths are relative to the importing file's folder, {folder}"
 
 
-__all__ = ["Loaded", "UsageError", "load", "read_text"]
+__all__ = ["Loaded", "Reader", "load"]

@@ -16,9 +16,9 @@ from dataclasses import dataclass
 from typing import Any
 
 from rmvdsl.check import CheckResult, check
-from rmvdsl.check.loader import read_text
 from rmvdsl.check.model import Kind, Model, Symbol
 from rmvdsl.editor.mentions import Mention
+from rmvdsl.lang.files import read_text
 from rmvdsl.lang.source import SourceFile, Span
 
 __all__ = [

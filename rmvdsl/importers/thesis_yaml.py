@@ -15,7 +15,6 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
-from rmvdsl.check.loader import UsageError
 from rmvdsl.grammar.formatter import format_spec
 from rmvdsl.grammar.parser import parse_source
 from rmvdsl.importers.draft import Draft, entries, identifier
@@ -33,6 +32,7 @@ from rmvdsl.importers.rostopicver import (
     convert_transducer,
     convert_whitelists,
 )
+from rmvdsl.lang.errors import UsageError
 from rmvdsl.lang.source import SourceFile
 
 
