@@ -250,9 +250,11 @@ def test_a_storm_of_edits_ends_in_diagnostics_of_the_last_text(wire: Wire, tmp_p
     last = wire.diagnostics_until(uri, lambda p: p["version"] == 2000 and p["diagnostics"])
     [unknown] = [d for d in last["diagnostics"] if d["code"] == "RMV200"]
     assert "`y`" in unknown["message"] and unknown["range"]["start"]["line"] == line
-    # every request was answered: a result or the cancellation's error
-    answered = {m["id"] for m in wire.seen if "id" in m and "method" not in m}
-    assert set(range(2, wire.next_id + 1)) <= answered
+    # every request is answered: a result or the cancellation's error (a hover
+    # waits for the fast stages of the newest text, which may come after the
+    # diagnostics an edit inside one declaration has first, rmvdsl.check.edit)
+    for number in range(2, wire.next_id + 1):
+        assert "result" in wire.answer(number) or "error" in wire.answer(number)
     # A file deleted under the server: its open text is still checked and served.
     path.unlink()
     wire.notify("textDocument/didChange", _edit(uri, 2001, line, len("event E when "),

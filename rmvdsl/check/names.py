@@ -28,7 +28,7 @@ from rmvdsl.check.model import (
 )
 from rmvdsl.check.rosnames import message_type_problem
 from rmvdsl.check.structure import StructureChecks
-from rmvdsl.check.whitelists import check_whitelist_agreement
+from rmvdsl.check.whitelists import check_whitelist_agreement, topic_of
 from rmvdsl.grammar import ast
 from rmvdsl.grammar.grammars import reserved_names
 from rmvdsl.grammar.shift import findings
@@ -344,32 +344,41 @@ class NameChecker(Declarations, StructureChecks, ActionChecks, EventChecks):
     def report_unused(self) -> None:
         if any(self.damaged_ranges.values()):
             return  # uses may be in the parts that did not parse
-        whitelisted = {self.whitelist_topic(w) for w in self.model.whitelists}
         symbols = self.model.symbols
         unused = symbols.keys() - self.used
+        whitelisted = whitelisted_topics(self.model)
         for name in filter(unused.__contains__, symbols):  # in declaration order
-            symbol = symbols[name]
-            if symbol.kind is Kind.TOPIC:
-                decl = symbol.decl
-                assert isinstance(decl, ast.TopicDecl)
-                if decl.path.value in whitelisted:
-                    continue
-                self.unused(symbol, "no variable reads this topic and no whitelist names it")
-            elif symbol.kind is Kind.VARIABLE:
-                self.unused(symbol, "no event, alert or downsample reads this variable")
-            elif symbol.kind in (Kind.VALUE_EVENT, Kind.BOOL_EVENT):
-                self.unused(symbol, "no event, alert, transition or property uses this event")
+            found = unused_warning(symbols[name], whitelisted)
+            if found is not None:
+                self.report(found)
 
-    def unused(self, symbol: Symbol, why: str) -> None:
-        self.report(
-            warning(
-                "RMV203",
-                f"{symbol.kind.value} `{symbol.name}` is never used",
-                symbol.span,
-                label=why,
-                help="remove it, or use it",
-            )
-        )
+
+def whitelisted_topics(model: Model) -> set[str]:
+    """The topics the whitelists name: used though no variable reads them."""
+    return {topic_of(model, w) for w in model.whitelists}
+
+
+def unused_warning(symbol: Symbol, whitelisted: set[str]) -> Diagnostic | None:
+    """RMV203 for a symbol no reference names, if its kind is one to report."""
+    if symbol.kind is Kind.TOPIC:
+        decl = symbol.decl
+        assert isinstance(decl, ast.TopicDecl)
+        if decl.path.value in whitelisted:
+            return None
+        why = "no variable reads this topic and no whitelist names it"
+    elif symbol.kind is Kind.VARIABLE:
+        why = "no event, alert or downsample reads this variable"
+    elif symbol.kind in (Kind.VALUE_EVENT, Kind.BOOL_EVENT):
+        why = "no event, alert, transition or property uses this event"
+    else:
+        return None
+    return warning(
+        "RMV203",
+        f"{symbol.kind.value} `{symbol.name}` is never used",
+        symbol.span,
+        label=why,
+        help="remove it, or use it",
+    )
 
 
 def check_names(

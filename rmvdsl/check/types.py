@@ -66,14 +66,21 @@ class TypeConfig:
 
 class TypeChecker(PropertyTypes):
     def __init__(
-        self, model: Model, config: TypeConfig, spec_folder: str, incremental: bool = False
+        self,
+        model: Model,
+        config: TypeConfig,
+        spec_folder: str,
+        incremental: bool = False,
+        info: TypeInfo | None = None,
     ) -> None:
+        """`info`: what an earlier check of the model found, to type one more
+        declaration in (rmvdsl.check.edit); else a new one, with the spec's ROS."""
         self.model = model
         self.config = config
         self.spec_folder = spec_folder
         self.incremental = incremental
         self.diagnostics: list[Diagnostic] = []
-        self.info = TypeInfo(TypeRegistry(self._distro()))
+        self.info = info or TypeInfo(TypeRegistry(self._distro()))
         self._event_stack: set[str] = set()
         # What each declaration being typed looked up (innermost last), remembered.
         self._reads: list[list[tuple[str, str, Any]]] = []

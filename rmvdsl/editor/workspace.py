@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from rmvdsl.check import CheckResult, check
+from rmvdsl.check.edit import EditCheck, check_edit, prepare_edits
 from rmvdsl.check.model import Kind, Model, Symbol
 from rmvdsl.editor.mentions import Mention
 from rmvdsl.lang.files import read_text
@@ -83,7 +84,15 @@ class Workspace:
     def check(self, path: str, solver: bool = True, **options: Any) -> CheckResult:
         """`rmv check` of `path` as the open documents say it is now."""
         options.setdefault("incremental", self.incremental)
-        return check(path, self.text(path), read=self.read, solver=solver, **options)
+        result = check(path, self.text(path), read=self.read, solver=solver, **options)
+        if self.incremental:
+            prepare_edits(result)  # beside the check, not at the next keystroke
+        return result
+
+    def check_edit(self, path: str, text: str, before: CheckResult) -> EditCheck | None:
+        """The fast stages' diagnostics of `text`, the document's new text, from
+        `before` when the edit stays inside one declaration (rmvdsl.check.edit)."""
+        return check_edit(before, path, text)
 
 
 def warm_up() -> None:

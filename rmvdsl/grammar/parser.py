@@ -104,6 +104,31 @@ def scan_file(path: str, text: str) -> ScanResult:
     return scanned
 
 
+def last_scan(path: str, text: str) -> ScanResult:
+    """The scan of a file's text: the last one, if it was of this text."""
+    found = _LAST_SCANS.get(path)
+    return found[1] if found is not None and found[0] == text else scan_file(path, text)
+
+
+def parse_chunk(
+    source: SourceFile, start: int, end: int, line: int
+) -> tuple[tuple[ast.Decl, ...] | None, tuple[Diagnostic, ...], bool]:
+    """One declaration chunk of a file (`scan_file`'s `start` on `line`, up to
+    `end`) as parse_source parses it: its declarations, its diagnostics, whether it
+    has syntax errors (its tree may then be partial)."""
+    _, builder = spec_parser()
+    builder.start_parse(source.path)
+    chunk = _CHUNK_CACHE.get((source.path, source.text[start:end]))
+    if chunk is None:
+        chunk = _parse_chunk(source, start, end, line, builder)
+    delta = start - chunk.start
+    decls, found = chunk.decls, chunk.diagnostics
+    if delta:
+        decls = None if decls is None else shifted(decls, delta)
+        found = shifted(found, delta)
+    return decls, found, chunk.damaged
+
+
 def parse_source(source: SourceFile) -> ParsedSpec:
     """Parse a whole file: every declaration, every syntax error."""
     _, builder = spec_parser()

@@ -9,8 +9,10 @@ of error recovery; the token-level level is in `parser.py`.
 from __future__ import annotations
 
 import bisect
+import dataclasses
 import re
 from dataclasses import dataclass
+from operator import attrgetter, itemgetter
 
 TOP_LEVEL_KEYWORDS = frozenset(
     {
@@ -94,25 +96,56 @@ def scan(text: str, before: tuple[str, ScanResult] | None = None) -> ScanResult:
     a chunk of the unchanged end, whose chunks and comments are moved along."""
     if before is None:
         return _scan(text, 0, 1, [], [(0, 1)])
-    old_text, old = before
-    prefix = _common_prefix(old_text, text)
-    if prefix == len(text) == len(old_text):
-        return old
-    # The state at a chunk's start is its line alone (brackets reset there), so the
-    # scan resumes at the last chunk whose first line the edit left whole.
-    starts = [start for start, _ in old.chunks]
-    index = bisect.bisect_right(starts, prefix) - 1
-    while index > 0 and not 0 <= old_text.find("\n", starts[index]) < prefix:
-        index -= 1
+    if before[0] == text:
+        return before[1]
+    index, unchanged = _resumed(text, *before)
+    old = before[1]
     resume, line = old.chunks[index]
-    comment_starts = [c.start for c in old.comments]
-    kept = bisect.bisect_left(comment_starts, resume)
-    suffix = _common_suffix(old_text, text, min(len(old_text), len(text)) - prefix)
-    delta = len(text) - len(old_text)
-    unchanged = _Unchanged(len(text) - suffix, delta, old, starts, comment_starts)
+    kept = bisect.bisect_left(unchanged.old_comment_starts, resume)
     return _scan(
         text, resume, line, list(old.comments[:kept]), list(old.chunks[: index + 1]), unchanged
     )
+
+
+@dataclass(frozen=True)
+class Rescan:
+    """The chunks of a text an edit changed, against its scan before the edit:
+    the old scan's chunks before `first` are the new text's, and from `rest` on
+    the new text's are the old ones moved by the edit."""
+
+    first: int
+    chunks: tuple[tuple[int, int], ...]  # the new text's, from `first` up to `rest`
+    rest: int | None  # None: the scan found no chunk of the unchanged end
+
+
+def rescan(text: str, old_text: str, old: ScanResult) -> Rescan:
+    """Only the chunks an edit changed (scan's work without moving the rest): the
+    editor's check of a keystroke inside one declaration (rmvdsl.check.edit)."""
+    index, unchanged = _resumed(text, old_text, old)
+    resume, line = old.chunks[index]
+    stopping = dataclasses.replace(unchanged, join=False)
+    found = _scan(text, resume, line, [], [(resume, line)], stopping)
+    if found.chunks[-1] == _STOPPED:
+        rest = unchanged.rest(found.chunks[-2][0])
+        assert rest is not None
+        return Rescan(index, found.chunks[:-2], rest[0])
+    return Rescan(index, found.chunks, None)
+
+
+def _resumed(text: str, old_text: str, old: ScanResult) -> tuple[int, _Unchanged]:
+    """The old chunk a scan of the new text resumes at (its index), and the
+    unchanged end of the text."""
+    prefix = _common_prefix(old_text, text)
+    # The state at a chunk's start is its line alone (brackets reset there), so the
+    # scan resumes at the last chunk whose first line the edit left whole.
+    starts = list(map(itemgetter(0), old.chunks))
+    index = bisect.bisect_right(starts, prefix) - 1
+    while index > 0 and not 0 <= old_text.find("\n", starts[index]) < prefix:
+        index -= 1
+    comment_starts = list(map(attrgetter("start"), old.comments))
+    suffix = _common_suffix(old_text, text, min(len(old_text), len(text)) - prefix)
+    delta = len(text) - len(old_text)
+    return index, _Unchanged(len(text) - suffix, delta, old, starts, comment_starts)
 
 
 @dataclass(frozen=True)
@@ -125,6 +158,7 @@ class _Unchanged:
     old: ScanResult
     old_starts: list[int]  # of its chunks
     old_comment_starts: list[int]
+    join: bool = True  # False: stop there, the old scan's rest not moved (rescan)
 
     def rest(self, start: int) -> tuple[int, int] | None:
         """Where the old chunk now starting at `start` was (its index) and its line,
@@ -141,6 +175,8 @@ class _Unchanged:
     ) -> ScanResult:
         """The scan so far (ending with the chunk `index` of the old scan, now
         `lines` lines further), followed by the old scan's rest moved along."""
+        if not self.join:
+            return ScanResult((), (*chunks, _STOPPED))
         delta, old = self.delta, self.old
         start = old.chunks[index][0]
         chunks += [(c + delta, line + lines) for c, line in old.chunks[index + 1 :]]
@@ -150,6 +186,9 @@ class _Unchanged:
             for c in old.comments[first:]
         ]
         return ScanResult(tuple(comments), tuple(chunks))
+
+
+_STOPPED = (-1, -1)  # ends a rescan's chunks when it met the unchanged end
 
 
 def _scan(

@@ -8,6 +8,7 @@ import asyncio
 import functools
 import json
 import sys
+from collections import Counter
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any, BinaryIO
@@ -29,7 +30,8 @@ from rmvdsl.editor.workspace import (
     Workspace,
     symbol_at,
 )
-from rmvdsl.lang.source import Span
+from rmvdsl.lang.diagnostics import Diagnostic
+from rmvdsl.lang.source import SourceMap, Span
 
 DEBOUNCE = 0.3  # seconds of quiet before the solver stages run
 # How long a request waits for the check of the text it was sent against (an
@@ -125,7 +127,8 @@ class RmvServer(LanguageServer):
         state.workspace.open(path, document.source)
         generation = state.generation[path] = state.generation.get(path, 0) + 1
         state.solver.cancel(path)  # a solver stage of the text before is wasted work
-        if not await self._publish_fast(path, generation):
+        first = self._publish_edit(path, document.source)
+        if not await self._publish_fast(path, generation, first):
             return
         # Waiting from here on holds no model: a wait for the solver lane can be
         # long (another document's solver stage), and a model held meanwhile, one
@@ -144,10 +147,23 @@ class RmvServer(LanguageServer):
         if result is not None and state.generation.get(path) == generation:
             self.publish(path, result)
 
-    async def _publish_fast(self, path: str, generation: int) -> bool:
+    def _publish_edit(self, path: str, text: str) -> list[Diagnostic] | None:
+        """The diagnostics of an edit inside one declaration, worked out from the
+        newest check (rmvdsl.check.edit) and published at once; None when the edit
+        is not one of those (the fast stages answer first)."""
+        before = self.state.results.get(path)
+        found = None if before is None else self.state.workspace.check_edit(path, text, before)
+        if found is None:
+            return None
+        self.send(path, found.diagnostics, found.sources)
+        return found.diagnostics
+
+    async def _publish_fast(
+        self, path: str, generation: int, sent: list[Diagnostic] | None = None
+    ) -> bool:
         """The fast stages of `generation`, published unless a newer change overtook
-        them; whether they were (requests waiting for the document are let go
-        either way)."""
+        them, or unless they found what was `sent` already for it; whether they were
+        (requests waiting for the document are let go either way)."""
         state = self.state
         loop = asyncio.get_running_loop()
         waiter = state.analysed.get(path)
@@ -158,7 +174,10 @@ class RmvServer(LanguageServer):
             result = await loop.run_in_executor(state.fast_lane, fast)
             if result is None or state.generation.get(path) != generation:
                 return False
-            self.publish(path, result)
+            if sent is not None and Counter(sent) == Counter(result.diagnostics):
+                state.results[path] = result  # the same diagnostics, sent already
+            else:
+                self.publish(path, result)
             return True
         finally:
             if state.generation.get(path) == generation and not waiter.done():
@@ -189,14 +208,19 @@ class RmvServer(LanguageServer):
         return answer.with_model(fast)
 
     def publish(self, root: str, result: CheckResult) -> None:
-        """The diagnostics of a check, per file (an import's show in that file).
-        The check takes the place of the one before once they are sent: letting go
-        of a model (a copy of every declaration, its symbols) took about 1.4 ms of
-        each keystroke's publication."""
+        """The diagnostics of a check, sent; the check takes the place of the one
+        before once they are (letting go of a model, a copy of every declaration
+        and its symbols, took about 1.4 ms of each keystroke's publication)."""
+        self.send(root, result.diagnostics, result.model.sources)
+        self.state.results[root] = result
+
+    def send(self, root: str, diagnostics: list[Diagnostic], sources: SourceMap) -> None:
+        """Diagnostics of the document `root` and what it imports, per file (an
+        import's show in that file); a file shown before and clean now is cleared."""
         documents = self.open_documents()
         by_path: dict[str, list[types.Diagnostic]] = {root: []}
-        for found in result.diagnostics:
-            converted = convert.diagnostic(found, result.model.sources, self.encoding)
+        for found in diagnostics:
+            converted = convert.diagnostic(found, sources, self.encoding)
             if converted is not None:
                 by_path.setdefault(found.span.path, []).append(converted)
         for stale in self.state.published.get(root, set()) - set(by_path):
@@ -209,7 +233,6 @@ class RmvServer(LanguageServer):
                     uri=convert.uri_of(path), diagnostics=items, version=version
                 )
             )
-        self.state.results[root] = result
 
     def location(self, model: Model, span: Span) -> types.Location | None:
         source = model.sources.get(span.path)
