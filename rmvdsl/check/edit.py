@@ -24,6 +24,7 @@ import dataclasses
 import os
 from collections import Counter
 from dataclasses import dataclass
+from operator import itemgetter
 from typing import TYPE_CHECKING
 
 from rmvdsl.check.alone import (
@@ -41,7 +42,7 @@ from rmvdsl.check.names import (
 from rmvdsl.check.typeinfo import TypeInfo
 from rmvdsl.grammar import ast
 from rmvdsl.grammar.parser import last_scan, parse_chunk
-from rmvdsl.grammar.scanner import rescan
+from rmvdsl.grammar.scanner import common_prefix, common_suffix, rescan
 from rmvdsl.lang.diagnostics import Diagnostic, sort_key
 from rmvdsl.lang.source import SourceFile, SourceMap, Span
 
@@ -90,40 +91,38 @@ def check_edit(before: CheckResult, path: str, text: str) -> EditCheck | None:
         return None
     if any(d.code == _CYCLE for d in before.diagnostics) or nothing_checked(model):
         return None
-    source = SourceFile(path, text)
-    sources = _with_source(model.sources, source)
     if text == old_source.text:
-        return EditCheck(list(before.diagnostics), sources)
+        return EditCheck(list(before.diagnostics), model.sources)
     try:
-        return _checked(before, model, info, old_source, source, sources)
+        return _checked(before, model, info, old_source, text)
     except RecursionError:  # a formula nested deeper than this thread's stack
         return None  # the full check runs on a deep stack (rmvdsl.util.deep)
 
 
 def _checked(
-    before: CheckResult,
-    model: Model,
-    info: TypeInfo,
-    old_source: SourceFile,
-    source: SourceFile,
-    sources: SourceMap,
+    before: CheckResult, model: Model, info: TypeInfo, old_source: SourceFile, text: str
 ) -> EditCheck | None:
-    edit = _edit(old_source.text, source.text)
-    found = _chunk_of(old_source, source.text, edit)
+    edit = _edit(old_source.text, text)
+    found = _chunk_of(old_source, text, edit)
     if found is None:
         return None
     start, end, line = found
     old_decl = _declaration_at(model.specs[0].items, start, end - edit.delta)
-    new_decls, new_parse, damaged = parse_chunk(source, start, end, line)
-    if old_decl is None or damaged or new_decls is None or len(new_decls) != 1:
+    if old_decl is None or not isinstance(old_decl, _LOCAL):
+        return None
+    path = old_source.path
+    new_decls, new_parse, damaged = parse_chunk(path, text, start, end, line)
+    if damaged or new_decls is None or len(new_decls) != 1:
         return None
     new_decl = new_decls[0]
-    if type(new_decl) is not type(old_decl) or not isinstance(new_decl, _LOCAL):
+    if type(new_decl) is not type(old_decl):
         return None
-    _, old_parse, _ = parse_chunk(old_source, start, end - edit.delta, line)
+    _, old_parse, _ = parse_chunk(path, old_source.text, start, end - edit.delta, line)
     old = checked_alone(model, info, old_decl, old_parse)
     if old is None or not exports_as_before(old, old_decl, info):
         return None
+    source = SourceFile(path, text)
+    sources = _with_source(model.sources, source)
     new_model = declared_again(model, old_decl, new_decl, sources)
     new = None if new_model is None else checked_alone(new_model, info, new_decl, new_parse)
     if new is None or not same_interface(model, old, new):
@@ -146,10 +145,8 @@ def _with_source(sources: SourceMap, source: SourceFile) -> SourceMap:
 
 def _edit(old: str, new: str) -> _Edit:
     """The smallest replacement that turns `old` into `new`."""
-    from rmvdsl.grammar.scanner import _common_prefix, _common_suffix
-
-    start = _common_prefix(old, new)
-    suffix = _common_suffix(old, new, min(len(old), len(new)) - start)
+    start = common_prefix(old, new)
+    suffix = common_suffix(old, new, min(len(old), len(new)) - start)
     return _Edit(start, len(old) - suffix, len(new) - suffix)
 
 
@@ -158,6 +155,10 @@ def _chunk_of(old: SourceFile, text: str, edit: _Edit) -> tuple[int, int, int] |
     line), when the chunks of the old text are the same ones, that one longer or
     shorter by the edit; None otherwise."""
     scanned = last_scan(old.path, old.text)
+    starts = scanned.chunks
+    first = bisect.bisect_right(starts, edit.start, key=itemgetter(0)) - 1
+    if first + 1 < len(starts) and starts[first + 1][0] < edit.old_end:
+        return None  # the edit runs into the next chunk (two keys far apart, say)
     region = rescan(text, old.text, scanned)
     stop = len(scanned.chunks) if region.rest is None else region.rest
     if not region.chunks or region.chunks != scanned.chunks[region.first : stop]:

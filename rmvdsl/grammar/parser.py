@@ -90,6 +90,11 @@ def _parse_chunk(
 # The last text parsed of each file (the most recent files) and its scan: the next
 # parse of the file scans only what an edit changed.
 _LAST_SCANS: Bounded[str, tuple[str, ScanResult]] = Bounded(64)
+# The last few texts scanned, by file and text: an editor's check of a keystroke
+# reads the scan of the text its last check read (rmvdsl.check.edit), and
+# completion and the checks of newer keys scanned other texts since. (A text's
+# hash is worked out once per string: the key costs little.)
+_RECENT_SCANS: Bounded[tuple[str, str], ScanResult] = Bounded(8)
 
 
 def _scanned(source: SourceFile) -> ScanResult:
@@ -101,26 +106,28 @@ def scan_file(path: str, text: str) -> ScanResult:
     previous keystroke, or its completion's): only what an edit changed is scanned."""
     scanned = scan(text, _LAST_SCANS.get(path))
     _LAST_SCANS.put(path, (text, scanned))
+    _RECENT_SCANS.put((path, text), scanned)
     return scanned
 
 
 def last_scan(path: str, text: str) -> ScanResult:
-    """The scan of a file's text: the last one, if it was of this text."""
-    found = _LAST_SCANS.get(path)
-    return found[1] if found is not None and found[0] == text else scan_file(path, text)
+    """The scan of a file's text: one of the last made, if it was of this text."""
+    found = _RECENT_SCANS.get((path, text))
+    return found if found is not None else scan_file(path, text)
 
 
 def parse_chunk(
-    source: SourceFile, start: int, end: int, line: int
+    path: str, text: str, start: int, end: int, line: int
 ) -> tuple[tuple[ast.Decl, ...] | None, tuple[Diagnostic, ...], bool]:
-    """One declaration chunk of a file (`scan_file`'s `start` on `line`, up to
-    `end`) as parse_source parses it: its declarations, its diagnostics, whether it
-    has syntax errors (its tree may then be partial)."""
-    _, builder = spec_parser()
-    builder.start_parse(source.path)
-    chunk = _CHUNK_CACHE.get((source.path, source.text[start:end]))
+    """One declaration chunk of a file's text (`scan_file`'s `start` on `line`, up
+    to `end`) as parse_source parses it: its declarations, its diagnostics, whether
+    it has syntax errors (its tree may then be partial). A chunk parsed before is
+    not parsed again (nor is the file's line table made)."""
+    chunk = _CHUNK_CACHE.get((path, text[start:end]))
     if chunk is None:
-        chunk = _parse_chunk(source, start, end, line, builder)
+        _, builder = spec_parser()
+        builder.start_parse(path)
+        chunk = _parse_chunk(SourceFile(path, text), start, end, line, builder)
     delta = start - chunk.start
     decls, found = chunk.decls, chunk.diagnostics
     if delta:

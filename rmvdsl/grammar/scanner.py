@@ -135,7 +135,7 @@ def rescan(text: str, old_text: str, old: ScanResult) -> Rescan:
 def _resumed(text: str, old_text: str, old: ScanResult) -> tuple[int, _Unchanged]:
     """The old chunk a scan of the new text resumes at (its index), and the
     unchanged end of the text."""
-    prefix = _common_prefix(old_text, text)
+    prefix = common_prefix(old_text, text)
     # The state at a chunk's start is its line alone (brackets reset there), so the
     # scan resumes at the last chunk whose first line the edit left whole.
     starts = list(map(itemgetter(0), old.chunks))
@@ -143,7 +143,7 @@ def _resumed(text: str, old_text: str, old: ScanResult) -> tuple[int, _Unchanged
     while index > 0 and not 0 <= old_text.find("\n", starts[index]) < prefix:
         index -= 1
     comment_starts = list(map(attrgetter("start"), old.comments))
-    suffix = _common_suffix(old_text, text, min(len(old_text), len(text)) - prefix)
+    suffix = common_suffix(old_text, text, min(len(old_text), len(text)) - prefix)
     delta = len(text) - len(old_text)
     return index, _Unchanged(len(text) - suffix, delta, old, starts, comment_starts)
 
@@ -228,7 +228,7 @@ def _scan(
     return ScanResult(tuple(comments), tuple(chunks))
 
 
-def _common_prefix(a: str, b: str) -> int:
+def common_prefix(a: str, b: str) -> int:
     """The length of the longest common prefix (slices compare in C: a binary
     search takes microseconds on a large file)."""
     low, high = 0, min(len(a), len(b))
@@ -241,7 +241,7 @@ def _common_prefix(a: str, b: str) -> int:
     return low
 
 
-def _common_suffix(a: str, b: str, most: int) -> int:
+def common_suffix(a: str, b: str, most: int) -> int:
     """The length of the longest common suffix, at most `most`."""
     low, high = 0, most
     while low < high:
