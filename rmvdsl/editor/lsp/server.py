@@ -71,6 +71,7 @@ def build(own_process: bool = False) -> RmvServer:
         # Nothing of a closed document stays: its checks go, and a request still
         # waiting for one is answered now.
         ls.state.results.pop(path, None)
+        ls.state.fast.pop(path, None)
         ls.state.mentions.pop(path, None)
         waiter = ls.state.analysed.pop(path, None)
         if waiter is not None and not waiter.done():

@@ -49,6 +49,10 @@ class State:
     workspace: Workspace = field(default_factory=lambda: Workspace(incremental=True))
     generation: dict[str, int] = field(default_factory=dict)
     results: dict[str, CheckResult] = field(default_factory=dict)
+    # The newest check of each document's fast stages alone: what the diagnostics
+    # of an edit inside one declaration are worked out from (the results may hold
+    # the solver stages' too, which an edit makes old).
+    fast: dict[str, CheckResult] = field(default_factory=dict)
     # Two lanes: the fast stages (what a keystroke must show at once) never queue
     # behind a solver stage; solver stages run one at a time, and one queued for a
     # text that has changed since is skipped when its turn comes. The solver lane's
@@ -151,7 +155,7 @@ class RmvServer(LanguageServer):
         """The diagnostics of an edit inside one declaration, worked out from the
         newest check (rmvdsl.check.edit) and published at once; None when the edit
         is not one of those (the fast stages answer first)."""
-        before = self.state.results.get(path)
+        before = self.state.fast.get(path)
         found = None if before is None else self.state.workspace.check_edit(path, text, before)
         if found is None:
             return None
@@ -174,6 +178,7 @@ class RmvServer(LanguageServer):
             result = await loop.run_in_executor(state.fast_lane, fast)
             if result is None or state.generation.get(path) != generation:
                 return False
+            state.fast[path] = result
             if sent is not None and Counter(sent) == Counter(result.diagnostics):
                 state.results[path] = result  # the same diagnostics, sent already
             else:
