@@ -180,3 +180,27 @@ def test_the_server_answers_a_key_while_its_fast_lane_is_busy(tmp_path: Path) ->
     finally:
         busy.set()
         wire.close()
+
+
+def test_a_key_after_the_solver_stages_sends_the_fast_stages_of_its_text(tmp_path: Path) -> None:
+    """The newest result holds the solver stages' findings of the text before the
+    key; the key's first diagnostics are the fast stages' of its own text (the
+    solver's come again after the pause), never the old text's findings moved."""
+    from lsp_wire import Wire
+    from test_lsp_edges import _edit
+
+    wire = Wire(in_process=True)
+    try:
+        wire.initialize(tmp_path)
+        path = tmp_path / "solved.rmv"
+        text = 'topic T: std_msgs/Float64 = "/t"\nvar V = T.data\n'
+        text += "event E when V > 100\nproperty P: always[<=1s] (E and not E)\n"
+        uri = wire.open(path, text)
+        solved = wire.diagnostics_until(uri, lambda p: p["diagnostics"], timeout=60)
+        assert [d["code"] for d in solved["diagnostics"]] == ["RMV510"]
+        start = len("event E when V > 10")
+        wire.notify("textDocument/didChange", _edit(uri, 2, 2, start, start, "7"))
+        first = wire.diagnostics_until(uri, lambda p: p["version"] == 2)
+        assert first["diagnostics"] == []
+    finally:
+        wire.close()
