@@ -67,7 +67,9 @@ def checked_alone(
     names.check_decl(decl)
     reads = names.event_reads.get(id(decl))
     edges = _edges(model, [i.name for i in reads] if reads is not None else _inputs(decl))
-    types = TypeChecker(names.model, TypeConfig(), ".", info=_typing_copy(info))
+    # Incremental: a declaration typed before is not typed again while what it
+    # looked up is unchanged (rmvdsl.check.memo), its compiled formula reused.
+    types = TypeChecker(names.model, TypeConfig(), ".", True, _typing_copy(info))
     exported = _typed(types, decl)
     lateness = isinstance(decl, ast.PropertyDecl) and any(
         s.key.name == "lateness" for s in decl.settings
