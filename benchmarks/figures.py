@@ -104,6 +104,12 @@ def lsp_latency(data: dict[str, Any]) -> str:
          f"{data['pausing_keys']} keys in a property's bound: p50 / p95 / p99 / max",
          f"{data['pausing_p50_ms']:.0f} / {data['pausing_p95_ms']:.0f} / "
          f"{data['pausing_p99_ms']:.0f} / {data['pausing_max_ms']:.0f} ms"],
+        [f"a typist writing a declaration on a new line and erasing it, "
+         f"{data['declaring_keys']} keys (most of its texts have a syntax error): "
+         "p50 / p95 / p99 / max",
+         f"{data['declaring_p50_ms']:.0f} / {data['declaring_p95_ms']:.0f} / "
+         f"{data['declaring_p99_ms']:.0f} / {data['declaring_max_ms']:.0f} ms"
+         if "declaring_keys" in data else "-"],
         ["messages the server showed the user (an error would be one)",
          str(data["server_message_count"])],
         ["completion after each key in an event's condition: p50 / p95 / p99 / max",

@@ -204,3 +204,35 @@ def test_a_key_after_the_solver_stages_sends_the_fast_stages_of_its_text(tmp_pat
         assert first["diagnostics"] == []
     finally:
         wire.close()
+
+
+def test_a_fault_of_the_edit_path_costs_the_key_nothing(tmp_path: Path, monkeypatch) -> None:
+    """Should the edit path fail, the key's diagnostics come from the fast stages,
+    and the editor's log says what failed."""
+    from lsp_wire import Wire
+    from test_lsp_edges import _edit
+
+    import rmvdsl.editor.workspace as workspace
+
+    def broken(*_: object) -> None:
+        raise ValueError("broken on purpose")
+
+    monkeypatch.setattr(workspace, "check_edit", broken)
+    wire = Wire(in_process=True)
+    try:
+        wire.initialize(tmp_path)
+        path = tmp_path / "fault.rmv"
+        text = 'topic T: std_msgs/Float64 = "/t"\nvar V = T.data\n'
+        text += "event E when V > 100\nproperty P: always[<=1s] not E\n"
+        uri = wire.open(path, text)
+        wire.diagnostics_until(uri, lambda p: p["version"] == 1)
+        start = len("event E when ")
+        wire.notify("textDocument/didChange", _edit(uri, 2, 2, start, start + 1, "Q"))
+        found = wire.diagnostics_until(uri, lambda p: p["version"] == 2)
+        assert {d["code"] for d in found["diagnostics"]} == {"RMV200", "RMV203"}
+        logged = [
+            m["params"]["message"] for m in wire.seen if m.get("method") == "window/logMessage"
+        ]
+        assert any("broken on purpose" in message for message in logged)
+    finally:
+        wire.close()

@@ -156,7 +156,16 @@ class RmvServer(LanguageServer):
         newest check (rmvdsl.check.edit) and published at once; None when the edit
         is not one of those (the fast stages answer first)."""
         before = self.state.fast.get(path)
-        found = None if before is None else self.state.workspace.check_edit(path, text, before)
+        try:
+            found = None if before is None else self.state.workspace.check_edit(path, text, before)
+        except Exception as error:  # a fault of the shortcut must not cost the key its check
+            self.window_log_message(
+                types.LogMessageParams(
+                    types.MessageType.Error,
+                    f"rmv lsp: the edit path failed ({error!r}); the fast stages answer",
+                )
+            )
+            return None
         if found is None:
             return None
         self.send(path, found.diagnostics, found.sources)
