@@ -11,8 +11,9 @@ import weakref
 from collections import Counter
 from dataclasses import dataclass
 from operator import itemgetter
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING, Any, cast
 
+from rmvdsl.check import CONSEQUENTIAL
 from rmvdsl.check.model import Model, Reference, ReusedReferences, Symbol
 from rmvdsl.check.names import (
     NameChecker,
@@ -42,42 +43,61 @@ _GROUPS: dict[type, str] = {
 
 @dataclass(frozen=True)
 class Alone:
-    """One declaration's own findings and what other declarations see of it."""
+    """A chunk's declarations' own findings and what other declarations see of
+    them."""
 
     diagnostics: list[Diagnostic]
     declared: tuple[tuple[str, object, str | None], ...]  # name, kind, owner
-    uses: Counter[str]  # the names its references name, and how often
-    edges: frozenset[str]  # the events it reads (an emitted one: its transducer)
-    node: str | None  # its name among those: an event's, a transducer's
-    exported: tuple[object, ...]  # a variable's type and path, an event's type
-    lateness: bool  # a property with a `lateness` setting
+    uses: Counter[str]  # the names their references name, and how often
+    edges: frozenset[str]  # the events they read (an emitted one: its transducer)
+    nodes: frozenset[str]  # their names among those: an event's, a transducer's
+    exported: tuple[object, ...]  # each one's: a variable's type and path, an event's type
+    lateness: tuple[bool, ...]  # each one's: a property with a `lateness` setting
 
 
 def checked_alone(
-    model: Model, info: TypeInfo, decl: ast.Decl, parsed: tuple[Diagnostic, ...]
+    model: Model,
+    info: TypeInfo,
+    decls: tuple[ast.Decl, ...],
+    parsed: tuple[Diagnostic, ...],
+    damaged: set[str] | None = None,
 ) -> Alone | None:
-    """The declaration's own findings in `model`: its chunk's parse, its names and
-    its types, checked on copies (`model` and `info` are left as they were)."""
-    symbols = _declared(decl)
-    if symbols is None:
-        return None
-    declared = tuple((s.name, s.kind, s.owner) for s in symbols.values())
-    names = NameChecker([], model.sources, set(), {})
-    names.model = dataclasses.replace(model, uses=[], _reads=None)
-    names.check_decl(decl)
-    reads = names.event_reads.get(id(decl))
-    edges = _edges(model, [i.name for i in reads] if reads is not None else _inputs(decl))
+    """The declarations' own findings in `model` (those of one chunk): its parse,
+    their names and their types, checked on copies (`model` and `info` are left
+    as they were). `damaged`: the names of the chunk when it has a syntax error;
+    then what the check says of it (rmvdsl.check._quieted)."""
+    declared: list[tuple[str, object, str | None]] = []
+    for decl in decls:
+        symbols = _declared(decl)
+        if symbols is None:
+            return None
+        declared += [(s.name, s.kind, s.owner) for s in symbols.values()]
+    names = NameChecker([], model.sources, damaged or set(), {})
+    names.model = dataclasses.replace(model, uses=[], _reads=None, unresolved=set())
     # Incremental: a declaration typed before is not typed again while what it
     # looked up is unchanged (rmvdsl.check.memo), its compiled formula reused.
     types = TypeChecker(names.model, TypeConfig(), ".", True, _typing_copy(info))
-    exported = _typed(types, decl)
-    lateness = isinstance(decl, ast.PropertyDecl) and any(
-        s.key.name == "lateness" for s in decl.settings
-    )
-    found = [*parsed, *names.diagnostics, *types.diagnostics]
+    edges: set[str] = set()
+    exported = []
+    for decl in decls:
+        names.check_decl(decl)
+        reads = names.event_reads.get(id(decl))
+        edges |= _edges(model, [i.name for i in reads] if reads is not None else _inputs(decl))
+        exported.append(_typed(types, decl))
+    found = [*parsed, *names.diagnostics]
+    if damaged is not None:  # what follows from a missing part is not said
+        found = [d for d in found if d.code not in CONSEQUENTIAL or d in parsed]
+    else:
+        found += types.diagnostics
     uses = Counter(r.name for r in cast("list[Reference]", names.model.uses))
-    node = decl.name.name if isinstance(decl, ast.EventDecl | ast.TransducerDecl) else None
-    return Alone(found, declared, uses, edges, node, exported, lateness)
+    nodes = frozenset(
+        d.name.name for d in decls if isinstance(d, ast.EventDecl | ast.TransducerDecl)
+    )
+    lateness = tuple(
+        isinstance(d, ast.PropertyDecl) and any(s.key.name == "lateness" for s in d.settings)
+        for d in decls
+    )
+    return Alone(found, tuple(declared), uses, frozenset(edges), nodes, tuple(exported), lateness)
 
 
 def _declared(decl: ast.Decl) -> dict[str, Symbol] | None:
@@ -137,41 +157,83 @@ def _typed(types: TypeChecker, decl: ast.Decl) -> tuple[object, ...]:
     return ()
 
 
-def exports_as_before(old: Alone, decl: ast.Decl, info: TypeInfo) -> bool:
-    """Whether typing the old declaration again gave what the check gave it (its
-    type does not depend on where typing began)."""
-    match decl:
-        case ast.VarDecl():
-            name = decl.name.name
-            return old.exported == (info.variables.get(name), info.paths.get(name))
-        case ast.EventDecl():
-            return old.exported == (info.events.get(decl.name.name),)
+def exports_as_before(old: Alone, decls: tuple[ast.Decl, ...], info: TypeInfo) -> bool:
+    """Whether typing the old declarations again gave what the check gave them
+    (a type does not depend on where typing began)."""
+    for exported, decl in zip(old.exported, decls, strict=True):
+        match decl:
+            case ast.VarDecl():
+                name = decl.name.name
+                if exported != (info.variables.get(name), info.paths.get(name)):
+                    return False
+            case ast.EventDecl():
+                if exported != (info.events.get(decl.name.name),):
+                    return False
     return True
 
 
-def declared_again(model: Model, old: ast.Decl, new: ast.Decl, sources: SourceMap) -> Model | None:
-    """The model with `new` declared where `old` was (its symbols in their places:
-    the order of suggestions follows it), or None when `old` did not hold its
-    names alone (a name declared twice, an event another transducer emits too)."""
-    symbols = dict(model.symbols)
-    for name, symbol in (_declared(new) or {}).items():
-        if symbols.get(name) is None or symbols[name].decl is not _declarer(old, name):
-            return None
-        symbols[name] = symbol
-    emitted = dict(model.emitted)
-    if isinstance(new, ast.TransducerDecl) and isinstance(old, ast.TransducerDecl):
-        for transition in old.transitions:
-            if transition.output is not None and len(emitted[transition.output.name]) != 1:
+def declared_again(
+    model: Model,
+    old: tuple[ast.Decl, ...],
+    new: tuple[ast.Decl, ...],
+    sources: SourceMap,
+    moved: tuple[int, int],
+) -> Model | None:
+    """The model with each of `new` declared where the one of `old` was (their
+    symbols in their places: the order of suggestions follows it), or None when
+    one of `old` did not hold its names alone (a name declared twice, an event
+    another transducer emits too). `moved`: where the old text's rest began and
+    how far the edit moved it (a symbol read there is read where it now stands)."""
+    symbols, emitted = _Moved(model.symbols, *moved), dict(model.emitted)
+    groups: dict[str, dict[str, ast.Decl]] = {}
+    for before, after in zip(old, new, strict=True):
+        for name, symbol in (_declared(after) or {}).items():
+            known = dict.get(symbols, name)
+            if known is None or known.decl is not _declarer(before, name):
                 return None
-        for transition in new.transitions:
-            if transition.output is not None:
-                emitted[transition.output.name] = [transition]
+            symbols[name] = symbol
+            symbols.new.add(name)
+        if isinstance(after, ast.TransducerDecl) and isinstance(before, ast.TransducerDecl):
+            for transition in before.transitions:
+                if transition.output is not None and len(emitted[transition.output.name]) != 1:
+                    return None
+            for transition in after.transitions:
+                if transition.output is not None:
+                    emitted[transition.output.name] = [transition]
+        group = _GROUPS[type(after)]
+        if group not in groups:
+            groups[group] = dict(getattr(model, group))
+        groups[group][after.name.name] = after  # type: ignore[attr-defined]
     again = dataclasses.replace(
         model, sources=sources, symbols=symbols, emitted=emitted, uses=[], _reads=None
     )
-    group = _GROUPS[type(new)]
-    setattr(again, group, {**getattr(model, group), new.name.name: new})  # type: ignore[attr-defined]
+    for group, decls in groups.items():
+        setattr(again, group, decls)
     return again
+
+
+class _Moved(dict[str, Symbol]):
+    """The symbols of the old text read where they stand in the new one: those
+    after the edited chunk (from `after`) moved by `delta`, those declared anew
+    (`new`) as they are. Each one read is moved then: a check of one declaration
+    reads a few."""
+
+    def __init__(self, symbols: dict[str, Symbol], after: int, delta: int) -> None:
+        super().__init__(symbols)
+        self.after, self.delta = after, delta
+        self.new: set[str] = set()
+
+    def get(self, name: str, default: Any = None) -> Any:
+        found = super().get(name)
+        return default if found is None else self._moved(found)
+
+    def __getitem__(self, name: str) -> Symbol:
+        return self._moved(super().__getitem__(name))
+
+    def _moved(self, symbol: Symbol) -> Symbol:
+        if not self.delta or symbol.span.start < self.after or symbol.name in self.new:
+            return symbol
+        return dataclasses.replace(symbol, span=symbol.span.shifted(self.delta))
 
 
 def _declarer(decl: ast.Decl, name: str) -> ast.Node:
@@ -191,20 +253,19 @@ def same_interface(model: Model, old: Alone, new: Alone) -> bool:
     if (old.declared, old.exported, old.lateness) != (new.declared, new.exported, new.lateness):
         return False
     added = new.edges - old.edges
-    if added and _reaches(model, added, new.node):
+    if added and _reaches(model, added, new.nodes):
         return False
-    return old.uses.keys() == new.uses.keys() or not _stamped_twice(model)
+    return old.uses.keys() == new.uses.keys() or not stamped_twice(model)
 
 
-def _reaches(model: Model, starts: frozenset[str], goal: str | None) -> bool:
-    """Whether the events and transducers `starts` read `goal`, through others
-    (an edge to them would close a cycle)."""
-    if goal is None:
-        return False  # an alert, a property, a variable: no cycle runs through them
+def _reaches(model: Model, starts: frozenset[str], goals: frozenset[str]) -> bool:
+    """Whether the events and transducers `starts` read one of `goals`, through
+    others (an edge to them would close a cycle; no cycle runs through an alert,
+    a property or a variable)."""
     pending, seen = list(starts), set(starts)
     while pending:
         name = pending.pop()
-        if name == goal:
+        if name in goals:
             return True
         decl = model.events.get(name) or model.transducers.get(name)
         if decl is None:
@@ -230,7 +291,7 @@ def _reads_of(model: Model, decl: ast.Decl) -> list[str]:
     return [ident.name for ident in names.event_reads.get(id(decl), ())]
 
 
-def _stamped_twice(model: Model) -> bool:
+def stamped_twice(model: Model) -> bool:
     """Whether two topics are timed by their header stamps (RMV224 reads them)."""
     stamped = 0
     for decl in model.topics.values():
@@ -240,22 +301,29 @@ def _stamped_twice(model: Model) -> bool:
 
 
 def unused_changes(
-    model: Model, old: Alone, new: Alone
+    before: CheckResult, old: Alone, new: Alone, damaged: bool
 ) -> tuple[list[Diagnostic], list[Diagnostic]]:
     """The RMV203 warnings the edit ends and those it starts (where the names
-    stood before it): a name only the declaration used, no longer used, and a
-    name nothing used, now used."""
-    dropped = old.uses.keys() - new.uses.keys()
-    added = new.uses.keys() - old.uses.keys()
-    if not dropped and not added:
-        return [], []
+    stood before it): a name only the declarations used, no longer used, and a
+    name nothing used, now used. A text with a syntax error (`damaged`: the new
+    one) reports none; after one, every unused name is reported again."""
+    model = before.model
+    if damaged:
+        return [d for d in before.diagnostics if d.code == "RMV203"], []
     counts = _use_counts(model)
     whitelisted = whitelisted_topics(model) if model.whitelists else set()
+    if any(model.damaged_ranges.values()):  # the check before reported none
+        found = (
+            unused_warning(symbol, whitelisted)
+            for name, symbol in model.symbols.items()
+            if counts[name] - old.uses[name] + new.uses[name] == 0
+        )
+        return [], [d for d in found if d]
     ended, started = [], []
-    for name in added:
+    for name in new.uses.keys() - old.uses.keys():
         if counts[name] == 0:
             ended.append(unused_warning(model.symbols[name], whitelisted))
-    for name in dropped:
+    for name in old.uses.keys() - new.uses.keys():
         if counts[name] == old.uses[name]:
             started.append(unused_warning(model.symbols[name], whitelisted))
     return [d for d in ended if d], [d for d in started if d]

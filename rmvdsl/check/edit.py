@@ -34,13 +34,14 @@ from rmvdsl.check.alone import (
     exports_as_before,
     prepare_edits,
     same_interface,
+    stamped_twice,
     unused_changes,
 )
 from rmvdsl.check.model import Model
 from rmvdsl.check.names import nothing_checked
 from rmvdsl.check.typeinfo import TypeInfo
 from rmvdsl.grammar import ast
-from rmvdsl.grammar.parser import last_scan, parse_chunk
+from rmvdsl.grammar.parser import damaged_names, last_scan, parse_chunk
 from rmvdsl.grammar.scanner import common_prefix, common_suffix, rescan
 from rmvdsl.lang.diagnostics import Diagnostic, sort_key
 from rmvdsl.lang.source import SourceFile, SourceMap, Span
@@ -86,7 +87,7 @@ def check_edit(before: CheckResult, path: str, text: str) -> EditCheck | None:
     if info is None or len(model.specs) != 1 or model.specs[0].path != path:
         return None
     old_source = model.sources.get(path)
-    if old_source is None or any(model.damaged_ranges.values()):
+    if old_source is None:
         return None
     if any(d.code == _CYCLE for d in before.diagnostics) or nothing_checked(model):
         return None
@@ -106,32 +107,66 @@ def _checked(
     if found is None:
         return None
     start, end, line = found
-    old_decl = _declaration_at(model.specs[0].items, start, end - edit.delta)
-    if old_decl is None or not isinstance(old_decl, _LOCAL):
+    path, old_end = old_source.path, end - edit.delta
+    old_decls = _declarations_in(model.specs[0].items, start, old_end)
+    if old_decls is None or not all(isinstance(d, _LOCAL) for d in old_decls):
+        return None  # (no declaration at all is fine: a chunk that does not parse)
+    new_decls, new_parse, new_damaged = parse_chunk(path, text, start, end, line)
+    new_decls = new_decls or ()
+    if [type(d) for d in new_decls] != [type(d) for d in old_decls]:
         return None
-    path = old_source.path
-    new_decls, new_parse, damaged = parse_chunk(path, text, start, end, line)
-    if damaged or new_decls is None or len(new_decls) != 1:
+    _, old_parse, old_damaged = parse_chunk(path, old_source.text, start, old_end, line)
+    damage = _damage(
+        before, old_source.text, text, (start, old_end, end), (old_damaged, new_damaged)
+    )
+    if damage is None:
         return None
-    new_decl = new_decls[0]
-    if type(new_decl) is not type(old_decl):
-        return None
-    _, old_parse, _ = parse_chunk(path, old_source.text, start, end - edit.delta, line)
-    old = checked_alone(model, info, old_decl, old_parse)
-    if old is None or not exports_as_before(old, old_decl, info):
+    old = checked_alone(model, info, old_decls, old_parse, damage[0])
+    if old is None or not exports_as_before(old, old_decls, info):
         return None
     source = SourceFile(path, text)
     sources = _with_source(model.sources, source)
-    new_model = declared_again(model, old_decl, new_decl, sources)
-    new = None if new_model is None else checked_alone(new_model, info, new_decl, new_parse)
+    new_model = declared_again(model, old_decls, new_decls, sources, (old_end, edit.delta))
+    new = None
+    if new_model is not None:
+        new = checked_alone(new_model, info, new_decls, new_parse, damage[1])
     if new is None or not same_interface(model, old, new):
         return None
-    ended, started = unused_changes(model, old, new)
+    ended, started = unused_changes(before, old, new, new_damaged)
     kept = _without(before.diagnostics, [*old.diagnostics, *ended])
-    moved = None if kept is None else _moved([*kept, *started], source.path, edit)
+    moved = None if kept is None else _moved([*kept, *started], path, edit)
     if moved is None:
         return None
     return EditCheck(sorted([*moved, *new.diagnostics], key=sort_key), sources)
+
+
+def _damage(
+    before: CheckResult,
+    old: str,
+    new: str,
+    bounds: tuple[int, int, int],
+    damaged: tuple[bool, bool],
+) -> tuple[set[str] | None, set[str] | None] | None:
+    """The names of the edited chunk before and after the edit, each when it has
+    a syntax error (else None); None when the chunk's syntax errors change what
+    the rest of the spec reports: another chunk has them, a name another
+    declaration reads in vain is quieted or no longer quieted ("undefined name"
+    is not said of a name in a chunk with a syntax error), or RMV224 could be
+    said (it is not said in such a chunk)."""
+    model, (start, old_end, new_end) = before.model, bounds
+    path = model.specs[0].path
+    if model.damaged_ranges.get(path, []) != ([(start, old_end)] if damaged[0] else []):
+        return None
+    if not any(damaged):
+        return None, None
+    names = (
+        damaged_names(old, start, old_end) if damaged[0] else None,
+        damaged_names(new, start, new_end) if damaged[1] else None,
+    )
+    changed = (names[0] or set()) ^ (names[1] or set())
+    if changed & model.unresolved or stamped_twice(model):
+        return None
+    return names
 
 
 def _with_source(sources: SourceMap, source: SourceFile) -> SourceMap:
@@ -169,14 +204,20 @@ def _chunk_of(old: SourceFile, text: str, edit: _Edit) -> tuple[int, int, int] |
     return start, end, line
 
 
-def _declaration_at(items: tuple[ast.Decl, ...], start: int, end: int) -> ast.Decl | None:
-    """The one declaration of the old text inside [start, end)."""
+def _declarations_in(
+    items: tuple[ast.Decl, ...], start: int, end: int
+) -> tuple[ast.Decl, ...] | None:
+    """The declarations of the old text inside [start, end); None when one of
+    them runs past it."""
     first = bisect.bisect_left(items, start, key=lambda d: d.span.start)
-    if first >= len(items) or items[first].span.end > end:
-        return None
-    if first + 1 < len(items) and items[first + 1].span.start < end:
-        return None
-    return items[first]
+    found = []
+    for item in items[first:]:
+        if item.span.start >= end:
+            break
+        if item.span.end > end:
+            return None
+        found.append(item)
+    return tuple(found)
 
 
 def _without(diagnostics: list[Diagnostic], removed: list[Diagnostic]) -> list[Diagnostic] | None:

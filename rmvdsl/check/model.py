@@ -105,6 +105,10 @@ class Model:
     damaged_ranges: dict[str, list[tuple[int, int]]] = field(default_factory=dict)
     messages: list[ast.MessagesDecl] = field(default_factory=list)
     symbols: dict[str, Symbol] = field(default_factory=dict)
+    # Names looked up and not declared (reported or not: a name in a declaration
+    # with a syntax error is not): an edit that quiets or unquiets "undefined name"
+    # reads them (rmvdsl.check.edit).
+    unresolved: set[str] = field(default_factory=set, repr=False)
     # Each use of a name, in the order of the declarations (read `references`).
     uses: list[Reference | ReusedReferences] = field(default_factory=list, repr=False)
     _reads: dict[str, set[str]] | None = field(default=None, repr=False, compare=False)

@@ -98,6 +98,7 @@ class NameChecker(Declarations, StructureChecks, ActionChecks, EventChecks):
         if self.lookups is not None:
             self.lookups.append((ident.name, symbol))
         if symbol is None:
+            self.model.unresolved.add(ident.name)
             if ident.name not in self.damaged:
                 candidates = [s.name for s in self.model.symbols.values() if s.kind in allowed]
                 self.report(

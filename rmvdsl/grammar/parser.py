@@ -110,6 +110,12 @@ def scan_file(path: str, text: str) -> ScanResult:
     return scanned
 
 
+def damaged_names(text: str, start: int, end: int) -> set[str]:
+    """The identifiers of a chunk with a syntax error: names it may have declared,
+    so that "undefined name" is not reported for them."""
+    return set(_IDENTIFIER.findall(text, start, end))
+
+
 def last_scan(path: str, text: str) -> ScanResult:
     """The scan of a file's text: one of the last made, if it was of this text."""
     found = _RECENT_SCANS.get((path, text))
@@ -129,7 +135,7 @@ def parse_chunk(
         builder.start_parse(path)
         chunk = _parse_chunk(SourceFile(path, text), start, end, line, builder)
     delta = start - chunk.start
-    decls, found = chunk.decls, chunk.diagnostics
+    decls, found = chunk.decls, tuple(_unique(list(chunk.diagnostics)))  # as parse_source
     if delta:
         decls = None if decls is None else shifted(decls, delta)
         found = shifted(found, delta)
@@ -158,7 +164,7 @@ def parse_source(source: SourceFile) -> ParsedSpec:
         if chunk.diagnostics:
             diagnostics.extend(shifted(chunk.diagnostics, delta) if delta else chunk.diagnostics)
         if chunk.damaged:
-            damaged.update(_IDENTIFIER.findall(source.text, start, end))
+            damaged.update(damaged_names(source.text, start, end))
             ranges.append((start, end))
     items = _attach_docs(items, scanned.comments, source)
     comments = tuple(ast.Comment(c.text, source.span(c.start, c.end)) for c in scanned.comments)
