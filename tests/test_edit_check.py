@@ -151,6 +151,23 @@ def test_a_syntax_error_quieting_a_name_read_elsewhere_waits_for_the_full_check(
     assert not answered and "RMV200" not in {d.code for d in full.diagnostics}
 
 
+def test_a_declaration_added_or_removed(tmp_path: Path) -> None:
+    """A new event no one reads (it is unused, and W it reads no longer is); and
+    back. A name read in vain elsewhere keeps the edit path away (its "did you
+    mean" chooses among the names)."""
+    spec = HEAD + "event F when V > 1\nproperty P: always[<=1s] not F\n"
+    added = spec.replace("event F when V > 1\n", "event F when V > 1\nevent H when W > 1\n")
+    answered, full = _pair(tmp_path, spec, added)
+    assert answered and [d.code for d in full.diagnostics] == ["RMV203"]
+    answered, full = _pair(tmp_path, added, spec)
+    assert answered and [d.code for d in full.diagnostics] == ["RMV203"]
+    in_vain = spec.replace("not F", "not F and not Hx")
+    answered, _ = _pair(
+        tmp_path, in_vain, in_vain.replace("event F", "event H when W > 1\nevent F")
+    )
+    assert not answered
+
+
 def test_an_edit_closing_a_cycle_waits_for_the_full_check(tmp_path: Path) -> None:
     spec = HEAD + "event F = V * 2\nevent E = F + 1\nevent G when E > 1\nproperty P: not G\n"
     answered, full = _pair(tmp_path, spec, spec.replace("F = V * 2", "F = E * 2"))
@@ -171,7 +188,7 @@ def test_a_diagnostic_after_the_edit_moves_its_own_labels_only(tmp_path: Path) -
     [
         ("event F when V > 1", "event G when V > 1"),  # a declared name
         ("event F when V > 1", "event F = V + 1"),  # a boolean event made a value
-        ("event F when V > 1\n", "event F when V > 1\nevent H when W > 1\n"),  # a new one
+        ("event F when V > 1", "event F when V > 1\nevent V when W > 1"),  # a name again
     ],
 )
 def test_edits_past_one_declaration_wait_for_the_full_check(

@@ -14,7 +14,7 @@ from operator import itemgetter
 from typing import TYPE_CHECKING, Any, cast
 
 from rmvdsl.check import CONSEQUENTIAL
-from rmvdsl.check.model import Model, Reference, ReusedReferences, Symbol
+from rmvdsl.check.model import Kind, Model, Reference, ReusedReferences, Symbol
 from rmvdsl.check.names import (
     NameChecker,
     Resolved,
@@ -26,7 +26,7 @@ from rmvdsl.check.types import TypeChecker, TypeConfig
 from rmvdsl.grammar import ast
 from rmvdsl.grammar.shift import findings
 from rmvdsl.lang.diagnostics import Diagnostic
-from rmvdsl.lang.source import SourceMap
+from rmvdsl.lang.source import SourceMap, Span
 
 if TYPE_CHECKING:
     from rmvdsl.check import CheckResult
@@ -43,16 +43,20 @@ _GROUPS: dict[type, str] = {
 
 @dataclass(frozen=True)
 class Alone:
-    """A chunk's declarations' own findings and what other declarations see of
-    them."""
+    """Declarations' own findings (those of the chunks an edit changed) and what
+    other declarations see of them."""
 
     diagnostics: list[Diagnostic]
-    declared: tuple[tuple[str, object, str | None], ...]  # name, kind, owner
+    symbols: dict[str, Symbol]  # what they declare, in order
     uses: Counter[str]  # the names their references name, and how often
     edges: frozenset[str]  # the events they read (an emitted one: its transducer)
     nodes: frozenset[str]  # their names among those: an event's, a transducer's
-    exported: tuple[object, ...]  # each one's: a variable's type and path, an event's type
-    lateness: tuple[bool, ...]  # each one's: a property with a `lateness` setting
+    exported: dict[str, object]  # a variable's type and path, an event's type, by name
+    lateness: dict[str, bool]  # by property: whether it has a `lateness` setting
+
+    def declared(self, name: str) -> tuple[object, str | None]:
+        symbol = self.symbols[name]
+        return symbol.kind, symbol.owner
 
 
 def checked_alone(
@@ -60,44 +64,59 @@ def checked_alone(
     info: TypeInfo,
     decls: tuple[ast.Decl, ...],
     parsed: tuple[Diagnostic, ...],
-    damaged: set[str] | None = None,
+    damaged: tuple[set[str], list[tuple[int, int]]] = (set(), []),
 ) -> Alone | None:
-    """The declarations' own findings in `model` (those of one chunk): its parse,
-    their names and their types, checked on copies (`model` and `info` are left
-    as they were). `damaged`: the names of the chunk when it has a syntax error;
-    then what the check says of it (rmvdsl.check._quieted)."""
-    declared: list[tuple[str, object, str | None]] = []
-    for decl in decls:
-        symbols = _declared(decl)
-        if symbols is None:
-            return None
-        declared += [(s.name, s.kind, s.owner) for s in symbols.values()]
-    names = NameChecker([], model.sources, damaged or set(), {})
+    """The declarations' own findings in `model` (those of the chunks an edit
+    changed): their parse, their names and their types, checked on copies
+    (`model` and `info` are left as they were). `damaged`: the names of those
+    chunks with a syntax error, and where they are; what the check says of such
+    a chunk (rmvdsl.check._quieted). None when they declare a name twice."""
+    symbols = declared_by(decls)
+    if symbols is None:
+        return None
+    names = NameChecker([], model.sources, damaged[0], {})
     names.model = dataclasses.replace(model, uses=[], _reads=None, unresolved=set())
     # Incremental: a declaration typed before is not typed again while what it
     # looked up is unchanged (rmvdsl.check.memo), its compiled formula reused.
     types = TypeChecker(names.model, TypeConfig(), ".", True, _typing_copy(info))
     edges: set[str] = set()
-    exported = []
+    exported: dict[str, object] = {}
     for decl in decls:
         names.check_decl(decl)
         reads = names.event_reads.get(id(decl))
         edges |= _edges(model, [i.name for i in reads] if reads is not None else _inputs(decl))
-        exported.append(_typed(types, decl))
-    found = [*parsed, *names.diagnostics]
-    if damaged is not None:  # what follows from a missing part is not said
-        found = [d for d in found if d.code not in CONSEQUENTIAL or d in parsed]
-    else:
-        found += types.diagnostics
+        found_type = _typed(types, decl)
+        if found_type:
+            exported[decl.name.name] = found_type  # type: ignore[attr-defined]
+
+    def quieted(span: Span) -> bool:
+        return any(start <= span.start < end for start, end in damaged[1])
+
+    found = [*parsed]  # what follows from a missing part is not said
+    found += [d for d in names.diagnostics if d.code not in CONSEQUENTIAL or not quieted(d.span)]
+    found += [d for d in types.diagnostics if not quieted(d.span)]
     uses = Counter(r.name for r in cast("list[Reference]", names.model.uses))
     nodes = frozenset(
         d.name.name for d in decls if isinstance(d, ast.EventDecl | ast.TransducerDecl)
     )
-    lateness = tuple(
-        isinstance(d, ast.PropertyDecl) and any(s.key.name == "lateness" for s in d.settings)
+    lateness = {
+        d.name.name: any(s.key.name == "lateness" for s in d.settings)
         for d in decls
-    )
-    return Alone(found, tuple(declared), uses, frozenset(edges), nodes, tuple(exported), lateness)
+        if isinstance(d, ast.PropertyDecl)
+    }
+    return Alone(found, symbols, uses, frozenset(edges), nodes, exported, lateness)
+
+
+def declared_by(decls: tuple[ast.Decl, ...]) -> dict[str, Symbol] | None:
+    """The symbols declarations declare, in order; None when one is declared
+    twice, or declaring one alone finds something wrong (a keyword as a name)."""
+    symbols: dict[str, Symbol] = {}
+    for decl in decls:
+        found = _declared(decl)
+        if found is None or found.keys() & symbols.keys():
+            return None
+        symbols.update(found)
+    return symbols
 
 
 def _declared(decl: ast.Decl) -> dict[str, Symbol] | None:
@@ -157,58 +176,68 @@ def _typed(types: TypeChecker, decl: ast.Decl) -> tuple[object, ...]:
     return ()
 
 
-def exports_as_before(old: Alone, decls: tuple[ast.Decl, ...], info: TypeInfo) -> bool:
+def exports_as_before(old: Alone, info: TypeInfo) -> bool:
     """Whether typing the old declarations again gave what the check gave them
     (a type does not depend on where typing began)."""
-    for exported, decl in zip(old.exported, decls, strict=True):
-        match decl:
-            case ast.VarDecl():
-                name = decl.name.name
-                if exported != (info.variables.get(name), info.paths.get(name)):
-                    return False
-            case ast.EventDecl():
-                if exported != (info.events.get(decl.name.name),):
-                    return False
+    for name, exported in old.exported.items():
+        kind = old.symbols[name].kind
+        if kind is Kind.VARIABLE:
+            if exported != (info.variables.get(name), info.paths.get(name)):
+                return False
+        elif exported != (info.events.get(name),):
+            return False
     return True
 
 
 def declared_again(
     model: Model,
-    old: tuple[ast.Decl, ...],
-    new: tuple[ast.Decl, ...],
+    old: tuple[tuple[ast.Decl, ...], Alone],
+    new: tuple[tuple[ast.Decl, ...], dict[str, Symbol]],
     sources: SourceMap,
     moved: tuple[int, int],
 ) -> Model | None:
-    """The model with each of `new` declared where the one of `old` was (their
-    symbols in their places: the order of suggestions follows it), or None when
-    one of `old` did not hold its names alone (a name declared twice, an event
-    another transducer emits too). `moved`: where the old text's rest began and
-    how far the edit moved it (a symbol read there is read where it now stands)."""
-    symbols, emitted = _Moved(model.symbols, *moved), dict(model.emitted)
-    groups: dict[str, dict[str, ast.Decl]] = {}
-    for before, after in zip(old, new, strict=True):
-        for name, symbol in (_declared(after) or {}).items():
-            known = dict.get(symbols, name)
-            if known is None or known.decl is not _declarer(before, name):
-                return None
-            symbols[name] = symbol
-            symbols.new.add(name)
-        if isinstance(after, ast.TransducerDecl) and isinstance(before, ast.TransducerDecl):
-            for transition in before.transitions:
-                if transition.output is not None and len(emitted[transition.output.name]) != 1:
+    """The model with the new declarations where the old ones were (a symbol
+    declared by both in its place: the order of suggestions follows it), or None
+    when an old one did not hold its names alone (a name declared twice, an
+    event another transducer emits too). `moved`: where the old text's rest began
+    and how far the edit moved it (a symbol read there is read where it now
+    stands)."""
+    (old_decls, before), (new_decls, after) = old, new
+    symbols = _Moved(model.symbols, *moved)
+    for name in before.symbols:
+        known = dict.get(symbols, name)
+        if known is None or known.decl is not _declarer(old_decls, name):
+            return None
+        if name not in after:
+            del symbols[name]
+    for name, symbol in after.items():
+        if name not in before.symbols and dict.__contains__(symbols, name):
+            return None  # declared elsewhere too
+        symbols[name] = symbol
+        symbols.new.add(name)
+    emitted = dict(model.emitted)
+    for decl in old_decls:
+        for transition in decl.transitions if isinstance(decl, ast.TransducerDecl) else ():
+            if transition.output is not None:
+                if len(emitted.get(transition.output.name, ())) != 1:
                     return None
-            for transition in after.transitions:
-                if transition.output is not None:
-                    emitted[transition.output.name] = [transition]
-        group = _GROUPS[type(after)]
-        if group not in groups:
-            groups[group] = dict(getattr(model, group))
-        groups[group][after.name.name] = after  # type: ignore[attr-defined]
+                del emitted[transition.output.name]
+    for decl in new_decls:
+        for transition in decl.transitions if isinstance(decl, ast.TransducerDecl) else ():
+            if transition.output is not None:
+                emitted.setdefault(transition.output.name, []).append(transition)
     again = dataclasses.replace(
         model, sources=sources, symbols=symbols, emitted=emitted, uses=[], _reads=None
     )
-    for group, decls in groups.items():
-        setattr(again, group, decls)
+    for group in {_GROUPS[type(d)] for d in (*old_decls, *new_decls)}:
+        members = dict(getattr(model, group))
+        for decl in old_decls:
+            if _GROUPS[type(decl)] == group:
+                members.pop(decl.name.name, None)  # type: ignore[attr-defined]
+        for decl in new_decls:
+            if _GROUPS[type(decl)] == group:
+                members.setdefault(decl.name.name, decl)  # type: ignore[attr-defined]
+        setattr(again, group, members)
     return again
 
 
@@ -236,26 +265,60 @@ class _Moved(dict[str, Symbol]):
         return dataclasses.replace(symbol, span=symbol.span.shifted(self.delta))
 
 
-def _declarer(decl: ast.Decl, name: str) -> ast.Node:
-    """The node a symbol of `decl` is declared by (an emitted event's: its step)."""
-    if isinstance(decl, ast.TransducerDecl):
-        for transition in decl.transitions:
+def _declarer(decls: tuple[ast.Decl, ...], name: str) -> ast.Node | None:
+    """The node a symbol of `decls` is declared by (an emitted event's: its step)."""
+    for decl in decls:
+        for transition in decl.transitions if isinstance(decl, ast.TransducerDecl) else ():
             if transition.output is not None and transition.output.name == name:
                 return transition
-    return decl
+        if name in (_declared(decl) or {}):
+            return decl
+    return None
 
 
 def same_interface(model: Model, old: Alone, new: Alone) -> bool:
     """Whether the other declarations' findings are as they were, but for which
-    names are unused: the same names declared, the same types exported, no new
-    event read (the check before found no cycle: fewer reads make none), and
-    where RMV224 could be said, the same names read."""
-    if (old.declared, old.exported, old.lateness) != (new.declared, new.exported, new.lateness):
+    names are unused: a name declared by both declared alike and of the same
+    type; a name no longer declared read by none of the others; a new name not
+    declared before; no name read in vain anywhere when names come or go (its
+    "did you mean" chooses among them); no new event read that closes a cycle
+    (the check before found none); and where RMV224 could be said, the same
+    names read, declared and settings."""
+    counts = _use_counts(model)
+    gone, come = old.symbols.keys() - new.symbols.keys(), new.symbols.keys() - old.symbols.keys()
+    if (gone or come) and model.unresolved:
+        return False  # "did you mean" of a name read in vain chooses among the names
+    for name in gone:
+        if counts[name] != old.uses[name]:
+            return False
+    for name in come:
+        if name in model.symbols:
+            return False
+    for name in old.symbols.keys() & new.symbols.keys():
+        if old.declared(name) != new.declared(name):
+            return False
+        if old.exported.get(name) != new.exported.get(name):
+            return False
+    if nothing_checked_after(model, old, new):
         return False
     added = new.edges - old.edges
-    if added and _reaches(model, added, new.nodes):
+    if added and _reaches(model, added, new.nodes | old.nodes):
         return False
-    return old.uses.keys() == new.uses.keys() or not stamped_twice(model)
+    if not stamped_twice(model):
+        return True
+    same = (old.uses.keys(), old.symbols.keys(), old.lateness)
+    return same == (new.uses.keys(), new.symbols.keys(), new.lateness)
+
+
+def nothing_checked_after(model: Model, old: Alone, new: Alone) -> bool:
+    """Whether the edit leaves no property nor alert (RMV226 would be said: the
+    check before checked something)."""
+    if model.whitelists or model.nodes or model.intrusion is not None:
+        return False
+    kinds = (Kind.PROPERTY, Kind.ALERT)
+    gone = sum(s.kind in kinds for s in old.symbols.values())
+    come = sum(s.kind in kinds for s in new.symbols.values())
+    return len(model.properties) + len(model.alerts) - gone + come == 0
 
 
 def _reaches(model: Model, starts: frozenset[str], goals: frozenset[str]) -> bool:
@@ -302,31 +365,41 @@ def stamped_twice(model: Model) -> bool:
 
 def unused_changes(
     before: CheckResult, old: Alone, new: Alone, damaged: bool
-) -> tuple[list[Diagnostic], list[Diagnostic]]:
-    """The RMV203 warnings the edit ends and those it starts (where the names
-    stood before it): a name only the declarations used, no longer used, and a
-    name nothing used, now used. A text with a syntax error (`damaged`: the new
-    one) reports none; after one, every unused name is reported again."""
+) -> tuple[list[Diagnostic], list[Diagnostic], list[Diagnostic]]:
+    """The RMV203 warnings the edit ends, and those it starts: of names declared
+    before it (where they stood then), and of the names it declares. A text with
+    a syntax error (`damaged`: the new one) reports none; after one, every unused
+    name is reported again."""
     model = before.model
     if damaged:
-        return [d for d in before.diagnostics if d.code == "RMV203"], []
+        return [d for d in before.diagnostics if d.code == "RMV203"], [], []
     counts = _use_counts(model)
     whitelisted = whitelisted_topics(model) if model.whitelists else set()
+
+    def unused(symbol: Symbol) -> list[Diagnostic]:
+        found = unused_warning(symbol, whitelisted)
+        return [] if found is None else [found]
+
+    ended, started, declared = [], [], []
+    gone = old.symbols.keys() - new.symbols.keys()
+    for name, symbol in new.symbols.items():
+        if name not in old.symbols and new.uses[name] == 0:
+            declared += unused(symbol)
     if any(model.damaged_ranges.values()):  # the check before reported none
-        found = (
-            unused_warning(symbol, whitelisted)
-            for name, symbol in model.symbols.items()
-            if counts[name] - old.uses[name] + new.uses[name] == 0
-        )
-        return [], [d for d in found if d]
-    ended, started = [], []
-    for name in new.uses.keys() - old.uses.keys():
+        for name, symbol in model.symbols.items():
+            if name not in gone and counts[name] - old.uses[name] + new.uses[name] == 0:
+                started += unused(symbol)
+        return [], started, declared
+    for name in gone:
         if counts[name] == 0:
-            ended.append(unused_warning(model.symbols[name], whitelisted))
+            ended += unused(model.symbols[name])
+    for name in new.uses.keys() - old.uses.keys():
+        if name in model.symbols and counts[name] == 0:
+            ended += unused(model.symbols[name])
     for name in old.uses.keys() - new.uses.keys():
-        if counts[name] == old.uses[name]:
-            started.append(unused_warning(model.symbols[name], whitelisted))
-    return [d for d in ended if d], [d for d in started if d]
+        if name not in gone and counts[name] == old.uses[name]:
+            started += unused(model.symbols[name])
+    return ended, started, declared
 
 
 # The model counted last (not kept alive by this: a closed document's is let go).

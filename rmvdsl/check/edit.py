@@ -22,15 +22,16 @@ from __future__ import annotations
 
 import bisect
 import dataclasses
+import itertools
 import os
 from collections import Counter
 from dataclasses import dataclass
-from operator import itemgetter
 from typing import TYPE_CHECKING
 
 from rmvdsl.check.alone import (
     checked_alone,
     declared_again,
+    declared_by,
     exports_as_before,
     prepare_edits,
     same_interface,
@@ -55,6 +56,7 @@ if TYPE_CHECKING:
 # every stage).
 _LOCAL = (ast.VarDecl, ast.EventDecl, ast.AlertDecl, ast.PropertyDecl, ast.TransducerDecl)
 _CYCLE = "RMV220"  # an event's type inside a cycle depends on where typing began
+_MOST_CHUNKS = 8  # of the old text an edit may change (more: let the full check answer)
 
 
 @dataclass(frozen=True)
@@ -103,70 +105,87 @@ def _checked(
     before: CheckResult, model: Model, info: TypeInfo, old_source: SourceFile, text: str
 ) -> EditCheck | None:
     edit = _edit(old_source.text, text)
-    found = _chunk_of(old_source, text, edit)
-    if found is None:
+    group = _chunks_of(old_source, text, edit)
+    if group is None:
         return None
-    start, end, line = found
-    path, old_end = old_source.path, end - edit.delta
+    path, (start, old_end, new_end) = old_source.path, group.bounds
     old_decls = _declarations_in(model.specs[0].items, start, old_end)
     if old_decls is None or not all(isinstance(d, _LOCAL) for d in old_decls):
-        return None  # (no declaration at all is fine: a chunk that does not parse)
-    new_decls, new_parse, new_damaged = parse_chunk(path, text, start, end, line)
-    new_decls = new_decls or ()
-    if [type(d) for d in new_decls] != [type(d) for d in old_decls]:
         return None
-    _, old_parse, old_damaged = parse_chunk(path, old_source.text, start, old_end, line)
-    damage = _damage(
-        before, old_source.text, text, (start, old_end, end), (old_damaged, new_damaged)
-    )
-    if damage is None:
+    old_parse, old_damage = _parsed(path, old_source.text, group.old, old_end)
+    new_parse, new_damage = _parsed(path, text, group.new, new_end)
+    new_decls = tuple(d for decls, _ in new_parse for d in decls)
+    if not all(isinstance(d, _LOCAL) for d in new_decls):
         return None
-    old = checked_alone(model, info, old_decls, old_parse, damage[0])
-    if old is None or not exports_as_before(old, old_decls, info):
+    if not _damage_allowed(model, old_damage, new_damage):
+        return None
+    old_found = tuple(d for _, found in old_parse for d in found)
+    old = checked_alone(model, info, old_decls, old_found, old_damage)
+    if old is None or not exports_as_before(old, info):
+        return None
+    new_symbols = declared_by(new_decls)
+    if new_symbols is None:
         return None
     source = SourceFile(path, text)
     sources = _with_source(model.sources, source)
-    new_model = declared_again(model, old_decls, new_decls, sources, (old_end, edit.delta))
+    moved = (old_end, edit.delta)
+    new_model = declared_again(model, (old_decls, old), (new_decls, new_symbols), sources, moved)
+    new_found = tuple(d for _, found in new_parse for d in found)
     new = None
     if new_model is not None:
-        new = checked_alone(new_model, info, new_decls, new_parse, damage[1])
+        new = checked_alone(new_model, info, new_decls, new_found, new_damage)
     if new is None or not same_interface(model, old, new):
         return None
-    ended, started = unused_changes(before, old, new, new_damaged)
+    ended, started, declared = unused_changes(before, old, new, bool(new_damage[1]))
     kept = _without(before.diagnostics, [*old.diagnostics, *ended])
-    moved = None if kept is None else _moved([*kept, *started], path, edit)
-    if moved is None:
+    placed = None if kept is None else _moved([*kept, *started], path, edit)
+    if placed is None:
         return None
-    return EditCheck(sorted([*moved, *new.diagnostics], key=sort_key), sources)
+    return EditCheck(sorted([*placed, *new.diagnostics, *declared], key=sort_key), sources)
 
 
-def _damage(
-    before: CheckResult,
-    old: str,
-    new: str,
-    bounds: tuple[int, int, int],
-    damaged: tuple[bool, bool],
-) -> tuple[set[str] | None, set[str] | None] | None:
-    """The names of the edited chunk before and after the edit, each when it has
-    a syntax error (else None); None when the chunk's syntax errors change what
-    the rest of the spec reports: another chunk has them, a name another
-    declaration reads in vain is quieted or no longer quieted ("undefined name"
-    is not said of a name in a chunk with a syntax error), or RMV224 could be
-    said (it is not said in such a chunk)."""
-    model, (start, old_end, new_end) = before.model, bounds
-    path = model.specs[0].path
-    if model.damaged_ranges.get(path, []) != ([(start, old_end)] if damaged[0] else []):
-        return None
-    if not any(damaged):
-        return None, None
-    names = (
-        damaged_names(old, start, old_end) if damaged[0] else None,
-        damaged_names(new, start, new_end) if damaged[1] else None,
-    )
-    changed = (names[0] or set()) ^ (names[1] or set())
-    if changed & model.unresolved or stamped_twice(model):
-        return None
-    return names
+@dataclass(frozen=True)
+class _Group:
+    """The chunks an edit changed: the old text's and the new text's (start and
+    first line each), from `bounds[0]` to `bounds[1]` in the old text and to
+    `bounds[2]` in the new."""
+
+    old: tuple[tuple[int, int], ...]
+    new: tuple[tuple[int, int], ...]
+    bounds: tuple[int, int, int]
+
+
+Damage = tuple[set[str], list[tuple[int, int]]]  # names, ranges
+
+
+def _parsed(
+    path: str, text: str, chunks: tuple[tuple[int, int], ...], end: int
+) -> tuple[list[tuple[tuple[ast.Decl, ...], tuple[Diagnostic, ...]]], Damage]:
+    """Each chunk's declarations and parse diagnostics; the names and places of
+    those with a syntax error."""
+    parsed = []
+    names: set[str] = set()
+    ranges = []
+    for (start, line), (stop, _) in itertools.pairwise([*chunks, (end, 0)]):
+        decls, found, damaged = parse_chunk(path, text, start, stop, line)
+        parsed.append((decls or (), found))
+        if damaged:
+            names |= damaged_names(text, start, stop)
+            ranges.append((start, stop))
+    return parsed, (names, ranges)
+
+
+def _damage_allowed(model: Model, old: Damage, new: Damage) -> bool:
+    """Whether the syntax errors of the changed chunks change no finding of the
+    other declarations: no other chunk has one, no name another declaration reads
+    in vain is quieted or no longer quieted ("undefined name" is not said of a
+    name in a chunk with a syntax error), and RMV224 cannot be said (it is not
+    said in such a chunk)."""
+    if model.damaged_ranges.get(model.specs[0].path, []) != old[1]:
+        return False
+    if not old[1] and not new[1]:
+        return True
+    return not ((old[0] ^ new[0]) & model.unresolved or stamped_twice(model))
 
 
 def _with_source(sources: SourceMap, source: SourceFile) -> SourceMap:
@@ -184,24 +203,19 @@ def _edit(old: str, new: str) -> _Edit:
     return _Edit(start, len(old) - suffix, len(new) - suffix)
 
 
-def _chunk_of(old: SourceFile, text: str, edit: _Edit) -> tuple[int, int, int] | None:
-    """The chunk of the new text holding the whole edit (its start, end and first
-    line), when the chunks of the old text are the same ones, that one longer or
-    shorter by the edit; None otherwise."""
+def _chunks_of(old: SourceFile, text: str, edit: _Edit) -> _Group | None:
+    """The chunks the edit changed, in the old text and in the new (the same
+    chunks before and after them), when the edit is inside them."""
     scanned = last_scan(old.path, old.text)
-    starts = scanned.chunks
-    first = bisect.bisect_right(starts, edit.start, key=itemgetter(0)) - 1
-    if first + 1 < len(starts) and starts[first + 1][0] < edit.old_end:
-        return None  # the edit runs into the next chunk (two keys far apart, say)
     region = rescan(text, old.text, scanned)
     stop = len(scanned.chunks) if region.rest is None else region.rest
-    if not region.chunks or region.chunks != scanned.chunks[region.first : stop]:
+    if not region.chunks or edit.start < region.chunks[0][0]:
         return None
-    start, line = region.chunks[-1]
-    if edit.start < start:
-        return None  # the edit began in an earlier chunk
-    end = len(text) if stop == len(scanned.chunks) else scanned.chunks[stop][0] + edit.delta
-    return start, end, line
+    old_end = len(old.text) if stop == len(scanned.chunks) else scanned.chunks[stop][0]
+    if edit.old_end > old_end or stop - region.first > _MOST_CHUNKS:
+        return None  # a long way apart (two keys, when the last check is some keys old)
+    bounds = (region.chunks[0][0], old_end, old_end + edit.delta)
+    return _Group(scanned.chunks[region.first : stop], region.chunks, bounds)
 
 
 def _declarations_in(
