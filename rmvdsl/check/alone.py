@@ -386,9 +386,11 @@ def unused_changes(
         if name not in old.symbols and new.uses[name] == 0:
             declared += unused(symbol)
     if any(model.damaged_ranges.values()):  # the check before reported none
-        for name, symbol in model.symbols.items():
-            if name not in gone and counts[name] - old.uses[name] + new.uses[name] == 0:
-                started += unused(symbol)
+        # The names read after the edit, by set operations (a spec has thousands).
+        dropped = {n for n in old.uses if counts[n] - old.uses[n] + new.uses[n] <= 0}
+        read = (counts.keys() - dropped) | new.uses.keys()
+        for name in model.symbols.keys() - read - gone:
+            started += unused(model.symbols[name])
         return [], started, declared
     for name in gone:
         if counts[name] == 0:

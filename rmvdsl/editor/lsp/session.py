@@ -131,6 +131,14 @@ class RmvServer(LanguageServer):
         state.workspace.open(path, document.source)
         generation = state.generation[path] = state.generation.get(path, 0) + 1
         state.solver.cancel(path)  # a solver stage of the text before is wasted work
+        waiter = state.analysed.get(path)
+        if waiter is None or waiter.done():  # what requests for this text wait for
+            state.analysed[path] = asyncio.get_running_loop().create_future()
+        # Requests that came with the key (a completion) are answered first: they
+        # wait for nothing, and the key's diagnostics wait one turn of the loop.
+        await asyncio.sleep(0)
+        if state.generation.get(path) != generation:
+            return  # a newer key came meanwhile: its check answers
         first = self._publish_edit(path, document.source)
         if not await self._publish_fast(path, generation, first):
             return
