@@ -21,6 +21,7 @@ from rmvdsl.check.model import Kind, Model, Symbol
 from rmvdsl.editor.mentions import Mention
 from rmvdsl.lang.files import read_text
 from rmvdsl.lang.source import SourceFile, Span
+from rmvdsl.util.deep import deep
 
 __all__ = [
     "TOKEN_TYPES",
@@ -91,8 +92,10 @@ class Workspace:
 
     def check_edit(self, path: str, text: str, before: CheckResult) -> EditCheck | None:
         """The fast stages' diagnostics of `text`, the document's new text, from
-        `before` when the edit stays inside one declaration (rmvdsl.check.edit)."""
-        return check_edit(before, path, text)
+        `before` when the edit stays inside one declaration (rmvdsl.check.edit).
+        On a deep stack, as every check (rmvdsl.util.deep): a check running beside
+        it has raised the interpreter's recursion limit for its own."""
+        return deep(check_edit, before, path, text)
 
 
 def warm_up() -> None:

@@ -58,6 +58,10 @@ class State:
     # text that has changed since is skipped when its turn comes. The solver lane's
     # thread only waits: the stages run in the solver process.
     fast_lane: ThreadPoolExecutor = field(default_factory=lambda: _lane("rmv-fast"))
+    # The diagnostics of an edit inside one declaration (rmvdsl.check.edit) are
+    # worked out off the event loop: a completion sent with the key is answered
+    # meanwhile.
+    edit_lane: ThreadPoolExecutor = field(default_factory=lambda: _lane("rmv-edit"))
     solver_lane: ThreadPoolExecutor = field(default_factory=lambda: _lane("rmv-solver"))
     solver: SolverProcess = field(default_factory=SolverProcess)
     published: dict[str, set[str]] = field(default_factory=dict)  # root -> paths shown
@@ -134,12 +138,9 @@ class RmvServer(LanguageServer):
         waiter = state.analysed.get(path)
         if waiter is None or waiter.done():  # what requests for this text wait for
             state.analysed[path] = asyncio.get_running_loop().create_future()
-        # Requests that came with the key (a completion) are answered first: they
-        # wait for nothing, and the key's diagnostics wait one turn of the loop.
-        await asyncio.sleep(0)
+        first = await self._publish_edit(path, generation, document.source)
         if state.generation.get(path) != generation:
             return  # a newer key came meanwhile: its check answers
-        first = self._publish_edit(path, document.source)
         if not await self._publish_fast(path, generation, first):
             return
         # Waiting from here on holds no model: a wait for the solver lane can be
@@ -159,13 +160,18 @@ class RmvServer(LanguageServer):
         if result is not None and state.generation.get(path) == generation:
             self.publish(path, result)
 
-    def _publish_edit(self, path: str, text: str) -> list[Diagnostic] | None:
+    async def _publish_edit(self, path: str, generation: int, text: str) -> list[Diagnostic] | None:
         """The diagnostics of an edit inside one declaration, worked out from the
-        newest check (rmvdsl.check.edit) and published at once; None when the edit
-        is not one of those (the fast stages answer first)."""
-        before = self.state.fast.get(path)
+        newest check (rmvdsl.check.edit) and published at once, unless a newer
+        change overtook them; None when the edit is not one of those (the fast
+        stages answer first)."""
+        state = self.state
+        before = state.fast.get(path)
+        if before is None:
+            return None
+        edited = functools.partial(state.workspace.check_edit, path, text, before)
         try:
-            found = None if before is None else self.state.workspace.check_edit(path, text, before)
+            found = await asyncio.get_running_loop().run_in_executor(state.edit_lane, edited)
         except Exception as error:  # a fault of the shortcut must not cost the key its check
             self.window_log_message(
                 types.LogMessageParams(
@@ -174,7 +180,7 @@ class RmvServer(LanguageServer):
                 )
             )
             return None
-        if found is None:
+        if found is None or state.generation.get(path) != generation:
             return None
         self.send(path, found.diagnostics, found.sources)
         return found.diagnostics
