@@ -1,20 +1,22 @@
-"""The fast stages' diagnostics after an edit inside one declaration, from the
+"""The fast stages' diagnostics after an edit inside a few declarations, from the
 check of the text before it: an editor's first answer to a keystroke.
 
 An incremental check (rmvdsl.check.memo) still visits every declaration: at
 20,000 lines a keystroke's fast stages took about 200 ms, 15 us a declaration.
-Most keystrokes change one declaration and leave what the others see of it as it
-was: the names it declares (kind and owner), the types it exports (a variable's,
-an event's), and no new read of an event that would close a cycle. Then the
-other declarations' findings are as they were, but for which names are now
-unused (a name only it read, a name nothing read: rmvdsl.check.alone), and the
-new diagnostics are the old ones, those after the edit moved by its length, with
-the declaration's own (its chunk's parse, its names and its types) checked again.
+Most keystrokes change one declaration, or a few beside each other, and leave
+what the others see of them as it was (rmvdsl.check.alone.same_interface): the
+names declared before and after declared alike and of the same type, names gone
+read by no one else, new names new, no new read closing a cycle. Then the other
+declarations' findings are as they were, but for which names are unused and
+which names a syntax error quiets (both followed here), and the new diagnostics
+are the old ones, those after the edit moved by its length, with the edited
+declarations' own (their chunks' parse, their names and their types) checked
+again.
 
 `check_edit` answers None whenever that cannot be shown cheaply: an edit across
-declarations, a syntax error, imports, a declaration of another kind, another
-interface, a cycle, a spec that checks nothing. The editor then waits for the
-full fast stages, which it runs after this answer in any case (their model is
+many chunks, imports, a declaration of another kind (a topic, a setting),
+another interface, a cycle, a spec that checks nothing. The editor then waits for
+the full fast stages, which it runs after this answer in any case (their model is
 what hover and the solver read): tests/test_edit_check.py checks that both agree.
 """
 
