@@ -225,12 +225,23 @@ async def _declaring_typist(
     times = []
     for key, (where, typed) in enumerate(keys):
         edit = types.TextDocumentContentChangePartial(range=where, text=typed)
-        document = types.VersionedTextDocumentIdentifier(uri=uri, version=version + key)
-        begun = time.perf_counter()
-        client.text_document_did_change(types.DidChangeTextDocumentParams(document, [edit]))
-        await _until(lambda v=version + key: v in published)
-        times.append(published[version + key] - begun)
+        times.append(await _timed_key(client, uri, edit, version + key, published))
     return times
+
+
+async def _timed_key(
+    client: LanguageClient,
+    uri: str,
+    edit: types.TextDocumentContentChangePartial,
+    version: int,
+    published: dict[int, float],
+) -> float:
+    """One key sent: the time from its didChange to the diagnostics of its version."""
+    document = types.VersionedTextDocumentIdentifier(uri=uri, version=version)
+    begun = time.perf_counter()
+    client.text_document_did_change(types.DidChangeTextDocumentParams(document, [edit]))
+    await _until(lambda: version in published)
+    return published[version] - begun
 
 
 async def _pausing_typist(
@@ -251,11 +262,7 @@ async def _pausing_typist(
         await asyncio.sleep(PAUSE)
         typed = ("0", types.Range(at, at)) if key % 2 == 0 else ("", types.Range(at, after))
         edit = types.TextDocumentContentChangePartial(range=typed[1], text=typed[0])
-        document = types.VersionedTextDocumentIdentifier(uri=uri, version=version + key)
-        start = time.perf_counter()
-        client.text_document_did_change(types.DidChangeTextDocumentParams(document, [edit]))
-        await _until(lambda v=version + key: v in published)
-        times.append(published[version + key] - start)
+        times.append(await _timed_key(client, uri, edit, version + key, published))
     return times
 
 

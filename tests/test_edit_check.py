@@ -6,11 +6,14 @@ answer that the edit path gives is compared with a check of the new text."""
 
 from __future__ import annotations
 
+import contextlib
 import random
 import re
 import sys
 import threading
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 from test_incremental import SPECS, spec_copy  # noqa: F401 (a fixture)
@@ -199,63 +202,69 @@ def test_edits_past_one_declaration_wait_for_the_full_check(
     assert not answered
 
 
+SERVED = 'topic T: std_msgs/Float64 = "/t"\nvar V = T.data\n'
+
+
+@contextlib.contextmanager
+def _served(tmp_path: Path, text: str, first: Any = None) -> Iterator[tuple[Any, str]]:
+    """A server in this process with `text` open, its first diagnostics (those
+    `first` accepts) come: the wire and the document's uri."""
+    from lsp_wire import Wire
+
+    wire = Wire(in_process=True)
+    try:
+        wire.initialize(tmp_path)
+        uri = wire.open(tmp_path / "served.rmv", text)
+        wire.diagnostics_until(uri, first or (lambda p: p["version"] == 1), timeout=60)
+        yield wire, uri
+    finally:
+        wire.close()
+
+
 def test_the_server_answers_a_key_while_its_fast_lane_is_busy(tmp_path: Path) -> None:
     """The first diagnostics of a key inside a declaration do not wait for the
     fast stages: with their lane held busy, the key's diagnostics still come."""
-    from lsp_wire import Wire
     from test_lsp_edges import _edit
 
-    wire = Wire(in_process=True)
     busy = threading.Event()
-    try:
-        wire.initialize(tmp_path)
-        path = tmp_path / "busy.rmv"
-        text = 'topic T: std_msgs/Float64 = "/t"\nvar V = T.data\n'
-        text += "event E when V > 100\nproperty P: always[<=1s] not E\n"
-        uri = wire.open(path, text)
-        wire.diagnostics_until(uri, lambda p: p["version"] == 1 and p["diagnostics"] == [])
-        wire.process.server.state.fast_lane.submit(busy.wait, 120)
-        start = len("event E when ")
-        wire.notify("textDocument/didChange", _edit(uri, 2, 2, start, start + 1, "Q"))
-        found = wire.diagnostics_until(uri, lambda p: p["version"] == 2, timeout=20)
-        by_code = {d["code"]: d["range"]["start"] for d in found["diagnostics"]}
-        assert by_code == {  # `Q` is not declared, and `V` is no longer read
-            "RMV200": {"line": 2, "character": start},
-            "RMV203": {"line": 1, "character": 4},
-        }
-    finally:
-        busy.set()
-        wire.close()
+    text = SERVED + "event E when V > 100\nproperty P: always[<=1s] not E\n"
+    with _served(tmp_path, text, lambda p: p["version"] == 1 and p["diagnostics"] == []) as (
+        wire,
+        uri,
+    ):
+        try:
+            wire.process.server.state.fast_lane.submit(busy.wait, 120)
+            start = len("event E when ")
+            wire.notify("textDocument/didChange", _edit(uri, 2, 2, start, start + 1, "Q"))
+            found = wire.diagnostics_until(uri, lambda p: p["version"] == 2, timeout=20)
+            by_code = {d["code"]: d["range"]["start"] for d in found["diagnostics"]}
+            assert by_code == {  # `Q` is not declared, and `V` is no longer read
+                "RMV200": {"line": 2, "character": start},
+                "RMV203": {"line": 1, "character": 4},
+            }
+        finally:
+            busy.set()
 
 
 def test_a_key_after_the_solver_stages_sends_the_fast_stages_of_its_text(tmp_path: Path) -> None:
     """The newest result holds the solver stages' findings of the text before the
     key; the key's first diagnostics are the fast stages' of its own text (the
     solver's come again after the pause), never the old text's findings moved."""
-    from lsp_wire import Wire
     from test_lsp_edges import _edit
 
-    wire = Wire(in_process=True)
-    try:
-        wire.initialize(tmp_path)
-        path = tmp_path / "solved.rmv"
-        text = 'topic T: std_msgs/Float64 = "/t"\nvar V = T.data\n'
-        text += "event E when V > 100\nproperty P: always[<=1s] (E and not E)\n"
-        uri = wire.open(path, text)
-        solved = wire.diagnostics_until(uri, lambda p: p["diagnostics"], timeout=60)
+    text = SERVED + "event E when V > 100\nproperty P: always[<=1s] (E and not E)\n"
+    with _served(tmp_path, text, lambda p: p["diagnostics"]) as (wire, uri):
+        solved = wire.diagnostics_until(uri, lambda p: p["diagnostics"])
         assert [d["code"] for d in solved["diagnostics"]] == ["RMV510"]
         start = len("event E when V > 10")
         wire.notify("textDocument/didChange", _edit(uri, 2, 2, start, start, "7"))
         first = wire.diagnostics_until(uri, lambda p: p["version"] == 2)
         assert first["diagnostics"] == []
-    finally:
-        wire.close()
 
 
 def test_a_fault_of_the_edit_path_costs_the_key_nothing(tmp_path: Path, monkeypatch) -> None:
     """Should the edit path fail, the key's diagnostics come from the fast stages,
     and the editor's log says what failed."""
-    from lsp_wire import Wire
     from test_lsp_edges import _edit
 
     import rmvdsl.editor.workspace as workspace
@@ -264,14 +273,8 @@ def test_a_fault_of_the_edit_path_costs_the_key_nothing(tmp_path: Path, monkeypa
         raise ValueError("broken on purpose")
 
     monkeypatch.setattr(workspace, "check_edit", broken)
-    wire = Wire(in_process=True)
-    try:
-        wire.initialize(tmp_path)
-        path = tmp_path / "fault.rmv"
-        text = 'topic T: std_msgs/Float64 = "/t"\nvar V = T.data\n'
-        text += "event E when V > 100\nproperty P: always[<=1s] not E\n"
-        uri = wire.open(path, text)
-        wire.diagnostics_until(uri, lambda p: p["version"] == 1)
+    text = SERVED + "event E when V > 100\nproperty P: always[<=1s] not E\n"
+    with _served(tmp_path, text) as (wire, uri):
         start = len("event E when ")
         wire.notify("textDocument/didChange", _edit(uri, 2, 2, start, start + 1, "Q"))
         found = wire.diagnostics_until(uri, lambda p: p["version"] == 2)
@@ -280,5 +283,3 @@ def test_a_fault_of_the_edit_path_costs_the_key_nothing(tmp_path: Path, monkeypa
             m["params"]["message"] for m in wire.seen if m.get("method") == "window/logMessage"
         ]
         assert any("broken on purpose" in message for message in logged)
-    finally:
-        wire.close()
