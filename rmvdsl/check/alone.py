@@ -7,20 +7,14 @@ they were, for the editor reads them meanwhile."""
 from __future__ import annotations
 
 import dataclasses
-import weakref
 from collections import Counter
 from dataclasses import dataclass
-from operator import itemgetter
 from typing import TYPE_CHECKING, Any, cast
 
 from rmvdsl.check import CONSEQUENTIAL
-from rmvdsl.check.model import Kind, Model, Reference, ReusedReferences, Symbol
-from rmvdsl.check.names import (
-    NameChecker,
-    Resolved,
-    unused_warning,
-    whitelisted_topics,
-)
+from rmvdsl.check.model import Kind, Model, Reference, Symbol
+from rmvdsl.check.names import NameChecker, Resolved
+from rmvdsl.check.readers import use_counts
 from rmvdsl.check.typeinfo import TypeInfo
 from rmvdsl.check.types import TypeChecker, TypeConfig
 from rmvdsl.grammar import ast
@@ -29,7 +23,7 @@ from rmvdsl.lang.diagnostics import Diagnostic
 from rmvdsl.lang.source import SourceMap, Span
 
 if TYPE_CHECKING:
-    from rmvdsl.check import CheckResult
+    pass
 
 # The model's map of each of them, by name.
 _GROUPS: dict[type, str] = {
@@ -284,7 +278,7 @@ def same_interface(model: Model, old: Alone, new: Alone) -> bool:
     "did you mean" chooses among them); no new event read that closes a cycle
     (the check before found none); and where RMV224 could be said, the same
     names read, declared and settings."""
-    counts = _use_counts(model)
+    counts = use_counts(model)
     gone, come = old.symbols.keys() - new.symbols.keys(), new.symbols.keys() - old.symbols.keys()
     if (gone or come) and model.unresolved:
         return False  # "did you mean" of a name read in vain chooses among the names
@@ -361,68 +355,3 @@ def stamped_twice(model: Model) -> bool:
         setting = decl.time_setting
         stamped += setting is not None and setting.ident.name == "header"
     return stamped >= 2
-
-
-def unused_changes(
-    before: CheckResult, old: Alone, new: Alone, damaged: bool
-) -> tuple[list[Diagnostic], list[Diagnostic], list[Diagnostic]]:
-    """The RMV203 warnings the edit ends, and those it starts: of names declared
-    before it (where they stood then), and of the names it declares. A text with
-    a syntax error (`damaged`: the new one) reports none; after one, every unused
-    name is reported again."""
-    model = before.model
-    if damaged:
-        return [d for d in before.diagnostics if d.code == "RMV203"], [], []
-    counts = _use_counts(model)
-    whitelisted = whitelisted_topics(model) if model.whitelists else set()
-
-    def unused(symbol: Symbol) -> list[Diagnostic]:
-        found = unused_warning(symbol, whitelisted)
-        return [] if found is None else [found]
-
-    ended, started, declared = [], [], []
-    gone = old.symbols.keys() - new.symbols.keys()
-    for name, symbol in new.symbols.items():
-        if name not in old.symbols and new.uses[name] == 0:
-            declared += unused(symbol)
-    if any(model.damaged_ranges.values()):  # the check before reported none
-        # The names read after the edit, by set operations (a spec has thousands).
-        dropped = {n for n in old.uses if counts[n] - old.uses[n] + new.uses[n] <= 0}
-        read = (counts.keys() - dropped) | new.uses.keys()
-        for name in model.symbols.keys() - read - gone:
-            started += unused(model.symbols[name])
-        return [], started, declared
-    for name in gone:
-        if counts[name] == 0:
-            ended += unused(model.symbols[name])
-    for name in new.uses.keys() - old.uses.keys():
-        if name in model.symbols and counts[name] == 0:
-            ended += unused(model.symbols[name])
-    for name in old.uses.keys() - new.uses.keys():
-        if name not in gone and counts[name] == old.uses[name]:
-            started += unused(model.symbols[name])
-    return ended, started, declared
-
-
-# The model counted last (not kept alive by this: a closed document's is let go).
-_COUNTED: list[tuple[weakref.ref[Model], Counter[str]]] = []
-
-
-def prepare_edits(result: CheckResult) -> None:
-    """Work out now what check_edit reads of `result` (an editor calls this beside
-    the check, not at the next keystroke)."""
-    _use_counts(result.model)
-
-
-def _use_counts(model: Model) -> Counter[str]:
-    """How often each name is referred to in the whole model (once per model)."""
-    if _COUNTED and _COUNTED[0][0]() is model:
-        return _COUNTED[0][1]
-    counts: Counter[str] = Counter()
-    for use in model.uses:
-        if type(use) is ReusedReferences:
-            counts.update(map(itemgetter(0), use.found))
-        else:
-            counts[cast("Reference", use).name] += 1
-    _COUNTED[:] = [(weakref.ref(model), counts)]
-    return counts

@@ -35,13 +35,12 @@ from rmvdsl.check.alone import (
     declared_again,
     declared_by,
     exports_as_before,
-    prepare_edits,
     same_interface,
     stamped_twice,
-    unused_changes,
 )
 from rmvdsl.check.model import Model
 from rmvdsl.check.names import nothing_checked
+from rmvdsl.check.readers import prepare_edits, unused_changes
 from rmvdsl.check.typeinfo import TypeInfo
 from rmvdsl.grammar import ast
 from rmvdsl.grammar.parser import damaged_names, last_scan, parse_chunk
