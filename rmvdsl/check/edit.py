@@ -83,8 +83,8 @@ class _Edit:
 
 def check_edit(before: CheckResult, path: str, text: str) -> EditCheck | None:
     """The fast stages' diagnostics of `text` as the new text of `path` (the root
-    file of `before`, a check of its fast stages), when the edit is local to one
-    declaration (the module's docstring); None when it is not."""
+    file of `before`, a check of its fast stages), when the edit is local to a
+    few declarations (the module's docstring); None when it is not."""
     model, info = before.model, before.types
     path = os.path.normpath(path)
     if info is None or len(model.specs) != 1 or model.specs[0].path != path:
