@@ -177,6 +177,16 @@ def test_an_edit_closing_a_cycle_waits_for_the_full_check(tmp_path: Path) -> Non
     assert not answered and "RMV220" in {d.code for d in full.diagnostics}
 
 
+def test_an_edit_reading_an_emitted_event_that_closes_a_cycle_waits_too(tmp_path: Path) -> None:
+    """An emitted event stands for its transducer in the cycles (X for D): E reads
+    X, and D steps on E. The edit path followed X as a name of its own and answered
+    with no RMV220."""
+    spec = HEAD + "event E when V > 1\ntransducer D {\n    states A, B\n    initial A\n"
+    spec += "    A -> B on E emit X\n}\nproperty P: always[<=1s] not B\n"
+    answered, full = _pair(tmp_path, spec, spec.replace("V > 1", "V > 1 and X"))
+    assert not answered and "RMV220" in {d.code for d in full.diagnostics}
+
+
 def test_a_diagnostic_after_the_edit_moves_its_own_labels_only(tmp_path: Path) -> None:
     """RMV202 in the last event points back at the topic, before the edit."""
     spec = HEAD + "event F when V > 1\nevent E when T > 1\nproperty P: F or E\n"

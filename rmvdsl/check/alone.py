@@ -129,14 +129,17 @@ def _inputs(decl: ast.Decl) -> list[str]:
 
 
 def _edges(model: Model, read: list[str]) -> frozenset[str]:
-    """What of `read` the cycles are searched along: events, and the transducers
-    of emitted events (rmvdsl.check.cycles)."""
-    emitted = model.emitted
-    return frozenset(
-        name if name in model.events else emitted[name][0].output.name  # type: ignore[union-attr]
-        for name in read
-        if name in model.events or name in emitted
-    )
+    """What of `read` the cycles are searched along, as rmvdsl.check.cycles reads
+    it: an event stands for itself, an emitted event for its transducer."""
+    found = set()
+    for name in read:
+        if name in model.events:
+            found.add(name)
+        elif name in model.emitted:
+            symbol = dict.get(model.symbols, name)
+            if symbol is not None and symbol.owner is not None:
+                found.add(symbol.owner)
+    return frozenset(found)
 
 
 def _typing_copy(info: TypeInfo) -> TypeInfo:
@@ -200,7 +203,7 @@ def declared_again(
     symbols = _Moved(model.symbols, *moved)
     for name in before.symbols:
         known = dict.get(symbols, name)
-        if known is None or known.decl is not _declarer(old_decls, name):
+        if known is None or known.decl is not before.symbols[name].decl:
             return None
         if name not in after:
             del symbols[name]
@@ -257,17 +260,6 @@ class _Moved(dict[str, Symbol]):
         if not self.delta or symbol.span.start < self.after or symbol.name in self.new:
             return symbol
         return dataclasses.replace(symbol, span=symbol.span.shifted(self.delta))
-
-
-def _declarer(decls: tuple[ast.Decl, ...], name: str) -> ast.Node | None:
-    """The node a symbol of `decls` is declared by (an emitted event's: its step)."""
-    for decl in decls:
-        for transition in decl.transitions if isinstance(decl, ast.TransducerDecl) else ():
-            if transition.output is not None and transition.output.name == name:
-                return transition
-        if name in (_declared(decl) or {}):
-            return decl
-    return None
 
 
 def same_interface(model: Model, old: Alone, new: Alone) -> bool:
