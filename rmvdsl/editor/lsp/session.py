@@ -135,9 +135,7 @@ class RmvServer(LanguageServer):
         state.workspace.open(path, document.source)
         generation = state.generation[path] = state.generation.get(path, 0) + 1
         state.solver.cancel(path)  # a solver stage of the text before is wasted work
-        waiter = state.analysed.get(path)
-        if waiter is None or waiter.done():  # what requests for this text wait for
-            state.analysed[path] = asyncio.get_running_loop().create_future()
+        self._waiter(path)  # what requests for this text wait for, from now
         first = await self._publish_edit(path, generation, document.source)
         if state.generation.get(path) != generation:
             return  # a newer key came meanwhile: its check answers
@@ -193,9 +191,7 @@ class RmvServer(LanguageServer):
         (requests waiting for the document are let go either way)."""
         state = self.state
         loop = asyncio.get_running_loop()
-        waiter = state.analysed.get(path)
-        if waiter is None or waiter.done():
-            waiter = state.analysed[path] = loop.create_future()
+        waiter = self._waiter(path)
         try:
             fast = functools.partial(self._check_if_newest, path, generation)
             result = await loop.run_in_executor(state.fast_lane, fast)
@@ -210,6 +206,14 @@ class RmvServer(LanguageServer):
         finally:
             if state.generation.get(path) == generation and not waiter.done():
                 waiter.set_result(None)  # published, or the check failed: stop waiting
+
+    def _waiter(self, path: str) -> asyncio.Future[None]:
+        """What requests for the document's newest text wait for (done once its fast
+        stages are published)."""
+        waiter = self.state.analysed.get(path)
+        if waiter is None or waiter.done():
+            waiter = self.state.analysed[path] = asyncio.get_running_loop().create_future()
+        return waiter
 
     def _check_if_newest(self, path: str, generation: int) -> CheckResult | None:
         """The fast stages of the document, unless a newer change overtook it while
