@@ -409,12 +409,13 @@ def test_solver_settings_in_rmv_toml(tmp_path):
     assert any("solver_timeout" in m for m in messages)
     assert any("solver_effort" in m for m in messages)
     # A tiny, deterministic budget answers nothing and says so, whatever the time
-    # limit given on the command line.
+    # limit given on the command line. (Constant traces are tried by the monitor
+    # before the solver is asked: P needs a change of state to hold.)
     (tmp_path / "rmv.toml").write_text("solver_effort = 1\n", encoding="utf-8")
     (tmp_path / "spec.rmv").write_text(
         "transducer M {\n    states A, B\n    initial A\n    final B\n    A -> B on E\n}\n"
         'topic t: std_msgs/Float64 = "/t"\nvar V = t.data\nevent E when V > 1\n'
-        "property P: eventually[<5s] B\n",
+        "property P: A and eventually[<5s] B\n",
         encoding="utf-8",
     )
     codes = [d.code for d in check(str(spec), solver_timeout=30).diagnostics]
@@ -504,3 +505,71 @@ def test_the_conflict_reported_is_the_one_deletion_in_order_leaves():
         assert conflict([late, early, stay], system, Limits()) == (1, 2)
         assert conflict([early, late, stay], system, Limits()) == (1, 2)
         assert conflict([stay, late, early], system, Limits()) == (0, 2)
+
+
+# Systems for the constant traces: a transducer with and without its start known,
+# an event besides it, two exclusive events, an impossible one.
+CONSTANT_SYSTEMS = [
+    System(),
+    System((MACHINE,)),
+    System((Machine("M", ("a", "b", "c"), None, MACHINE.moves),)),
+    System((), frozenset({("a", "b")}), frozenset()),
+    System((), frozenset(), frozenset({"b"})),
+]
+
+
+@settings(max_examples=50, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    formulas(2, st.integers(0, 2).map(Fraction)),
+    st.sampled_from(range(len(CONSTANT_SYSTEMS))),
+)
+def test_constant_traces_tried_first_answer_as_the_solver_does(formula, which):
+    """The monitor tries the system's constant traces before z3 is asked: the same
+    answers as without them (their witnesses replay, a system's traces), and a
+    question it leaves undecided is still answered by the solver."""
+    from rmvdsl.logic import search
+
+    system = CONSTANT_SYSTEMS[which]
+    limits = Limits(timeout=10)
+    answers = {}
+    for candidates in (search.CONSTANT_CANDIDATES, 0):
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(search, "CONSTANT_CANDIDATES", candidates)
+            answers[candidates] = [
+                satisfiable([f], system, limits, Cache()) for f in (formula, ("not", formula))
+            ]
+    for f, tried, solved in zip(
+        (formula, ("not", formula)), answers[search.CONSTANT_CANDIDATES], answers[0], strict=True
+    ):
+        assert tried.value == solved.value, (f, system)
+        if tried.value == YES:
+            witness = tried.witness
+            assert system.violation(witness.times, witness.states, {"a", "b", "c"}) is None
+            trace = Trace(list(witness.times), list(witness.states), witness.end)
+            assert Reference(trace).value(f, witness.at) == TRUE, (f, witness)
+
+
+def test_a_constant_witness_asks_z3_nothing_and_a_refused_one_skips_its_search(monkeypatch):
+    """`always[<=5] a` holds on the constant trace a: z3 is not asked. `a and
+    eventually[<=1] b` holds on no constant trace, and every one was tried, so the
+    solver's search starts at two segments (a 5 ms z3 question each, the most
+    common answer of a check: bench_check's 1,100 were all of one segment)."""
+    from rmvdsl.logic import search
+
+    a, b = ("prop", "a"), ("prop", "b")
+    always_a = ("not", ("until", "<=", Fraction(5), ("const", True), ("not", a)))
+    searched: list[int] = []
+    monkeypatch.setattr(z3, "Solver", lambda: pytest.fail("z3 was asked"))
+    answer = satisfiable([always_a], System(), Limits(), Cache())
+    assert answer.value == YES
+    assert answer.witness.times == (0,) and answer.witness.states == (frozenset("a"),)
+    monkeypatch.undo()
+    real_search = search.Question.search
+    monkeypatch.setattr(
+        search.Question, "search", lambda q, k: searched.append(k) or real_search(q, k)
+    )
+    change = ("and", a, ("until", "<=", Fraction(1), ("const", True), b))
+    system = System((Machine("M", ("a", "b"), None, frozenset({("a", "b")})),))
+    answer = satisfiable([change], system, Limits(), Cache())
+    assert answer.value == YES and len(answer.witness.times) == 2
+    assert searched == [2]

@@ -30,7 +30,7 @@ from rmvdsl.util.bounded import Bounded
 from rmvdsl.util.cache import digest
 
 # Bump when an encoding changes: cached answers carry it in their key.
-ENCODING_VERSION = "3"  # 3: questions asked in their canonical naming
+ENCODING_VERSION = "4"  # 3: canonical naming; 4: constant witnesses first
 CANONICAL_KEPT = 4096  # questions whose canonical form is remembered (a few KB each)
 
 

@@ -4,9 +4,10 @@ A set of formulas is satisfiable when some complete trace makes all of them true
 at one time (time 0 when no formula looks into the past or the system constrains
 the start; any time otherwise). Two searches answer it, each sound on its side:
 
-- a witness search over traces with k segments and symbolic change times
-  (`rmvdsl.logic.bounded`), k = 1, 2, 4, 8: a trace found is replayed through the
-  reference evaluator, and only a trace that replays is an answer ("yes", exact);
+- a witness search: the system's constant traces, judged by the runtime's monitor,
+  then traces with k segments and symbolic change times (`rmvdsl.logic.bounded`),
+  k = 1, 2, 4, 8: a trace found is replayed through the monitor, and only a trace
+  that replays is an answer ("yes", exact);
 - a refutation in first-order logic over all functions of time
   (`rmvdsl.logic.abstract`): unsatisfiable there means no trace at all ("no", exact).
 

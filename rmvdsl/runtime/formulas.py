@@ -16,6 +16,7 @@ from fractions import Fraction
 from typing import Any, NamedTuple
 
 from rmvdsl.runtime.nesting import bottom_up
+from rmvdsl.runtime.signal import plain
 
 Time = int | Fraction
 
@@ -177,7 +178,7 @@ def from_lists(value: list[Any], number: Any = Fraction) -> Any:
         index = 1 if tag in ("until", "since") else 0
         if tag in ("until", "since", "dur", "num") and index < len(parts):
             if parts[index] is not None:
-                parts[index] = _plain(number(parts[index]))
+                parts[index] = plain(number(parts[index]))
             elif tag != "since":  # only `since` may have no bound
                 raise ValueError(f"`{tag}` needs a bound: {str(current)[:60]}")
         try:
@@ -185,12 +186,6 @@ def from_lists(value: list[Any], number: Any = Fraction) -> Any:
         except TypeError:
             raise ValueError(f"malformed `{tag}` node: {str(current)[:60]}") from None
     return done[id(value)]
-
-
-def _plain(value: Any) -> Any:
-    if isinstance(value, Fraction) and value.denominator == 1:
-        return value.numerator
-    return value
 
 
 class _Scaled(NamedTuple):

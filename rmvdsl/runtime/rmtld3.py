@@ -38,7 +38,7 @@ from rmvdsl.runtime.signal import (
     TRUE,
     UNKNOWN,
     Signal,
-    _plain,
+    plain,
 )
 from rmvdsl.runtime.temporal import Binary, Const, Evaluated, Ever, Node, Not, Prop, Temporal
 
@@ -73,7 +73,7 @@ def build(formula: Any, props: dict[str, Prop]) -> Node:
             if kind == "until":
                 raise ValueError("`until` needs a bound")
             return Ever(left, right)
-        return Temporal(kind, formula[1], _plain(formula[2]), left, right)
+        return Temporal(kind, formula[1], plain(formula[2]), left, right)
     if kind == "cmp":
         return Compare(formula[1], _build_term(formula[2], props), _build_term(formula[3], props))
     raise ValueError(f"unknown formula node {kind!r}")
@@ -82,9 +82,9 @@ def build(formula: Any, props: dict[str, Prop]) -> Node:
 def _build_term(term: Any, props: dict[str, Prop]) -> Any:
     kind = term[0]
     if kind == "num":
-        return ("num", _plain(term[1]))
+        return ("num", plain(term[1]))
     if kind == "dur":
-        return ("dur", _plain(term[1]), build(term[2], props))
+        return ("dur", plain(term[1]), build(term[2], props))
     if kind == "mul" and term[1][0] != "num" and term[2][0] != "num":
         raise ValueError("a product of two durations is not linear: one side must be a constant")
     return (kind, _build_term(term[1], props), _build_term(term[2], props))

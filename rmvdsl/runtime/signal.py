@@ -38,14 +38,14 @@ def _divide(x: Any, y: Any) -> Any:
     """x / y exactly: an int where that is whole (a Fraction equal to an int
     compares with the ints around it many times slower)."""
     if type(x) is float or type(y) is float:
-        return _plain(Fraction(x) / Fraction(y))  # exact: halves are exact floats
+        return plain(Fraction(x) / Fraction(y))  # exact: halves are exact floats
     if type(x) is int and type(y) is int:
         whole, rest = divmod(x, y)
         return whole if rest == 0 else Fraction(x, y)
-    return _plain(x / y)
+    return plain(x / y)
 
 
-def _plain(value: Any) -> Any:
+def plain(value: Any) -> Any:
     """A whole Fraction as an int: the same number, compared much faster."""
     if type(value) is Fraction and value.denominator == 1:
         return value.numerator
