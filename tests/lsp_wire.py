@@ -23,7 +23,7 @@ class InProcess:
     """`rmv lsp`'s server (rmvdsl.editor.lsp.server.build) in a thread, over two
     pipes, with what of a Popen the Wire reads: stdin, stdout, stderr, poll()."""
 
-    def __init__(self) -> None:
+    def __init__(self, own_process: bool = False) -> None:
         from rmvdsl.editor.lsp.server import build
 
         to_server, from_client = os.pipe()
@@ -33,7 +33,9 @@ class InProcess:
         self.said = io.BytesIO()  # how the thread ended, if not as asked
         self.stderr = self  # read() blocks until the server ends, as a pipe would
         self.returncode: int | None = None
-        self.server = build()  # what a test may look into (its lanes, its state)
+        # what a test may look into (its lanes, its state); `own_process`: the
+        # server tunes this interpreter's collector, as `rmv lsp` does its own
+        self.server = build(own_process=own_process)
 
         def serve() -> None:
             code = 0
@@ -71,14 +73,19 @@ class Wire:
     """One server process and what it sent, read by a thread of its own."""
 
     def __init__(
-        self, cwd: Path | None = None, in_process: bool = False, env: dict[str, str] | None = None
+        self,
+        cwd: Path | None = None,
+        in_process: bool = False,
+        env: dict[str, str] | None = None,
+        own_process: bool = False,
     ) -> None:
         """`rmv lsp` as its own process (with `env`, if given), or (`in_process`) the
         same server in a thread of this one: what the LSP fuzz target talks to, so
-        that atheris's coverage of rmvdsl's code guides it."""
+        that atheris's coverage of rmvdsl's code guides it (`own_process`: see
+        InProcess)."""
         pipe = subprocess.PIPE
         self.process: Any = (
-            InProcess()
+            InProcess(own_process)
             if in_process
             else subprocess.Popen(
                 [*RMV, "lsp"], stdin=pipe, stdout=pipe, stderr=pipe, cwd=cwd, env=env
