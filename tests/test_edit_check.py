@@ -11,6 +11,7 @@ import random
 import re
 import sys
 import threading
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -254,6 +255,44 @@ def test_the_server_answers_a_key_while_its_fast_lane_is_busy(tmp_path: Path) ->
             }
         finally:
             busy.set()
+
+
+def test_a_key_overtaken_while_the_edit_lane_is_busy_is_not_worked_out(tmp_path: Path) -> None:
+    """Keys typed while the edit lane is busy (a typist asking for completion does
+    not wait for diagnostics) leave the lane only the newest to work out: each
+    overtaken key's answer was worked out all the same, and the next key waited
+    for them all (1.8 s at 20,805 lines)."""
+    from test_lsp_edges import _edit
+
+    busy = threading.Event()
+    text = SERVED + "event E when V > 100\nproperty P: always[<=1s] not E\n"
+    with _served(tmp_path, text, lambda p: p["version"] == 1 and p["diagnostics"] == []) as (
+        wire,
+        uri,
+    ):
+        state = wire.process.server.state
+        asked: list[str] = []
+        real = state.workspace.check_edit
+
+        def counted(path: str, edited: str, before: CheckResult) -> Any:
+            asked.append(edited)
+            return real(path, edited, before)
+
+        state.workspace.check_edit = counted
+        try:
+            state.edit_lane.submit(busy.wait, 120)
+            start = len("event E when V > ")
+            for version, digit in enumerate("12345", start=2):
+                at = start + version - 2
+                wire.notify("textDocument/didChange", _edit(uri, version, 2, at, at, digit))
+            deadline = time.monotonic() + 20
+            while max(state.generation.values()) < 6 and time.monotonic() < deadline:
+                time.sleep(0.01)  # until the five keys have come
+        finally:
+            busy.set()
+        found = wire.diagnostics_until(uri, lambda p: p["version"] == 6, timeout=20)
+        assert found["diagnostics"] == []
+        assert asked == [text.replace("V > 100", "V > 12345100")], asked
 
 
 def test_a_key_after_the_solver_stages_sends_the_fast_stages_of_its_text(tmp_path: Path) -> None:

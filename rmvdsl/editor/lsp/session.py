@@ -27,6 +27,7 @@ from rmvdsl.editor.mentions import Mention, mention_at, mentions
 from rmvdsl.editor.solver_process import Solved, SolverEnded, SolverProcess
 from rmvdsl.editor.workspace import (
     CheckResult,
+    EditCheck,
     Workspace,
     symbol_at,
 )
@@ -167,7 +168,7 @@ class RmvServer(LanguageServer):
         before = state.fast.get(path)
         if before is None:
             return None
-        edited = functools.partial(state.workspace.check_edit, path, text, before)
+        edited = functools.partial(self._edit_if_newest, path, generation, text, before)
         try:
             found = await asyncio.get_running_loop().run_in_executor(state.edit_lane, edited)
         except Exception as error:  # a fault of the shortcut must not cost the key its check
@@ -214,6 +215,17 @@ class RmvServer(LanguageServer):
         if waiter is None or waiter.done():
             waiter = self.state.analysed[path] = asyncio.get_running_loop().create_future()
         return waiter
+
+    def _edit_if_newest(
+        self, path: str, generation: int, text: str, before: CheckResult
+    ) -> EditCheck | None:
+        """The edit path's answer to a key, unless a newer key overtook it while it
+        waited for the lane: a typist asking for completion at each key does not
+        wait for diagnostics, and each key's stale answer queued behind the others
+        (at 20,805 lines, 1.8 s of them ahead of the next key's)."""
+        if self.state.generation.get(path) != generation:
+            return None
+        return self.state.workspace.check_edit(path, text, before)
 
     def _check_if_newest(self, path: str, generation: int) -> CheckResult | None:
         """The fast stages of the document, unless a newer change overtook it while
