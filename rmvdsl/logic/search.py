@@ -6,6 +6,7 @@ of time."""
 from __future__ import annotations
 
 import itertools
+import math
 import time
 from collections.abc import Sequence
 from fractions import Fraction
@@ -44,11 +45,12 @@ class Question:
         self.system = system
         self.limits = limits
         found = [facts(f) for f in formulas]  # once: each is a walk of the formula
-        mentioned = {name for f in found for name in f.propositions}
-        self.names = sorted(system.names(mentioned))
+        self.mentioned = {name for f in found for name in f.propositions}
+        self.names = sorted(system.names(self.mentioned))
         self.horizon = max((f.future for f in found), default=Fraction(0))
-        self.free_time = any(f.has_past for f in found) or any(
-            m.initial is not None for m in system.relevant(mentioned)
+        self.looks_back = any(f.has_past for f in found)
+        self.free_time = self.looks_back or any(
+            m.initial is not None for m in system.relevant(self.mentioned)
         )
         self.timed_out = False
         self.replay_failures = 0
@@ -140,15 +142,14 @@ class Question:
         tried. Also says whether every constant trace was tried at every time the
         question allows (none looks back: a constant trace reads the same from
         any time on), so the solver's one-segment search can find none."""
-        mentioned = {n for f in self.formulas for n in facts(f).propositions}
-        machines = self.system.relevant(set(self.names))
+        machines = self.system.relevant(self.mentioned)
         choices: list[list[str]] = []
         for machine in machines:
             if machine.initial is not None:
                 choices.append([machine.initial])
                 continue
-            others = [s for s in machine.states if s not in mentioned][:1]
-            choices.append([s for s in machine.states if s in mentioned] + others)
+            others = [s for s in machine.states if s not in self.mentioned][:1]
+            choices.append([s for s in machine.states if s in self.mentioned] + others)
         owned = {s for m in machines for s in m.states}
         free = [n for n in self.names if n not in owned and n not in self.system.never]
         subsets = itertools.chain.from_iterable(
@@ -159,15 +160,12 @@ class Question:
             for held in subsets
             for states in itertools.product(*choices)
         )
-        count = 2 ** len(free)
-        for options in choices:
-            count *= len(options)
         for state in itertools.islice(candidates, CONSTANT_CANDIDATES):
             witness = self.witness([Fraction(0)], [state], Fraction(0))
             if self.monitored(witness):
                 return witness, True
-        looks_back = self.free_time and any(facts(f).has_past for f in self.formulas)
-        return None, count <= CONSTANT_CANDIDATES and not looks_back
+        count = 2 ** len(free) * math.prod(map(len, choices))
+        return None, count <= CONSTANT_CANDIDATES and not self.looks_back
 
     def periodic(self) -> Witness | None:
         """Traces where each proposition is constant or alternates with a half
