@@ -1,7 +1,7 @@
-"""One declaration checked alone, against the model and the types of a check of
-the whole spec: its own findings (its chunk's parse, its names, its types) and
-what the other declarations see of it (rmvdsl.check.edit compares the two of an
-edited declaration). Checked on copies: the model and the types are left as
+"""Declarations checked alone, against the model and the types of a check of the
+whole spec: their own findings (their chunks' parse, their names, their types)
+and what the other declarations see of them (rmvdsl.check.edit compares the old
+and the new declarations of an edit). Checked on copies: the model and the types are left as
 they were, for the editor reads them meanwhile."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from __future__ import annotations
 import dataclasses
 from collections import Counter
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, cast
+from typing import Any, cast
 
 from rmvdsl.check import CONSEQUENTIAL
 from rmvdsl.check.model import Kind, Model, Reference, Symbol
@@ -21,9 +21,6 @@ from rmvdsl.grammar import ast
 from rmvdsl.grammar.shift import findings
 from rmvdsl.lang.diagnostics import Diagnostic
 from rmvdsl.lang.source import SourceMap, Span
-
-if TYPE_CHECKING:
-    pass
 
 # The model's map of each of them, by name.
 _GROUPS: dict[type, str] = {

@@ -92,7 +92,7 @@ class Workspace:
 
     def check_edit(self, path: str, text: str, before: CheckResult) -> EditCheck | None:
         """The fast stages' diagnostics of `text`, the document's new text, from
-        `before` when the edit stays inside one declaration (rmvdsl.check.edit).
+        `before` when the edit stays inside a few declarations (rmvdsl.check.edit).
         On a deep stack, as every check (rmvdsl.util.deep): a check running beside
         it has raised the interpreter's recursion limit for its own."""
         return deep(check_edit, before, path, text)

@@ -120,7 +120,7 @@ class Rescan:
 
 def rescan(text: str, old_text: str, old: ScanResult) -> Rescan:
     """Only the chunks an edit changed (scan's work without moving the rest): the
-    editor's check of a keystroke inside one declaration (rmvdsl.check.edit)."""
+    editor's check of a keystroke inside a few declarations (rmvdsl.check.edit)."""
     index, unchanged = _resumed(text, old_text, old)
     resume, line = old.chunks[index]
     stopping = dataclasses.replace(unchanged, join=False)

@@ -54,7 +54,7 @@ class State:
     generation: dict[str, int] = field(default_factory=dict)
     results: dict[str, CheckResult] = field(default_factory=dict)
     # The newest check of each document's fast stages alone: what the diagnostics
-    # of an edit inside one declaration are worked out from (the results may hold
+    # of an edit inside a few declarations are worked out from (the results may hold
     # the solver stages' too, which an edit makes old).
     fast: dict[str, CheckResult] = field(default_factory=dict)
     # Two lanes: the fast stages (what a keystroke must show at once) never queue
@@ -62,7 +62,7 @@ class State:
     # text that has changed since is skipped when its turn comes. The solver lane's
     # thread only waits: the stages run in the solver process.
     fast_lane: ThreadPoolExecutor = field(default_factory=lambda: _lane("rmv-fast"))
-    # The diagnostics of an edit inside one declaration (rmvdsl.check.edit) are
+    # The diagnostics of an edit inside a few declarations (rmvdsl.check.edit) are
     # worked out off the event loop: a completion sent with the key is answered
     # meanwhile.
     edit_lane: ThreadPoolExecutor = field(default_factory=lambda: _lane("rmv-edit"))
@@ -168,7 +168,7 @@ class RmvServer(LanguageServer):
             self.publish(path, result)
 
     async def _publish_edit(self, path: str, generation: int, text: str) -> list[Diagnostic] | None:
-        """The diagnostics of an edit inside one declaration, worked out from the
+        """The diagnostics of an edit inside a few declarations, worked out from the
         newest check (rmvdsl.check.edit) and published at once, unless a newer
         change overtook them; None when the edit is not one of those (the fast
         stages answer first)."""
