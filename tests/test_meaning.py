@@ -9,6 +9,7 @@ from decimal import Decimal
 from fractions import Fraction
 from pathlib import Path
 
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -314,6 +315,27 @@ def test_one_json_rule_for_exact_times(rmv, tmp_path):
     assert json.loads(to_json({"t": Fraction(1, 3)})) == {"t": "1/3"}
 
 
+@settings(max_examples=300, deadline=None)
+@given(
+    numerator=st.integers(-(10**30), 10**30),
+    twos=st.integers(0, 40),
+    fives=st.integers(0, 40),
+    other=st.sampled_from([1, 1, 3, 7]),
+)
+def test_a_fraction_s_exact_decimal_reads_back_as_it(numerator, twos, fives, other) -> None:
+    """`exact_decimal` writes the shortest decimal of a fraction whose expansion
+    ends (its denominator a product of 2s and 5s), and None for any other."""
+    from rmvdsl.runtime.values import exact_decimal
+
+    value = Fraction(numerator, 2**twos * 5**fives * other)
+    text = exact_decimal(value)
+    if value.denominator % 3 == 0 or value.denominator % 7 == 0:
+        assert text is None
+        return
+    assert text is not None and Fraction(text) == value
+    assert re.fullmatch(r"-?\d+" if value.denominator == 1 else r"-?\d+\.\d*[1-9]", text)
+
+
 def test_a_condition_may_transform_the_values_it_reads(tmp_path):
     """`abs`, `round`, `sqrt`... in a condition apply to the newest values (the
     runtime stopped with "cannot evaluate Call here"), the checker's model is the
@@ -545,3 +567,69 @@ def test_a_number_is_read_as_its_exact_decimal_value(sign, whole, fraction, expo
     except NumberError:
         return  # out of range: its own tests
     assert value == Fraction(Decimal(text))
+
+
+_VALUES = (
+    st.text(max_size=5)
+    | st.floats()
+    | st.integers()
+    | st.fractions(max_denominator=1000)
+    | st.lists(st.integers(), max_size=2)
+    | st.dictionaries(st.text(max_size=3), st.integers(), max_size=2)
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.tuples(st.text('%s{}"a', max_size=5) | st.integers(-3, 3), _VALUES), max_size=8))
+def test_a_record_is_written_as_json_reads_it_back(pairs) -> None:
+    """`to_json` writes a record's keys once per shape of record (a `%` in a key
+    too) and its values by the rule: json reads back each key and value, fractions
+    exactly, and floats JSON cannot hold as their names."""
+    import json
+    import math
+
+    from rmvdsl.runtime.engine import to_json
+
+    record = dict(pairs)
+    for _ in range(2):  # the shape made, then the shape kept
+        read = json.loads(to_json(record), parse_float=Decimal)
+        assert list(read) == [str(key) for key in record]
+        for found, value in zip(read.values(), record.values(), strict=True):
+            if isinstance(value, float) and not math.isfinite(value):
+                assert found == repr(value)
+            elif isinstance(value, float):
+                assert float(found) == value
+            elif isinstance(value, Fraction):
+                assert Fraction(found) == value  # "1/3" where no decimal is exact
+            else:
+                assert found == value
+
+
+@settings(max_examples=400, deadline=None)
+@given(
+    op=st.sampled_from(["<", "<=", ">", ">="]),
+    constant=st.sampled_from(["0", "3", "-2", "0.5", "3.0", "-0.0", "1e300"]),
+    value=st.integers(-5, 5)
+    | st.floats(allow_nan=True)
+    | st.booleans()
+    | st.text(max_size=2)
+    | st.just(influx.MISSING),
+)
+def test_a_name_against_a_number_compares_as_any_ordering_does(op, constant, value) -> None:
+    """`V > 0.1` (most conditions) is compiled to one call; it decides as the
+    general comparison of two expressions does, for a value of any kind."""
+    from rmvdsl.runtime import expressions, values
+
+    real = ir.ValueType("float", "float64", 0)
+    number = ir.Number(constant, Fraction(constant), real)
+    fast = expressions.compiled(ir.Binary(op, ir.Ref("x", "variable", real), number, real))
+    lookup = {"x": value}.get
+    expected: object = influx.MISSING
+    if value is not influx.MISSING:
+        try:
+            expected = values.compare(op, value, values.literal(constant))
+        except values.OperatorError:
+            with pytest.raises(values.OperatorError):
+                fast(lookup)
+            return
+    assert fast(lookup) == expected

@@ -270,6 +270,20 @@ def test_a_count_from_damaged_bytes_does_not_make_the_reader_walk_for_ever() -> 
         read(b"\xff\xff\xff\xff" + b"\x00" * 8)
 
 
+def test_a_cdr_reader_reads_either_byte_order_and_refuses_other_headers() -> None:
+    """Each byte order's reader checks the encapsulation header itself and hands
+    any other on: little-endian (00 01) and big-endian (00 00) are read alike, any
+    other header, or a message too short for one, is refused as not CDR."""
+    store = _store([("test_msgs/msg/Top", [("x", "uint16")])])
+    read = compile_reader("test_msgs/msg/Top", needs_of([("x",)]),
+                          lambda name: store.fielddefs[name][1], ros1=False)  # fmt: skip
+    assert read(b"\x00\x01\x00\x00\x07\x01").x == 0x0107
+    assert read(b"\x00\x00\x00\x00\x01\x07").x == 0x0107
+    for raw in (b"\x00\x02\x00\x00\x07\x01", b"\x01\x01\x00\x00\x07\x01", b"\x00"):
+        with pytest.raises(PartialDecodeError, match="not CDR"):
+            read(raw)
+
+
 def test_elements_of_no_bytes_are_read_however_many_and_a_damaged_count_is_refused() -> None:
     """ROS 1 gives an empty message no bytes: a sequence of them fits any count
     (found by the random test above: two of them ending a message were refused)."""

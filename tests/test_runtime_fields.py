@@ -176,6 +176,26 @@ def test_integer_aggregates_do_not_depend_on_element_order(values, random):
         assert repr(aggregate(name, values)) == repr(aggregate(name, shuffled))
 
 
+@settings(max_examples=500, deadline=None)
+@given(
+    st.lists(
+        st.one_of(st.floats(allow_nan=False), st.integers(-3, 3), st.sampled_from([0, 0.0, -0.0])),
+        min_size=1,
+        max_size=8,
+    )
+)
+def test_min_and_max_are_those_of_numbers_ordered_with_minus_zero_first(values):
+    """`min` and `max` of an array take plain `min` and `max`, and order the zeros
+    only where the result is zero: the same element, of the same type and sign, as
+    ordering every element by (value, sign) gives."""
+    from rmvdsl.runtime.fields import _order
+
+    for name, pick in (("min", min), ("max", max)):
+        expected = pick(values, key=_order)
+        found = aggregate(name, values)
+        assert repr(found) == repr(expected) and type(found) is type(expected)
+
+
 def test_a_uint64_above_int64_wraps_as_the_docs_say():
     """InfluxDB's integers are int64: the runtime holds 2^64 - 1 as -1, as the
     solver's 64-bit bit-vectors do (`not (U = 18446744073709551615)` never fails)."""

@@ -66,6 +66,13 @@ class Decoder:
     def decode(
         self, header: Mapping[str, str], raw: bytes, needs: partial_decoding.Needs | None = None
     ) -> Any:
+        return self.reader(header, needs)(raw)
+
+    def reader(
+        self, header: Mapping[str, str], needs: partial_decoding.Needs | None = None
+    ) -> Decode:
+        """`decode` of the messages a publisher with `header` sends, found once (a
+        replay keeps it per connection)."""
         # a topic's needs are one long-lived dict: known by identity, not spelt out
         # at every message (and kept, so the identity stays its own)
         key = (header.get("type", ""), header.get("md5sum", ""), id(needs))
@@ -76,15 +83,8 @@ class Decoder:
                 decode = _reader(key[0], definition, needs, self.optional)
             except DecodeError as error:  # once: every message of it fails alike
                 decode = _refusing(error)
-            found = self.decoders[key] = (needs, decode)
-        decode = found[1]
-        try:
-            return decode(raw)
-        except DecodeError:
-            raise
-        except Exception as error:  # rosbags raises what struct and numpy raise
-            size = counted(len(raw), "byte")
-            raise DecodeError(f"a {key[0]} message of {size}: {error}") from None
+            found = self.decoders[key] = (needs, _said(key[0], decode))
+        return found[1]
 
     def unread(
         self, header: Mapping[str, str], variables: Sequence[ir.Variable], ros_name: str
@@ -131,6 +131,22 @@ def _reader(
     fields_of = lambda type_name: store.fielddefs[type_name][1]  # noqa: E731
     wanted = [partial_decoding.merged(needs, optional), needs] if optional else [needs]
     return partial_decoding.or_full(full, name, wanted, fields_of, ros1=True)
+
+
+def _said(type_name: str, decode: Decode) -> Decode:
+    """`decode`, with what rosbags raises (struct's and numpy's errors) said as a
+    DecodeError naming the type and the message's size."""
+
+    def read(raw: bytes) -> Any:
+        try:
+            return decode(raw)
+        except DecodeError:
+            raise
+        except Exception as error:
+            size = counted(len(raw), "byte")
+            raise DecodeError(f"a {type_name} message of {size}: {error}") from None
+
+    return read
 
 
 def _refusing(error: DecodeError) -> Decode:

@@ -58,18 +58,19 @@ def compiled(type_name: str, needs: Needs, fields_of: FieldsOf, *, ros1: bool) -
     try:
         if ros1:
             return _Compiler(fields_of, ros1=True, order="<").top(type_name, needs)
-        little = _Compiler(fields_of, ros1=False, order="<").top(type_name, needs)
-        big = _Compiler(fields_of, ros1=False, order=">").top(type_name, needs)
+        # the encapsulation header: 00 01 little-endian CDR, 00 00 big-endian; each
+        # reader checks its own and hands any other on (a call fewer a message)
+        little = _Compiler(fields_of, ros1=False, order="<").top(type_name, needs, header=1)
+        big = _Compiler(fields_of, ros1=False, order=">").top(type_name, needs, header=0)
     except RecursionError as error:  # a definition that contains itself
         raise Unsupported("definitions nested too deep") from error
+    little.__globals__["_other"] = big
+    big.__globals__["_other"] = _not_cdr
+    return little
 
-    def read(raw: bytes | memoryview) -> Any:
-        # the encapsulation header: 00 01 little-endian CDR, 00 00 big-endian
-        if len(raw) < 4 or raw[0] != 0 or raw[1] > 1:
-            raise PartialDecodeError("not CDR: unknown encapsulation")
-        return (little if raw[1] else big)(raw)
 
-    return read
+def _not_cdr(raw: bytes | memoryview) -> Any:
+    raise PartialDecodeError("not CDR: unknown encapsulation")
 
 
 @dataclass
@@ -105,6 +106,7 @@ class _Compiler:
         self.names: dict[str, Any] = {
             "_unpack_from": struct.unpack_from,
             "_Error": PartialDecodeError,
+            "_Errors": (struct.error, UnicodeDecodeError, IndexError, ValueError),
             "_LENGTH": "the message is longer or shorter than its definition",
         }
         self.functions: dict[tuple[str, str], str] = {}
@@ -113,8 +115,14 @@ class _Compiler:
 
     # ---- the whole reader ----
 
-    def top(self, type_name: str, needs: Needs) -> Reader:
+    def top(self, type_name: str, needs: Needs, header: int | None = None) -> Reader:
+        """The reader; a CDR one of the byte order whose encapsulation header's
+        second byte is `header`, which hands a message of another to `_other`."""
         body = _Body(known=8)
+        if header is not None:
+            body.lines.append(
+                f"if len(raw) < 4 or raw[0] != 0 or raw[1] != {header}: return _other(raw)"
+            )
         start = 0 if self.ros1 else 4  # CDR positions count from the header's end
         body.lines.append(f"p = {start}")
         value = self._message(body, type_name, needs, read=True)
@@ -127,18 +135,17 @@ class _Compiler:
             body.lines.append(f"end = {end}")
             body.lines.append("if end > len(raw) or end + 3 < len(raw): raise _Error(_LENGTH)")
         body.lines.append(f"return {value}")
+        # A message that does not fit the definition fails in many ways: each is
+        # said as a PartialDecodeError, caught in the reader itself.
+        body.lines = [
+            "try:", *(f"    {line}" for line in body.lines),
+            "except _Errors as error:", "    raise _Error(str(error)) from None",
+        ]  # fmt: skip
         self._define("read", "raw", body)
         namespace = dict(self.names)
         exec("\n".join(self.source), namespace)  # generated here: no name from a definition
         reader: Reader = namespace["read"]
-
-        def checked(raw: bytes | memoryview) -> Any:
-            try:
-                return reader(raw)
-            except (struct.error, UnicodeDecodeError, IndexError, ValueError) as error:
-                raise PartialDecodeError(str(error)) from None
-
-        return checked
+        return reader
 
     def _define(self, name: str, parameters: str, body: _Body) -> None:
         self.source.append(f"def {name}({parameters}):")

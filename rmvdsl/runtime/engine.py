@@ -355,9 +355,15 @@ class Runtime(Reporting):
             taken = _take(self.consumer_inbox, bound)
             for time, items in _instants(taken):
                 changes = self._changes(items)
+                names = {name for name, _ in changes}
                 for monitor in self.properties:
-                    monitor.instant(time, changes)
+                    # A sampled property none of whose names changed samples the
+                    # same state at its ticks: `ticks_before` below reaches them.
+                    if monitor.period is None or not monitor.watch.isdisjoint(names):
+                        monitor.instant(time, changes)
                 for alert in self.alerts:
+                    if alert.reads.isdisjoint(names):
+                        continue  # an alert reads only the names it reads
                     record = alert.instant(time, changes)
                     if record is not None:
                         self._alert(alert.alert, record)

@@ -87,6 +87,10 @@ def _compile_binary(expr: ir.Binary, left: Evaluator, right: Evaluator) -> Evalu
     op = expr.op
     if op in _ORDERING:
         compare = _ORDERING[op]
+        if isinstance(expr.left, ir.Ref) and isinstance(expr.right, ir.Number):
+            constant = number_value(expr.right)
+            if type(constant) in (int, float):
+                return _name_against(op, expr.left.name, constant)
 
         def ordering(lookup: Callable[[str], Any]) -> Any:
             a, b = left(lookup), right(lookup)
@@ -101,6 +105,27 @@ def _compile_binary(expr: ir.Binary, left: Evaluator, right: Evaluator) -> Evalu
 
         return ordering
     return lambda lookup: binary(expr, left(lookup), lambda: right(lookup))
+
+
+def _name_against(op: str, name: str, constant: int | float) -> Evaluator:
+    """`name op constant` (`Velocity > 0.1`, most conditions), as `ordering` does
+    it, in one call: a value of the constant's type compares as it is, a number of
+    the other type as floats."""
+    compare, same = _ORDERING[op], type(constant)
+    other, as_float = (float if same is int else int), float(constant)
+
+    def against(lookup: Callable[[str], Any]) -> Any:
+        value = lookup(name)
+        kind = type(value)
+        if kind is same:
+            return compare(value, constant)
+        if kind is other:
+            return compare(float(value), as_float)
+        if value is MISSING:
+            return MISSING
+        return values.compare(op, value, constant)
+
+    return against
 
 
 _ORDERING: dict[str, Callable[[Any, Any], bool]] = {

@@ -10,7 +10,8 @@ element, reduced by the variable's aggregate).
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping, Sequence
+import operator
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from fractions import Fraction
 from typing import Any
 
@@ -64,12 +65,13 @@ def reader(variable: Variable) -> Any:
     if convert is None or not all(isinstance(step, FieldStep) for step in variable.path):
         return lambda message: read(variable, message)
     names = tuple(step.read for step in variable.path if isinstance(step, FieldStep))
+    if not names:
+        return lambda message: read(variable, message)
+    walk = operator.attrgetter(".".join(names))  # the path's getattr calls, in C
 
     def fast(message: Any) -> Any:
-        value = message
         try:
-            for name in names:
-                value = getattr(value, name)
+            value = walk(message)
             if type(value) in _PLAIN:
                 return convert(value)
             return read(variable, message)  # numpy scalars, arrays: the careful way
@@ -90,20 +92,44 @@ def _aggregate_reader(variable: Variable) -> Any:
     if convert is None or not all(isinstance(s, FieldStep | EachStep) for s in steps):
         return lambda message: read(variable, message)
     plan = tuple(step.read if isinstance(step, FieldStep) else None for step in steps)
+    walk = _walker(plan)
     name = variable.aggregate
     assert name is not None
 
     def fast(message: Any) -> Any:
-        values = None if _is_mapping(type(message)) else _walk(plan, message)
-        if values is None or any(type(value) not in _PLAIN for value in values):
+        values = None if _is_mapping(type(message)) else walk(message)
+        if values is None or not _PLAIN.issuperset(map(type, values)):
             return read(variable, message)  # numpy, mappings, methods: the careful way
         try:
-            converted = [convert(value) for value in values]
+            converted = list(map(convert, values))
         except (ValueError, OverflowError):  # NaN or infinity as an integer
             return read(variable, message)  # which says so
         return aggregate(name, converted)
 
     return fast
+
+
+def _walker(plan: tuple[str | None, ...]) -> Callable[[Any], list[Any] | None]:
+    """`_walk` of `plan`; for a path through one array (`objects[*].twist.linear.x`,
+    `ranges[*]`) its getattr calls made by operator.attrgetter, in C."""
+    if plan.count(None) != 1:
+        return lambda message: _walk(plan, message)
+    split = plan.index(None)
+    before = ".".join(name for name in plan[:split] if name is not None)
+    after = ".".join(name for name in plan[split + 1 :] if name is not None)
+    head = operator.attrgetter(before) if before else None
+    tail = operator.attrgetter(after) if after else None
+
+    def walk(message: Any) -> list[Any] | None:
+        try:
+            elements = message if head is None else head(message)
+            if type(elements) is not list and type(elements) is not tuple:
+                return None
+            return list(elements) if tail is None else list(map(tail, elements))
+        except AttributeError:
+            return None
+
+    return walk
 
 
 def _walk(plan: tuple[str | None, ...], message: Any) -> list[Any] | None:
@@ -170,9 +196,11 @@ def aggregate(name: str, values: Sequence[Any]) -> Any:
     if not numbers:
         return MISSING
     if name == "min":
-        return min(numbers, key=_order) if _floats(numbers) else min(numbers)
+        least = min(numbers)
+        return min(_zeros(numbers), key=_order) if least == 0 and _floats(numbers) else least
     if name == "max":
-        return max(numbers, key=_order) if _floats(numbers) else max(numbers)
+        most = max(numbers)
+        return max(_zeros(numbers), key=_order) if most == 0 and _floats(numbers) else most
     if name == "mean":  # integers: their exact sum, divided once; floats: fsum's
         total = _sum(numbers) if _floats(numbers) else sum(numbers)
         return total / len(numbers)
@@ -181,6 +209,13 @@ def aggregate(name: str, values: Sequence[Any]) -> Any:
 
 def _floats(numbers: Sequence[Any]) -> bool:
     return any(type(v) is float for v in numbers)
+
+
+def _zeros(numbers: Sequence[Any]) -> list[Any]:
+    """The zeros among `numbers`: the one place `min` and `max` must tell numbers
+    equal in value apart (elsewhere the first of equal ones is the one `_order`
+    picks too)."""
+    return [v for v in numbers if v == 0]
 
 
 def _order(value: Any) -> tuple[float, float]:

@@ -244,13 +244,18 @@ class WindowedQuery:
         """The values a function reads: a NaN or an infinity is no point (InfluxDB
         refuses to store one, and the collector leaves it out: lineproto), so `min`,
         `max` and the rest skip it, as numpy's `nanmin` does."""
-        value_of, isfinite = compiled(arg), math.isfinite
-        out = []
-        for row in rows:
-            value = value_of(row.fields.get)
-            if value is not MISSING and not (isinstance(value, float) and not isfinite(value)):
-                out.append((row.time, value))  # _unstorable inlined: a point per row
-        return out
+        if isinstance(arg, ir.Ref):  # `mean(Velocity)`: the field, as `compiled` reads it
+            name = arg.name
+            pairs = [(row.time, row.fields.get(name)) for row in rows]
+        else:
+            value_of = compiled(arg)
+            pairs = [(row.time, value_of(row.fields.get)) for row in rows]
+        isfinite = math.isfinite  # _unstorable inlined: a point per row
+        return [
+            (time, value)
+            for time, value in pairs
+            if value is not MISSING and not (isinstance(value, float) and not isfinite(value))
+        ]
 
     def _aggregate(self, call: ir.Call, rows: list[Row], windows: range) -> Series:
         points = self._points(call.args[0], rows)
@@ -330,9 +335,14 @@ class EventState:
     final: int | None = None  # points before this time are final
 
     def add(self, row: Row) -> None:
-        index = bisect.bisect_right(self.times, row.time)
-        self.times.insert(index, row.time)
-        self.rows.insert(index, row)
+        times = self.times
+        if not times or times[-1] <= row.time:  # rows come mostly in time order
+            times.append(row.time)
+            self.rows.append(row)
+        else:
+            index = bisect.bisect_right(times, row.time)
+            times.insert(index, row.time)
+            self.rows.insert(index, row)
         if self.next_run is None:
             self.next_run = self.query.first_run(row.time)
 

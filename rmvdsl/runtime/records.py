@@ -18,8 +18,19 @@ Record = dict[str, Any]
 
 
 def seconds(ns: int) -> Fraction:
-    """`ns` nanoseconds in seconds, exactly."""
-    return Fraction(ns, NS)
+    """`ns` nanoseconds in seconds, exactly. The last one is kept: the records of
+    an instant (an alert and its actions, the points of one window) share a time,
+    and a Fraction costs a gcd and its checks to make."""
+    global _LAST_SECONDS
+    last = _LAST_SECONDS  # one read: another thread may replace it
+    if last[0] == ns and type(ns) is int:
+        return last[1]
+    value = Fraction(ns, NS)
+    _LAST_SECONDS = (ns, value)
+    return value
+
+
+_LAST_SECONDS: tuple[Any, Fraction] = (None, Fraction(0))
 
 
 class Host(Protocol):
@@ -100,14 +111,43 @@ def _json_value(value: Any) -> str:
     if kind is float:
         return repr(value) if math.isfinite(value) else f'"{value!r}"'
     if kind is dict or isinstance(value, dict):
-        keys = _KEYS
-        items = [
-            f"{keys.get(k) or _key(k)}: {_json_value(v)}" for k, v in value.items()
-        ]  # fmt: skip
-        return "{" + ", ".join(items) + "}"
+        return _json_object(value)
     if isinstance(value, list | tuple):
         return "[" + ", ".join([_json_value(v) for v in value]) + "]"
     return _json_string(str(value))
+
+
+def _json_object(value: dict[Any, Any]) -> str:
+    """`_json_value` of a dict (every record): its keys written once per shape
+    (records come in few), the values records mostly hold (names, times, numbers)
+    written in line, a call fewer for each."""
+    texts = []
+    for item in value.values():
+        kind = type(item)
+        if kind is str:
+            texts.append(_json_string(item))
+        elif kind is Fraction and item.denominator == 1:
+            texts.append(str(item.numerator))
+        elif kind is float and math.isfinite(item):
+            texts.append(repr(item))
+        else:
+            texts.append(_json_value(item))
+    shape = tuple(value)
+    template = _SHAPES.get(shape)
+    if template is None:
+        template = _shape(shape)
+    return template % tuple(texts)
+
+
+def _shape(keys: tuple[Any, ...]) -> str:
+    """The text of an object with `keys`, a `%s` for each value."""
+    text = "{" + ", ".join(_key(k).replace("%", "%%") + ": %s" for k in keys) + "}"
+    if len(_SHAPES) < 1024:
+        _SHAPES[keys] = text
+    return text
+
+
+_SHAPES: dict[tuple[Any, ...], str] = {}
 
 
 # What json.JSONEncoder(ensure_ascii=False).encode does with a str, less its wrapper.

@@ -185,20 +185,26 @@ def exact_decimal(value: Fraction) -> str | None:
     """The exact decimal text of a fraction whose expansion ends (`0.1`, `-2.5`,
     `86400`), or None (`1/3`). rmvdsl.lang.numbers and the resolved spec's JSON both
     print numbers through it."""
-    if value.denominator == 1:
+    denominator = value.denominator
+    if denominator == 1:
         return str(value.numerator)
-    digits = _PLACES.get(value.denominator)
-    if digits is None:
-        digits = _places(value.denominator)
+    found = _PLACES.get(denominator)
+    if found is None:
+        digits = _places(denominator)
+        # 1/denominator = factor/10^digits exactly where the expansion ends
+        found = (digits, 10**digits // denominator if digits > 0 else 0)
         if len(_PLACES) < 4096:  # the few denominators times have (ns: divisors of 10^9)
-            _PLACES[value.denominator] = digits
+            _PLACES[denominator] = found
+    digits, factor = found
     if digits < 0:
         return None
-    text = f"{abs(value.numerator) * 10**digits // value.denominator:0{digits + 1}d}"
-    return f"{'-' if value.numerator < 0 else ''}{text[:-digits]}.{text[-digits:]}"
+    numerator = value.numerator
+    text = str(abs(numerator) * factor).zfill(digits + 1)
+    return f"{'-' if numerator < 0 else ''}{text[:-digits]}.{text[-digits:]}"
 
 
-_PLACES: dict[int, int] = {}
+# denominator -> (decimal places, 10^places / denominator); places -1: none end
+_PLACES: dict[int, tuple[int, int]] = {}
 
 
 def _places(denominator: int) -> int:

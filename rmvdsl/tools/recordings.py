@@ -170,19 +170,14 @@ def damage(error: Exception) -> str:
 def messages_of(reader: Any, runtime: Runtime, **window: Any) -> Iterator[tuple[Any, int, bytes]]:
     """The reader's messages, up to where the recording cannot be read any further
     (damaged bytes): said there, and the run ends with what was read."""
-    messages = reader.messages(**window)
     last = reader.start_time
-    while True:
-        try:
-            connection, timestamp, raw = next(messages)
-        except StopIteration:
-            return
-        except Exception as error:  # rosbags meets damaged bytes in many ways
-            runtime.note(last, f"the recording cannot be read past {decimal_text(seconds(last))}: "
-                               f"{damage(error)}; the rest of it is not checked")  # fmt: skip
-            return
-        last = timestamp
-        yield connection, timestamp, raw
+    try:
+        for message in reader.messages(**window):
+            last = message[1]
+            yield message
+    except Exception as error:  # rosbags meets damaged bytes in many ways
+        runtime.note(last, f"the recording cannot be read past {decimal_text(seconds(last))}: "
+                           f"{damage(error)}; the rest of it is not checked")  # fmt: skip
 
 
 def key(connection: Any) -> tuple[int, int]:
@@ -191,7 +186,24 @@ def key(connection: Any) -> tuple[int, int]:
 
 
 def decoder(reader: Any, needs: dict[str, partial_decoding.Needs]) -> Callable[[Any, bytes], Any]:
-    """How a connection's messages are decoded: only the fields the spec reads of
+    """How a connection's messages are decoded (`connection_readers`), as one
+    function of the connection and the bytes."""
+    reader_of = connection_readers(reader, needs)
+    readers: dict[tuple[int, int], Callable[[bytes], Any]] = {}
+
+    def decode(connection: Any, raw: bytes) -> Any:
+        read = readers.get(key(connection))
+        if read is None:
+            read = readers[key(connection)] = reader_of(connection)
+        return read(raw)
+
+    return decode
+
+
+def connection_readers(
+    reader: Any, needs: dict[str, partial_decoding.Needs]
+) -> Callable[[Any], Callable[[bytes], Any]]:
+    """The decoder of a connection's messages: only the fields the spec reads of
     its topic (`needs`, rmvdsl.host.partial_decoding), by a reader compiled from
     the recording's definitions. ROS 1: by the live ROS 1 node's decoder
     (rmvdsl.host.ros1_decoding), from the connection's own definition and md5sum,
@@ -199,30 +211,45 @@ def decoder(reader: Any, needs: dict[str, partial_decoding.Needs]) -> Callable[[
     of a type each with its own; ROS 2: from the connection's types (the reader's,
     or its own where they differ: typestores.connection_store)."""
     if reader.is2:
-        return _ros2_decoder(reader, needs)
+        return _refusing_if_unmade(_ros2_reader(reader, needs))
     from rmvdsl.host.ros1_decoding import Decoder
 
     ros1 = Decoder()
-    headers: dict[tuple[int, int], dict[str, str]] = {}
 
-    def decode(connection: Any, raw: bytes) -> Any:
-        header = headers.get(key(connection))
-        if header is None:
-            header = headers[key(connection)] = {
-                "type": connection.msgtype, "md5sum": connection.digest,
-                "message_definition": connection.msgdef.data,
-            }  # fmt: skip
-        return ros1.decode(header, raw, needs.get(connection.topic))
+    def reader_of(connection: Any) -> Callable[[bytes], Any]:
+        header = {
+            "type": connection.msgtype, "md5sum": connection.digest,
+            "message_definition": connection.msgdef.data,
+        }  # fmt: skip
+        return ros1.reader(header, needs.get(connection.topic))
 
-    return decode
+    return _refusing_if_unmade(reader_of)
 
 
-def _ros2_decoder(
+def _refusing_if_unmade(
+    reader_of: Callable[[Any], Callable[[bytes], Any]],
+) -> Callable[[Any], Callable[[bytes], Any]]:
+    """`reader_of`, where a decoder that cannot be made refuses each message in
+    the words of why (each is then reported damaged, as its decoding would be)."""
+
+    def made(connection: Any) -> Callable[[bytes], Any]:
+        try:
+            return reader_of(connection)
+        except Exception as error:
+            words = str(error) or type(error).__name__
+
+            def refuse(raw: bytes) -> Any:
+                raise ValueError(words)
+
+            return refuse
+
+    return made
+
+
+def _ros2_reader(
     reader: Any, needs: dict[str, partial_decoding.Needs]
-) -> Callable[[Any, bytes], Any]:
-    readers: dict[tuple[int, int], partial_decoding.Reader] = {}
-
-    def made(connection: Any) -> partial_decoding.Reader:
+) -> Callable[[Any], Callable[[bytes], Any]]:
+    def reader_of(connection: Any) -> partial_decoding.Reader:
         store = shared_store(connection_store(reader, connection))
         topic, msgtype = connection.topic, connection.msgtype
         fields_of = lambda type_name: store.fielddefs[type_name][1]  # noqa: E731
@@ -233,13 +260,7 @@ def _ros2_decoder(
         wanted = [needs[topic]] if topic in needs else []
         return partial_decoding.or_full(full, msgtype, wanted, fields_of, ros1=False)
 
-    def decode(connection: Any, raw: bytes) -> Any:
-        read = readers.get(key(connection))
-        if read is None:
-            read = readers[key(connection)] = made(connection)
-        return read(raw)
-
-    return decode
+    return reader_of
 
 
 def window_time(text: str | None, start: int) -> int | None:

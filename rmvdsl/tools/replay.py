@@ -28,7 +28,7 @@ from rmvdsl.runtime.engine import (
 from rmvdsl.runtime.wording import counted
 from rmvdsl.tools.recordings import (
     ReplayError,
-    decoder,
+    connection_readers,
     key,
     messages_of,
     open_reader,
@@ -94,7 +94,6 @@ def replay(
             low = read_from
         upcoming = list(seams)
         endpoints: set[Endpoint] = set()
-        seen_connections: set[tuple[int, int]] = set()
         read = {key(c) for c in found.connections}
         # ROS 1 bags name each connection's publisher: every connection then
         # counts for intrusion detection, from its first message on.
@@ -102,8 +101,13 @@ def replay(
         watched = publishers if can_refuse(spec) else []
         connections = found.connections + [c for c in watched if key(c) not in read]
         total = sum(c.msgcount for c in found.connections)
-        decode = decoder(reader, partial_decoding.spec_needs(spec, found.skipped_variables))
+        reader_of = connection_readers(
+            reader, partial_decoding.spec_needs(spec, found.skipped_variables)
+        )
         position = Position()
+        # Per connection (the reader's objects, alive while it is open): its topic,
+        # whether the spec reads it, and its decoder (None: its bytes stay unread).
+        known: dict[int, tuple[str, bool, Callable[[bytes], Any] | None]] = {}
         for connection, timestamp, raw in messages_of(
             reader, runtime, connections=connections, start=low, stop=high
         ):
@@ -113,27 +117,32 @@ def replay(
                 assert at_seam is not None
                 if at_seam(upcoming.pop(0), runtime, endpoints, position):
                     return
-            if key(connection) not in seen_connections:
-                seen_connections.add(key(connection))
+            seen = known.get(id(connection))
+            if seen is None:
+                topic, is_read = connection.topic, key(connection) in read
+                decode = reader_of(connection) if is_read and runtime.reads(topic) else None
+                seen = known[id(connection)] = (topic, is_read, decode)
                 caller = getattr(connection.ext, "callerid", None)
                 if caller:
-                    endpoints.add(Endpoint(caller, connection.topic, "publisher"))
+                    endpoints.add(Endpoint(caller, topic, "publisher"))
                     runtime.graph(timestamp, endpoints)
-            if key(connection) not in read:
+            topic, is_read, decode = seen
+            if not is_read:
                 continue
             position.read += 1
             message = None  # a topic nothing reads (a whitelist's): its bytes unread
-            if runtime.reads(connection.topic):
+            if decode is not None:
                 try:
-                    message = decode(connection, raw)
+                    message = decode(raw)
                 except Exception as error:
-                    runtime.damaged(timestamp, connection.topic, str(error))
+                    runtime.damaged(timestamp, topic, str(error))
                     continue
-            runtime.message(timestamp, connection.topic, message)
+            runtime.message(timestamp, topic, message)
             position.fed += 1
             if progress is not None and position.fed % 2000 == 0:
                 progress(position.fed, total)
-            yield from runtime.records()
+            if runtime.out:
+                yield from runtime.records()
         for seam in upcoming:  # after the last message
             runtime.decide()
             yield from runtime.records()
@@ -252,8 +261,6 @@ def run(
     progress: Callable[[int, int], None] | None = None,
 ) -> Summary:
     """Replay and print; return what decides the exit code."""
-    from rmvdsl.runtime.engine import to_json
-
     summary = Summary()
     kept: list[Record] = []
     host = ExecutingHost() if run_actions else None
@@ -266,6 +273,29 @@ def run(
         spec, paths, host=host, start=start, stop=stop,
         record=record, progress=progress,
     )  # fmt: skip
+    lines = _Batched(out)
+    try:
+        _write(records, lines, output, summary, kept if report else None)
+    finally:
+        lines.flush()
+    if report:
+        from rmvdsl.tools import report as reports
+
+        reports.write(report, spec, kept)
+    return summary
+
+
+def _write(
+    records: Iterator[Record],
+    out: _Batched,
+    output: str,
+    summary: Summary,
+    kept: list[Record] | None,
+) -> None:
+    """The records in `output`'s form, counted in `summary`, and kept in `kept`
+    for a report."""
+    from rmvdsl.runtime.engine import to_json
+
     first = True
     repeats = _Repeats()
     if output == "json":
@@ -279,7 +309,7 @@ def run(
             summary.warnings += 1
         elif item["kind"] == "action" and item.get("error"):
             summary.failed_actions += 1
-        if report:
+        if kept is not None:
             kept.append(item)
         if output == "text":
             repeats.write(item, out)
@@ -307,8 +337,27 @@ def run(
             )
             + "\n"
         )
-    if report:
-        from rmvdsl.tools import report as reports
 
-        reports.write(report, spec, kept)
-    return summary
+
+class _Batched:
+    """Output written a batch of records at a time: a stream that writes through
+    (PYTHONUNBUFFERED=1, usual in containers) made one system call of each record,
+    a tenth of a replay's time. A terminal is written at once."""
+
+    SIZE = 512  # records (or lines) to a write
+
+    def __init__(self, out: Any) -> None:
+        self.out = out
+        self.parts: list[str] = []
+        isatty = getattr(out, "isatty", None)
+        self.size = 1 if isatty is not None and isatty() else self.SIZE
+
+    def write(self, text: str) -> None:
+        self.parts.append(text)
+        if len(self.parts) >= self.size:
+            self.flush()
+
+    def flush(self) -> None:
+        if self.parts:
+            self.out.write("".join(self.parts))
+            self.parts.clear()
