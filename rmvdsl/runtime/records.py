@@ -140,9 +140,10 @@ def _json_object(value: dict[Any, Any]) -> str:
 
 
 def _shape(keys: tuple[Any, ...]) -> str:
-    """The text of an object with `keys`, a `%s` for each value."""
+    """The text of an object with `keys`, a `%s` for each value. Only shapes of
+    text keys are kept: `(1,)` equals `(True,)`, which writes its key otherwise."""
     text = "{" + ", ".join(_key(k).replace("%", "%%") + ": %s" for k in keys) + "}"
-    if len(_SHAPES) < 1024:
+    if len(_SHAPES) < 1024 and all(type(k) is str for k in keys):
         _SHAPES[keys] = text
     return text
 
@@ -152,11 +153,7 @@ _SHAPES: dict[tuple[Any, ...], str] = {}
 
 # What json.JSONEncoder(ensure_ascii=False).encode does with a str, less its wrapper.
 _json_string = json.encoder.encode_basestring
-_KEYS: dict[str, str] = {}  # record keys, few and repeated: encoded once
 
 
 def _key(key: Any) -> str:
-    text = _json_string(str(key))
-    if type(key) is str and len(_KEYS) < 1024:
-        _KEYS[key] = text
-    return text
+    return _json_string(str(key))
