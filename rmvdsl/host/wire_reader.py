@@ -60,13 +60,10 @@ def compiled(type_name: str, needs: Needs, fields_of: FieldsOf, *, ros1: bool) -
             return _Compiler(fields_of, ros1=True, order="<").top(type_name, needs)
         # the encapsulation header: 00 01 little-endian CDR, 00 00 big-endian; each
         # reader checks its own and hands any other on (a call fewer a message)
-        little = _Compiler(fields_of, ros1=False, order="<").top(type_name, needs, header=1)
-        big = _Compiler(fields_of, ros1=False, order=">").top(type_name, needs, header=0)
+        big = _Compiler(fields_of, ros1=False, order=">").top(type_name, needs, (0, _not_cdr))
+        return _Compiler(fields_of, ros1=False, order="<").top(type_name, needs, (1, big))
     except RecursionError as error:  # a definition that contains itself
         raise Unsupported("definitions nested too deep") from error
-    little.__globals__["_other"] = big
-    big.__globals__["_other"] = _not_cdr
-    return little
 
 
 def _not_cdr(raw: bytes | memoryview) -> Any:
@@ -115,13 +112,15 @@ class _Compiler:
 
     # ---- the whole reader ----
 
-    def top(self, type_name: str, needs: Needs, header: int | None = None) -> Reader:
-        """The reader; a CDR one of the byte order whose encapsulation header's
-        second byte is `header`, which hands a message of another to `_other`."""
+    def top(self, type_name: str, needs: Needs, header: tuple[int, Reader] | None = None) -> Reader:
+        """The reader; a CDR one (`header`) reads the byte order its encapsulation
+        header's second byte names, and hands a message of another to the reader
+        given with it."""
         body = _Body(known=8)
         if header is not None:
+            order, self.names["_other"] = header
             body.lines.append(
-                f"if len(raw) < 4 or raw[0] != 0 or raw[1] != {header}: return _other(raw)"
+                f"if len(raw) < 4 or raw[0] != 0 or raw[1] != {order}: return _other(raw)"
             )
         start = 0 if self.ros1 else 4  # CDR positions count from the header's end
         body.lines.append(f"p = {start}")

@@ -244,18 +244,13 @@ class WindowedQuery:
         """The values a function reads: a NaN or an infinity is no point (InfluxDB
         refuses to store one, and the collector leaves it out: lineproto), so `min`,
         `max` and the rest skip it, as numpy's `nanmin` does."""
-        if isinstance(arg, ir.Ref):  # `mean(Velocity)`: the field, as `compiled` reads it
-            name = arg.name
-            pairs = [(row.time, row.fields.get(name)) for row in rows]
-        else:
-            value_of = compiled(arg)
-            pairs = [(row.time, value_of(row.fields.get)) for row in rows]
-        isfinite = math.isfinite  # _unstorable inlined: a point per row
-        return [
-            (time, value)
-            for time, value in pairs
-            if value is not MISSING and not (isinstance(value, float) and not isfinite(value))
-        ]
+        value_of, isfinite = compiled(arg), math.isfinite
+        out = []
+        for row in rows:
+            value = value_of(row.fields.get)
+            if value is not MISSING and not (isinstance(value, float) and not isfinite(value)):
+                out.append((row.time, value))  # _unstorable inlined: a point per row
+        return out
 
     def _aggregate(self, call: ir.Call, rows: list[Row], windows: range) -> Series:
         points = self._points(call.args[0], rows)

@@ -18,19 +18,8 @@ Record = dict[str, Any]
 
 
 def seconds(ns: int) -> Fraction:
-    """`ns` nanoseconds in seconds, exactly. The last one is kept: the records of
-    an instant (an alert and its actions, the points of one window) share a time,
-    and a Fraction costs a gcd and its checks to make."""
-    global _LAST_SECONDS
-    last = _LAST_SECONDS  # one read: another thread may replace it
-    if last[0] == ns and type(ns) is int:
-        return last[1]
-    value = Fraction(ns, NS)
-    _LAST_SECONDS = (ns, value)
-    return value
-
-
-_LAST_SECONDS: tuple[Any, Fraction] = (None, Fraction(0))
+    """`ns` nanoseconds in seconds, exactly."""
+    return Fraction(ns, NS)
 
 
 class Host(Protocol):
