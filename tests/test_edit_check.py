@@ -17,11 +17,13 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from test_incremental import SPECS, spec_copy  # noqa: F401 (a fixture)
 
 from rmvdsl.check import CheckResult, check
 from rmvdsl.check.edit import check_edit
-from rmvdsl.lang.diagnostics import Diagnostic, sort_key
+from rmvdsl.lang.diagnostics import Diagnostic, closest, may_sway, sort_key
 
 sys.path.insert(0, str(Path(__file__).parent))
 from differential import make_case
@@ -170,6 +172,42 @@ def test_a_declaration_added_or_removed(tmp_path: Path) -> None:
         tmp_path, in_vain, in_vain.replace("event F", "event H when W > 1\nevent F")
     )
     assert not answered
+
+
+def test_a_declaration_added_or_removed_beside_a_name_read_in_vain_it_is_not_near(
+    tmp_path: Path,
+) -> None:
+    """A name read in vain elsewhere whose "did you mean" the new name cannot be
+    nor sway (too far from it) leaves the edit path the answer. Refused, every
+    declaration typed while some name elsewhere was wrong ran the full fast stages
+    (at 20,805 lines, 170-300 ms a key)."""
+    spec = HEAD + "event F when V > 1\nproperty P: always[<=1s] not F and not Qzzq\n"
+    added = spec.replace("event F", "event Hnew when W > 1\nevent F")
+    for before, after in ((spec, added), (added, spec)):
+        answered, full = _pair(tmp_path, before, after)
+        assert answered
+        assert "RMV200" in {d.code for d in full.diagnostics}
+    near = spec.replace("event F", "event Qzzp when W > 1\nevent F")  # its suggestion now
+    answered, full = _pair(tmp_path, spec, near)
+    assert not answered
+    assert any(d.help == "did you mean `Qzzp`?" for d in full.diagnostics)
+    answered, _ = _pair(tmp_path, spec, spec.replace("event F", "event Qzzq when W > 1\nevent F"))
+    assert not answered  # the name read in vain is declared now
+
+
+_NAMES = st.text(alphabet="abAB_1", min_size=0, max_size=7)
+
+
+@settings(max_examples=400, deadline=None)
+@given(_NAMES, st.lists(_NAMES, max_size=6), _NAMES, st.integers(min_value=0, max_value=6))
+def test_a_name_that_cannot_sway_a_suggestion_leaves_it_as_it_was(
+    wrong: str, names: list[str], added: str, at: int
+) -> None:
+    """What same_interface relies on: a candidate may_sway says no to changes no
+    "did you mean", wherever it stands among the others."""
+    if may_sway(wrong, added):
+        return
+    assert closest(wrong, names) == closest(wrong, [*names[:at], added, *names[at:]])
 
 
 def test_an_edit_closing_a_cycle_waits_for_the_full_check(tmp_path: Path) -> None:
@@ -330,6 +368,58 @@ def test_the_fast_stages_of_keys_the_edit_path_answered_wait_for_a_pause(
         wire.call("textDocument/hover", {"textDocument": {"uri": uri},
                                          "position": {"line": 2, "character": 6}})  # fmt: skip
         assert checked == [text.replace("V > 100", "V > 1234100")], checked
+
+
+def test_fast_stages_overtaken_by_a_key_still_serve_the_edit_path(tmp_path: Path) -> None:
+    """The fast stages of a text a newer key has changed are not published, but
+    the edit path works out the next keys from them. Dropped, a typist quicker
+    than the fast stages left the edit path an ever older text, whose edits it
+    could not bridge, so every key waited for the fast stages (at 20,805 lines,
+    a completing typist's keys: 250 ms each, and completion p99 110 ms)."""
+    from test_lsp_edges import _edit
+
+    text = SERVED + "event E when V > 100\nproperty P: always[<=1s] not E\n"
+    with _served(tmp_path, text, lambda p: p["version"] == 1 and p["diagnostics"] == []) as (
+        wire,
+        uri,
+    ):
+        state = wire.process.server.state
+        workspace = state.workspace
+        entered: list[str] = []
+        gates = {2: threading.Event(), 3: threading.Event()}
+        real = workspace.check
+
+        def held(path: str, *args: Any, **options: Any) -> Any:
+            entered.append(workspace.documents()[path])
+            gate = gates.get(len(entered))
+            if gate is not None:
+                gate.wait(60)
+            return real(path, *args, **options)
+
+        def until(condition: Any) -> None:
+            deadline = time.monotonic() + 20
+            while not condition() and time.monotonic() < deadline:
+                time.sleep(0.01)
+            assert condition()
+
+        workspace.check = held
+        try:
+            entered.append(text)  # the first check (not through `held`)
+            topic = 'topic U: std_msgs/Float64 = "/u"\n'  # the edit path leaves topics
+            wire.notify("textDocument/didChange", _edit(uri, 2, 0, 0, 0, topic))
+            until(lambda: len(entered) == 2)  # the fast stages of version 2, held
+            start = len("event E when V > ")
+            wire.notify("textDocument/didChange", _edit(uri, 3, 3, start, start, "1"))
+            until(lambda: state.generation.get(next(iter(state.generation))) == 3)
+            gates[2].set()
+            until(lambda: len(entered) == 3)  # version 2's done; version 3's held
+            wire.notify("textDocument/didChange", _edit(uri, 4, 3, start, start, "2"))
+            found = wire.diagnostics_until(uri, lambda p: p["version"] == 4, timeout=20)
+            assert [d["code"] for d in found["diagnostics"]] == ["RMV203"]  # `U`, unused
+            assert len(entered) == 3  # answered while version 3's fast stages ran
+        finally:
+            for gate in gates.values():
+                gate.set()
 
 
 def test_a_key_after_the_solver_stages_sends_the_fast_stages_of_its_text(tmp_path: Path) -> None:

@@ -19,7 +19,7 @@ from rmvdsl.check.typeinfo import TypeInfo
 from rmvdsl.check.types import TypeChecker, TypeConfig
 from rmvdsl.grammar import ast
 from rmvdsl.grammar.shift import findings
-from rmvdsl.lang.diagnostics import Diagnostic
+from rmvdsl.lang.diagnostics import Diagnostic, may_sway
 from rmvdsl.lang.source import SourceMap, Span
 
 # The model's map of each of them, by name.
@@ -263,14 +263,14 @@ def same_interface(model: Model, old: Alone, new: Alone) -> bool:
     """Whether the other declarations' findings are as they were, but for which
     names are unused: a name declared by both declared alike and of the same
     type; a name no longer declared read by none of the others; a new name not
-    declared before; no name read in vain anywhere when names come or go (its
-    "did you mean" chooses among them); no new event read that closes a cycle
+    declared before; no name read in vain that a name come or gone is, or whose
+    "did you mean" it could choose or sway; no new event read that closes a cycle
     (the check before found none); and where RMV224 could be said, the same
     names read, declared and settings."""
     counts = use_counts(model)
     gone, come = old.symbols.keys() - new.symbols.keys(), new.symbols.keys() - old.symbols.keys()
-    if (gone or come) and model.unresolved:
-        return False  # "did you mean" of a name read in vain chooses among the names
+    if (gone or come) and _suggestions_may_change(model.unresolved, gone | come):
+        return False
     for name in gone:
         if counts[name] != old.uses[name]:
             return False
@@ -291,6 +291,15 @@ def same_interface(model: Model, old: Alone, new: Alone) -> bool:
         return True
     same = (old.uses.keys(), old.symbols.keys(), old.lateness)
     return same == (new.uses.keys(), new.symbols.keys(), new.lateness)
+
+
+def _suggestions_may_change(unresolved: set[str], changed: set[str]) -> bool:
+    """Whether a name declared or no longer declared changes what is said of a
+    name read in vain: it is that name, or its "did you mean" could choose it or
+    be swayed by it (a name at the cutoff distance or farther never is)."""
+    return any(
+        name in unresolved or any(may_sway(wrong, name) for wrong in unresolved) for name in changed
+    )
 
 
 def nothing_checked_after(model: Model, old: Alone, new: Alone) -> bool:

@@ -120,7 +120,7 @@ def did_you_mean(name: str, candidates: Iterable[str]) -> str | None:
 
 def closest(name: str, candidates: Iterable[str]) -> str | None:
     best: str | None = None
-    best_distance = max(1, len(name) // 3) + 1
+    best_distance = _cutoff(name)
     lowered = name.lower()
     for candidate in candidates:
         if candidate == name:
@@ -131,6 +131,21 @@ def closest(name: str, candidates: Iterable[str]) -> str | None:
         if distance < best_distance:
             best, best_distance = candidate, distance
     return best
+
+
+def may_sway(name: str, candidate: str) -> bool:
+    """Whether `closest(name, ...)` could choose `candidate`, or choose otherwise
+    for it being among the candidates: a candidate at the cutoff distance or
+    farther is never chosen, and never lowers the distance to beat."""
+    if candidate == name:
+        return False  # skipped
+    cutoff = _cutoff(name)
+    return _edit_distance(name.lower(), candidate.lower(), cutoff) < cutoff
+
+
+def _cutoff(name: str) -> int:
+    """The edit distance at which a candidate is too far from `name` to be named."""
+    return max(1, len(name) // 3) + 1
 
 
 def _edit_distance(a: str, b: str, limit: int) -> int:
