@@ -146,3 +146,28 @@ def test_the_typed_word_is_the_name_written_before_the_cursor():
     assert ranking.typed_word(text, 15) == "Sp"
     assert ranking.typed_word(text, 16) == ""
     assert ranking.typed_word(text, len(text)) == "V1"
+
+
+def test_the_names_completed_are_those_of_the_check_asked_with(tmp_path):
+    """The names in scope and their labels are worked out once per check (not at
+    each key): a check of another text, asked with in turn, has its own, and a
+    check let go is not kept alive by them."""
+    import gc
+    import weakref
+
+    spec = tmp_path / "names.rmv"
+    head = 'topic T: std_msgs/Float64 = "/t"\nvar Speed = T.data\n'
+    line = "event E when Sp"
+    texts = [head + line, head + "var Spare = T.data\n" + line]
+    results = [check(str(spec), text, solver=False) for text in texts]
+    for _ in range(2):
+        for result, text in zip(results, texts, strict=True):
+            sent, _ = completion.sent_completions(result, text, len(text), limit=1)
+            declared = {s.name for s in result.model.symbols.values() if s.kind.value == "variable"}
+            every = completions(result, text, len(text))
+            assert {c.label for c in every if c.kind == "variable"} == declared
+            assert sent == ranking.shortlist(every, [c.label for c in every], "Sp", 1)[0]
+    gone = weakref.ref(results[1].model)
+    del results[1], result
+    gc.collect()
+    assert gone() is None

@@ -19,6 +19,8 @@ from typing import Any
 
 import pytest
 from conftest import EXAMPLES
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
 from lsp_wire import Wire
 
 ABS = EXAMPLES / "carla" / "abs.rmv"
@@ -391,3 +393,85 @@ def test_the_full_collection_waits_for_the_typist_to_pause(monkeypatch: pytest.M
         ls.state.solver_lane.shutdown(wait=True)
     # one sweep, a pause after the last key (0.2 s; the timer may round a little short)
     assert len(swept) == 1 and swept[0] - last_key >= 0.18, (swept, last_key)
+
+
+_TEXTS = st.lists(
+    st.sampled_from(["a", "é", "😋", " ", "\n", "\r", "\r\n", "\v", "\f", "\x1c", "\x85",
+                     "\u2028", "\t"]),
+    max_size=40,
+).map("".join)  # fmt: skip
+
+
+@settings(max_examples=500, deadline=None)
+@example("😋\n", 1, 0, "utf-16")  # past the last line: pygls counts its code units
+@given(
+    _TEXTS,
+    st.integers(min_value=0, max_value=12),
+    st.integers(min_value=0, max_value=12),
+    st.sampled_from(["utf-8", "utf-16", "utf-32"]),
+)
+def test_a_position_s_offset_is_pygls_s_whatever_the_line_ends(
+    text: str, line: int, character: int, encoding: str
+) -> None:
+    """offset_at splits only the lines up to the position when "\\n" ends them all;
+    the offset is the one pygls's own lines give, for any line ends (str.splitlines
+    breaks at nine more), any position (past a line's end, past the last line) and
+    any of the client's encodings."""
+    from lsprotocol import types
+    from pygls.workspace import PositionCodec, TextDocument
+
+    from rmvdsl.editor.lsp.convert import offset_at
+
+    codec = PositionCodec(types.PositionEncodingKind(encoding))
+    document = TextDocument("file:///t.rmv", text, position_codec=codec)
+    asked = types.Position(line, character)
+    lines = document.lines
+    where = document.position_codec.position_from_client_units(
+        lines, types.Position(line, character)
+    )
+    expected = sum(map(len, lines[: where.line])) + where.character
+    assert offset_at(document, asked) == expected
+
+
+_SPOTS = st.tuples(st.integers(min_value=0, max_value=8), st.integers(min_value=0, max_value=8))
+
+
+@settings(max_examples=500, deadline=None)
+@example("a\n😋b\n", (1, 2), (1, 3), "x", "utf-16")  # inside a surrogate pair
+@example("ab\ncd\n", (1, 1), (0, 1), "", "utf-16")  # reversed: pygls keeps the text
+@given(_TEXTS, _SPOTS, _SPOTS, _TEXTS, st.sampled_from(["utf-8", "utf-16", "utf-32"]))
+def test_an_edit_spliced_into_a_document_makes_pygls_s_text(
+    text: str, start: tuple[int, int], end: tuple[int, int], typed: str, encoding: str
+) -> None:
+    """The server's documents splice an edit into their text where pygls writes
+    every line again: the same text, whatever the line ends, the range (past a
+    line's end or the last line, reversed) and the client's encoding."""
+    from lsprotocol import types
+    from pygls.workspace import PositionCodec, TextDocument
+
+    from rmvdsl.editor.lsp.document import Document
+
+    codec = PositionCodec(types.PositionEncodingKind(encoding))
+    texts = []
+    for kind in (TextDocument, Document):
+        document = kind("file:///t.rmv", text, position_codec=codec)
+        where = types.Range(types.Position(*start), types.Position(*end))
+        document.apply_change(types.TextDocumentContentChangePartial(range=where, text=typed))
+        texts.append(document.source)
+    assert texts[0] == texts[1]
+
+
+def test_the_server_s_documents_splice_their_edits(tmp_path: Path) -> None:
+    from rmvdsl.editor.lsp.document import Document
+
+    wire = Wire(in_process=True)
+    try:
+        wire.initialize(tmp_path)
+        uri = wire.open(tmp_path / "spliced.rmv", 'topic T: std_msgs/Float64 = "/t"\n')
+        wire.notify("textDocument/didChange", _edit(uri, 2, 0, 6, 7, "U"))
+        wire.diagnostics_until(uri, lambda p: p["version"] == 2, timeout=30)
+        document = wire.process.server.workspace.get_text_document(uri)
+        assert isinstance(document, Document)
+        assert document.source == 'topic U: std_msgs/Float64 = "/t"\n'
+    finally:
+        wire.close()

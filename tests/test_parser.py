@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import bisect
 import itertools
 import re
 
@@ -19,6 +20,7 @@ from rmvdsl.grammar.scanner import (
     RawComment,
     ScanResult,
     _starts_declaration,
+    chunk_before,
     scan,
 )
 from rmvdsl.grammar.shift import shifted
@@ -264,21 +266,38 @@ def test_scan_agrees_with_a_character_reading(pieces: list[str]) -> None:
     assert scan(text) == _reference_scan(text)
 
 
-@settings(max_examples=600, deadline=None)
-@given(
+# A text of scan pieces, and the same with some of them replaced: (before, after).
+_EDITED = st.tuples(
     st.lists(st.sampled_from(_SCAN_PIECES), max_size=40),
     st.integers(0, 40),
     st.integers(0, 3),
     st.lists(st.sampled_from(_SCAN_PIECES), max_size=3),
-)
-def test_a_scan_after_an_edit_equals_a_fresh_one(
-    pieces: list[str], at: int, removed: int, inserted: list[str]
-) -> None:
+).map(lambda e: ("".join(e[0]), "".join(e[0][: e[1]] + e[3] + e[0][e[1] + e[2] :])))
+
+
+@settings(max_examples=600, deadline=None)
+@given(_EDITED)
+def test_a_scan_after_an_edit_equals_a_fresh_one(edited: tuple[str, str]) -> None:
     """An editor's scan reuses the scan of the text before the edit: the chunks
     before it, and those of the unchanged end, moved."""
-    before = "".join(pieces)
-    after = "".join(pieces[:at] + inserted + pieces[at + removed :])
+    before, after = edited
     assert scan(after, (before, scan(before))) == scan(after)
+
+
+@settings(max_examples=600, deadline=None)
+@given(_EDITED)
+def test_the_chunk_before_an_offset_after_an_edit_is_a_fresh_scan_s(
+    edited: tuple[str, str],
+) -> None:
+    """Completion's chunk, from the scan of the text before the edit, nothing of
+    it moved: at every offset, the chunk a fresh scan of the new text finds."""
+    before, after = edited
+    chunks = scan(after).chunks
+    old = scan(before)
+    for offset in range(len(after) + 1):
+        index = bisect.bisect_left(chunks, (offset,))
+        expected = chunks[index - 1][0] if index else 0
+        assert chunk_before(after, before, old, offset) == expected, offset
 
 
 def test_a_scan_after_an_edit_equals_a_fresh_one_on_the_examples() -> None:

@@ -7,13 +7,21 @@ from __future__ import annotations
 
 import bisect
 import re
+import weakref
 from itertools import compress
 from operator import attrgetter
 from typing import NamedTuple
 
 from rmvdsl.check import CheckResult
-from rmvdsl.check.model import BOOLEAN_KINDS, EVENT_KINDS, PROPOSITION_KINDS, Kind, Symbol
-from rmvdsl.editor.ranking import LIMIT, shortlist, typed_word
+from rmvdsl.check.model import (
+    BOOLEAN_KINDS,
+    EVENT_KINDS,
+    PROPOSITION_KINDS,
+    Kind,
+    Model,
+    Symbol,
+)
+from rmvdsl.editor.ranking import LIMIT, Labels, joined, labels_of, shortlist, typed_word
 
 _OPENER = re.compile(r"^\s*(\w+)")
 _SETTING_VALUE = re.compile(r"^\s*(\w+)\s*=\s*$")
@@ -67,7 +75,7 @@ def completions(
     may stand, the names in scope and InfluxQL's functions). `path`: the file the
     text is of, whose last scan is then reused (an editor's)."""
     found, names = _candidates(result, text, offset, path)
-    return [*found, *map(_named, names)]
+    return [*found, *map(_named, names.symbols)]
 
 
 def sent_completions(
@@ -81,8 +89,8 @@ def sent_completions(
     and whether the list was cut: a name's completion is made only if it is sent
     (in a spec of 10,000 names, making one for each took most of a request)."""
     found, names = _candidates(result, text, offset, path)
-    items: list[Completion | Symbol] = [*found, *names]
-    labels = [c.label for c in found] + list(map(attrgetter("name"), names))
+    items: list[Completion | Symbol] = [*found, *names.symbols]
+    labels = joined(labels_of([c.label for c in found]), names.labels)
     sent, cut = shortlist(items, labels, typed_word(text, offset), limit)
     return [c if isinstance(c, Completion) else _named(c) for c in sent], cut
 
@@ -91,31 +99,44 @@ def _named(symbol: Symbol) -> Completion:
     return Completion(symbol.name, symbol.kind.value, symbol.kind.described())
 
 
+class _Names(NamedTuple):
+    """The names in scope in a kind of declaration, and their labels."""
+
+    symbols: list[Symbol]
+    labels: Labels
+
+
+_NO_NAMES = _Names([], labels_of([]))
+
+
 def _candidates(
     result: CheckResult | None, text: str, offset: int, path: str | None
-) -> tuple[list[Completion], list[Symbol]]:
+) -> tuple[list[Completion], _Names]:
     """`completions`: the names in scope apart (each made a Completion by
     `_named`), the rest made."""
-    from rmvdsl.grammar.parser import scan_file
+    from rmvdsl.grammar.parser import chunk_start
     from rmvdsl.grammar.scanner import scan
 
     start = offset - len(typed_word(text, offset))
-    scanned = scan_file(path, text) if path is not None else scan(text[:start])
     # The declaration the cursor is in (blocks never span two). A chunk starting
     # at `start` is the word being completed: what came before decides, as a scan
     # of the text before it says.
-    before = bisect.bisect_left(scanned.chunks, (start,))  # chunks are (start, line)
-    chunk = scanned.chunks[before - 1][0] if before else 0
+    if path is not None:
+        chunk = chunk_start(path, text, start)
+    else:
+        chunks = scan(text[:start]).chunks
+        before = bisect.bisect_left(chunks, (start,))  # chunks are (start, line)
+        chunk = chunks[before - 1][0] if before else 0
     line_start = text.rfind("\n", 0, start) + 1
     line = text[line_start:start]
     settings = _block_settings(text[chunk:start], line)
     if settings is not None:
-        return settings, []
+        return settings, _NO_NAMES
     if _MESSAGE_TYPE.match(text[line_start:offset]):
-        return _message_types(result), []
+        return _message_types(result), _NO_NAMES
     field_path = _FIELD_PATH.search(line)
     if field_path is not None and result is not None and field_path.group(1) in result.model.topics:
-        return _fields(result, field_path.group(1), field_path.group(2)), []
+        return _fields(result, field_path.group(1), field_path.group(2)), _NO_NAMES
     return _grammar_completions(result, text, chunk, start)
 
 
@@ -170,7 +191,7 @@ def _fields(result: CheckResult, topic: str, path: str) -> list[Completion]:
 
 def _grammar_completions(
     result: CheckResult | None, text: str, chunk: int, start: int
-) -> tuple[list[Completion], list[Symbol]]:
+) -> tuple[list[Completion], _Names]:
     from rmvdsl.grammar.grammars import accepted_words
     from rmvdsl.grammar.scanner import TOP_LEVEL_KEYWORDS
     from rmvdsl.lang import builtins
@@ -184,18 +205,39 @@ def _grammar_completions(
         words |= TOP_LEVEL_KEYWORDS
     found = [Completion(w, "keyword", "keyword") for w in sorted(words)]
     if not names:
-        return found, []
+        return found, _NO_NAMES
     opener = _OPENER.match(text[chunk:start])
     if opener is not None and opener.group(1) in _WITH_FUNCTIONS:
         found += [Completion(f.name, "function", f.group, f.doc)
                   for f in builtins.FUNCTIONS.values()]  # fmt: skip
     if result is None:
-        return found, []
-    kinds = _NAMES_IN.get(opener.group(1) if opener else "")
-    symbols = list(result.model.symbols.values())
-    if kinds is None:
-        return found, symbols
-    return found, list(compress(symbols, map(kinds.__contains__, map(attrgetter("kind"), symbols))))
+        return found, _NO_NAMES
+    return found, _names_in(result.model, _NAMES_IN.get(opener.group(1) if opener else ""))
+
+
+# The names of the model completed in last, by the kinds asked for (None: all):
+# worked out once per check, not at each key; dropped with the model.
+_KEPT: list[tuple[weakref.ref[Model], dict[frozenset[Kind] | None, _Names]]] = []
+
+
+def _names_in(model: Model, kinds: frozenset[Kind] | None) -> _Names:
+    """The model's names of those kinds (None: of any), in declaration order."""
+    if not _KEPT or _KEPT[0][0]() is not model:
+        _KEPT[:] = [(weakref.ref(model, _forget), {})]
+    kept = _KEPT[0][1]
+    names = kept.get(kinds)
+    if names is None:
+        symbols = list(model.symbols.values())
+        if kinds is not None:
+            of_kind = map(kinds.__contains__, map(attrgetter("kind"), symbols))
+            symbols = list(compress(symbols, of_kind))
+        names = kept[kinds] = _Names(symbols, labels_of(list(map(attrgetter("name"), symbols))))
+    return names
+
+
+def _forget(gone: weakref.ref[Model]) -> None:
+    if _KEPT and _KEPT[0][0] is gone:
+        _KEPT.clear()
 
 
 # The kinds of names that may stand in each declaration (the names stage's rules).

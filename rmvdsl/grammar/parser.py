@@ -27,7 +27,7 @@ from rmvdsl.grammar.grammars import (
     spec_parser,
 )
 from rmvdsl.grammar.recovery import ChunkParser
-from rmvdsl.grammar.scanner import RawComment, ScanResult, scan
+from rmvdsl.grammar.scanner import RawComment, ScanResult, chunk_before, scan
 from rmvdsl.grammar.shift import keep_findings, shifted, with_field
 from rmvdsl.lang.diagnostics import Diagnostic, did_you_mean, error
 from rmvdsl.lang.source import SourceFile, Span
@@ -108,6 +108,17 @@ def scan_file(path: str, text: str) -> ScanResult:
     _LAST_SCANS.put(path, (text, scanned))
     _RECENT_SCANS.put((path, text), scanned)
     return scanned
+
+
+def chunk_start(path: str, text: str, offset: int) -> int:
+    """The start of the declaration chunk of a file's text that `offset` is in
+    (the last one starting before it; 0 when none does), from the file's last
+    scan: what an edit changed is scanned again, and nothing is kept or moved
+    (completion asks at each key; the next parse scans for itself)."""
+    last = _LAST_SCANS.get(path)
+    if last is None:
+        return chunk_before(text, text, scan_file(path, text), offset)
+    return chunk_before(text, *last, offset)
 
 
 def damaged_names(text: str, start: int, end: int) -> set[str]:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import bisect
 import dataclasses
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 from operator import attrgetter, itemgetter
 
@@ -130,6 +131,32 @@ def rescan(text: str, old_text: str, old: ScanResult) -> Rescan:
         assert rest is not None
         return Rescan(index, found.chunks[:-2], rest[0])
     return Rescan(index, found.chunks, None)
+
+
+def chunk_before(text: str, old_text: str, old: ScanResult, offset: int) -> int:
+    """The start of the last chunk of `text` that starts before `offset` (0 when
+    none does), from the scan of an earlier text: the chunks rescan finds, and
+    those it kept, each read where it now stands, none moved (completion's
+    question at each key: moving the rest of a 20,805-line file's chunks was
+    4 ms of each request)."""
+    if text == old_text:
+        return _start_before(old.chunks, offset)
+    found = rescan(text, old_text, old)
+    if found.rest is not None:  # the unchanged end, moved by the edit
+        delta = len(text) - len(old_text)
+        index = bisect.bisect_left(old.chunks, (offset - delta,), found.rest)
+        if index > found.rest:
+            return old.chunks[index - 1][0] + delta
+    start = _start_before(found.chunks, offset)
+    if found.chunks and found.chunks[0][0] < offset:
+        return start
+    return _start_before(old.chunks, offset, found.first)
+
+
+def _start_before(chunks: Sequence[tuple[int, int]], offset: int, end: int | None = None) -> int:
+    """The start of the last of `chunks[:end]` that starts before `offset`, or 0."""
+    index = bisect.bisect_left(chunks, (offset,), 0, len(chunks) if end is None else end)
+    return chunks[index - 1][0] if index else 0
 
 
 def _resumed(text: str, old_text: str, old: ScanResult) -> tuple[int, _Unchanged]:

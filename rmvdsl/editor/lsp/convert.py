@@ -9,7 +9,7 @@ import os
 from pathlib import Path
 
 from lsprotocol import types
-from pygls.workspace import TextDocument
+from pygls.workspace import PositionCodec, TextDocument
 
 from rmvdsl.editor.workspace import TOKEN_TYPES, Token
 from rmvdsl.lang.codes import diagnostics_markdown
@@ -70,11 +70,46 @@ def code_units(text: str, encoding: str) -> int:
     return len(text)
 
 
+# What str.splitlines, and so pygls's `lines`, breaks a line at besides "\n".
+_OTHER_BREAKS = "\r\v\f\x1c\x1d\x1e"
+_OTHER_BREAKS_BEYOND_ASCII = "\x85\u2028\u2029"
+
+
 def offset_at(document: TextDocument, position: types.Position) -> int:
-    """The code-point offset of an LSP position in the document's text (its lines
-    keep their line ends)."""
-    where = document.position_codec.position_from_client_units(document.lines, position)
-    return sum(len(line) for line in document.lines[: where.line]) + where.character
+    """The code-point offset of an LSP position in the document's text, its lines
+    as pygls's `lines` splits them (with their line ends). `lines` splits the
+    whole text, twice here, each time it is read: at 20,805 lines, 5 ms of each
+    completion. A text whose lines end in "\n" alone (checked in C, in
+    microseconds) has only its lines up to the position's split."""
+    found = quick_offset(document.source, document.position_codec, position)
+    if found is not None:
+        return found
+    # another line end, or a position past the last line: pygls's rule as it is
+    lines = document.lines
+    where = document.position_codec.position_from_client_units(lines, position)
+    return sum(map(len, lines[: where.line])) + where.character
+
+
+def quick_offset(text: str, codec: PositionCodec, position: types.Position) -> int | None:
+    """`offset_at` where only the lines up to the position need splitting (they all
+    end in "\n", and the position is on one of them); None elsewhere."""
+    if not _newlines_alone(text):
+        return None
+    head = text.split("\n", position.line)
+    if len(head) <= position.line or not head[-1]:
+        return None  # past the last line
+    start = len(text) - len(head[-1])  # of the position's line
+    end = text.find("\n", start)
+    line = text[start : len(text) if end < 0 else end + 1]
+    where = codec.position_from_client_units([line], types.Position(0, position.character))
+    return start + where.character
+
+
+def _newlines_alone(text: str) -> bool:
+    """Whether "\n" is the only line end str.splitlines finds in `text`."""
+    if any(other in text for other in _OTHER_BREAKS):
+        return False
+    return text.isascii() or not any(other in text for other in _OTHER_BREAKS_BEYOND_ASCII)
 
 
 def diagnostic(found: Diagnostic, sources: SourceMap, encoding: str) -> types.Diagnostic | None:

@@ -12,6 +12,9 @@ from typing import Any
 from cattrs.errors import ClassValidationError
 from pygls.exceptions import JsonRpcException, JsonRpcInvalidParams, JsonRpcInvalidRequest
 from pygls.protocol import LanguageServerProtocol
+from pygls.workspace import Workspace
+
+from rmvdsl.editor.lsp.document import SplicingWorkspace
 
 
 class Protocol(LanguageServerProtocol):
@@ -23,6 +26,18 @@ class Protocol(LanguageServerProtocol):
     over 1,000 edits). Here a future leaves the table once it is done, in the next
     turn of the event loop: pygls's shutdown cancels futures while iterating the
     table, and a cancelled future runs its callbacks at once."""
+
+    # pygls makes the workspace at `initialize`: made one whose documents splice
+    # their edits (rmvdsl.editor.lsp.document).
+    @property
+    def _workspace(self) -> Workspace | None:
+        return self._spliced
+
+    @_workspace.setter
+    def _workspace(self, workspace: Workspace | None) -> None:
+        if type(workspace) is Workspace:
+            workspace.__class__ = SplicingWorkspace
+        self._spliced = workspace
 
     def _execute_handler(self, msg_id: Any, *args: Any, **kwargs: Any) -> None:
         super()._execute_handler(msg_id, *args, **kwargs)
