@@ -13,6 +13,7 @@ import sys
 import threading
 import time
 from collections.abc import Iterator
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -21,7 +22,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_incremental import SPECS, spec_copy  # noqa: F401 (a fixture)
 
-from rmvdsl.check import CheckResult, check
+from rmvdsl.check import CheckResult, check, edit
 from rmvdsl.check.edit import check_edit
 from rmvdsl.lang.diagnostics import Diagnostic, closest, may_sway, sort_key
 
@@ -56,6 +57,22 @@ def _typed_inside(result: CheckResult, text: str, rng: random.Random, names: lis
     if rng.random() < 0.35:
         return text[:at] + text[at + rng.randint(1, 3) :]
     return text[:at] + rng.choice([*PIECES, *names]) + text[at:]
+
+
+def _typed_in_two(result: CheckResult, text: str, rng: random.Random, names: list[str]) -> str:
+    """A key typed, or one to three erased, in each of two declarations of the root
+    file (the later first, so the earlier's place stands): what the check before
+    last sees when the fast stages of the keys between were not run."""
+    decls = result.model.specs[0].items if result.model.specs else ()
+    if len(decls) < 2:
+        return _typed_inside(result, text, rng, names)
+    for span in sorted((d.span for d in rng.sample(decls, 2)), key=lambda s: -s.start):
+        at = rng.randrange(span.start, span.end + 1)
+        if rng.random() < 0.35:
+            text = text[:at] + text[at + rng.randint(1, 3) :]
+        else:
+            text = text[:at] + rng.choice([*PIECES, *names]) + text[at:]
+    return text
 
 
 def _session(path: Path, text: str, rng: random.Random, edits: int) -> tuple[int, int]:
@@ -94,6 +111,47 @@ def test_keys_in_random_specs(tmp_path: Path) -> None:
         found, edits = _session(tmp_path / f"s{seed}.rmv", case.text, random.Random(seed), 15)
         answered, total = answered + found, total + edits
     assert answered >= total * 0.05, (answered, total)
+
+
+@pytest.mark.parametrize("most", [edit._MOST_CHUNKS, 2])
+def test_keys_in_two_places_of_random_specs(tmp_path: Path, most: int, monkeypatch) -> None:
+    """Two declarations changed at once, anywhere in the spec (a typist's keys in
+    one place and the first in another, before the fast stages of the first ran;
+    an edit of several cursors): each answer agrees with the full check, and some
+    are given. The random specs are short: with at most 2 chunks changed, edits
+    more than 2 chunks apart are matched chunk by chunk (47 of these 400 answered
+    so when this was written; with 8, 61)."""
+    monkeypatch.setattr(edit, "_MOST_CHUNKS", most)
+    answered = total = 0
+    for seed in range(40):
+        case = make_case(seed)
+        path = tmp_path / f"two{seed}.rmv"
+        path.write_text(case.text, encoding="utf-8")
+        base = check(str(path), case.text, solver=False, incremental=True)
+        rng = random.Random(seed)
+        names = sorted(set(re.findall(r"\b[A-Za-z_][A-Za-z0-9_]*\b", case.text)))[:40]
+        for _ in range(10):
+            quick, _ = _agrees(path, base, _typed_in_two(base, case.text, rng, names))
+            answered, total = answered + quick, total + 1
+    assert answered >= total * 0.08, (answered, total)
+
+
+def test_digits_typed_in_two_declarations_far_apart(tmp_path: Path) -> None:
+    """A bound typed in the first event and a threshold in one 40 declarations
+    on, answered from the check before both: a diagnostic between them is moved
+    by the first edit, one after both (and a label on a name declared there, read
+    by the second) by both."""
+    events = "".join(f"event E{i} when V > {i}\n" for i in range(40))
+    reads = " and ".join(f"not E{i}" for i in range(40))
+    spec = HEAD + events + f"property P: always[<=1s] ({reads})\n"
+    spec += "event Lone when W > 3 and Late > 1\nevent Unused when W > 4\n"
+    spec += "property Late: always[<=1s] not E1\n"
+    spec = spec.replace("event E20 when V > 20", "event E20 when V > 20 and Wq > 1")
+    first, last = spec.index("V > 0") + 4, spec.index("W > 3") + 4
+    edited = spec[:first] + "7" + spec[first:last] + "1" + spec[last:]
+    answered, full = _pair(tmp_path, spec, edited)
+    assert answered
+    assert {d.code for d in full.diagnostics} == {"RMV200", "RMV202", "RMV203"}
 
 
 def test_a_digit_typed_in_any_number_of_an_event_or_a_property(tmp_path: Path) -> None:
@@ -368,6 +426,115 @@ def test_the_fast_stages_of_keys_the_edit_path_answered_wait_for_a_pause(
         wire.call("textDocument/hover", {"textDocument": {"uri": uri},
                                          "position": {"line": 2, "character": 6}})  # fmt: skip
         assert checked == [text.replace("V > 100", "V > 1234100")], checked
+
+
+_EVENTS = "".join(f"event E{k} when V > {k}\n" for k in range(20))
+FAR_APART = (
+    SERVED + _EVENTS + f"property P: always[<=1s] not ({' or '.join(f'E{k}' for k in range(20))})\n"
+)
+_NEAR, _FAR = len("event E0 when V > "), len("event E19 when V > ")  # on lines 2 and 21
+
+
+@dataclass
+class _Watched:
+    """A served document and what its server did: the texts its fast stages
+    checked, and whether each answer of its edit path was far; the edit path stops
+    at `held` (set when it has) until `gate` opens."""
+
+    wire: Any
+    uri: str
+    checked: list[str] = field(default_factory=list)
+    answered: list[bool] = field(default_factory=list)
+    held: threading.Event = field(default_factory=threading.Event)
+    gate: threading.Event = field(default_factory=threading.Event)
+
+
+@contextlib.contextmanager
+def _far_apart(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, hold: str | None = None
+) -> Iterator[_Watched]:
+    """FAR_APART served, its first key typed in E0 and answered, and no pause for
+    the fast stages (SETTLE a minute); the edit path held at a text holding `hold`."""
+    from test_lsp_edges import _edit
+
+    from rmvdsl.editor.lsp import session
+
+    monkeypatch.setattr(session, "SETTLE", 60.0)
+    with _served(tmp_path, FAR_APART, lambda p: p["version"] == 1) as (wire, uri):
+        watched = _Watched(wire, uri)
+        workspace = wire.process.server.state.workspace
+        check, check_edit = workspace.check, workspace.check_edit
+
+        def counted(path: str, *args: Any, **options: Any) -> Any:
+            watched.checked.append(workspace.documents()[path])
+            return check(path, *args, **options)
+
+        def recorded(path: str, edited: str, before: CheckResult) -> Any:
+            if hold is not None and hold in edited:
+                watched.held.set()
+                watched.gate.wait(60)
+            found = check_edit(path, edited, before)
+            watched.answered.append(found is not None and found.far)
+            return found
+
+        workspace.check, workspace.check_edit = counted, recorded
+        try:
+            wire.notify("textDocument/didChange", _edit(uri, 2, 2, _NEAR, _NEAR, "7"))
+            wire.diagnostics_until(uri, lambda p: p["version"] == 2)
+            yield watched
+        finally:
+            watched.gate.set()
+
+
+def _until(condition: Any, seconds: float = 30) -> None:
+    deadline = time.monotonic() + seconds
+    while not condition() and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert condition()
+
+
+def test_a_key_far_from_the_check_it_was_answered_from_runs_the_fast_stages_at_once(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A key answered from a check the text has since been edited in another place
+    (20 declarations away) runs the fast stages at once: left to wait for a pause,
+    every key of a typist who never pauses scanned the text between the two places
+    again (at 20,805 lines, completion p50 61 to 68 ms where it was 22)."""
+    from test_lsp_edges import _edit
+
+    with _far_apart(tmp_path, monkeypatch) as watched:
+        wire, uri = watched.wire, watched.uri
+        wire.notify("textDocument/didChange", _edit(uri, 3, 21, _FAR, _FAR, "7"))
+        found = wire.diagnostics_until(uri, lambda p: p["version"] == 3)
+        assert found["diagnostics"] == []
+        _until(lambda: watched.checked)
+        edited = FAR_APART.replace("V > 0\n", "V > 70\n").replace("V > 19\n", "V > 719\n")
+        assert watched.answered == [False, True]  # both answered, the far key far
+        assert watched.checked == [edited]  # the near key's fast stages wait still
+
+
+def test_a_far_key_overtaken_still_brings_the_check_up_to_date(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A far key a newer key overtook while the edit path worked it out runs the
+    fast stages all the same, on the newest text: a typist asking for completion
+    at each key overtook every far key before its fast stages began, and the check
+    the edit path worked from stayed far behind for the whole run."""
+    from test_lsp_edges import _edit
+
+    with _far_apart(tmp_path, monkeypatch, hold="V > 719\n") as watched:
+        wire, uri = watched.wire, watched.uri
+        wire.notify("textDocument/didChange", _edit(uri, 3, 21, _FAR, _FAR, "7"))
+        _until(watched.held.is_set)
+        wire.notify("textDocument/didChange", _edit(uri, 4, 21, _FAR, _FAR + 1, ""))
+        generation = wire.process.server.state.generation
+        _until(lambda: max(generation.values()) == 4)
+        watched.gate.set()  # the far key is worked out now, overtaken by the one erasing it
+        found = wire.diagnostics_until(uri, lambda p: p["version"] == 4)
+        assert found["diagnostics"] == []
+        _until(lambda: watched.checked)
+        assert watched.answered == [False, True, False]  # the erasing key is near again
+        assert watched.checked == [FAR_APART.replace("V > 0\n", "V > 70\n")]
 
 
 def test_fast_stages_overtaken_by_a_key_still_serve_the_edit_path(tmp_path: Path) -> None:

@@ -6,8 +6,10 @@ they were, for the editor reads them meanwhile."""
 
 from __future__ import annotations
 
+import bisect
 import dataclasses
 from collections import Counter
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, cast
 
@@ -188,16 +190,16 @@ def declared_again(
     old: tuple[tuple[ast.Decl, ...], Alone],
     new: tuple[tuple[ast.Decl, ...], dict[str, Symbol]],
     sources: SourceMap,
-    moved: tuple[int, int],
+    moved: Sequence[tuple[int, int]],
 ) -> Model | None:
     """The model with the new declarations where the old ones were (a symbol
     declared by both in its place: the order of suggestions follows it), or None
     when an old one did not hold its names alone (a name declared twice, an
-    event another transducer emits too). `moved`: where the old text's rest began
-    and how far the edit moved it (a symbol read there is read where it now
-    stands)."""
+    event another transducer emits too). `moved`: where each changed group of
+    chunks ended in the old text and how far the edits up to it moved the text
+    after it (a symbol read there is read where it now stands)."""
     (old_decls, before), (new_decls, after) = old, new
-    symbols = _Moved(model.symbols, *moved)
+    symbols = _Moved(model.symbols, moved)
     for name in before.symbols:
         known = dict.get(symbols, name)
         if known is None or known.decl is not before.symbols[name].decl:
@@ -236,14 +238,16 @@ def declared_again(
 
 
 class _Moved(dict[str, Symbol]):
-    """The symbols of the old text read where they stand in the new one: those
-    after the edited chunk (from `after`) moved by `delta`, those declared anew
-    (`new`) as they are. Each one read is moved then: a check of one declaration
-    reads a few."""
+    """The symbols of the old text read where they stand in the new one: each
+    moved by the edits before it (`moved`: where each changed group of chunks
+    ended in the old text, and how far the edits up to it moved what follows),
+    those declared anew (`new`) as they are. Each one read is moved then: a check
+    of one declaration reads a few."""
 
-    def __init__(self, symbols: dict[str, Symbol], after: int, delta: int) -> None:
+    def __init__(self, symbols: dict[str, Symbol], moved: Sequence[tuple[int, int]]) -> None:
         super().__init__(symbols)
-        self.after, self.delta = after, delta
+        self.ends = [end for end, _ in moved]
+        self.deltas = [delta for _, delta in moved]
         self.new: set[str] = set()
 
     def get(self, name: str, default: Any = None) -> Any:
@@ -254,9 +258,10 @@ class _Moved(dict[str, Symbol]):
         return self._moved(super().__getitem__(name))
 
     def _moved(self, symbol: Symbol) -> Symbol:
-        if not self.delta or symbol.span.start < self.after or symbol.name in self.new:
+        after = bisect.bisect_right(self.ends, symbol.span.start)
+        if not after or symbol.name in self.new or not self.deltas[after - 1]:
             return symbol
-        return dataclasses.replace(symbol, span=symbol.span.shifted(self.delta))
+        return dataclasses.replace(symbol, span=symbol.span.shifted(self.deltas[after - 1]))
 
 
 def same_interface(model: Model, old: Alone, new: Alone) -> bool:

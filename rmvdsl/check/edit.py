@@ -9,11 +9,12 @@ names declared before and after declared alike and of the same type, names gone
 read by no one else, new names new, no new read closing a cycle. Then the other
 declarations' findings are as they were, but for which names are unused and
 which names a syntax error quiets (both followed here), and the new diagnostics
-are the old ones, those after the edit moved by its length, with the edited
+are the old ones, each moved by the edits before it, with the edited
 declarations' own (their chunks' parse, their names and their types) checked
-again.
+again. A text edited in several places since the check (a few keys past it, or
+several cursors) is several such edits, the text between them moved.
 
-`check_edit` answers None whenever that cannot be shown cheaply: an edit across
+`check_edit` answers None whenever that cannot be shown cheaply: edits across
 many chunks, imports, a declaration of another kind (a topic, a setting),
 another interface, a cycle, a spec that checks nothing. The editor then waits for
 the full fast stages, which it runs after this answer in any case (their model is
@@ -24,11 +25,12 @@ from __future__ import annotations
 
 import bisect
 import dataclasses
+import difflib
 import itertools
 import os
 from collections import Counter
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 from rmvdsl.check.alone import (
     checked_alone,
@@ -62,23 +64,24 @@ _MOST_CHUNKS = 8  # of the old text an edit may change (more: let the full check
 
 @dataclass(frozen=True)
 class EditCheck:
-    """The diagnostics of the new text, and its sources to place them by."""
+    """The diagnostics of the new text, and its sources to place them by; `far`
+    when the text was edited in several places since the check it was worked out
+    from (each key then scans the text between them again: the editor brings the
+    check up to date at once rather than after a pause in the typing)."""
 
     diagnostics: list[Diagnostic]
     sources: SourceMap
+    far: bool = False
 
 
 @dataclass(frozen=True)
 class _Edit:
-    """Where the old text was replaced: [start, old_end) became [start, new_end)."""
+    """Where the old text was replaced: [start, old_end) of it by a text `delta`
+    characters longer."""
 
     start: int
     old_end: int
-    new_end: int
-
-    @property
-    def delta(self) -> int:
-        return self.new_end - self.old_end
+    delta: int
 
 
 def check_edit(before: CheckResult, path: str, text: str) -> EditCheck | None:
@@ -105,16 +108,20 @@ def check_edit(before: CheckResult, path: str, text: str) -> EditCheck | None:
 def _checked(
     before: CheckResult, model: Model, info: TypeInfo, old_source: SourceFile, text: str
 ) -> EditCheck | None:
-    edit = _edit(old_source.text, text)
-    group = _chunks_of(old_source, text, edit)
-    if group is None:
+    groups = _groups(old_source, text)
+    if groups is None:
         return None
-    path, (start, old_end, new_end) = old_source.path, group.bounds
-    old_decls = _declarations_in(model.specs[0].items, start, old_end)
-    if old_decls is None or not all(isinstance(d, _LOCAL) for d in old_decls):
+    path, items = old_source.path, model.specs[0].items
+    old_decls: tuple[ast.Decl, ...] = ()
+    for group in groups:
+        found = _declarations_in(items, group.old_start, group.old_end)
+        if found is None:
+            return None
+        old_decls += found
+    if not all(isinstance(d, _LOCAL) for d in old_decls):
         return None
-    old_parse, old_damage = _parsed(path, old_source.text, group.old, old_end)
-    new_parse, new_damage = _parsed(path, text, group.new, new_end)
+    old_parse, old_damage = _parsed(path, old_source.text, [(g.old, g.old_end) for g in groups])
+    new_parse, new_damage = _parsed(path, text, [(g.new, g.new_end) for g in groups])
     new_decls = tuple(d for decls, _ in new_parse for d in decls)
     if not all(isinstance(d, _LOCAL) for d in new_decls):
         return None
@@ -129,7 +136,7 @@ def _checked(
         return None
     source = SourceFile(path, text)
     sources = _with_source(model.sources, source)
-    moved = (old_end, edit.delta)
+    moved = _shifts(groups)
     new_model = declared_again(model, (old_decls, old), (new_decls, new_symbols), sources, moved)
     new_found = tuple(d for _, found in new_parse for d in found)
     new = None
@@ -139,40 +146,52 @@ def _checked(
         return None
     ended, started, declared = unused_changes(before, old, new, bool(new_damage[1]))
     kept = _without(before.diagnostics, [*old.diagnostics, *ended])
-    placed = None if kept is None else _moved([*kept, *started], path, edit)
+    edits = [g.edit for g in groups]
+    placed = None if kept is None else _moved([*kept, *started], path, edits)
     if placed is None:
         return None
-    return EditCheck(sorted([*placed, *new.diagnostics, *declared], key=sort_key), sources)
+    diagnostics = sorted([*placed, *new.diagnostics, *declared], key=sort_key)
+    return EditCheck(diagnostics, sources, far=len(groups) > 1)
+
+
+Chunks = tuple[tuple[int, int], ...]  # each one's start and first line
 
 
 @dataclass(frozen=True)
 class _Group:
-    """The chunks an edit changed: the old text's and the new text's (start and
-    first line each), from `bounds[0]` to `bounds[1]` in the old text and to
-    `bounds[2]` in the new."""
+    """Chunks an edit changed, side by side: the old text's (from `old_start` to
+    `old_end`) and the new text's (to `new_end`), and the smallest replacement
+    inside them. The text between two groups is the same in both, moved."""
 
-    old: tuple[tuple[int, int], ...]
-    new: tuple[tuple[int, int], ...]
-    bounds: tuple[int, int, int]
+    old: Chunks
+    new: Chunks
+    old_end: int
+    new_end: int
+    edit: _Edit
+
+    @property
+    def old_start(self) -> int:
+        return self.old[0][0] if self.old else self.old_end
 
 
 Damage = tuple[set[str], list[tuple[int, int]]]  # names, ranges
 
 
 def _parsed(
-    path: str, text: str, chunks: tuple[tuple[int, int], ...], end: int
+    path: str, text: str, groups: list[tuple[Chunks, int]]
 ) -> tuple[list[tuple[tuple[ast.Decl, ...], tuple[Diagnostic, ...]]], Damage]:
-    """Each chunk's declarations and parse diagnostics; the names and places of
-    those with a syntax error."""
+    """Each chunk's declarations and parse diagnostics (the chunks of each group,
+    and where the group ends); the names and places of those with a syntax error."""
     parsed = []
     names: set[str] = set()
     ranges = []
-    for (start, line), (stop, _) in itertools.pairwise([*chunks, (end, 0)]):
-        decls, found, damaged = parse_chunk(path, text, start, stop, line)
-        parsed.append((decls or (), found))
-        if damaged:
-            names |= damaged_names(text, start, stop)
-            ranges.append((start, stop))
+    for chunks, end in groups:
+        for (start, line), (stop, _) in itertools.pairwise([*chunks, (end, 0)]):
+            decls, found, damaged = parse_chunk(path, text, start, stop, line)
+            parsed.append((decls or (), found))
+            if damaged:
+                names |= damaged_names(text, start, stop)
+                ranges.append((start, stop))
     return parsed, (names, ranges)
 
 
@@ -197,26 +216,68 @@ def _with_source(sources: SourceMap, source: SourceFile) -> SourceMap:
     return copy
 
 
-def _edit(old: str, new: str) -> _Edit:
-    """The smallest replacement that turns `old` into `new`."""
+def _edit(old: str, new: str, offset: int = 0) -> _Edit:
+    """The smallest replacement that turns `old` into `new` (texts that stand at
+    `offset` in the old text)."""
     start = common_prefix(old, new)
     suffix = common_suffix(old, new, min(len(old), len(new)) - start)
-    return _Edit(start, len(old) - suffix, len(new) - suffix)
+    return _Edit(offset + start, offset + len(old) - suffix, len(new) - len(old))
 
 
-def _chunks_of(old: SourceFile, text: str, edit: _Edit) -> _Group | None:
-    """The chunks the edit changed, in the old text and in the new (the same
-    chunks before and after them), when the edit is inside them."""
+def _groups(old: SourceFile, text: str) -> list[_Group] | None:
+    """The chunks the edit changed, in groups of neighbours (one, mostly: a key;
+    more when the text is a few keys in different places past the check, or an
+    edit of several cursors), each with the old text's chunks and the new text's
+    side by side; None when more than _MOST_CHUNKS of the old text's changed."""
     scanned = last_scan(old.path, old.text)
     region = rescan(text, old.text, scanned)
     stop = len(scanned.chunks) if region.rest is None else region.rest
-    if not region.chunks or edit.start < region.chunks[0][0]:
+    if not region.chunks:
         return None
     old_end = len(old.text) if stop == len(scanned.chunks) else scanned.chunks[stop][0]
-    if edit.old_end > old_end or stop - region.first > _MOST_CHUNKS:
-        return None  # a long way apart (two keys, when the last check is some keys old)
-    bounds = (region.chunks[0][0], old_end, old_end + edit.delta)
-    return _Group(scanned.chunks[region.first : stop], region.chunks, bounds)
+    new_end = old_end + len(text) - len(old.text)
+    old_chunks, new_chunks = scanned.chunks[region.first : stop], region.chunks
+    if len(old_chunks) <= _MOST_CHUNKS:
+        return [_group(old.text, text, old_chunks, new_chunks, old_end, new_end)]
+    # Far apart: the chunks between are the same texts, moved. Matched by their
+    # text, the rest fall into groups.
+    old_texts = _texts(old.text, old_chunks, old_end)
+    new_texts = _texts(text, new_chunks, new_end)
+    matcher = difflib.SequenceMatcher(None, old_texts, new_texts, autojunk=False)
+    changed = [op for op in matcher.get_opcodes() if op[0] != "equal"]
+    if sum(old_high - old_low for _, old_low, old_high, _, _ in changed) > _MOST_CHUNKS:
+        return None
+    old_starts = [*(start for start, _ in old_chunks), old_end]
+    new_starts = [*(start for start, _ in new_chunks), new_end]
+    groups = []
+    for _, old_low, old_high, new_low, new_high in changed:
+        old_group, new_group = old_chunks[old_low:old_high], new_chunks[new_low:new_high]
+        ends = old_starts[old_high], new_starts[new_high]
+        groups.append(_group(old.text, text, old_group, new_group, *ends))
+    return groups
+
+
+def _group(
+    old_text: str, text: str, old: Chunks, new: Chunks, old_end: int, new_end: int
+) -> _Group:
+    old_start = old[0][0] if old else old_end
+    new_start = new[0][0] if new else new_end
+    edit = _edit(old_text[old_start:old_end], text[new_start:new_end], old_start)
+    return _Group(old, new, old_end, new_end, edit)
+
+
+def _texts(text: str, chunks: Chunks, end: int) -> list[str]:
+    return [text[start:stop] for (start, _), (stop, _) in itertools.pairwise([*chunks, (end, 0)])]
+
+
+def _shifts(groups: list[_Group]) -> list[tuple[int, int]]:
+    """Where each group ends in the old text, and how far the edits up to it
+    moved the text after it."""
+    delta, found = 0, []
+    for group in groups:
+        delta += group.edit.delta
+        found.append((group.old_end, delta))
+    return found
 
 
 def _declarations_in(
@@ -250,40 +311,45 @@ def _without(diagnostics: list[Diagnostic], removed: list[Diagnostic]) -> list[D
     return None if +wanted else kept
 
 
-def _moved(diagnostics: list[Diagnostic], path: str, edit: _Edit) -> list[Diagnostic] | None:
-    """Each diagnostic where it now stands, its spans after the edit moved by it;
-    None when a span touches the edit (where it stands now is not known)."""
+def _moved(diagnostics: list[Diagnostic], path: str, edits: list[_Edit]) -> list[Diagnostic] | None:
+    """Each diagnostic where it now stands, each of its spans moved by the edits
+    before it; None when a span touches an edit (where it stands now is not known)."""
     moved = []
     for diagnostic in diagnostics:
         spans = [diagnostic.span, *(label.span for label in diagnostic.secondary)]
         spans += [f.span for f in diagnostic.fixes]
-        places = [_place(span, path, edit) for span in spans]
-        if None in places:
+        shifts = [_shift(span, path, edits) for span in spans]
+        if None in shifts:
             return None
-        if any(places):
-            diagnostic = _shifted(diagnostic, edit.delta, places)
+        if any(shifts):
+            diagnostic = _shifted(diagnostic, cast("list[int]", shifts))
         moved.append(diagnostic)
     return moved
 
 
-def _place(span: Span, path: str, edit: _Edit) -> bool | None:
-    """Whether a span of the old text is after the edit (False: before it or in
-    another file; None: it touches the edit)."""
+def _shift(span: Span, path: str, edits: list[_Edit]) -> int | None:
+    """How far the edits (in order) moved a span of the old text: by those it is
+    after (0 in another file); None when it touches one."""
     if span.path != path:
-        return False
-    if span.end < edit.start or (span.end == edit.start and span.start < edit.start):
-        return False
-    if span.start > edit.old_end or (span.start == edit.old_end and span.end > edit.old_end):
-        return True
-    return None
+        return 0
+    shift = 0
+    for edit in edits:
+        if span.end < edit.start or (span.end == edit.start and span.start < edit.start):
+            break  # before it
+        if span.start > edit.old_end or (span.start == edit.old_end and span.end > edit.old_end):
+            shift += edit.delta  # after it
+        else:
+            return None
+    return shift
 
 
-def _shifted(diagnostic: Diagnostic, delta: int, places: list[bool | None]) -> Diagnostic:
-    """The diagnostic with the spans `places` says are after the edit moved."""
-    moving = iter(places)
+def _shifted(diagnostic: Diagnostic, shifts: list[int]) -> Diagnostic:
+    """The diagnostic with its spans moved, each by its own of `shifts`."""
+    moving = iter(shifts)
 
     def move(span: Span) -> Span:
-        return span.shifted(delta) if next(moving) else span
+        shift = next(moving)
+        return span.shifted(shift) if shift else span
 
     span = move(diagnostic.span)
     secondary = tuple(
