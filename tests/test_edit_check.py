@@ -537,6 +537,97 @@ def test_a_far_key_overtaken_still_brings_the_check_up_to_date(
         assert watched.checked == [FAR_APART.replace("V > 0\n", "V > 70\n")]
 
 
+_BOTH = FAR_APART.replace("V > 0\n", "V > 70\n").replace("V > 19\n", "V > 719\n")
+
+
+@contextlib.contextmanager
+def _renewing(watched: _Watched) -> Iterator[threading.Event]:
+    """A far key typed in E19 (version 3, making _BOTH), its fast stages run at
+    once and held as they end, until the event yielded is set (on leaving too)."""
+    from test_lsp_edges import _edit
+
+    workspace = watched.wire.process.server.state.workspace
+    counted, checking, renewed = workspace.check, threading.Event(), threading.Event()
+
+    def held(path: str, *args: Any, **options: Any) -> Any:
+        checked = counted(path, *args, **options)
+        checking.set()
+        renewed.wait(60)
+        return checked
+
+    workspace.check = held
+    try:
+        watched.wire.notify("textDocument/didChange", _edit(watched.uri, 3, 21, _FAR, _FAR, "7"))
+        _until(checking.is_set)
+        yield renewed
+    finally:
+        renewed.set()
+
+
+def _until_renewed(state: Any) -> None:
+    """Until the edit path works from the check of _BOTH."""
+    _until(lambda: [r.model.sources.get(r.model.specs[0].path).text
+                    for r in state.fast.values()] == [_BOTH])  # fmt: skip
+
+
+def _answered_once_renewed(watched: _Watched, far: list[bool]) -> None:
+    """Version 4 answered, after the fast stages of _BOTH ended and became the edit
+    path's check; its answers far as `far` says; no other run of the fast stages."""
+    state = watched.wire.process.server.state
+    _until_renewed(state)
+    found = watched.wire.diagnostics_until(watched.uri, lambda p: p["version"] == 4)
+    assert found["diagnostics"] == []
+    assert watched.answered == far
+    time.sleep(0.3)  # a second run of the fast stages would have begun by now
+    assert watched.checked == [_BOTH]
+
+
+def test_a_key_queued_while_far_fast_stages_ran_is_answered_from_their_check(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A key that waited for the edit lane while a far key's fast stages ran is
+    worked out from their check, finished meanwhile, not from the one it came to:
+    answered from that, it was far again and ran the fast stages a second time
+    (at 20,805 lines, 500 ms of them beside a completing typist's requests)."""
+    from test_lsp_edges import _edit
+
+    with _far_apart(tmp_path, monkeypatch) as watched:
+        wire, uri = watched.wire, watched.uri
+        state = wire.process.server.state
+        lane_free = threading.Event()
+        try:
+            with _renewing(watched) as renewed:
+                state.edit_lane.submit(lane_free.wait, 60)
+                wire.notify("textDocument/didChange", _edit(uri, 4, 21, _FAR, _FAR, "8"))
+                _until(lambda: max(state.generation.values()) == 4)
+                renewed.set()  # the fast stages end while the key waits for the lane
+                _until_renewed(state)
+        finally:
+            lane_free.set()
+        _answered_once_renewed(watched, [False, True, False])  # the queued key: near
+
+
+def test_a_far_key_worked_out_while_fast_stages_ended_does_not_run_them_again(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A far key worked out from the check that fast stages, ending meanwhile,
+    replaced leaves them be: the next key is near their check. Run again, they
+    held the interpreter from a completing typist's requests for 500 ms more (at
+    20,805 lines)."""
+    from test_lsp_edges import _edit
+
+    with _far_apart(tmp_path, monkeypatch, hold="V > 8719\n") as watched:
+        wire, uri = watched.wire, watched.uri
+        with _renewing(watched) as renewed:
+            wire.notify("textDocument/didChange", _edit(uri, 4, 21, _FAR, _FAR, "8"))
+            _until(watched.held.is_set)  # its edit path at work on the check before
+            renewed.set()
+        state = wire.process.server.state
+        _until_renewed(state)
+        watched.gate.set()  # its answer comes after the fast stages ended
+        _answered_once_renewed(watched, [False, True, True])  # from the check before
+
+
 def test_fast_stages_overtaken_by_a_key_still_serve_the_edit_path(tmp_path: Path) -> None:
     """The fast stages of a text a newer key has changed are not published, but
     the edit path works out the next keys from them. Dropped, a typist quicker

@@ -7,7 +7,7 @@ import sys
 
 from conftest import ROOT
 
-PATHS = ["rmvdsl", "tests", "benchmarks"]
+PATHS = ["rmvdsl", "tests", "benchmarks", "examples"]
 
 
 def run(*command: str) -> subprocess.CompletedProcess[str]:

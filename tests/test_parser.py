@@ -8,7 +8,7 @@ import re
 
 import pytest
 from conftest import EXAMPLES
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from lark.exceptions import UnexpectedInput
 
@@ -21,6 +21,7 @@ from rmvdsl.grammar.scanner import (
     ScanResult,
     _starts_declaration,
     chunk_before,
+    rescan,
     scan,
 )
 from rmvdsl.grammar.shift import shifted
@@ -298,6 +299,68 @@ def test_the_chunk_before_an_offset_after_an_edit_is_a_fresh_scan_s(
         index = bisect.bisect_left(chunks, (offset,))
         expected = chunks[index - 1][0] if index else 0
         assert chunk_before(after, before, old, offset) == expected, offset
+
+
+def _in_places(drawn: tuple[list[str], list[tuple[int, int, list[str]]]]) -> tuple[str, str]:
+    """The text of `pieces` and the same with each (at, removed, added) edit made."""
+    pieces, edits = drawn
+    edited = list(pieces)
+    for at, removed, added in sorted(edits, reverse=True):  # the last first: places hold
+        edited[at : at + removed] = added
+    return "".join(pieces), "".join(edited)
+
+
+_PIECE = st.sampled_from(_SCAN_PIECES)
+# A text of lines, most opening a declaration (a chunk each; some alike), the rest
+# scan pieces, and the same edited in up to four places: (before, after).
+_LINE = st.tuples(
+    st.sampled_from(
+        ["event E", "event E", "event", "var V", "  x", "time unit", "}", "property P: ("]
+    ),
+    st.lists(st.sampled_from([*_SCAN_PIECES[:-5], " x", " 1"]), max_size=4),
+).map(lambda line: [line[0], *line[1], "\n"])
+_EDITED_IN_PLACES = st.tuples(
+    st.lists(_LINE, min_size=4, max_size=60).map(lambda lines: list(itertools.chain(*lines))),
+    st.lists(
+        st.tuples(st.integers(0, 300), st.integers(0, 3), st.lists(_PIECE, max_size=3)),
+        max_size=4,
+    ),
+).map(_in_places)
+
+
+_EVENTS = "".join(f"event E{k} when x > {k}\n" for k in range(20))
+
+
+@pytest.mark.parametrize("patience", [1, 8])
+@settings(max_examples=500, deadline=None)
+@given(_EDITED_IN_PLACES)
+# The second difference at the end of a keyword's line, which it makes a word (the
+# line no longer starts a chunk): with the newline, and at the end of the text.
+@example((_EVENTS + "event\nvar V\n", _EVENTS.replace("x > 3", "x > 37") + "eventx\nvar V\n"))
+@example((_EVENTS + "time unit", _EVENTS.replace("x > 3", "x > 37") + "time unitx"))
+def test_a_rescan_of_edits_in_several_places_finds_a_fresh_scan_s_chunks(
+    patience: int, edited: tuple[str, str]
+) -> None:
+    """Rescan's chunks (the text between two edits skipped, its old chunks moved,
+    after `patience` chunks scanned) are those of a fresh scan: the old ones before
+    `first`, its own, and the old ones from `rest` on, moved by the edits."""
+    from unittest import mock
+
+    from rmvdsl.grammar import moved
+
+    before, after = edited
+    fresh, old = scan(after).chunks, scan(before)
+    with mock.patch.object(moved, "PATIENCE", patience):
+        found = rescan(after, before, old)
+    assert fresh[: found.first] == old.chunks[: found.first]
+    end = found.first + len(found.chunks)
+    assert fresh[found.first : end] == found.chunks
+    if found.rest is None:
+        assert end == len(fresh)
+    else:
+        delta, lines = len(after) - len(before), after.count("\n") - before.count("\n")
+        moved = tuple((at + delta, line + lines) for at, line in old.chunks[found.rest :])
+        assert fresh[end:] == moved
 
 
 def test_a_scan_after_an_edit_equals_a_fresh_one_on_the_examples() -> None:

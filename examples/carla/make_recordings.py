@@ -20,11 +20,11 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from rosbags.interfaces import Nodetype
 from rosbags.rosbag1 import Writer as Bag1Writer
 from rosbags.rosbag2 import StoragePlugin
 from rosbags.rosbag2 import Writer as Bag2Writer
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-from rosbags.interfaces import Nodetype
 
 HERE = Path(__file__).resolve().parent
 START = 1_700_000_000 * 10**9  # 2023-11-14 22:13:20 UTC: 20 s into a minute

@@ -15,6 +15,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from operator import attrgetter, itemgetter
 
+from rmvdsl.grammar.moved import Between, common_run
+
 TOP_LEVEL_KEYWORDS = frozenset(
     {
         "system",
@@ -121,11 +123,20 @@ class Rescan:
 
 def rescan(text: str, old_text: str, old: ScanResult) -> Rescan:
     """Only the chunks an edit changed (scan's work without moving the rest): the
-    editor's check of a keystroke inside a few declarations (rmvdsl.check.edit)."""
+    editor's check of a keystroke inside a few declarations (rmvdsl.check.edit).
+    Edits in several places: the text between them is the old one moved, and its
+    chunks are the old ones moved, not scanned again (rmvdsl.grammar.moved)."""
     index, unchanged = _resumed(text, old_text, old)
     resume, line = old.chunks[index]
-    stopping = dataclasses.replace(unchanged, join=False)
-    found = _scan(text, resume, line, [], [(resume, line)], stopping)
+    between = Between(text, old_text, old.chunks, unchanged.old_starts)
+    stopping = dataclasses.replace(unchanged, join=False, between=between)
+    chunks = [(resume, line)]
+    while True:
+        found = _scan(text, resume, line, [], chunks, stopping)
+        if found.chunks[-1] != _JUMPED:
+            break
+        chunks = list(found.chunks[:-1])
+        resume, line = chunks[-1]
     if found.chunks[-1] == _STOPPED:
         rest = unchanged.rest(found.chunks[-2][0])
         assert rest is not None
@@ -186,6 +197,7 @@ class _Unchanged:
     old_starts: list[int]  # of its chunks
     old_comment_starts: list[int]
     join: bool = True  # False: stop there, the old scan's rest not moved (rescan)
+    between: Between | None = None  # rescan's: the text between two edits, skipped
 
     def rest(self, start: int) -> tuple[int, int] | None:
         """Where the old chunk now starting at `start` was (its index) and its line,
@@ -216,6 +228,7 @@ class _Unchanged:
 
 
 _STOPPED = (-1, -1)  # ends a rescan's chunks when it met the unchanged end
+_JUMPED = (-2, -2)  # ends them when it skipped the text between two edits
 
 
 def _scan(
@@ -247,6 +260,10 @@ def _scan(
                     if rest is not None:
                         assert unchanged is not None
                         return unchanged.joined(comments, chunks, rest[0], line_number - rest[1])
+                    if unchanged is not None and unchanged.between is not None:
+                        moved = unchanged.between.moved(start, line_number)
+                        if moved:
+                            return ScanResult((), (*chunks, *moved, _JUMPED))
         elif kind == "comment":
             line_start = text.rfind("\n", 0, start) + 1
             own_line = not text[line_start:start].strip()
@@ -256,16 +273,8 @@ def _scan(
 
 
 def common_prefix(a: str, b: str) -> int:
-    """The length of the longest common prefix (slices compare in C: a binary
-    search takes microseconds on a large file)."""
-    low, high = 0, min(len(a), len(b))
-    while low < high:
-        middle = (low + high + 1) // 2
-        if a[low:middle] == b[low:middle]:
-            low = middle
-        else:
-            high = middle - 1
-    return low
+    """The length of the longest common prefix."""
+    return common_run(a, 0, b, 0)
 
 
 def common_suffix(a: str, b: str, most: int) -> int:
