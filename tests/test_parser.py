@@ -363,6 +363,28 @@ def test_a_rescan_of_edits_in_several_places_finds_a_fresh_scan_s_chunks(
         assert fresh[end:] == moved
 
 
+def test_rescans_from_two_scans_in_turn_find_a_fresh_scan_s_chunks() -> None:
+    """An editor rescans from two scans in turn (the edit path from its check's,
+    completion from the newest parse's), each keeping the old chunks by their
+    first line: whichever it rescans from, its chunks are a fresh scan's."""
+    from rmvdsl.grammar import moved
+
+    first = _EVENTS * 3
+    second = first.replace("x > 1\n", "x > 12\n", 1)
+    scans = {text: scan(text) for text in (first, second)}
+    built = None
+    for key in range(6):
+        old = (first, second)[key % 2]
+        edited = old.replace("x > 2\n", f"x > 2{key}\n", 1).replace("x > 18\n", "x > 189\n")
+        found = rescan(edited, old, scans[old])
+        fresh = scan(edited).chunks
+        assert found.chunks == fresh[found.first : found.first + len(found.chunks)], key
+        if key >= 1:  # both kept, and made once each
+            kept = {text: id(by_line) for text, by_line in moved._KEPT}
+            assert built in (None, kept) and set(kept) == {first, second}
+            built = kept
+
+
 def test_a_scan_after_an_edit_equals_a_fresh_one_on_the_examples() -> None:
     for path in sorted(EXAMPLES.rglob("*.rmv")):
         text = path.read_text(encoding="utf-8", errors="replace")

@@ -23,9 +23,10 @@ _CANDIDATES = 4  # old chunks of the same first line tried, the nearest first
 
 Chunks = tuple[tuple[int, int], ...]  # a scan's: each one's start and first line
 
-# The old chunks by their first line, of the scan a rescan started from last: an
-# editor's keys rescan from the same scan until its next check.
-_KEPT: list[tuple[Chunks, str, dict[str, list[int]]]] = []
+# The old chunks by their first line, of the two scans rescans started from last:
+# an editor's keys rescan from the same scan until its next check (the edit path
+# from its check's, completion from the newest parse's).
+_KEPT: list[tuple[str, dict[str, list[int]]]] = []  # by the text (its scan is one)
 
 
 class Between:
@@ -83,14 +84,14 @@ def common_run(a: str, i: int, b: str, j: int) -> int:
 
 def _first_lines(old: Chunks, old_text: str) -> dict[str, list[int]]:
     """The old scan's chunks (their indices) by the text of their first line."""
-    kept = _KEPT[0] if _KEPT else None  # read once: the edit lane and the loop both rescan
-    if kept is not None and kept[0] is old and kept[1] == old_text:
-        return kept[2]
+    for text, kept in list(_KEPT):  # a copy: the edit lane and the event loop both rescan
+        if text == old_text:
+            return kept
     by_line: dict[str, list[int]] = {}
     find = old_text.find
     for index, (start, _) in enumerate(old):
         end = find("\n", start)
         if end >= 0:
             by_line.setdefault(old_text[start:end], []).append(index)
-    _KEPT[:] = [(old, old_text, by_line)]
+    _KEPT[:] = [(old_text, by_line), *_KEPT[:1]]
     return by_line
