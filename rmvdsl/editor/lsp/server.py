@@ -1,7 +1,8 @@
 """`rmv lsp`: a language server over stdio (pygls 2), thin over rmvdsl.editor.workspace.
 
-Every feature is registered in `build()` (features.py; the server's state in
-session.py, its JSON-RPC protocol in protocol.py). Diagnostics are exactly `rmv
+Every feature is registered in `build()` (features.py; the server and its checks
+in session.py, its state in state.py, what features look up in lookups.py, its
+JSON-RPC protocol in protocol.py). Diagnostics are exactly `rmv
 check`'s: the fast stages (loading, names, types) are published as soon as a change
 is read, the solver stages after the text has rested for `DEBOUNCE` seconds; a
 result that a newer change has overtaken is never published. Requests wait for the

@@ -1,6 +1,8 @@
-"""The language server's state: its documents, the workspace and the newest check
-of each, and the lookups every feature shares (what is at a position, where a span
-is); diagnostics published as `rmv check` gives them."""
+"""The language server (pygls 2) over its state (rmvdsl.editor.lsp.state): each
+change checked, the fast stages' diagnostics published at once (by the edit path
+where it answers, rmvdsl.check.edit), the solver stages' after a pause, and none
+that a newer change overtook; diagnostics as `rmv check` gives them. What the
+features look up in the checks is in rmvdsl.editor.lsp.lookups."""
 
 from __future__ import annotations
 
@@ -9,8 +11,6 @@ import functools
 import json
 import sys
 from collections import Counter
-from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
 from typing import Any, BinaryIO, NamedTuple
 
 from lsprotocol import types
@@ -19,63 +19,20 @@ from pygls.lsp.server import LanguageServer
 from pygls.workspace import TextDocument
 
 from rmvdsl import __version__
-from rmvdsl.check.model import Model, Symbol
 from rmvdsl.editor.lsp import convert
+from rmvdsl.editor.lsp.lookups import Lookups
 from rmvdsl.editor.lsp.protocol import Protocol, quiet_answered_failures
+from rmvdsl.editor.lsp.state import State
 from rmvdsl.editor.lsp.stdio import serve
-from rmvdsl.editor.mentions import Mention, mention_at, mentions
-from rmvdsl.editor.solver_process import Solved, SolverEnded, SolverProcess
-from rmvdsl.editor.workspace import (
-    CheckResult,
-    EditCheck,
-    Workspace,
-    symbol_at,
-)
+from rmvdsl.editor.solver_process import Solved, SolverEnded
+from rmvdsl.editor.workspace import CheckResult, EditCheck
 from rmvdsl.lang.diagnostics import Diagnostic
-from rmvdsl.lang.source import SourceMap, Span
+from rmvdsl.lang.source import SourceMap
 
 DEBOUNCE = 0.3  # seconds of quiet before the solver stages run
 # Seconds of quiet before the fast stages of a key the edit path answered run:
 # they only bring the model up to date (hover, definition, the solver stages).
 SETTLE = 0.1
-# How long a request waits for the check of the text it was sent against (an
-# editor asks for hover, tokens and folds right after didOpen): the fast stages of
-# a 20,000-line spec take seconds, a hung check must not hang the request too.
-ANALYSIS_WAIT = 30.0
-
-
-@dataclass
-class State:
-    """The server's view: the workspace, each document's change count, and the
-    newest check of each document."""
-
-    # Incremental: a keystroke re-checks only what it could change.
-    workspace: Workspace = field(default_factory=lambda: Workspace(incremental=True))
-    generation: dict[str, int] = field(default_factory=dict)
-    results: dict[str, CheckResult] = field(default_factory=dict)
-    # The newest finished check of each document's fast stages alone, of the text
-    # it read (a newer key may have changed it since): what the diagnostics of an
-    # edit inside a few declarations are worked out from (the results may hold the
-    # solver stages' too, which an edit makes old).
-    fast: dict[str, CheckResult] = field(default_factory=dict)
-    # Two lanes: the fast stages (what a keystroke must show at once) never queue
-    # behind a solver stage; solver stages run one at a time, and one queued for a
-    # text that has changed since is skipped when its turn comes. The solver lane's
-    # thread only waits: the stages run in the solver process.
-    fast_lane: ThreadPoolExecutor = field(default_factory=lambda: _lane("rmv-fast"))
-    # The diagnostics of an edit inside a few declarations (rmvdsl.check.edit) are
-    # worked out off the event loop: a completion sent with the key is answered
-    # meanwhile.
-    edit_lane: ThreadPoolExecutor = field(default_factory=lambda: _lane("rmv-edit"))
-    solver_lane: ThreadPoolExecutor = field(default_factory=lambda: _lane("rmv-solver"))
-    solver: SolverProcess = field(default_factory=SolverProcess)
-    published: dict[str, set[str]] = field(default_factory=dict)  # root -> paths shown
-    mentions: dict[str, tuple[CheckResult, list[Mention]]] = field(default_factory=dict)
-    # path -> done when the fast stages of its newest text have been published
-    analysed: dict[str, asyncio.Future[None]] = field(default_factory=dict)
-    idle_sweep: asyncio.TimerHandle | None = None  # the next full collection (server.py)
-    # Paths whose fast stages run now for the edit path, overtaken or not (session.refresh)
-    renewing: set[str] = field(default_factory=set)
 
 
 class _Answer(NamedTuple):
@@ -87,11 +44,7 @@ class _Answer(NamedTuple):
     renew: bool
 
 
-def _lane(name: str) -> ThreadPoolExecutor:
-    return ThreadPoolExecutor(1, thread_name_prefix=name)
-
-
-class RmvServer(LanguageServer):
+class RmvServer(Lookups, LanguageServer):
     def __init__(self) -> None:
         super().__init__(
             "rmv-lsp",
@@ -345,80 +298,3 @@ class RmvServer(LanguageServer):
                     uri=convert.uri_of(path), diagnostics=items, version=version
                 )
             )
-
-    def location(self, model: Model, span: Span) -> types.Location | None:
-        source = model.sources.get(span.path)
-        if source is None:
-            return None
-        return types.Location(
-            convert.uri_of(span.path), convert.lsp_range(source, span, self.encoding)
-        )
-
-    async def analysed(self, uri: str) -> CheckResult | None:
-        """The check of the document's text as it is now, once its fast stages are
-        published: a request sent right after a change is answered for the text it
-        was sent against, not with nothing."""
-        path = self.document(uri).path
-        waiter = self.state.analysed.get(path)
-        if waiter is not None and not waiter.done():
-            await asyncio.wait({waiter}, timeout=ANALYSIS_WAIT)
-        return self.checked(uri)
-
-    async def latest(self, uri: str) -> CheckResult | None:
-        """The check of the text as it is now, else the newest check of the
-        document (an outline may show a moment-old text's declarations)."""
-        found = await self.analysed(uri)
-        return found or self.state.results.get(self.document(uri).path)
-
-    async def all_analysed(self) -> None:
-        """Wait until every open document's newest text has been checked."""
-        waiting = {w for w in self.state.analysed.values() if not w.done()}
-        if waiting:
-            await asyncio.wait(waiting, timeout=ANALYSIS_WAIT)
-
-    def checked(self, uri: str) -> CheckResult | None:
-        """The newest check of a document, if it checked the text shown now."""
-        document = self.document(uri)
-        result = self.state.results.get(document.path)
-        if result is None:
-            return None
-        source = result.model.sources.get(document.path)
-        if source is None or source.text != document.source:
-            return None  # a check of this text has not finished yet
-        return result
-
-    def mentions_of(self, result: CheckResult) -> list[Mention]:
-        """The mentions of a check, found once per check of its root file."""
-        root = result.model.specs[0].path if result.model.specs else ""
-        cached = self.state.mentions.get(root)
-        if cached is None or cached[0] is not result:
-            cached = self.state.mentions[root] = (result, mentions(result))
-        return cached[1]
-
-    async def target_at(self, uri: str, position: types.Position) -> Target | None:
-        """The symbol or the mention at a position of a checked document."""
-        result = await self.analysed(uri)
-        if result is None:
-            return None
-        document = self.document(uri)
-        offset = convert.offset_at(document, position)
-        found = symbol_at(result.model, document.path, offset)
-        if found is not None:
-            return Target(result, found.symbol, None)
-        mention = mention_at(self.mentions_of(result), document.path, offset)
-        return None if mention is None else Target(result, None, mention)
-
-    async def found_at(self, uri: str, position: types.Position) -> tuple[Model, Symbol] | None:
-        target = await self.target_at(uri, position)
-        if target is None or target.symbol is None:
-            return None
-        return target.result.model, target.symbol
-
-
-@dataclass(frozen=True)
-class Target:
-    """What a request points at: a declared name or another mention."""
-
-    result: CheckResult
-    symbol: Symbol | None
-    mention: Mention | None
