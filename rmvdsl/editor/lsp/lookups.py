@@ -1,7 +1,7 @@
 """What the language server's features look up in its checks: the check of a
 document's text as it is now (waiting for its fast stages), the newest one, what
-stands at a position, where a span is. A part of RmvServer (rmvdsl.editor.lsp.session,
-which keeps the checks up to date)."""
+stands at a position, where a span is. The base of RmvServer
+(rmvdsl.editor.lsp.session, which keeps the checks up to date)."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ import asyncio
 from dataclasses import dataclass
 
 from lsprotocol import types
+from pygls.lsp.server import LanguageServer
 from pygls.workspace import TextDocument
 
 from rmvdsl.check.model import Model, Symbol
@@ -24,17 +25,26 @@ from rmvdsl.lang.source import Span
 ANALYSIS_WAIT = 30.0
 
 
-class Lookups:
-    """The lookups of RmvServer, over its state and its documents."""
+class Lookups(LanguageServer):
+    """pygls's server with the lookups of RmvServer (its subclass, which keeps
+    `state` up to date): its documents, and what is in their checks."""
 
     state: State
 
     def document(self, uri: str) -> TextDocument:
-        raise NotImplementedError  # RmvServer's: pygls's workspace
+        return self.workspace.get_text_document(uri)
+
+    def open_documents(self) -> dict[str, TextDocument]:
+        return {d.path: d for d in self.workspace.text_documents.values()}
 
     @property
     def encoding(self) -> str:
-        raise NotImplementedError  # RmvServer's: what the client negotiated
+        """The position encoding the client negotiated ("utf-16" unless it asked
+        for another), as the plain string every conversion compares with: pygls
+        gives an enum member when the client named none, and str() of that is
+        its Python name."""
+        chosen = self.workspace.position_encoding or types.PositionEncodingKind.Utf16
+        return str(getattr(chosen, "value", chosen))
 
     def location(self, model: Model, span: Span) -> types.Location | None:
         source = model.sources.get(span.path)

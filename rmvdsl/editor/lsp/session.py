@@ -15,8 +15,6 @@ from typing import Any, BinaryIO, NamedTuple
 
 from lsprotocol import types
 from pygls.exceptions import JsonRpcInvalidParams, JsonRpcParseError
-from pygls.lsp.server import LanguageServer
-from pygls.workspace import TextDocument
 
 from rmvdsl import __version__
 from rmvdsl.editor.lsp import convert
@@ -44,7 +42,7 @@ class _Answer(NamedTuple):
     renew: bool
 
 
-class RmvServer(Lookups, LanguageServer):
+class RmvServer(Lookups):
     def __init__(self) -> None:
         super().__init__(
             "rmv-lsp",
@@ -80,21 +78,6 @@ class RmvServer(Lookups, LanguageServer):
                 type=types.MessageType.Warning, message=f"rmv lsp ignored {what}"
             )
         )
-
-    def document(self, uri: str) -> TextDocument:
-        return self.workspace.get_text_document(uri)
-
-    def open_documents(self) -> dict[str, TextDocument]:
-        return {d.path: d for d in self.workspace.text_documents.values()}
-
-    @property
-    def encoding(self) -> str:
-        """The position encoding the client negotiated ("utf-16" unless it asked
-        for another), as the plain string every conversion compares with: pygls
-        gives an enum member when the client named none, and str() of that is
-        its Python name."""
-        chosen = self.workspace.position_encoding or types.PositionEncodingKind.Utf16
-        return str(getattr(chosen, "value", chosen))
 
     async def refresh(self, uri: str) -> None:
         """Check a document: the fast stages, then (if nothing changed meanwhile)
