@@ -40,13 +40,15 @@ from rmvdsl.host.wire_reader import (
     Needs,
     PartialDecodeError,
     Reader,
+    Unreadable,
     Unsupported,
     compiled,
 )
 from rmvdsl.runtime import spec as ir
 
 __all__ = [
-    "FieldsOf", "Needs", "PartialDecodeError", "Reader", "Undefined", "Unsupported",
+    "FieldsOf", "Needs", "PartialDecodeError", "Reader", "Undefined", "Unreadable",
+    "Unsupported",
     "compile_reader", "definitions_reached",
     "falling_back", "merged", "needs_of", "or_full", "spec_needs",
 ]  # fmt: skip
@@ -125,11 +127,14 @@ def or_full(
 
 def falling_back(partial: Reader, full: Reader) -> Reader:
     """`partial`, and `full` where it refuses a message: the full decoder then
-    reads it, or says in its words what is wrong with it."""
+    reads it, or says in its words what is wrong with it; but not a message it
+    must not be given (Unreadable)."""
 
     def read(raw: bytes | memoryview) -> Any:
         try:
             return partial(raw)
+        except Unreadable:
+            raise
         except PartialDecodeError:
             return full(raw)
 

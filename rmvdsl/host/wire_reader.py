@@ -48,6 +48,17 @@ class PartialDecodeError(ValueError):
     """The bytes do not fit the definition where this reader looked."""
 
 
+class Unreadable(PartialDecodeError):
+    """Bytes the full decoder must not be given either: a count of elements of no
+    bytes (empty messages in ROS 1) past MOST_EMPTY, which rosbags' decoder would
+    make one by one, without bound (a damaged count of 2^31 took all memory)."""
+
+
+# Elements of no bytes a ROS 1 sequence may count before it is refused as
+# unreadable (rosbags makes each: a million is about 50 MB).
+MOST_EMPTY = 1 << 20
+
+
 class Unsupported(Exception):
     """A definition this reader does not compile; the full decoder reads it."""
 
@@ -103,6 +114,7 @@ class _Compiler:
         self.names: dict[str, Any] = {
             "_unpack_from": struct.unpack_from,
             "_Error": PartialDecodeError,
+            "_Unreadable": Unreadable,
             "_Errors": (struct.error, UnicodeDecodeError, IndexError, ValueError),
             "_LENGTH": "the message is longer or shorter than its definition",
         }
@@ -138,6 +150,7 @@ class _Compiler:
         # said as a PartialDecodeError, caught in the reader itself.
         body.lines = [
             "try:", *(f"    {line}" for line in body.lines),
+            "except _Unreadable:", "    raise",
             "except _Errors as error:", "    raise _Error(str(error)) from None",
         ]  # fmt: skip
         self._define("read", "raw", body)
@@ -336,6 +349,12 @@ class _Compiler:
     def _check_count(self, body: _Body, element: Any, count: str) -> None:
         """Refuse a sequence's count (at `p`) longer than the message can hold, as
         rosbags' full decoder does, whether its elements are walked or skipped."""
+        if self.ros1 and self._least(element) == 0:
+            too_many = (
+                f"'a sequence longer than the message: a count of ' + str({count})"
+                " + ' messages of no bytes'"
+            )
+            body.lines.append(f"if {count} > {MOST_EMPTY}: raise _Unreadable({too_many})")
         body.lines.append(f"if {self._too_many(element, count)}: "
                           "raise _Error('a sequence longer than the message')")  # fmt: skip
 
