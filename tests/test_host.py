@@ -366,6 +366,21 @@ def test_a_message_of_no_fields_has_an_empty_definition_and_decodes(needs):
         Decoder().decode({**header, "md5sum": "*"}, b"", needs)
 
 
+@pytest.mark.parametrize("needs", [None, {}, {"beats": None}])
+def test_a_damaged_count_of_empty_messages_is_a_decode_error_however_the_topic_is_read(needs):
+    """A node or a bag replay that reads a topic whole decodes with rosbags alone:
+    a damaged count of 2^31 empty messages is refused as damaged (DecodeError),
+    not made one by one until the machine's memory is gone."""
+    from rmvdsl.host.ros1_decoding import DecodeError, Decoder
+
+    definition = "std_msgs/Empty[] beats\nuint8 x\n" + "=" * 80 + "\nMSG: std_msgs/Empty\n"
+    header = {"type": "test_msgs/Beats", "md5sum": "b", "message_definition": definition}
+    damaged = (1 << 31).to_bytes(4, "little") + b"\x05"
+    with pytest.raises(DecodeError, match="a count of 2147483648 messages of no bytes"):
+        Decoder().decode(header, damaged, needs)
+    assert len(Decoder().decode(header, (2).to_bytes(4, "little") + b"\x05", needs).beats) == 2
+
+
 class _Influx(http.server.BaseHTTPRequestHandler):
     """A stand-in for InfluxDB's /write: takes every batch, or refuses it (400)."""
 

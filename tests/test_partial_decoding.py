@@ -24,6 +24,7 @@ from rmvdsl.host.partial_decoding import (
     Unsupported,
     compile_reader,
     falling_back,
+    guarded,
     needs_of,
     or_full,
 )
@@ -255,10 +256,15 @@ def test_damaged_bytes_are_refused_or_read_as_the_full_decoder_reads_them(
         for _ in range(data.draw(st.integers(1, 4))):
             flipped[data.draw(st.integers(start, len(raw) - 1))] = data.draw(st.integers(0, 255))
         damages.append(bytes(flipped))
+    # where nothing reads the message before it, ROS 1's full decoder is guarded
+    whole = guarded(full, top, lambda name: store.fielddefs[name][1]) if wire == "ros1" else full
     for damaged in damages:
-        if _outcome(read, damaged, paths) == "unreadable":
+        unreadable = _outcome(read, damaged, paths) == "unreadable"
+        assert (_outcome(whole, damaged, paths) == "unreadable") == unreadable
+        if unreadable:
             continue  # rosbags would make each of its millions of empty messages
         expected = _outcome(full, damaged, paths)
+        assert _outcome(whole, damaged, paths) == expected
         if expected == "not text":  # a string not read is not decoded (docs/replay.md)
             continue
         assert _outcome(read, damaged, paths) == expected
@@ -289,6 +295,37 @@ def test_a_damaged_count_of_empty_messages_is_refused_not_made() -> None:
     assert given == []
     many = read((1000).to_bytes(4, "little") + b"\x05")  # longer than its 5 bytes: rosbags'
     assert (len(many.items), many.x, len(given)) == (1000, 5, 1)
+
+
+def test_the_full_decoder_alone_is_guarded_from_a_damaged_count_of_empty_messages() -> None:
+    """Where no partial reader stands before it (a topic read whole, or fields it
+    does not compile), ROS 1's full decoder is guarded by a walk of the message
+    that refuses the same counts; a type that cannot hold one is not walked."""
+    store = _store([("test_msgs/msg/Top", [("items", "test_msgs/msg/Empty[]"), ("x", "uint8")]),
+                    ("test_msgs/msg/Empty", []),
+                    ("test_msgs/msg/Flat", [("items", "uint8[]"),
+                                            ("inner", "test_msgs/msg/Empty")])])  # fmt: skip
+    fields_of = lambda name: store.fielddefs[name][1]  # noqa: E731
+    given: list[bytes] = []
+
+    def full(raw: bytes) -> Any:
+        given.append(raw)
+        return _full(store, "test_msgs/msg/Top", raw, "ros1")
+
+    damaged = (MOST_EMPTY + 1).to_bytes(4, "little") + b"\x05"
+    nothing_compiles = [needs_of([("no_such_field",)])]
+    for read in (guarded(full, "test_msgs/msg/Top", fields_of),
+                 or_full(full, "test_msgs/msg/Top", nothing_compiles, fields_of, ros1=True),
+                 or_full(full, "test_msgs/msg/Top", [], fields_of, ros1=True)):  # fmt: skip
+        with pytest.raises(Unreadable, match=f"a count of {MOST_EMPTY + 1} messages"):
+            read(damaged)
+        assert given == []
+        assert read((3).to_bytes(4, "little") + b"\x05").x == 5
+        assert read((1000).to_bytes(4, "little") + b"\x05").x == 5  # past its length: rosbags'
+        assert len(given) == 2
+        given.clear()
+    assert guarded(full, "test_msgs/msg/Flat", fields_of) is full
+    assert or_full(full, "test_msgs/msg/Top", nothing_compiles, fields_of, ros1=False) is full
 
 
 def test_a_count_from_damaged_bytes_does_not_make_the_reader_walk_for_ever() -> None:

@@ -43,6 +43,7 @@ from rmvdsl.host.wire_reader import (
     Unreadable,
     Unsupported,
     compiled,
+    fewest_bytes,
 )
 from rmvdsl.runtime import spec as ir
 
@@ -50,7 +51,7 @@ __all__ = [
     "FieldsOf", "Needs", "PartialDecodeError", "Reader", "Undefined", "Unreadable",
     "Unsupported",
     "compile_reader", "definitions_reached",
-    "falling_back", "merged", "needs_of", "or_full", "spec_needs",
+    "falling_back", "guarded", "merged", "needs_of", "or_full", "spec_needs",
 ]  # fmt: skip
 
 
@@ -113,7 +114,7 @@ def or_full(
 ) -> Reader:
     """A reader of the first of `wanted` this module compiles for `type_name`,
     falling back to `full` where it refuses a message; `full` itself where none
-    compiles (or nothing is wanted)."""
+    compiles (or nothing is wanted), guarded in ROS 1."""
     for needs in wanted:
         if not needs:
             continue
@@ -122,7 +123,7 @@ def or_full(
         except Unsupported:
             continue
         return falling_back(partial, full)
-    return full
+    return guarded(full, type_name, fields_of) if ros1 else full
 
 
 def falling_back(partial: Reader, full: Reader) -> Reader:
@@ -139,6 +140,52 @@ def falling_back(partial: Reader, full: Reader) -> Reader:
             return full(raw)
 
     return read
+
+
+def guarded(full: Reader, type_name: str, fields_of: FieldsOf) -> Reader:
+    """ROS 1's `full` decoder, where nothing reads a message before it: behind a
+    walk of each message that refuses what `full` must not be given (Unreadable,
+    a count of messages of no bytes past MOST_EMPTY), for a type that can hold
+    one; `full` itself for any other type (the walk would cost a message's read).
+    A type whose messages cannot be walked is refused whole, message by message:
+    rosbags' decoder, given one damaged count, takes the machine's memory. (CDR
+    needs no guard: rosbags refuses a count longer than the bytes left.)"""
+    try:
+        if not _holds_counts_of_nothing(type_name, fields_of):
+            return full
+        walk = compile_reader(type_name, {}, fields_of, ros1=True)
+    except Unsupported as error:
+        refusal = Unreadable(f"{type_name} cannot be checked before it is decoded: {error}")
+
+        def refuse(raw: bytes | memoryview) -> Any:
+            raise refusal
+
+        return refuse
+
+    def read(raw: bytes | memoryview) -> Any:
+        try:
+            walk(raw)
+        except Unreadable:
+            raise
+        except PartialDecodeError:
+            pass  # damaged otherwise: the full decoder says how, in its words
+        return full(raw)
+
+    return read
+
+
+def _holds_counts_of_nothing(type_name: str, fields_of: FieldsOf) -> bool:
+    """Whether a ROS 1 message of `type_name` can hold a sequence of elements of
+    no bytes (empty messages), whose count nothing in the message bounds."""
+    try:
+        reached = definitions_reached(type_name, fields_of)
+    except Undefined as error:
+        raise Unsupported(f"no definition of {error.name}") from None
+    for fields in reached.values():
+        for _, (kind, detail) in fields:
+            if int(kind) == SEQUENCE and fewest_bytes(detail[0], fields_of, ros1=True) == 0:
+                return True
+    return False
 
 
 def compile_reader(type_name: str, needs: Needs, fields_of: FieldsOf, *, ros1: bool) -> Reader:

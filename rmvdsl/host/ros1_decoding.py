@@ -126,9 +126,9 @@ def _reader(
     def full(raw: bytes | memoryview) -> Any:
         return deserialize(raw, name)
 
-    if not needs:
-        return full
     fields_of = lambda type_name: store.fielddefs[type_name][1]  # noqa: E731
+    if not needs:  # the whole message, by rosbags' decoder: guarded, as any
+        return partial_decoding.guarded(full, name, fields_of)
     wanted = [partial_decoding.merged(needs, optional), needs] if optional else [needs]
     return partial_decoding.or_full(full, name, wanted, fields_of, ros1=True)
 

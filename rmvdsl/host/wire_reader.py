@@ -77,6 +77,15 @@ def compiled(type_name: str, needs: Needs, fields_of: FieldsOf, *, ros1: bool) -
         raise Unsupported("definitions nested too deep") from error
 
 
+def fewest_bytes(description: Any, fields_of: FieldsOf, *, ros1: bool) -> int:
+    """The fewest bytes a field of `description` (kind, detail) takes; raises
+    Unsupported for a definition this reader does not compile."""
+    try:
+        return _Compiler(fields_of, ros1=ros1, order="<")._least(description)
+    except RecursionError as error:  # a definition that contains itself
+        raise Unsupported("definitions nested too deep") from error
+
+
 def _not_cdr(raw: bytes | memoryview) -> Any:
     raise PartialDecodeError("not CDR: unknown encapsulation")
 
