@@ -52,6 +52,27 @@ def test_eval_all_segments_text_and_json(rmv, braking):
     }
 
 
+def test_eval_reads_with_the_collector_set_for_streams_and_restores_it(
+    rmv, braking, monkeypatch
+):
+    import gc
+
+    from rmvdsl.commands import formula
+    from rmvdsl.util.collection import YOUNG
+
+    seen = []
+    original = formula._eval_output
+
+    def watched(*args):
+        seen.append(gc.get_threshold()[0])
+        return original(*args)
+
+    monkeypatch.setattr(formula, "_eval_output", watched)
+    before = gc.get_threshold()
+    assert rmv("eval", "--formula", FORMULA_3_1, "--trace", str(braking)).out == "true\n"
+    assert seen == [YOUNG] and gc.get_threshold() == before
+
+
 def test_eval_infix_and_latex_agree(rmv, braking):
     infix = (
         "(HardBraking -> (AntiLockBrake or HardBraking) until[<10s] Stopped)"

@@ -76,6 +76,32 @@ def test_the_known_violation_of_abscheck(rmv, recordings):
     assert verdicts[3][0] == "unknown"
 
 
+def test_a_replay_runs_with_the_collector_set_for_streams_and_restores_it(
+    rmv, recordings, monkeypatch
+):
+    """The cyclic collector walked the young objects every 700 allocations: 7% of a
+    replay's CPU (rmvdsl.util.collection). A replay runs with 10,000, and a command
+    run in-process leaves the threshold as it found it, also when it fails."""
+    import gc
+
+    from rmvdsl.tools import replay
+    from rmvdsl.util.collection import YOUNG
+
+    seen = []
+    original = replay.replay
+
+    def watched(*args, **kwargs):
+        seen.append(gc.get_threshold()[0])
+        yield from original(*args, **kwargs)
+
+    monkeypatch.setattr(replay, "replay", watched)
+    before = gc.get_threshold()
+    assert _replay(rmv, recordings / "braking_mcap", "--format", "jsonl").code == 1
+    assert seen == [YOUNG] and gc.get_threshold() == before
+    assert _replay(rmv, recordings / "braking_mcap", "--from", "9", "--to", "1").code == 2
+    assert len(seen) == 2 and gc.get_threshold() == before
+
+
 def test_the_same_output_from_bag_mcap_and_db3(rmv, recordings):
     outputs = [
         _replay(rmv, recordings / name, "--format", "jsonl").out

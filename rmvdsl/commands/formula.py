@@ -23,6 +23,7 @@ def run_eval(args: argparse.Namespace) -> int:
     from rmvdsl.lang.numbers import NumberError, exact_or_quotient
     from rmvdsl.logic import evaluate as ev
     from rmvdsl.logic.trace_chunks import SCALE
+    from rmvdsl.util import collection
 
     try:
         at = exact_or_quotient(args.at)
@@ -40,7 +41,8 @@ def run_eval(args: argparse.Namespace) -> int:
         if compiled is None:
             return _formula_errors(args, diagnostics)
         run = ev.Streamed(compiled, trace)
-        verdict = _eval_output(args, run, at)  # a bad line raises TraceError: exit 2
+        with collection.for_streams():
+            verdict = _eval_output(args, run, at)  # a bad line raises TraceError: exit 2
     for note in [*trace.notes, *_absent_names(compiled, trace.seen)]:
         print(f"rmv eval: {note}", file=sys.stderr)
     if verdict is None:

@@ -15,6 +15,7 @@ def run(args: argparse.Namespace) -> int:
 
     from rmvdsl.tools import fleet, replay
     from rmvdsl.tools.recordings import ReplayError
+    from rmvdsl.util import collection
 
     message_options(args)
     if args.report:
@@ -35,11 +36,12 @@ def run(args: argparse.Namespace) -> int:
         return _fleet(args, spec, scheduler)
     progress = replay.progress_bar() if sys.stderr.isatty() and not args.quiet else None
     try:
-        summary = replay.run(
-            spec, [Path(p) for p in args.recordings], sys.stdout,
-            output=args.format, start=args.start, stop=args.stop, report=args.report,
-            run_actions=args.run_actions, progress=progress,
-        )  # fmt: skip
+        with collection.for_streams():
+            summary = replay.run(
+                spec, [Path(p) for p in args.recordings], sys.stdout,
+                output=args.format, start=args.start, stop=args.stop, report=args.report,
+                run_actions=args.run_actions, progress=progress,
+            )  # fmt: skip
     except (ReplayError, ValueError, ZeroDivisionError) as exc:
         raise UsageError(str(exc)) from None
     if summary.failed:

@@ -13,6 +13,7 @@ from rmvdsl.runtime import spec as ir
 from rmvdsl.tools import replay
 from rmvdsl.tools.fleet.sections import Job, replay_section, status_of, tally
 from rmvdsl.tools.recordings import ReplayError
+from rmvdsl.util import collection
 
 # What a result's `status` says, from worst to best.
 STATUSES = ("failed", "unreadable", "violations", "intrusions", "incomplete", "pass")
@@ -61,12 +62,13 @@ def replay_one(spec_json: str, job: Job | str, options: Options) -> dict[str, An
     run_options = {"start": options.start, "stop": options.stop, "progress": progress}
     try:
         spec = spec_of(spec_json)
-        if job.section is not None:
-            result["section"] = replay_section(spec, path, job.section, run_options, read)
-            counts = result["section"]["counts"]
-        else:
-            for record in replay.replay(spec, [Path(path)], **run_options):  # type: ignore[arg-type]
-                tally(counts, texts, record)
+        with collection.for_streams():
+            if job.section is not None:
+                result["section"] = replay_section(spec, path, job.section, run_options, read)
+                counts = result["section"]["counts"]
+            else:
+                for record in replay.replay(spec, [Path(path)], **run_options):  # type: ignore[arg-type]
+                    tally(counts, texts, record)
     except TimedOut as why:
         result.update(status="failed", error=str(why), timed_out=True)
     except (ReplayError, ValueError, ZeroDivisionError) as why:
