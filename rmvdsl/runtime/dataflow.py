@@ -4,6 +4,7 @@ order, so the output never depends on how the input was batched."""
 
 from __future__ import annotations
 
+import bisect
 import graphlib
 import heapq
 from abc import ABC, abstractmethod
@@ -25,17 +26,29 @@ def _take(inbox: list[Item], bound: int) -> list[Item]:
     of the node is final (a query running once a minute) while the others arrive."""
     if not inbox or inbox[0][0] >= bound:
         return []
-    # All of it (a pump after every input's time): sorted in one call, the order the
-    # pops would give. Items come mostly in time order, so the heap's last is mostly
-    # the newest: an inbox waiting on a slow input is told apart without a scan.
-    if inbox[-1][0] < bound and max(inbox)[0] < bound:
-        taken = sorted(inbox)
-        inbox.clear()
+    # A long inbox waiting on a slow input gives its head only, popped. Items come
+    # mostly in time order, so the heap's last is mostly the newest: such an
+    # inbox is told apart without a scan.
+    if inbox[-1][0] >= bound and len(inbox) > SORTED_AT_MOST:
+        taken = []
+        while inbox and inbox[0][0] < bound:
+            taken.append(heapq.heappop(inbox))
         return taken
-    taken = []
-    while inbox and inbox[0][0] < bound:
-        taken.append(heapq.heappop(inbox))
-    return taken
+    # Else sorted in one call, the order the pops would give (sequence numbers are
+    # unique: no two items compare equal, and no value is compared); the items
+    # left, sorted, are still a heap.
+    ordered = sorted(inbox)
+    if ordered[-1][0] < bound:
+        inbox.clear()
+        return ordered
+    cut = bisect.bisect_left(ordered, (bound,))  # the first item at `bound` or later
+    inbox[:] = ordered[cut:]
+    return ordered[:cut]
+
+
+# The longest inbox sorted whole when its newest item stays (a pump takes about
+# PUMP_EVERY instants' items, and leaves those of the instant not yet final).
+SORTED_AT_MOST = 64
 
 
 class Node(ABC):

@@ -17,7 +17,7 @@ def nanoseconds(seconds: Fraction) -> int:
     return math.floor(seconds * NS)
 
 
-@dataclass
+@dataclass(slots=True)
 class Row:
     """Values of one source (a topic's message, or one event's point) at one time:
     InfluxDB's point, whose fields are the variables read from it."""
