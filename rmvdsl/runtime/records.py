@@ -83,7 +83,7 @@ def to_json(record: Record) -> str:
     """One record as one line of JSON; times and other fractions as exact decimals
     (a quotient such as "1/3" as a string where no decimal is exact), floats that
     JSON cannot hold as strings ("nan", "inf", "-inf")."""
-    return _json_value(record)
+    return _json_object(record) if type(record) is dict else _json_value(record)
 
 
 def _json_value(value: Any) -> str:
