@@ -14,11 +14,14 @@ of MCAP files; all three by default); then runs, each in its own process:
 
 Before a speed is printed, both must have read the same number of messages (the
 replay's `messages` counter) and the replay must report one ABSCheck violation per
-30 s cycle. Reported: messages per second of each, the replay's speed as a fraction
-of the bare read's (goal: >= 100%), and each process's peak memory (RSS) on the tenth
-and on the whole recording. rosbags' reader keeps the recording's index, so both
-grow with the recording; what the replay holds beyond the bare read should be flat
-(the runtime holds what the spec's windows and horizons need, not the recording).
+30 s cycle. Each recording is measured in --rounds paired rounds (3 by default: the
+bare read, then the replay). Reported: messages per second of each (median of the
+rounds), the replay's speed as a fraction of the bare read's (goal: >= 100%) and its
+CPU time's, each the median of the rounds' own ratios, and each process's peak
+memory (RSS) on the tenth and on the whole recording. rosbags' reader keeps the
+recording's index, so both grow with the recording; what the replay holds beyond
+the bare read should be flat (the runtime holds what the spec's windows and
+horizons need, not the recording).
 
     python benchmarks/bench_replay.py                      # 1,000,000 messages
     python benchmarks/bench_replay.py --messages 100000 --storage mcap --json out.json
@@ -37,6 +40,7 @@ import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
+from statistics import median
 from typing import IO, Any, TypeVar
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -46,6 +50,7 @@ import peak
 ROOT = Path(__file__).resolve().parent.parent
 SPEC = ROOT / "examples" / "carla" / "abs.rmv"
 CYCLE_NS = 30 * 10**9
+ROUNDS = 3
 T = TypeVar("T")
 BARE = """
 import sys
@@ -129,9 +134,9 @@ def _size(path: Path) -> int:
     return sum(f.stat().st_size for f in files if f.is_file())
 
 
-def _measure(command: list[str], read: Callable[[IO[str]], T]) -> tuple[float, int, T]:
-    """Wall time, peak RSS (bytes: the process's own, benchmarks/peak.py) and what
-    `read` makes of the standard output of one process, read line by line (the
+def _measure(command: list[str], read: Callable[[IO[str]], T]) -> tuple[float, peak.Usage, T]:
+    """Wall time, what the process used (CPU, peak RSS: its own, benchmarks/peak.py)
+    and what `read` makes of its standard output, read line by line (the
     million-message replay's output, read whole, was 1.3 GB)."""
     with tempfile.TemporaryFile("w+", encoding="utf-8") as out:
         start = time.perf_counter()
@@ -140,7 +145,7 @@ def _measure(command: list[str], read: Callable[[IO[str]], T]) -> tuple[float, i
         if usage.returncode not in (0, 1):
             raise SystemExit(f"{command[:4]} failed ({usage.returncode}): {usage.stderr}")
         out.seek(0)
-        return elapsed, usage.peak_bytes, read(out)
+        return elapsed, usage, read(out)
 
 
 def _replay_output(out: IO[str]) -> tuple[dict[str, Any], int]:
@@ -155,28 +160,42 @@ def _replay_output(out: IO[str]) -> tuple[dict[str, Any], int]:
     return counters, violations
 
 
-def measure(path: Path, cycles: int) -> dict[str, Any]:
-    bare_time, bare_rss, count = _measure(
-        [sys.executable, "-c", BARE, str(path)], lambda out: int(out.read())
-    )
+def measure(path: Path, cycles: int, rounds: int = ROUNDS) -> dict[str, Any]:
+    """`rounds` rounds, each the bare read then the replay, one after the other: the
+    ratios are the medians of each round's own (a shared machine's load moves both
+    of a round alike); speeds and memory are the medians of their rounds."""
+    bare_runs, replay_runs = [], []
     replay = [sys.executable, "-m", "rmvdsl.cli", "replay", str(SPEC), str(path)]
-    replay_time, replay_rss, (counters, violations) = _measure(
-        [*replay, "--format", "jsonl"], _replay_output
-    )
-    assert counters["messages"] == count, (counters["messages"], count)
-    # one violation per full cycle (the second brake of each); a cut cycle may lack it
-    assert cycles - 1 <= violations <= cycles, (violations, cycles)
+    for _ in range(rounds):
+        bare_runs.append(_measure([sys.executable, "-c", BARE, str(path)], _count_of))
+        replay_runs.append(_measure([*replay, "--format", "jsonl"], _replay_output))
+    count = bare_runs[0][2]
+    for _, _, (counters, violations) in replay_runs:
+        assert counters["messages"] == count, (counters["messages"], count)
+        # one violation per full cycle (the second brake of each); a cut cycle may lack it
+        assert cycles - 1 <= violations <= cycles, (violations, cycles)
+    pairs = list(zip(bare_runs, replay_runs, strict=True))
+    bare_time = median(b[0] for b in bare_runs)
+    replay_time = median(r[0] for r in replay_runs)
     return {
         "messages": count,
+        "rounds": rounds,
         "bare_seconds": bare_time,
         "bare_per_second": count / bare_time,
-        "bare_peak_rss": bare_rss,
+        "bare_cpu_seconds": median(b[1].cpu for b in bare_runs),
+        "bare_peak_rss": int(median(b[1].peak_bytes for b in bare_runs)),
         "replay_seconds": replay_time,
         "replay_per_second": count / replay_time,
-        "replay_peak_rss": replay_rss,
-        "replay_fraction_of_bare": bare_time / replay_time,
-        "violations": violations,
+        "replay_cpu_seconds": median(r[1].cpu for r in replay_runs),
+        "replay_peak_rss": int(median(r[1].peak_bytes for r in replay_runs)),
+        "replay_fraction_of_bare": median(b[0] / r[0] for b, r in pairs),
+        "replay_cpu_fraction_of_bare": median(b[1].cpu / r[1].cpu for b, r in pairs),
+        "violations": replay_runs[0][2][1],
     }
+
+
+def _count_of(out: IO[str]) -> int:
+    return int(out.read())
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -186,6 +205,8 @@ def main(argv: list[str] | None = None) -> int:
         "--storage", action="append", choices=STORAGES, help="bag, db3 or mcap (default: all)"
     )
     parser.add_argument("--json", help="write the figures to this file")
+    parser.add_argument("--rounds", type=int, default=ROUNDS,
+                        help=f"paired rounds of each recording (default {ROUNDS})")  # fmt: skip
     parser.add_argument("--write", nargs=3, metavar=("PATH", "MESSAGES", "STORAGE"),
                         help=argparse.SUPPRESS)  # fmt: skip
     args = parser.parse_args(argv)
@@ -212,7 +233,7 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"writing {count:,} messages ({storage}) ...", file=sys.stderr)
                 cycles = _write_in_child(path, count, storage)
                 print(f"measuring {_size(path) / 1e6:,.0f} MB ...", file=sys.stderr)
-                results[storage][label] = measure(path, cycles)
+                results[storage][label] = measure(path, cycles, args.rounds)
                 _remove(path)
     columns = [
         ("storage", 7),
@@ -221,6 +242,7 @@ def main(argv: list[str] | None = None) -> int:
         ("bare msg/s", 11),
         ("replay msg/s", 13),
         ("replay/bare", 12),
+        ("CPU", 5),
         ("bare RSS", 9),
         ("replay RSS", 11),
     ]
@@ -230,6 +252,7 @@ def main(argv: list[str] | None = None) -> int:
             print(
                 f"{storage:>7} {label:>10} {r['messages']:>10,} {r['bare_per_second']:>11,.0f} "
                 f"{r['replay_per_second']:>13,.0f} {r['replay_fraction_of_bare']:>11.0%} "
+                f"{r['replay_cpu_fraction_of_bare']:>5.0%} "
                 f"{r['bare_peak_rss'] / 2**20:>7.0f}MB {r['replay_peak_rss'] / 2**20:>9.0f}MB"
             )
         whole, tenth = rows["whole"], rows["tenth"]

@@ -166,11 +166,12 @@ def replay_speed(data: dict[str, Any]) -> str:
             rows.append([STORAGE_NAMES.get(storage, storage), label, f"{row['messages']:,}",
                          _count(row["bare_per_second"]), _count(row["replay_per_second"]),
                          f"{row['replay_fraction_of_bare']:.0%}",
+                         f"{row['replay_cpu_fraction_of_bare']:.0%}",
                          f"{row['bare_peak_rss'] / 2**20:.0f} MB",
                          f"{row['replay_peak_rss'] / 2**20:.0f} MB",
                          f"{row['replay_rss_beyond_bare'] / 2**20:.0f} MB"])  # fmt: skip
     header = ["storage", "recording", "messages", "bare read msg/s", "replay msg/s",
-              "replay / bare", "bare peak RSS", "replay peak RSS",
+              "replay / bare", "bare CPU / replay CPU", "bare peak RSS", "replay peak RSS",
               "replay beyond bare"]  # fmt: skip
     return _table(header, rows)
 

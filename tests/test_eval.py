@@ -52,9 +52,7 @@ def test_eval_all_segments_text_and_json(rmv, braking):
     }
 
 
-def test_eval_reads_with_the_collector_set_for_streams_and_restores_it(
-    rmv, braking, monkeypatch
-):
+def test_eval_reads_with_the_collector_set_for_streams_and_restores_it(rmv, braking, monkeypatch):
     import gc
 
     from rmvdsl.commands import formula

@@ -327,6 +327,14 @@ def test_the_full_decoder_alone_is_guarded_from_a_damaged_count_of_empty_message
     assert guarded(full, "test_msgs/msg/Flat", fields_of) is full
     assert or_full(full, "test_msgs/msg/Top", nothing_compiles, fields_of, ros1=False) is full
 
+    # a type whose messages cannot be walked first is refused, never given to rosbags
+    def undefined(name: str) -> Any:  # Top holds a sequence of a type defined nowhere
+        return {"test_msgs/msg/Top": [("items", (4, ((2, "test_msgs/msg/Gone"), 0)))]}[name]
+
+    with pytest.raises(Unreadable, match="cannot be checked before it is decoded: no def"):
+        guarded(full, "test_msgs/msg/Top", undefined)(b"\x00" * 4)
+    assert given == []
+
 
 def test_a_count_from_damaged_bytes_does_not_make_the_reader_walk_for_ever() -> None:
     store = _store([("test_msgs/msg/Top", [("items", "test_msgs/msg/Item[]")]),
