@@ -1181,3 +1181,20 @@ def test_recordings_of_the_same_definitions_share_one_type_store():
     assert shared_store(first) is first
     assert shared_store(again) is first
     assert shared_store(other) is other
+
+
+def test_runs_in_threads_of_one_process_restore_the_collector_once_all_have_ended():
+    """A Dask worker runs several recordings in threads: the threshold stays set
+    while any runs, and is what the first found once the last has ended."""
+    import gc
+
+    from rmvdsl.util.collection import YOUNG, for_streams
+
+    before = gc.get_threshold()
+    first, second = for_streams(), for_streams()
+    first.__enter__()
+    second.__enter__()
+    first.__exit__(None, None, None)  # the first ends while the second runs
+    assert gc.get_threshold()[0] == YOUNG
+    second.__exit__(None, None, None)
+    assert gc.get_threshold() == before

@@ -14,18 +14,32 @@ from __future__ import annotations
 
 import contextlib
 import gc
+import threading
 from collections.abc import Iterator
 
 YOUNG = 10_000  # net allocations between two walks of the young generation
+
+# Runs under way in this process (a Dask worker runs several replays in threads):
+# the first sets the threshold, the last puts back what the first found.
+_lock = threading.Lock()
+_running = 0
+_before = gc.get_threshold()
 
 
 @contextlib.contextmanager
 def for_streams() -> Iterator[None]:
     """The collector set for a run over a stream, and as it was after it (a
     command run in-process, by a test or a server, leaves it as it found it)."""
-    before = gc.get_threshold()
-    gc.set_threshold(YOUNG, *before[1:])
+    global _running, _before
+    with _lock:
+        if _running == 0:
+            _before = gc.get_threshold()
+            gc.set_threshold(YOUNG, *_before[1:])
+        _running += 1
     try:
         yield
     finally:
-        gc.set_threshold(*before)
+        with _lock:
+            _running -= 1
+            if _running == 0:
+                gc.set_threshold(*_before)
