@@ -8,6 +8,7 @@ the partial results."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -156,23 +157,32 @@ def test_a_worker_killed_mid_run_loses_no_recording(runs, sequential, tmp_path):
                                stderr=subprocess.PIPE, text=True)  # fmt: skip
     killed = []
     deadline = time.monotonic() + 60
-    while not killed and time.monotonic() < deadline:
-        workers = [p for p in _children(process.pid) if _is_worker(p)]
-        if len(workers) == 2:
-            time.sleep(0.3)  # both are replaying (the long recording takes seconds)
-            try:
-                os.kill(workers[0], signal.SIGKILL)
-            except ProcessLookupError:  # it ended meanwhile: take the next pair
-                continue
-            killed.append(workers[0])
-        time.sleep(0.05)
+    # The worker that has the long recording open is replaying it: killed then. (A
+    # pause before a kill assumed a replay of seconds; a faster replay had ended.)
+    while not killed and time.monotonic() < deadline and process.poll() is None:
+        for worker in (p for p in _children(process.pid) if _is_worker(p)):
+            if any("long_mcap" in target for target in _open_files(worker)):
+                with contextlib.suppress(ProcessLookupError):
+                    os.kill(worker, signal.SIGKILL)
+                    killed.append(worker)
+        time.sleep(0.005)
     out, err = process.communicate(timeout=120)
-    assert killed
+    assert killed, f"no worker was seen replaying the long recording: {err}"
     found = _results(out)
     assert set(found) == {"long_mcap", "run0000.bag", "run0001_db3", "run0002_mcap"}, err
     assert all(r["status"] != "failed" for r in found.values()), found
     for name in ("run0000.bag", "run0001_db3", "run0002_mcap"):
         assert _comparable(found[name]) == _comparable(sequential[name])
+
+
+def _open_files(pid: int) -> list[str]:
+    """What the process's open descriptors name (/proc/PID/fd)."""
+    found = []
+    with contextlib.suppress(OSError):
+        for descriptor in Path(f"/proc/{pid}/fd").iterdir():
+            with contextlib.suppress(OSError):
+                found.append(os.readlink(descriptor))
+    return found
 
 
 def _is_worker(pid: int) -> bool:
