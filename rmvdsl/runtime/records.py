@@ -91,8 +91,7 @@ def _json_value(value: Any) -> str:
     if kind is str:
         return _json_string(value)
     if kind is Fraction:
-        text = exact_decimal(value)
-        return text if text is not None else f'"{value}"'
+        return _fraction(value)
     if kind is bool or value is None:
         return "true" if value is True else "false" if value is False else "null"
     if kind is int:
@@ -115,8 +114,8 @@ def _json_object(value: dict[Any, Any]) -> str:
         kind = type(item)
         if kind is str:
             texts.append(_json_string(item))
-        elif kind is Fraction and item.denominator == 1:
-            texts.append(str(item.numerator))
+        elif kind is Fraction:  # a time, mostly
+            texts.append(_fraction(item))
         elif kind is float and math.isfinite(item):
             texts.append(repr(item))
         else:
@@ -126,6 +125,12 @@ def _json_object(value: dict[Any, Any]) -> str:
     if template is None:
         template = _shape(shape)
     return template % tuple(texts)
+
+
+def _fraction(value: Fraction) -> str:
+    """An exact decimal, or the quotient as a string where no decimal is exact."""
+    text = exact_decimal(value)
+    return text if text is not None else f'"{value}"'
 
 
 def _shape(keys: tuple[Any, ...]) -> str:

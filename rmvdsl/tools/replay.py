@@ -300,22 +300,21 @@ def _write(
     repeats = _Repeats()
     if output == "json":
         out.write('{"records": [\n')
+    lines = output == "jsonl"
     for item in records:
-        if item["kind"] == "verdict" and item["verdict"] == "false":
-            summary.violations += 1
-        elif item["kind"] == "intrusion" and item["phase"] == "start":
-            summary.intrusions += 1
-        elif item["kind"] == "diagnostic":
-            summary.warnings += 1
-        elif item["kind"] == "action" and item.get("error"):
-            summary.failed_actions += 1
+        kind = item["kind"]
+        if kind in _COUNTED:
+            _count(item, kind, summary)
         if kept is not None:
             kept.append(item)
         if output == "text":
             repeats.write(item, out)
-        elif item["kind"] != "variable":
-            separator = "" if first or output == "jsonl" else ",\n"
-            out.write(separator + to_json(item) + ("\n" if output == "jsonl" else ""))
+        elif kind == "variable":
+            continue
+        elif lines:
+            out.write(to_json(item) + "\n")
+        else:
+            out.write(to_json(item) if first else ",\n" + to_json(item))
             first = False
     if output == "json":
         out.write("\n]}\n")
@@ -337,6 +336,21 @@ def _write(
             )
             + "\n"
         )
+
+
+_COUNTED = frozenset(("verdict", "intrusion", "diagnostic", "action"))  # kinds `_count` reads
+
+
+def _count(item: Record, kind: str, summary: Summary) -> None:
+    """What a record of those kinds adds to the summary the exit code comes from."""
+    if kind == "verdict" and item["verdict"] == "false":
+        summary.violations += 1
+    elif kind == "intrusion" and item["phase"] == "start":
+        summary.intrusions += 1
+    elif kind == "diagnostic":
+        summary.warnings += 1
+    elif kind == "action" and item.get("error"):
+        summary.failed_actions += 1
 
 
 class _Batched:
