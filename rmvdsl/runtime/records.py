@@ -5,9 +5,8 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass
 from fractions import Fraction
-from typing import Any, Protocol
+from typing import Any, NamedTuple, Protocol
 
 from rmvdsl.runtime import influx
 from rmvdsl.runtime import spec as ir
@@ -28,8 +27,7 @@ class Host(Protocol):
     def act(self, action: ir.Action, context: ActionContext) -> None: ...
 
 
-@dataclass(frozen=True)
-class ActionContext:
+class ActionContext(NamedTuple):  # made per action taken: a tuple, the cheapest
     owner_kind: str  # property | alert | intrusion | whitelist | node
     owner: str
     level: str  # a log level: debug, info, warn, error, fatal
