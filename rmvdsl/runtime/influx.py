@@ -33,7 +33,7 @@ from rmvdsl.runtime.expressions import (
 )
 from rmvdsl.runtime.fill import _fill, integral
 from rmvdsl.runtime.functions import MULTI, STREAMS, Stream, elementwise, multi, reduce
-from rmvdsl.runtime.series import MISSING, NS, Row, Series, nanoseconds, truncate
+from rmvdsl.runtime.series import MISSING, NS, Row, Series, nanoseconds, truncate, window_start
 
 __all__ = [
     "MISSING",
@@ -244,19 +244,12 @@ class WindowedQuery:
         """The values a function reads: a NaN or an infinity is no point (InfluxDB
         refuses to store one, and the collector leaves it out: lineproto), so `min`,
         `max` and the rest skip it, as numpy's `nanmin` does."""
-        isfinite, out = math.isfinite, []
-        if isinstance(arg, ir.Ref):  # a field itself (`mean(Velocity)`): read in line
-            name = arg.name
-            for row in rows:
-                value = row.fields.get(name, MISSING)
-                if value is not MISSING and not (isinstance(value, float) and not isfinite(value)):
-                    out.append((row.time, value))  # _unstorable inlined: a point per row
-            return out
-        value_of = compiled(arg)
+        value_of, isfinite = compiled(arg), math.isfinite
+        out = []
         for row in rows:
             value = value_of(row.fields.get)
             if value is not MISSING and not (isinstance(value, float) and not isfinite(value)):
-                out.append((row.time, value))
+                out.append((row.time, value))  # _unstorable inlined: a point per row
         return out
 
     def _aggregate(self, call: ir.Call, rows: list[Row], windows: range) -> Series:
@@ -268,15 +261,9 @@ class WindowedQuery:
             found = integral(points, self.interval, self.offset, second)
         else:
             grouped: dict[int, list[tuple[int, Any]]] = {}
-            interval, offset = self.interval, self.offset
             for point in points:
-                t = point[0]
-                key = t - (t - offset) % interval  # window_start, in line: a call a point
-                found_in = grouped.get(key)
-                if found_in is None:
-                    grouped[key] = [point]
-                else:
-                    found_in.append(point)
+                key = window_start(point[0], self.interval, self.offset)
+                grouped.setdefault(key, []).append(point)
             found = {w: reduce(call.function, ps, second) for w, ps in grouped.items()}
         # rows reach `lookback` before the range: only a LOOKBACK caller asks for it
         found = {w: v for w, v in found.items() if v is not MISSING and w in windows}
