@@ -358,23 +358,24 @@ class _Compiler:
     def _check_count(self, body: _Body, element: Any, count: str) -> None:
         """Refuse a sequence's count (at `p`) longer than the message can hold, as
         rosbags' full decoder does, whether its elements are walked or skipped."""
-        if self.ros1 and self._least(element) == 0:
+        least = self._least(element)
+        if self.ros1 and least == 0:
             too_many = (
                 f"'a sequence longer than the message: a count of ' + str({count})"
                 " + ' messages of no bytes'"
             )
             body.lines.append(f"if {count} > {MOST_EMPTY}: raise _Unreadable({too_many})")
-        body.lines.append(f"if {self._too_many(element, count)}: "
+        body.lines.append(f"if {self._too_many(least, count)}: "
                           "raise _Error('a sequence longer than the message')")  # fmt: skip
 
-    def _too_many(self, element: Any, count: str) -> str:
-        """The test that a sequence's count is more than its message can hold.
-        Elements of no bytes (empty messages in ROS 1, messages of arrays of length
-        0) fit any number of times: in ROS 1 their count is bounded by the message's
-        length only, so a damaged count still cannot make the loop run for ever. In
-        CDR rosbags' full decoder takes each message element for a byte at least (a
-        ROS 2 message has a field), and refuses a longer count: so does this."""
-        least = self._least(element)
+    def _too_many(self, least: int, count: str) -> str:
+        """The test that a sequence's count, of elements of at `least` bytes, is
+        more than its message can hold. Elements of no bytes (empty messages in
+        ROS 1, messages of arrays of length 0) fit any number of times: in ROS 1
+        their count is bounded by the message's length only, so a damaged count
+        still cannot make the loop run for ever. In CDR rosbags' full decoder takes
+        each message element for a byte at least (a ROS 2 message has a field), and
+        refuses a longer count: so does this."""
         if least == 0 and self.ros1:
             return f"{count} > len(raw)"
         least = max(least, 1)
