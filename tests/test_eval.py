@@ -146,6 +146,11 @@ def test_csv_traces(rmv, tmp_path):
         ('{"t": NaN, "state": "a"}\n', ":1:2:", "times must be finite"),
         ('{"t": 0, "state": "a"}\n{"t": 1, "state": "b"\n', ":2:22:", "not JSON"),
         ('{"t": 0, "props": "a"}\n', ":1:10:", '"props" is a list of strings'),
+        # a number is not a name (the reader keeps it as its text: NaN was `NaN`)
+        ('{"t": 0, "state": NaN}\n', ":1:10:", '"state" is a string'),
+        ('{"t": 0, "state": 5}\n', ":1:10:", '"state" is a string'),
+        ('{"t": 0, "props": ["a", Infinity]}\n', ":1:10:", '"props" is a list of strings'),
+        ('{"t": 0, "state": "a b"}\n', ":1:10:", "`a b` is not a proposition name"),
         (
             '{"t": 0, "state": "a"}\n{"t": 5, "end": true}\n{"t": 6, "state": "b"}\n',
             ":3:1:",

@@ -9,6 +9,7 @@ import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from fractions import Fraction
+from typing import TypeGuard
 
 from rmvdsl.grammar.formula import TIME_UNITS
 from rmvdsl.lang.numbers import NumberError, exact_or_quotient
@@ -101,7 +102,16 @@ class LineReader:
             self._last = exact_or_quotient(self.last_text)
         return self._last
 
-    def add(self, line: int, column: int, t: Fraction, state: frozenset[str]) -> None:
+    def add(
+        self,
+        line: int,
+        column: int,
+        t: Fraction,
+        state: frozenset[str],
+        names_at: int | None = None,
+    ) -> None:
+        """A sample at `t` (written at `column`; its names at `names_at`, default the
+        same)."""
         if self.end is not None:
             raise TraceError(
                 self.path, line, 1, "a sample after the end record", "the end record comes last"
@@ -118,7 +128,8 @@ class LineReader:
             )
         for name in state:
             if not NAME.fullmatch(name):
-                raise TraceError(self.path, line, column, f"`{name}` is not a proposition name")
+                raise TraceError(self.path, line, column if names_at is None else names_at,
+                                 f"`{name}` is not a proposition name")  # fmt: skip
         self._last, self.last_text, self.last_float = t, None, float(t)
         self.accepted.append((t, state))
 
@@ -182,7 +193,8 @@ class LineReader:
             return
         if "end" in record:
             raise TraceError(self.path, number, column("end"), '"end" must be true')
-        self.add(number, column("t"), t, _state(record, self.path, number, column))
+        names_at = column("state" if "state" in record else "props")
+        self.add(number, column("t"), t, _state(record, self.path, number, column), names_at)
 
     def csv(self, number: int, raw: str) -> None:
         raw = raw.rstrip("\r")
@@ -285,12 +297,19 @@ def _state(
 ) -> frozenset[str]:
     if ("state" in record) == ("props" in record):
         raise TraceError(path, line, 1, 'a sample has either "state" or "props"')
+    # A number is read as its text (`JsonNumber`, a str): `"state": NaN` is not the
+    # proposition `NaN`.
     if "state" in record:
         value = record["state"]
-        if not isinstance(value, str):
+        if not _text(value):
             raise TraceError(path, line, column("state"), '"state" is a string')
         return frozenset({value})
     value = record["props"]
-    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+    if not isinstance(value, list) or not all(_text(v) for v in value):
         raise TraceError(path, line, column("props"), '"props" is a list of strings')
     return frozenset(value)
+
+
+def _text(value: object) -> TypeGuard[str]:
+    """A JSON string (not a number, which the reader keeps as its text)."""
+    return isinstance(value, str) and not isinstance(value, JsonNumber)
