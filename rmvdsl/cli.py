@@ -15,6 +15,7 @@ import sys
 import threading
 from collections.abc import Sequence
 
+from rmvdsl.commands import say
 from rmvdsl.commands.arguments import build_parser
 from rmvdsl.lang.errors import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, UsageError
 from rmvdsl.util.deep import deep
@@ -30,7 +31,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return deep(_run, args)
     except UsageError as exc:
-        print(f"rmv: error: {exc}", file=sys.stderr)
+        say(f"rmv: error: {exc}")
         return EXIT_USAGE
     except KeyboardInterrupt:
         return 130
@@ -39,10 +40,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except Exception as exc:  # a bug in rmv: say so in one line, never a traceback
         if os.environ.get("RMV_DEBUG"):
             raise
-        print(
+        say(
             f"rmv: internal error: {type(exc).__name__}: {exc} "
-            "(please report it; RMV_DEBUG=1 shows where)",
-            file=sys.stderr,
+            "(please report it; RMV_DEBUG=1 shows where)"
         )
         return EXIT_INTERNAL
 
@@ -87,7 +87,7 @@ def _explain(code: str) -> int:
     text = explain(code)
     if text is None:
         known = ", ".join(sorted(CODES))
-        print(f"rmv: error: unknown code `{code}`; known codes: {known}", file=sys.stderr)
+        say(f"rmv: error: unknown code `{code}`; known codes: {known}")
         return EXIT_USAGE
     sys.stdout.write(text)
     return EXIT_OK

@@ -462,3 +462,33 @@ def test_the_kapacitor_collector_on_ros1_stores_every_message(tmp_path):
     status = seen["status"]
     assert status["messages"] == str(sum(recorded[t] for t in spec_topics)), status
     assert not [k for k in status if "dropped" in k or "lost" in k or "damaged" in k], status
+
+
+LOGGED = """
+import json, sys
+import rospy
+sys.path.insert(0, sys.argv[2])  # the package's Python: what catkin installs
+lines = []
+for level in ("logdebug", "loginfo", "logwarn", "logerr", "logfatal"):
+    setattr(rospy, level, lambda text, level=level: lines.append([level, text]))
+from carla_abs.rmv_host.ros1 import log_at
+for level in ("info", "warn", "error"):
+    log_at(level, sys.argv[1])
+print(json.dumps(lines))
+"""
+
+
+def test_a_node_s_log_lines_show_control_characters_as_pictures(carla, tmp_path):
+    """A ROS 1 node's name is any caller id it registered with the master, and an
+    intrusion's line names it: the built package's host logs it safe for a terminal
+    (an escape as ␛, a bell as ␇), on Debian's rospy."""
+    _, package = carla
+    script = tmp_path / "logged.py"
+    script.write_text(LOGGED, encoding="utf-8")
+    hostile = "/rogue\x1b]0;owned\x07\x1b[31m"
+    command = [rosenv1.python(), str(script), hostile, str(package / "src")]
+    result = rosenv1.run(command, tmp_path, timeout=120)
+    assert result.returncode == 0, result.stderr[-4000:]
+    lines = json.loads(result.stdout)
+    shown = "/rogue\u241b]0;owned\u2407\u241b[31m"
+    assert lines == [["loginfo", shown], ["logwarn", shown], ["logerr", shown]]

@@ -7,10 +7,19 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-from typing import Any
+from typing import Any, TextIO
 
 from rmvdsl.lang.errors import UsageError
-from rmvdsl.runtime.wording import os_words
+from rmvdsl.runtime.wording import os_words, visible
+
+
+def say(text: str, stream: TextIO | None = None) -> None:
+    """A line for a person, on standard error unless `stream`: made safe for a
+    terminal, as the names, paths and words in it come from specs, traces,
+    recordings and the command line (rmvdsl.runtime.wording.visible). Every line of
+    a command's own goes through here (tests/test_terminal.py); what a command
+    prints as data (generated code, JSON, a formatted spec) is written as it is."""
+    print(visible(text), file=sys.stderr if stream is None else stream)
 
 
 def write_text(path: str, text: str) -> None:

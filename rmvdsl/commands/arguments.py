@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 from rmvdsl import __version__
 from rmvdsl.commands.argument_types import chunk, duration, instant, jobs, solver_seconds
 from rmvdsl.lang.errors import EXIT_USAGE
+from rmvdsl.runtime.wording import visible
 
 if TYPE_CHECKING:
     from rmvdsl import targets
@@ -19,7 +20,7 @@ if TYPE_CHECKING:
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # type: ignore[override]
         self.print_usage(sys.stderr)
-        self.exit(EXIT_USAGE, f"rmv: error: {message}\n")
+        self.exit(EXIT_USAGE, visible(f"rmv: error: {message}") + "\n")
 
 
 if TYPE_CHECKING:

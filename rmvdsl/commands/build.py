@@ -7,7 +7,7 @@ import argparse
 import sys
 
 from rmvdsl import targets
-from rmvdsl.commands import message_options
+from rmvdsl.commands import message_options, say
 from rmvdsl.lang.errors import EXIT_OK, UsageError
 from rmvdsl.runtime.wording import os_words
 
@@ -35,11 +35,11 @@ def run(args: argparse.Namespace) -> int:
     except OSError as exc:
         raise UsageError(f"{args.output}: {os_words(exc)}") from None
     for line in built.notes:
-        print(f"rmv build: {line}", file=sys.stderr)
+        say(f"rmv build: {line}")
     if built.text is not None:
         sys.stdout.write(built.text)
     elif built.summary:
-        print(f"rmv build: {built.summary}")
+        say(f"rmv build: {built.summary}", sys.stdout)
     return EXIT_OK
 
 
@@ -47,5 +47,5 @@ def list_targets(args: argparse.Namespace) -> int:
     for target in targets.targets():
         options = "".join(f" [{o.flag} {o.metavar}]" for o in target.options)
         out = "-o FILE" if target.output == "file" else "-o FOLDER"
-        print(f"{target.name:<10} {target.summary} ({out}{options}; {target.docs})")
+        say(f"{target.name:<10} {target.summary} ({out}{options}; {target.docs})", sys.stdout)
     return EXIT_OK

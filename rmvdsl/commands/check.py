@@ -15,14 +15,14 @@ from typing import Any
 from rmvdsl.check import CheckResult
 from rmvdsl.check.msgfolders import folders_read
 from rmvdsl.check.properties import PropertyReport
-from rmvdsl.commands import stored, write_text
+from rmvdsl.commands import say, stored, write_text
 from rmvdsl.editor.workspace import Workspace
 from rmvdsl.lang.diagnostics import Diagnostic, Severity, error
 from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, EXIT_USAGE, UsageError
 from rmvdsl.lang.render import render_json, render_sarif, render_text, summary
 from rmvdsl.lang.source import SourceMap, Span
 from rmvdsl.logic.parallel import Progress, progress
-from rmvdsl.runtime.wording import counted, os_words
+from rmvdsl.runtime.wording import counted, os_words, visible
 
 
 def run(args: argparse.Namespace, color: bool, entry: str | None) -> stored.Stored:
@@ -121,7 +121,7 @@ def write_witnesses(folder: str, report: PropertyReport, unit: str | None = None
             write_text(path, answer.witness.jsonl(unit))
             at = answer.witness.as_json()["at"]
             suffix = f" {unit}" if unit not in (None, "s") else ""
-            print(f"rmv: {path}: `{name}` is {verdict} at t = {at}{suffix}", file=sys.stderr)
+            say(f"rmv: {path}: `{name}` is {verdict} at t = {at}{suffix}")
 
 
 def _check_files(
@@ -143,7 +143,7 @@ def _check_files(
                 solver_jobs=args.jobs,
             )
         except UsageError as exc:
-            usage_problems.append(f"rmv: error: {exc}\n")
+            usage_problems.append(visible(f"rmv: error: {exc}") + "\n")
             continue
         checked.append(path)
         all_diagnostics.extend(result.diagnostics)

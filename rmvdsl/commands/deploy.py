@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from rmvdsl import targets
+from rmvdsl.commands import say
 from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, UsageError
 
 
@@ -20,9 +21,9 @@ def run(args: argparse.Namespace) -> int:
     except targets.TargetError as exc:
         raise UsageError(str(exc)) from None
     if deployed.failed is not None:
-        print(f"rmv deploy: {deployed.failed}", file=sys.stderr)
+        say(f"rmv deploy: {deployed.failed}")
         return EXIT_ERRORS
     for line in deployed.changes:
-        print(f"rmv deploy: {line}")
-    print(f"rmv deploy: {deployed.summary}")
+        say(f"rmv deploy: {line}", sys.stdout)
+    say(f"rmv deploy: {deployed.summary}", sys.stdout)
     return EXIT_OK

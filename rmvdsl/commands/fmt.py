@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from rmvdsl.commands import use_color, write_text
+from rmvdsl.commands import say, use_color, write_text
 from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK
 
 
@@ -24,19 +24,16 @@ def run(args: argparse.Namespace) -> int:
             sources = SourceMap()
             sources.add(source)
             sys.stderr.write(render_text(errors, sources, use_color(args) and sys.stderr.isatty()))
-            print(
-                f"rmv: error: {source.path}: not formatted: fix the syntax errors first",
-                file=sys.stderr,
-            )
+            say(f"rmv: error: {source.path}: not formatted: fix the syntax errors first")
             status = EXIT_ERRORS
             continue
         if path == "-":
             sys.stdout.write(formatted)
         elif formatted != text:
             if args.check:
-                print(f"would reformat {path}")
+                say(f"would reformat {path}", sys.stdout)
                 status = EXIT_ERRORS
             else:
                 write_text(path, formatted)
-                print(f"reformatted {path}")
+                say(f"reformatted {path}", sys.stdout)
     return status

@@ -9,7 +9,7 @@ from collections.abc import Iterator
 from fractions import Fraction
 from typing import TYPE_CHECKING, Any
 
-from rmvdsl.commands import use_color
+from rmvdsl.commands import say, use_color
 from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, UsageError
 
 if TYPE_CHECKING:
@@ -44,7 +44,7 @@ def run_eval(args: argparse.Namespace) -> int:
         with collection.for_streams():
             verdict = _eval_output(args, run, at)  # a bad line raises TraceError: exit 2
     for note in [*trace.notes, *_absent_names(compiled, trace.seen)]:
-        print(f"rmv eval: {note}", file=sys.stderr)
+        say(f"rmv eval: {note}")
     if verdict is None:
         return EXIT_OK
     assert trace.first is not None and node is not None
@@ -56,7 +56,7 @@ def run_eval(args: argparse.Namespace) -> int:
     if args.format == "json":
         sys.stdout.write(ev.as_json({"t": at, "verdict": verdict}))
     else:
-        print(verdict)
+        say(verdict, sys.stdout)
     return EXIT_OK
 
 
@@ -72,12 +72,12 @@ def _eval_output(args: argparse.Namespace, run: Streamed, at: Fraction) -> str |
         return None
     if args.all:
         for segment in run.segments():
-            print(ev.segment_text(segment))
+            say(ev.segment_text(segment), sys.stdout)
         if run.summary.beyond and run.trace.end is not None:
             end = exact_text(run.trace.end)
-            print(f"after the end ({end}), as far as the trace decides:")
+            say(f"after the end ({end}), as far as the trace decides:", sys.stdout)
         for segment in run.summary.beyond:
-            print(ev.segment_text(segment))
+            say(ev.segment_text(segment), sys.stdout)
         return None
     verdict = "unknown"
     for segment in run.segments():  # read to the end: every line is checked
@@ -125,14 +125,14 @@ def _eval_term(
         for _ in changes:  # every line checked, as `eval` does
             pass
     for note in [*stream.notes, *_absent_names(compiled, stream.seen)]:
-        print(f"rmv eval: {note}", file=sys.stderr)
+        say(f"rmv eval: {note}")
     low, high = ev.term_at(compiled, trace, at)
     if args.format == "json":
         sys.stdout.write(ev.as_json({"t": at, "low": low, "high": high}))
     elif low == high:
-        print(exact_text(low))
+        say(exact_text(low), sys.stdout)
     else:
-        print(f"unknown (between {exact_text(low)} and {exact_text(high)})")
+        say(f"unknown (between {exact_text(low)} and {exact_text(high)})", sys.stdout)
     return EXIT_OK
 
 
@@ -175,14 +175,14 @@ def run_sat(args: argparse.Namespace) -> int:
         }
         sys.stdout.write(ev.as_json(payload))
         return EXIT_OK
-    print(f"satisfiable: {_answer_text(sat)}")
+    say(f"satisfiable: {_answer_text(sat)}", sys.stdout)
     if sat.value == YES and sat.witness:
-        print("  witness (the formula is true):")
-        print("\n".join("    " + line for line in sat.witness.timeline()))
-    print(f"valid: {_answer_text(validity)}")
+        say("  witness (the formula is true):", sys.stdout)
+        say("\n".join("    " + line for line in sat.witness.timeline()), sys.stdout)
+    say(f"valid: {_answer_text(validity)}", sys.stdout)
     if validity.value == NO and validity.witness:
-        print("  counterexample (the formula is false):")
-        print("\n".join("    " + line for line in validity.witness.timeline()))
+        say("  counterexample (the formula is false):", sys.stdout)
+        say("\n".join("    " + line for line in validity.witness.timeline()), sys.stdout)
     return EXIT_OK
 
 

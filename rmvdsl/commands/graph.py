@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from rmvdsl.commands import write_text
+from rmvdsl.commands import say, write_text
 from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, UsageError
 from rmvdsl.runtime.wording import counted
 
@@ -31,9 +31,7 @@ def run(args: argparse.Namespace) -> int:
     broken = [d for d in result.errors if not d.code.startswith("RMV5")]
     if broken:
         sys.stderr.write(render_text(broken, result.model.sources, False))
-        print(
-            f"rmv graph: {args.spec}: {counted(len(broken), 'error')}: not drawn", file=sys.stderr
-        )
+        say(f"rmv graph: {args.spec}: {counted(len(broken), 'error')}: not drawn")
         return EXIT_ERRORS
     if result.errors:
         sys.stderr.write(render_text(result.errors, result.model.sources, False))

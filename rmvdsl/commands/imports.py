@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from rmvdsl.commands import write_text
+from rmvdsl.commands import say, write_text
 from rmvdsl.lang.errors import EXIT_OK
 
 
@@ -14,10 +14,10 @@ def run(args: argparse.Namespace) -> int:
 
     result = convert_files(args.files, system_name=args.name)
     for note in result.notes:
-        print(f"rmv import: {note}", file=sys.stderr)
+        say(f"rmv import: {note}")
     if args.output:
         write_text(args.output, result.text)
-        print(f"wrote {args.output}", file=sys.stderr)
+        say(f"wrote {args.output}")
     else:
         sys.stdout.write(result.text)
     return EXIT_OK

@@ -20,7 +20,7 @@ import sys
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
-from rmvdsl.commands import stored, warn_if_nothing_checked
+from rmvdsl.commands import say, stored, warn_if_nothing_checked
 from rmvdsl.lang.errors import EXIT_ERRORS, UsageError
 from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.wording import counted
@@ -50,8 +50,7 @@ def checked(
     if result.errors:
         sys.stderr.write(render_text(result.errors, result.model.sources, False))
         undone = _UNDONE[command]
-        print(f"rmv {command}: {path}: {counted(len(result.errors), 'error')}: {undone}",
-              file=sys.stderr)  # fmt: skip
+        say(f"rmv {command}: {path}: {counted(len(result.errors), 'error')}: {undone}")
         return EXIT_ERRORS
     empty = warn_if_nothing_checked(result)
     if empty and refuse_empty:

@@ -38,6 +38,7 @@ from rmvdsl.host.gaps import Undecodable
 from rmvdsl.host.packaged import load_spec, package, with_time_sources
 from rmvdsl.host.status import ERROR, OK, STALE, WARN, Status, fill_diagnostics
 from rmvdsl.runtime import spec as ir
+from rmvdsl.runtime.wording import visible
 
 LEVELS = {
     OK: DiagnosticStatus.OK, WARN: DiagnosticStatus.WARN, ERROR: DiagnosticStatus.ERROR,
@@ -58,8 +59,10 @@ def now_ns() -> int:
 
 
 def log_at(level: str, text: str) -> None:
+    """Log at a level named at run time, safe for a terminal: a ROS 1 node's name
+    is any caller id it registered, and an intrusion's line names it."""
     {"debug": rospy.logdebug, "info": rospy.loginfo, "warn": rospy.logwarn,
-     "error": rospy.logerr}.get(level, rospy.logfatal)(text)  # fmt: skip
+     "error": rospy.logerr}.get(level, rospy.logfatal)(visible(text))  # fmt: skip
 
 
 def diagnostics(statuses: list[Status]) -> DiagnosticArray:
@@ -188,7 +191,7 @@ class MonitorNode:
         self.diagnostics.publish(diagnostics(statuses))
 
     def warn(self, text: str) -> None:
-        rospy.logwarn(text)
+        log_at("warn", text)
 
     def spin(self, stop: threading.Event) -> None:
         stop.wait()
@@ -216,7 +219,7 @@ class IntrusionNode:
             graph = self.graph.read()
         except ros1_graph.MasterError as error:
             if not self.unreachable:
-                rospy.logerr(str(error))
+                log_at("error", str(error))
             self.unreachable = True
             return
         self.unreachable = False

@@ -34,6 +34,7 @@ from rmvdsl.host.gaps import TypeWatch
 from rmvdsl.host.packaged import load_spec, package, use_discovery_profile, with_time_sources
 from rmvdsl.host.status import ERROR, OK, STALE, WARN, Status, fill_diagnostics
 from rmvdsl.runtime import spec as ir
+from rmvdsl.runtime.wording import visible
 
 LEVELS = {
     OK: DiagnosticStatus.OK, WARN: DiagnosticStatus.WARN, ERROR: DiagnosticStatus.ERROR,
@@ -125,9 +126,10 @@ def _received(
 
 
 def log_at(node: Node, level: str, text: str) -> None:
-    """Log at a level named at run time. Each severity has its own call: rclpy's
+    """Log at a level named at run time, safe for a terminal (the names in a line
+    are the graph's and the recordings'). Each severity has its own call: rclpy's
     logger remembers a call site's severity and refuses another one there."""
-    logger = node.get_logger()
+    logger, text = node.get_logger(), visible(text)
     if level == "debug":
         logger.debug(text)
     elif level == "info":
@@ -204,7 +206,7 @@ class MonitorNode(Node):
         self.diagnostics.publish(diagnostics(self, [*statuses, status]))
 
     def warn(self, text: str) -> None:
-        self.get_logger().warn(text)
+        log_at(self, "warn", text)
 
 
 def _full_name(namespace: str, name: str) -> str:

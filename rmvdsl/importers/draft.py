@@ -9,8 +9,8 @@ from typing import Any
 
 from rmvdsl.grammar.parser import parse_source
 from rmvdsl.importers.located import Located
-from rmvdsl.lang.render import visible
 from rmvdsl.lang.source import SourceFile
+from rmvdsl.runtime.wording import visible
 
 
 @dataclass

@@ -17,7 +17,7 @@ from rmvdsl import __version__
 from rmvdsl.lang.codes import CODES
 from rmvdsl.lang.diagnostics import Diagnostic, Fix, Severity, fixes_of
 from rmvdsl.lang.source import SourceMap, Span
-from rmvdsl.runtime.wording import counted
+from rmvdsl.runtime.wording import counted, visible
 
 
 @dataclass(frozen=True)
@@ -49,16 +49,6 @@ class _Style:
 
 
 _SEVERITY_COLORS = {Severity.ERROR: "31", Severity.WARNING: "33", Severity.NOTE: "36"}
-
-
-def visible(text: str) -> str:
-    """Control characters as their Unicode pictures (NUL as ␀): a message or a line
-    of a file never moves the cursor, rings the bell or paints the terminal."""
-    return text.translate(_PICTURES)
-
-
-_PICTURES = {code: 0x2400 + code for code in range(32) if code not in (9, 10)}
-_PICTURES |= {0x7F: 0x2421, **{code: 0xFFFD for code in range(0x80, 0xA0)}}
 
 
 def width(text: str) -> int:
@@ -105,7 +95,7 @@ def _render_one(diagnostic: Diagnostic, sources: SourceMap, style: _Style) -> st
     digits = len(str(max(region(span, sources).line for span, _, _ in labels)))
     gutter = style.paint(" " * digits + " |", "1", "34")
     arrow = style.paint(" " * digits + "-->", "1", "34")
-    lines.append(f"{arrow} {primary.file}:{primary.line}:{primary.column}")
+    lines.append(f"{arrow} {visible(primary.file)}:{primary.line}:{primary.column}")
     shown_files = {diagnostic.span.path}
     by_line: dict[tuple[str, int], list[tuple[Span, str, bool]]] = {}
     for label in labels:
@@ -116,7 +106,7 @@ def _render_one(diagnostic: Diagnostic, sources: SourceMap, style: _Style) -> st
             where = region(by_line[(path, line)][0][0], sources)
             lines.append(
                 style.paint(" " * digits + ":::", "1", "34")
-                + f" {where.file}:{where.line}:{where.column}"
+                + f" {visible(where.file)}:{where.line}:{where.column}"
             )
             shown_files.add(path)
         lines.extend(_snippet(by_line[(path, line)], sources, style, digits, severity_color))
@@ -187,7 +177,7 @@ def _shown(raw: str, spans: list[tuple[int, int]]) -> tuple[int, int, bool]:
 def summary(paths: list[str], diagnostics: list[Diagnostic]) -> str:
     errors = sum(d.severity is Severity.ERROR for d in diagnostics)
     warnings = sum(d.severity is Severity.WARNING for d in diagnostics)
-    files = paths[0] if len(paths) == 1 else counted(len(paths), "file")
+    files = visible(paths[0]) if len(paths) == 1 else counted(len(paths), "file")
     return f"{files}: {counted(errors, 'error')}, {counted(warnings, 'warning')}"
 
 

@@ -1,6 +1,7 @@
 """How a count reads in a message: "1 error", "2 errors" (the one place that
 chooses a noun's number; tests/test_wording.py finds counts written without it);
-and how the system's refusals read (the one place that words an OSError)."""
+how the system's refusals read (the one place that words an OSError); and text
+made safe for a terminal (`visible`)."""
 
 from __future__ import annotations
 
@@ -10,6 +11,19 @@ def counted(number: int, noun: str, plural: str | None = None, *, grouped: bool 
     `grouped`: thousands separated by commas)."""
     shown = f"{number:,}" if grouped else str(number)
     return f"{shown} {noun if number == 1 else plural or noun + 's'}"
+
+
+def visible(text: str) -> str:
+    """Control characters as their Unicode pictures (NUL as ␀): a message or a line
+    of a file never moves the cursor, rings the bell or paints the terminal. Every
+    line rmv writes for a person passes through it: names and words from specs,
+    traces, recordings and the ROS graph are anyone's (a ROS 1 node registers any
+    caller id it likes)."""
+    return text.translate(_PICTURES)
+
+
+_PICTURES = {code: 0x2400 + code for code in range(32) if code not in (9, 10)}
+_PICTURES |= {0x7F: 0x2421, **{code: 0xFFFD for code in range(0x80, 0xA0)}}
 
 
 # What the system's refusals mean where rmv reads, writes or connects, in a user's words.

@@ -25,7 +25,7 @@ from rmvdsl.runtime.engine import (
     can_refuse,
     seconds,
 )
-from rmvdsl.runtime.wording import counted
+from rmvdsl.runtime.wording import counted, visible
 from rmvdsl.tools.recordings import (
     ReplayError,
     connection_readers,
@@ -223,7 +223,7 @@ class _Repeats:
                 return
         self.flush(out)
         self.key = key
-        out.write(line + "\n")
+        out.write(visible(line) + "\n")  # names from the recording are anyone's
 
     def flush(self, out: Any) -> None:
         if self.count:

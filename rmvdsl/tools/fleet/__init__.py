@@ -15,7 +15,7 @@ from typing import Any, TextIO
 
 from rmvdsl.lang.errors import UsageError
 from rmvdsl.runtime import spec as ir
-from rmvdsl.runtime.wording import counted
+from rmvdsl.runtime.wording import counted, visible
 from rmvdsl.tools.fleet.paths import is_search, recordings
 from rmvdsl.tools.fleet.progress import Progress
 from rmvdsl.tools.fleet.sections import Job, Joined, plan
@@ -184,7 +184,7 @@ class _Printer:
         if self.output == "jsonl":
             self.out.write(as_json(result) + "\n")
         else:
-            self.out.write(text_line(result) + "\n")
+            self.out.write(visible(text_line(result)) + "\n")
         self.out.flush()
 
     def end(self, results: list[dict[str, Any]], summary: FleetSummary, stopped: bool) -> None:
@@ -194,9 +194,9 @@ class _Printer:
         elif self.output == "text":
             if stopped:
                 self.out.write("interrupted: ")
-            self.out.write("\n".join(summary.lines()) + "\n")
+            self.out.write(visible("\n".join(summary.lines())) + "\n")
         elif stopped:
-            sys.stderr.write("rmv replay: interrupted: " + summary.lines()[0] + "\n")
+            sys.stderr.write(visible("rmv replay: interrupted: " + summary.lines()[0]) + "\n")
 
 
 def as_json(result: dict[str, Any]) -> str:
