@@ -846,3 +846,29 @@ def test_late_input_is_reported_and_unknown_live(specs, workspace, tmp_path, rmv
     from_replay = _verdicts(replay.out)
     instants = _instants(from_node + from_replay)
     assert _read_at(from_node, instants) == _read_at(from_replay, instants)
+
+
+LOGGED = """
+import json, sys
+from std_braking.rmv_host.ros2 import log_at
+lines = []
+class Logger:  # rclpy's, as log_at calls it: a method per severity
+    def __getattr__(self, severity):
+        return lambda text: lines.append([severity, text])
+class Node:
+    def get_logger(self):
+        return Logger()
+for level in ("info", "warn", "error"):
+    log_at(Node(), level, sys.argv[1])
+print(json.dumps(lines))
+"""
+
+
+def test_a_node_s_log_lines_show_control_characters_as_pictures(workspace):
+    """A line a node logs names what recordings and the graph hold: the installed
+    package's host logs it safe for a terminal (an escape as ␛, a bell as ␇)."""
+    hostile = "/rogue\x1b]0;owned\x07\x1b[31m"
+    run = rosenv.run([rosenv.python(), "-c", LOGGED, hostile], rosenv.DOMAIN + 31, workspace)
+    assert run.returncode == 0, run.stderr[-4000:]
+    shown = "/rogue\u241b]0;owned\u2407\u241b[31m"
+    assert json.loads(run.stdout) == [["info", shown], ["warning", shown], ["error", shown]]
