@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import math
+import sys
 from fractions import Fraction
 
 import pytest
@@ -315,9 +317,80 @@ def test_streamed_eval_equals_the_whole_trace(rmv, tmp_path, monkeypatch, chunk)
             # held breakpoints depend on how the input was batched, nothing else does
             expected["memory"].pop("held"), streamed["memory"].pop("held")
             assert streamed == expected, (text, formula)
+            lines = rmv("eval", "--formula", formula, "--trace", str(path), "--all").out
+            segments = _segments_of(got.out)
+            assert lines.splitlines()[: len(segments)] == segments, (text, formula)
             probe = random.choice([s["from"] for s in expected["segments"]] or [0])
             at = rmv("eval", "--formula", formula, "--trace", str(path), "--at", str(probe))
             assert at.code == 0 and at.out.strip() in ("true", "false", "unknown")
+
+
+def _segments_of(payload: str) -> list[str]:
+    """The text lines of the segments of `rmv eval --all --format json`'s output, as
+    `segment_text` writes exact times."""
+    from rmvdsl.lang.numbers import exact_or_quotient
+    from rmvdsl.logic.evaluate import segment_text
+
+    def time(value):
+        return math.inf if value is None else exact_or_quotient(str(value))
+
+    segments = json.loads(payload, parse_float=Fraction, parse_int=Fraction)["segments"]
+    return [
+        segment_text(
+            (time(s["from"]), time(s["to"]), s["from_closed"], s["to_closed"], s["verdict"])
+        )
+        for s in segments
+    ]
+
+
+class _Stream:
+    """Standard output that counts its writes (writing through, as PYTHONUNBUFFERED=1
+    makes it, each is a system call)."""
+
+    def __init__(self, terminal: bool) -> None:
+        self.terminal, self.writes, self.parts = terminal, 0, []
+
+    def isatty(self) -> bool:
+        return self.terminal
+
+    def write(self, text: str) -> int:
+        self.writes += 1
+        self.parts.append(text)
+        return len(text)
+
+    def flush(self) -> None:
+        pass
+
+
+@pytest.mark.parametrize("form", ["text", "json"])
+def test_all_segments_are_written_in_batches_and_at_once_to_a_terminal(tmp_path, monkeypatch, form):
+    """`--all` wrote each segment with a write of its own (300,000 system calls for
+    a trace of as many changes). It writes batches now, the same text, also up to a
+    bad line that ends the run; a terminal still gets each line as it is decided."""
+    from rmvdsl.cli import main
+    from rmvdsl.util.batched import Batched
+
+    path = tmp_path / "t.jsonl"
+    rows = "".join(f'{{"t": {k}, "state": "{"ab"[k % 2]}"}}\n' for k in range(20_000))
+    outputs = {}
+    for ending, code in (('{"t": 20000, "end": true}\n', 0), ('{"t": 1}\n', 2)):
+        path.write_text(rows + ending, encoding="utf-8")
+        for terminal in (False, True):
+            stream = _Stream(terminal)
+            monkeypatch.setattr(sys, "stdout", stream)
+            assert main(["eval", "--formula", "a", "--trace", str(path), "--all",
+                         "--format", form]) == code  # fmt: skip
+            outputs[code, terminal] = stream
+        batched, live = outputs[code, False], outputs[code, True]
+        assert "".join(batched.parts) == "".join(live.parts)
+        written = "".join(batched.parts)
+        segments = written.count('"from"') if form == "json" else written.count("\n")
+        assert segments > (19_000 if code == 0 else 10_000)  # (read ahead: not all)
+        assert batched.writes <= segments // Batched.SIZE + 3
+        assert live.writes >= segments - 3
+    # the run ended by the bad line wrote what it had decided before it
+    whole, cut = ("".join(outputs[c, False].parts) for c in (0, 2))
+    assert whole.startswith(cut)
 
 
 def test_streamed_json_is_the_whole_payloads_text(rmv, braking):

@@ -21,6 +21,7 @@ from rmvdsl.check import check
 from rmvdsl.ir import lower
 from rmvdsl.runtime import influx
 from rmvdsl.runtime import spec as ir
+from rmvdsl.util.batched import Batched
 
 START = Fraction(1_700_000_000)
 
@@ -141,7 +142,7 @@ def test_output_is_written_in_batches_and_at_once_to_a_terminal(recordings, outp
     assert "".join(batched.parts) == "".join(terminal.parts)
     lines = "".join(batched.parts).count("\n")
     assert lines > 40
-    assert batched.writes <= lines // replay._Batched.SIZE + 2
+    assert batched.writes <= lines // Batched.SIZE + 2
     assert terminal.writes >= lines - 2
 
 

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 from rmvdsl.commands import say, use_color
 from rmvdsl.lang.errors import EXIT_ERRORS, EXIT_OK, UsageError
+from rmvdsl.util.batched import batched
 
 if TYPE_CHECKING:
     from rmvdsl.lang.diagnostics import Diagnostic
@@ -67,12 +68,14 @@ def _eval_output(args: argparse.Namespace, run: Streamed, at: Fraction) -> str |
     from rmvdsl.runtime.segments import contains
     from rmvdsl.runtime.values import exact_text
 
-    if args.all and args.format == "json":
-        ev.write_all_json(sys.stdout, run)
-        return None
     if args.all:
-        for segment in run.segments():
-            say(ev.segment_text(segment), sys.stdout)
+        with batched(sys.stdout) as out:
+            if args.format == "json":
+                ev.write_all_json(out, run)
+                return None
+            # the lines hold times and the formula's names (checked): nothing to draw
+            for segment in run.scaled_segments():
+                out.write(ev.segment_text(segment, ev.scaled_text) + "\n")
         if run.summary.beyond and run.trace.end is not None:
             end = exact_text(run.trace.end)
             say(f"after the end ({end}), as far as the trace decides:", sys.stdout)

@@ -36,6 +36,7 @@ from rmvdsl.tools.recordings import (
     window_time,
 )
 from rmvdsl.tools.report.text import decimal_text, text_line
+from rmvdsl.util.batched import Batched, batched
 
 
 @dataclass
@@ -273,11 +274,8 @@ def run(
         spec, paths, host=host, start=start, stop=stop,
         record=record, progress=progress,
     )  # fmt: skip
-    lines = _Batched(out)
-    try:
+    with batched(out) as lines:
         _write(records, lines, output, summary, kept if report else None)
-    finally:
-        lines.flush()
     if report:
         from rmvdsl.tools import report as reports
 
@@ -287,7 +285,7 @@ def run(
 
 def _write(
     records: Iterator[Record],
-    out: _Batched,
+    out: Batched,
     output: str,
     summary: Summary,
     kept: list[Record] | None,
@@ -351,27 +349,3 @@ def _count(item: Record, kind: str, summary: Summary) -> None:
         summary.warnings += 1
     elif kind == "action" and item.get("error"):
         summary.failed_actions += 1
-
-
-class _Batched:
-    """Output written a batch of records at a time: a stream that writes through
-    (PYTHONUNBUFFERED=1, usual in containers) made one system call of each record,
-    a tenth of a replay's time. A terminal is written at once."""
-
-    SIZE = 512  # records (or lines) to a write
-
-    def __init__(self, out: Any) -> None:
-        self.out = out
-        self.parts: list[str] = []
-        isatty = getattr(out, "isatty", None)
-        self.size = 1 if isatty is not None and isatty() else self.SIZE
-
-    def write(self, text: str) -> None:
-        self.parts.append(text)
-        if len(self.parts) >= self.size:
-            self.flush()
-
-    def flush(self) -> None:
-        if self.parts:
-            self.out.write("".join(self.parts))
-            self.parts.clear()
