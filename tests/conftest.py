@@ -115,6 +115,25 @@ def rmv_process(
     return Run(completed.returncode, completed.stdout, completed.stderr)
 
 
+class CountingStream:
+    """An output stream that counts its writes: one that writes through (as
+    PYTHONUNBUFFERED=1 makes stdout) pays a system call for each."""
+
+    def __init__(self, terminal: bool) -> None:
+        self.terminal, self.writes, self.parts = terminal, 0, []
+
+    def isatty(self) -> bool:
+        return self.terminal
+
+    def write(self, text: str) -> int:
+        self.writes += 1
+        self.parts.append(text)
+        return len(text)
+
+    def flush(self) -> None:
+        pass
+
+
 def per_property(verdicts: list[dict]) -> dict[str, list[dict]]:
     """Each property's verdict segments in the order they came: a live node decides
     each property as soon as it can, so two properties' segments interleave by when

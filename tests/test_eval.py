@@ -8,7 +8,7 @@ import sys
 from fractions import Fraction
 
 import pytest
-from conftest import rmv_process
+from conftest import CountingStream, rmv_process
 
 from rmvdsl.logic.trace_lines import TraceError, read_trace
 from rmvdsl.runtime.rmtld3 import Monitor, merge
@@ -343,25 +343,6 @@ def _segments_of(payload: str) -> list[str]:
     ]
 
 
-class _Stream:
-    """Standard output that counts its writes (writing through, as PYTHONUNBUFFERED=1
-    makes it, each is a system call)."""
-
-    def __init__(self, terminal: bool) -> None:
-        self.terminal, self.writes, self.parts = terminal, 0, []
-
-    def isatty(self) -> bool:
-        return self.terminal
-
-    def write(self, text: str) -> int:
-        self.writes += 1
-        self.parts.append(text)
-        return len(text)
-
-    def flush(self) -> None:
-        pass
-
-
 @pytest.mark.parametrize("form", ["text", "json"])
 def test_all_segments_are_written_in_batches_and_at_once_to_a_terminal(tmp_path, monkeypatch, form):
     """`--all` wrote each segment with a write of its own (300,000 system calls for
@@ -376,7 +357,7 @@ def test_all_segments_are_written_in_batches_and_at_once_to_a_terminal(tmp_path,
     for ending, code in (('{"t": 20000, "end": true}\n', 0), ('{"t": 1}\n', 2)):
         path.write_text(rows + ending, encoding="utf-8")
         for terminal in (False, True):
-            stream = _Stream(terminal)
+            stream = CountingStream(terminal)
             monkeypatch.setattr(sys, "stdout", stream)
             assert main(["eval", "--formula", "a", "--trace", str(path), "--all",
                          "--format", form]) == code  # fmt: skip

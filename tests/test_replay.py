@@ -15,7 +15,7 @@ from typing import Any
 from xml.etree import ElementTree
 
 import pytest
-from conftest import EXAMPLES, ROOT
+from conftest import EXAMPLES, ROOT, CountingStream
 
 from rmvdsl.check import check
 from rmvdsl.ir import lower
@@ -111,22 +111,6 @@ def test_the_same_output_from_bag_mcap_and_db3(rmv, recordings):
     assert outputs[0] == outputs[1] == outputs[2]
 
 
-class _Stream:
-    """An output stream that counts its writes: one that writes through (as
-    PYTHONUNBUFFERED=1 makes stdout) pays a system call for each."""
-
-    def __init__(self, terminal: bool) -> None:
-        self.terminal, self.writes, self.parts = terminal, 0, []
-
-    def isatty(self) -> bool:
-        return self.terminal
-
-    def write(self, text: str) -> int:
-        self.writes += 1
-        self.parts.append(text)
-        return len(text)
-
-
 @pytest.mark.parametrize("output", ["jsonl", "json", "text"])
 def test_output_is_written_in_batches_and_at_once_to_a_terminal(recordings, output):
     """`rmv replay` wrote each record with a write of its own: a tenth of its time
@@ -135,7 +119,7 @@ def test_output_is_written_in_batches_and_at_once_to_a_terminal(recordings, outp
     from rmvdsl.tools import replay
 
     spec = lower(check(str(EXAMPLES / "carla" / "abs.rmv")))
-    streams = {terminal: _Stream(terminal) for terminal in (False, True)}
+    streams = {terminal: CountingStream(terminal) for terminal in (False, True)}
     for stream in streams.values():
         replay.run(spec, [recordings / "braking_mcap"], stream, output=output)
     batched, terminal = streams[False], streams[True]
