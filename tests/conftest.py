@@ -9,6 +9,7 @@ import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -113,6 +114,51 @@ def rmv_process(
         [*RMV, *args], cwd=cwd, input=stdin, capture_output=True, text=True, timeout=120, env=env
     )
     return Run(completed.returncode, completed.stdout, completed.stderr)
+
+
+def carla_scenario() -> Any:
+    """examples/carla/make_recordings.py as a module: its typestore and messages."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "make_recordings", EXAMPLES / "carla" / "make_recordings.py"
+    )
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def damaged_bag(path: Path, rogue: str = "/rogue") -> None:
+    """The braking scenario as ROS 1, but: the objects topic recorded as
+    std_msgs/Float64, one status message cut short, and a node (`rogue`) that the
+    whitelists do not allow publishing odometry from 20 s."""
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores
+
+    scenario = carla_scenario()
+    store = scenario.typestore(Stores.ROS1_NOETIC)
+    float64 = store.types["std_msgs/msg/Float64"]
+    with Writer(path) as writer:
+        status = writer.add_connection(
+            scenario.STATUS, scenario.STATUS_TYPE, typestore=store, callerid=scenario.BRIDGE
+        )
+        objects = writer.add_connection(
+            scenario.OBJECTS, "std_msgs/msg/Float64", typestore=store, callerid=scenario.BRIDGE
+        )
+        rogue = writer.add_connection(
+            "/carla/hero/odometry", "std_msgs/msg/Float64", typestore=store, callerid=rogue
+        )
+        for k, (t, topic, message) in enumerate(scenario.messages(store)):
+            if topic == scenario.OBJECTS:
+                data = store.serialize_ros1(float64(1.0), "std_msgs/msg/Float64")
+                writer.write(objects, t, data)
+                continue
+            data = store.serialize_ros1(message, message.__msgtype__)
+            writer.write(status, t, data[:7] if k == 5 else data)
+        for k in range(10):
+            t = scenario.START + 20 * 10**9 + k * 10**8
+            writer.write(rogue, t, store.serialize_ros1(float64(0.5), "std_msgs/msg/Float64"))
 
 
 class CountingStream:

@@ -15,7 +15,7 @@ from typing import Any
 from xml.etree import ElementTree
 
 import pytest
-from conftest import EXAMPLES, ROOT, CountingStream
+from conftest import EXAMPLES, ROOT, CountingStream, carla_scenario, damaged_bag
 
 from rmvdsl.check import check
 from rmvdsl.ir import lower
@@ -565,54 +565,9 @@ def test_the_resolved_spec_runs_in_the_runtime():
     assert runtime.records() == []
 
 
-def _scenario():
-    """examples/carla/make_recordings.py as a module: its typestore and messages."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location(
-        "make_recordings", EXAMPLES / "carla" / "make_recordings.py"
-    )
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-def _damaged_bag(path):
-    """The braking scenario as ROS 1, but: the objects topic recorded as
-    std_msgs/Float64, one status message cut short, and a node that the whitelists
-    do not allow publishing odometry from 20 s."""
-    from rosbags.rosbag1 import Writer
-    from rosbags.typesys import Stores
-
-    scenario = _scenario()
-    store = scenario.typestore(Stores.ROS1_NOETIC)
-    float64 = store.types["std_msgs/msg/Float64"]
-    with Writer(path) as writer:
-        status = writer.add_connection(
-            scenario.STATUS, scenario.STATUS_TYPE, typestore=store, callerid=scenario.BRIDGE
-        )
-        objects = writer.add_connection(
-            scenario.OBJECTS, "std_msgs/msg/Float64", typestore=store, callerid=scenario.BRIDGE
-        )
-        rogue = writer.add_connection(
-            "/carla/hero/odometry", "std_msgs/msg/Float64", typestore=store, callerid="/rogue"
-        )
-        for k, (t, topic, message) in enumerate(scenario.messages(store)):
-            if topic == scenario.OBJECTS:
-                data = store.serialize_ros1(float64(1.0), "std_msgs/msg/Float64")
-                writer.write(objects, t, data)
-                continue
-            data = store.serialize_ros1(message, message.__msgtype__)
-            writer.write(status, t, data[:7] if k == 5 else data)
-        for k in range(10):
-            t = scenario.START + 20 * 10**9 + k * 10**8
-            writer.write(rogue, t, store.serialize_ros1(float64(0.5), "std_msgs/msg/Float64"))
-
-
 def test_a_damaged_recording_is_reported_and_the_rest_still_runs(rmv, tmp_path):
     bag = tmp_path / "damaged.bag"
-    _damaged_bag(bag)
+    damaged_bag(bag)
     result = _replay(rmv, bag, "--format", "jsonl")
     assert result.code == 1, result.err  # the violation is still found
     records = _records(result.out)
@@ -660,7 +615,7 @@ def test_a_recording_without_a_topic_exits_2(rmv, recordings, tmp_path):
     from rosbags.rosbag1 import Writer
     from rosbags.typesys import Stores
 
-    scenario = _scenario()
+    scenario = carla_scenario()
     store = scenario.typestore(Stores.ROS1_NOETIC)
     bag = tmp_path / "objects_only.bag"
     with Writer(bag) as writer:
@@ -786,7 +741,7 @@ def test_the_output_does_not_depend_on_how_often_the_dataflow_runs(monkeypatch):
     only what its inputs have made final, so any batching gives the same records."""
     from rosbags.typesys import Stores
 
-    scenario = _scenario()
+    scenario = carla_scenario()
     messages = scenario.messages(scenario.typestore(Stores.ROS1_NOETIC))
     spec = lower(check(str(EXAMPLES / "carla" / "abs.rmv")))
     runs = [_scenario_records(spec, messages, every, monkeypatch) for every in (1, 64, 10_000)]
@@ -945,7 +900,7 @@ def test_memory_is_bounded_by_the_spec_not_the_input(monkeypatch):
 
     from rmvdsl.runtime.engine import Runtime
 
-    scenario = _scenario()
+    scenario = carla_scenario()
     cycle = scenario.messages(scenario.typestore(Stores.ROS1_NOETIC))
     spec = lower(check(str(EXAMPLES / "carla" / "abs.rmv")))
 
@@ -982,7 +937,7 @@ def test_a_topic_timed_by_its_header_stamp(tmp_path):
     objects = '"/carla/hero/objects"\n'
     stamped = stamped.replace(objects, objects[:-1] + " qos { time = header }\n")
     assert stamped.count("time = header") == 2
-    scenario = _scenario()
+    scenario = carla_scenario()
     messages = scenario.messages(scenario.typestore(Stores.ROS1_NOETIC))
 
     def states(source: str) -> list:

@@ -6,12 +6,10 @@ What a command writes as data (JSON, generated code, a formatted spec) is exact.
 from __future__ import annotations
 
 import ast
-import importlib.util
 import json
 import re
-from pathlib import Path
 
-from conftest import EXAMPLES, ROOT
+from conftest import EXAMPLES, ROOT, damaged_bag
 
 from rmvdsl.runtime.wording import visible
 
@@ -83,7 +81,7 @@ def test_a_recorded_caller_id_is_shown_drawn_in_text_and_exact_in_json(rmv, tmp_
     text line of the intrusion draws it; its JSON keeps it exactly (escaped)."""
     bag = tmp_path / "rogue.bag"
     rogue = "/rogue" + HOSTILE
-    _bag_with_a_rogue(bag, rogue)
+    damaged_bag(bag, rogue)
     spec = str(EXAMPLES / "carla" / "abs.rmv")
     text = rmv("replay", spec, str(bag))
     assert text.code == 1, text.err  # the rogue publisher is an intrusion
@@ -95,40 +93,12 @@ def test_a_recorded_caller_id_is_shown_drawn_in_text_and_exact_in_json(rmv, tmp_
     assert rogue in nodes
 
 
-def _bag_with_a_rogue(path: Path, caller: str) -> None:
-    """The braking scenario's first seconds from the bridge, and a message on the
-    odometry topic from `caller`, whom the whitelists do not allow."""
-    from rosbags.rosbag1 import Writer
-    from rosbags.typesys import Stores
-
-    found = importlib.util.spec_from_file_location(
-        "make_recordings", EXAMPLES / "carla" / "make_recordings.py"
-    )
-    assert found is not None and found.loader is not None
-    scenario = importlib.util.module_from_spec(found)
-    found.loader.exec_module(scenario)
-    store = scenario.typestore(Stores.ROS1_NOETIC)
-    float64 = store.types["std_msgs/msg/Float64"]
-    with Writer(path) as writer:
-        status = writer.add_connection(
-            scenario.STATUS, scenario.STATUS_TYPE, typestore=store, callerid=scenario.BRIDGE
-        )
-        odometry = writer.add_connection(
-            "/carla/hero/odometry", "std_msgs/msg/Float64", typestore=store, callerid=caller
-        )
-        messages = [m for m in scenario.messages(store) if m[1] == scenario.STATUS]
-        for t, _, message in messages[:40]:
-            writer.write(status, t, store.serialize_ros1(message, message.__msgtype__))
-        t = messages[20][0]
-        writer.write(odometry, t, store.serialize_ros1(float64(0.5), "std_msgs/msg/Float64"))
-
-
 def test_a_fleet_s_text_lines_are_drawn(rmv, tmp_path):
     """A recording's line in a fleet's text output holds its path and the words of
     its failure: both anyone's."""
-    good, bad = tmp_path / "good.bag", tmp_path / f"bad{HOSTILE}.bag"
-    _bag_with_a_rogue(good, "/rogue" + HOSTILE)
+    read, bad = tmp_path / "read.bag", tmp_path / f"bad{HOSTILE}.bag"
+    damaged_bag(read, "/rogue" + HOSTILE)
     bad.write_bytes(b"#ROSBAG V2.0\n" + HOSTILE.encode() * 100)
-    run = rmv("replay", str(EXAMPLES / "carla" / "abs.rmv"), str(good), str(bad), "--jobs", "1")
+    run = rmv("replay", str(EXAMPLES / "carla" / "abs.rmv"), str(read), str(bad), "--jobs", "1")
     assert run.code != 0 and "bad␛]0;owned␇" in run.out, run.out
     assert _safe(run.out) and _safe(run.err), (run.out, run.err)
