@@ -49,6 +49,7 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import peak
+from as_installed import byte_compile
 from bench_monitor import generate
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -154,13 +155,6 @@ def write_trace(path: Path, samples: int, shape: str) -> None:
         start = EPOCH if shape == "unix" else 0
         end = f"{start + samples // 100}.{samples % 100:02d}"
         handle.write(f"{end},,true\n" if shape == "csv" else f'{{"t": {end}, "end": true}}\n')
-
-
-def byte_compile() -> None:
-    """rmvdsl's modules compiled once before anything is timed, as pip compiles a
-    wheel it installs: a source tree under PYTHONDONTWRITEBYTECODE would otherwise
-    compile every module in every timed process (0.13 s of `rmv eval`'s start)."""
-    subprocess.run([sys.executable, "-m", "compileall", "-q", str(ROOT / "rmvdsl")], check=True)
 
 
 def measure(command: list[str], output: Path) -> tuple[float, float]:

@@ -10,7 +10,10 @@ of MCAP files; all three by default); then runs, each in its own process:
            replay must do);
 - replay:  `rmv replay examples/carla/abs.rmv RECORDING --format jsonl`, the whole
            spec (variables, continuous-query events, conditions, the transducer,
-           three properties, alerts, intrusion detection), output to /dev/null.
+           three properties, alerts, intrusion detection), output to /dev/null;
+           on two cores it reads the recording in a second process (docs/replay.md,
+           "Two processes"), whose CPU time its own includes, and whose peak
+           memory counts where it is the larger.
 
 Before a speed is printed, both must have read the same number of messages (the
 replay's `messages` counter) and the replay must report one ABSCheck violation per
@@ -46,6 +49,7 @@ from typing import IO, Any, TypeVar
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import peak
+from as_installed import byte_compile
 
 ROOT = Path(__file__).resolve().parent.parent
 SPEC = ROOT / "examples" / "carla" / "abs.rmv"
@@ -214,6 +218,7 @@ def main(argv: list[str] | None = None) -> int:
         print(write_recording(Path(args.write[0]), int(args.write[1]), args.write[2]))
         return 0
     os.environ["PYTHONPATH"] = str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")
+    byte_compile()
     results: dict[str, dict[str, Any]] = {}
     with tempfile.TemporaryDirectory(prefix="rmv-bench-replay-") as folder:
         # The solver's answers in a cache of this run's own (never the user's),

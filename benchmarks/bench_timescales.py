@@ -52,6 +52,7 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import peak
+from as_installed import byte_compile
 
 ROOT = Path(__file__).resolve().parent.parent
 Row = tuple[int, frozenset[str]]
@@ -333,13 +334,6 @@ def write(path: Path, rows: list[Row]) -> None:
 
 
 # ---- running and comparing ----
-
-
-def byte_compile() -> None:
-    """rmvdsl's modules compiled once before anything is timed, as pip compiles a
-    wheel it installs: a source tree under PYTHONDONTWRITEBYTECODE would otherwise
-    compile every module in every timed process (0.13 s of `rmv eval`'s start)."""
-    subprocess.run([sys.executable, "-m", "compileall", "-q", str(ROOT / "rmvdsl")], check=True)
 
 
 def measure(command: list[str]) -> tuple[float, float, str]:

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import heapq
 from collections import Counter
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from fractions import Fraction
 from typing import Any
 
@@ -37,8 +37,10 @@ from rmvdsl.runtime.dataflow import (
     _take,
     dataflow_nodes,
 )
+from rmvdsl.runtime.fields import MISSING, FieldError
 from rmvdsl.runtime.intrusions import Endpoint, can_refuse, verdict_of
 from rmvdsl.runtime.properties import PropertyMonitor
+from rmvdsl.runtime.readings import Readers, Reading
 from rmvdsl.runtime.records import (
     NS,
     ActionContext,
@@ -102,16 +104,12 @@ class Runtime(Reporting):
         self.newest = -_FOREVER  # the newest time seen (some may still be held)
         self.lateness = max((influx.nanoseconds(p.lateness) for p in spec.properties), default=0)
         self.held: list[tuple[int, int, str, Any]] = []
-        self.by_topic: dict[str, list[tuple[ir.Variable, Callable[[Any], Any]]]] = {}
-        topic_names = {t.name: t.ros_name for t in spec.topics}
         self.topic_origin = {t.ros_name: t.origin for t in spec.topics}
-        self.stamped = fields.stamped_topics(spec.topics)
+        # skip: variables the input cannot give (the replay checked)
+        self.readers = Readers(spec, skip)
+        self.by_topic = self.readers.by_topic
+        self.stamped = self.readers.stamped
         self.rates = rates.limits(spec.topics)
-        skipped = frozenset(skip)  # variables the input cannot give (the replay checked)
-        for variable in spec.variables:
-            variables = self.by_topic.setdefault(topic_names[variable.topic], [])
-            if variable.name not in skipped:
-                variables.append((variable, fields.reader(variable)))
         self.nodes = dataflow_nodes(spec)
         self.subscribers: dict[str, list[Node]] = {}
         for node in self.nodes:
@@ -155,32 +153,36 @@ class Runtime(Reporting):
     def message(self, time: int, topic: str, message: Any) -> None:
         """One message of a ROS topic received at `time` (integer nanoseconds); a
         topic with `time = header` takes its time from the message's stamp."""
+        self.take(time, topic, self.readers.reading(topic, message))
+
+    def take(self, time: int, topic: str, reading: Reading | None) -> None:
+        """`message` of the message's reading (rmvdsl.runtime.readings), taken where
+        the message was decoded: None where the spec reads nothing of `topic`."""
         self.counters["messages"] += 1
         limit = self.rates.get(topic)
         if limit is not None and limit.exceeded(time):
             self.over_rate(time, topic, limit.words())
-        if topic not in self.by_topic:
+        if reading is None:
             self.counters["messages on topics the spec does not read"] += 1
             return
-        if topic in self.stamped:
-            try:
-                stamp = fields.stamp(message)
-            except fields.FieldError as error:
-                self.damaged(time, topic, str(error))
+        stamp, values = reading
+        if stamp is not None:
+            if isinstance(stamp, fields.FieldError):
+                self.damaged(time, topic, str(stamp))
                 return
             if stamp - time > STAMP_AHEAD:
                 self.ahead(time, topic, stamp)
                 return
             time = stamp
         if self.lateness:
-            heapq.heappush(self.held, (time, self.sequence, topic, message))
+            heapq.heappush(self.held, (time, self.sequence, topic, values))
             self.sequence += 1
             self.newest = max(self.newest, time)
             while self.held and self.held[0][0] <= self.newest - self.lateness:
-                when, _, held_topic, held_message = heapq.heappop(self.held)
-                self._ingest(when, held_topic, held_message)
+                when, _, held_topic, held_values = heapq.heappop(self.held)
+                self._ingest(when, held_topic, held_values)
             return
-        self._ingest(time, topic, message)
+        self._ingest(time, topic, values)
 
     def time_of(self, time: int, topic: str, message: Any) -> int | None:
         """The time `message` would take (its stamp on a `time = header` topic, else
@@ -205,7 +207,7 @@ class Runtime(Reporting):
             self.now = max(self.now, time)
             self.instants += 1
 
-    def _ingest(self, time: int, topic: str, message: Any) -> None:
+    def _ingest(self, time: int, topic: str, values: tuple[Any, ...]) -> None:
         if time < self.now or time < self.complete_before:
             late = exact_text(seconds(max(self.now, self.complete_before) - time))
             text = (
@@ -226,14 +228,15 @@ class Runtime(Reporting):
             self.instants += 1
             if self.instants % PUMP_EVERY == 0:
                 self._pump(time)
-        for variable, read in self.by_topic[topic]:
-            try:
-                value = read(message)
-            except fields.FieldError as error:
-                self._field_error(time, topic, variable, str(error))
-                continue
-            if value is fields.MISSING:
-                self.counters[f"no sample: {variable.name}"] += 1
+        # a reading has a value for each of its topic's variables (readings.Readers)
+        for (variable, read), value in zip(self.by_topic[topic], values):  # noqa: B905
+            if value is MISSING or type(value) is FieldError or read is None:
+                if read is None:
+                    continue  # skipped since (a live host's `skip`): not read from then on
+                if value is MISSING:
+                    self.counters[f"no sample: {variable.name}"] += 1
+                else:
+                    self._field_error(time, topic, variable, str(value))
                 continue
             self._emit(time, variable.name, value, topic)
 
@@ -256,8 +259,8 @@ class Runtime(Reporting):
     def end(self, time: int | None = None) -> None:
         """The input ends at `time` (default: the newest message)."""
         while self.held:
-            when, _, topic, message = heapq.heappop(self.held)
-            self._ingest(when, topic, message)
+            when, _, topic, values = heapq.heappop(self.held)
+            self._ingest(when, topic, values)
         if self.started is not None:
             self._finish(self.now if time is None else max(time, self.now))
         for name, value in sorted(self.counters.items()):

@@ -13,6 +13,7 @@ from rmvdsl.runtime import spec as ir
 from rmvdsl.runtime.dataflow import _FOREVER, Node, reaching
 from rmvdsl.runtime.intrusions import Endpoint, verdict_of
 from rmvdsl.runtime.properties import PropertyMonitor
+from rmvdsl.runtime.readings import Readers
 from rmvdsl.runtime.records import (
     NS,
     ActionContext,
@@ -71,6 +72,7 @@ class Reporting:
     complete_before: int
     reaches: dict[str, dict[str, int]]
     by_topic: dict[str, list[tuple[ir.Variable, Any]]]
+    readers: Readers
     nodes: list[Node]
     state_of: dict[str, str]
 
@@ -116,7 +118,7 @@ class Reporting:
         flood of late messages walks the dataflow once, not per message)."""
         found = self.reaches.get(topic)
         if found is None:
-            names = [variable.name for variable, _ in self.by_topic.get(topic, ())]
+            names = [v.name for v, read in self.by_topic.get(topic, ()) if read is not None]
             found = reaching(self.nodes, names, self.spec.properties, self.state_of)
             self.reaches[topic] = found
         return found
@@ -198,15 +200,12 @@ class Reporting:
         publisher's definition lacks the field, or holds another kind): from `time`
         on, not read, each warned of once at its declaration, as the replay skips
         them (rmvdsl.host.definitions; `problems`: name -> the warning)."""
-        readers = self.by_topic.get(topic, [])
-        kept = [(v, read) for v, read in readers if v.name not in problems]
-        if len(kept) == len(readers):
+        newly = self.readers.skip(topic, problems)
+        if not newly:
             return
-        self.by_topic[topic] = kept
         self.reaches.pop(topic, None)
-        for variable, _ in readers:
-            if variable.name in problems:
-                self._note(time, problems[variable.name], topic, variable.origin)
+        for variable in newly:
+            self._note(time, problems[variable.name], topic, variable.origin)
 
     def _field_error(self, time: int, topic: str, variable: ir.Variable, reason: str) -> None:
         text = f"{topic}: `{variable.name}` cannot be read: {reason}"

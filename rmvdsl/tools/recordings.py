@@ -8,16 +8,14 @@ a user's words."""
 from __future__ import annotations
 
 import struct
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from rmvdsl.host import definitions, partial_decoding
 from rmvdsl.runtime import spec as ir
-from rmvdsl.runtime.engine import Runtime, seconds
 from rmvdsl.runtime.wording import os_words
-from rmvdsl.tools.report.text import decimal_text
 from rmvdsl.tools.typestores import (
     connection_store,
     default_store,
@@ -165,19 +163,6 @@ def damage(error: Exception) -> str:
     if isinstance(error, OSError):
         return os_words(error)
     return str(error) or f"it is damaged ({type(error).__name__})"
-
-
-def messages_of(reader: Any, runtime: Runtime, **window: Any) -> Iterator[tuple[Any, int, bytes]]:
-    """The reader's messages, up to where the recording cannot be read any further
-    (damaged bytes): said there, and the run ends with what was read."""
-    last = reader.start_time
-    try:
-        for message in reader.messages(**window):
-            last = message[1]
-            yield message
-    except Exception as error:  # rosbags meets damaged bytes in many ways
-        runtime.note(last, f"the recording cannot be read past {decimal_text(seconds(last))}: "
-                           f"{damage(error)}; the rest of it is not checked")  # fmt: skip
 
 
 def key(connection: Any) -> tuple[int, int]:

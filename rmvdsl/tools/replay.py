@@ -9,7 +9,7 @@ hands its records to the caller as they are decided.
 from __future__ import annotations
 
 import sys
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Generator, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -26,11 +26,12 @@ from rmvdsl.runtime.engine import (
     seconds,
 )
 from rmvdsl.runtime.wording import counted, visible
+from rmvdsl.tools import read_ahead
+from rmvdsl.tools.read_ahead import Damaged
 from rmvdsl.tools.recordings import (
     ReplayError,
     connection_readers,
     key,
-    messages_of,
     open_reader,
     plan,
     window_time,
@@ -66,6 +67,7 @@ def replay(
     seams: Sequence[int] = (),
     at_seam: AtSeam | None = None,
     ended: dict[str, int] | None = None,
+    in_a_child: bool = False,
 ) -> Iterator[Record]:
     """Every record of the spec over the recordings, as it is decided.
 
@@ -75,8 +77,10 @@ def replay(
     `at_seam(seam, runtime, endpoints, position)` runs; when it returns True the
     run stops there, without ending the input. A run that reaches the end fills
     `ended`: where the input ended, the messages the recording lists on the topics
-    read, and those read."""
+    read, and those read. `in_a_child`: the recording is read, decoded and its
+    readings taken in a second process (rmvdsl.tools.read_ahead)."""
     reader = open_reader(paths, spec)
+    items: Iterator[read_ahead.Item] = iter(())
     try:
         found = plan(spec, reader)
         for origin, problem in found.problems:
@@ -102,43 +106,43 @@ def replay(
         watched = publishers if can_refuse(spec) else []
         connections = found.connections + [c for c in watched if key(c) not in read]
         total = sum(c.msgcount for c in found.connections)
-        reader_of = connection_readers(
-            reader, partial_decoding.spec_needs(spec, found.skipped_variables)
-        )
+        items = read_ahead.readings(
+            reader, connections, read,
+            connection_readers(reader, partial_decoding.spec_needs(spec, found.skipped_variables)),
+            runtime.readers, {"start": low, "stop": high},
+        )  # fmt: skip
+        if in_a_child:
+            items = read_ahead.in_a_child(items)
         position = Position()
-        # Per connection (the reader's objects, alive while it is open): its topic,
-        # whether the spec reads it, and its decoder (None: its bytes stay unread).
-        known: dict[int, tuple[str, bool, Callable[[bytes], Any] | None]] = {}
-        for connection, timestamp, raw in messages_of(
-            reader, runtime, connections=connections, start=low, stop=high
-        ):
+        # Per connection, by its index: its topic and whether the spec reads it,
+        # known from its first message on (None: no message yet).
+        known: list[tuple[str, bool] | None] = [None] * len(connections)
+        for index, timestamp, reading in items:
             while upcoming and timestamp >= upcoming[0]:
                 runtime.decide()
                 yield from runtime.records()
                 assert at_seam is not None
                 if at_seam(upcoming.pop(0), runtime, endpoints, position):
                     return
-            seen = known.get(id(connection))
+            if index < 0:  # the recording cannot be read further
+                runtime.note(timestamp, reading.text)
+                continue  # the last item
+            seen = known[index]
             if seen is None:
-                topic, is_read = connection.topic, key(connection) in read
-                decode = reader_of(connection) if is_read and runtime.reads(topic) else None
-                seen = known[id(connection)] = (topic, is_read, decode)
+                connection = connections[index]
+                seen = known[index] = (connection.topic, key(connection) in read)
                 caller = getattr(connection.ext, "callerid", None)
                 if caller:
-                    endpoints.add(Endpoint(caller, topic, "publisher"))
+                    endpoints.add(Endpoint(caller, connection.topic, "publisher"))
                     runtime.graph(timestamp, endpoints)
-            topic, is_read, decode = seen
+            topic, is_read = seen
             if not is_read:
                 continue
             position.read += 1
-            message = None  # a topic nothing reads (a whitelist's): its bytes unread
-            if decode is not None:
-                try:
-                    message = decode(raw)
-                except Exception as error:
-                    runtime.damaged(timestamp, topic, str(error))
-                    continue
-            runtime.message(timestamp, topic, message)
+            if type(reading) is Damaged:
+                runtime.damaged(timestamp, topic, reading.reason)
+                continue
+            runtime.take(timestamp, topic, reading)
             position.fed += 1
             if progress is not None and position.fed % 2000 == 0:
                 progress(position.fed, total)
@@ -164,6 +168,8 @@ def replay(
             progress(position.fed, total)
         yield from runtime.records()
     finally:
+        if isinstance(items, Generator):
+            items.close()  # the reader's process ends before its recording closes
         reader.close()
 
 
@@ -272,7 +278,7 @@ def run(
         record = ("state",)  # text shows no value of an event (report.text.text_line)
     records = replay(
         spec, paths, host=host, start=start, stop=stop,
-        record=record, progress=progress,
+        record=record, progress=progress, in_a_child=read_ahead.usable(),
     )  # fmt: skip
     with batched(out) as lines:
         _write(records, lines, output, summary, kept if report else None)
