@@ -10,6 +10,7 @@ import dataclasses
 import os
 import random
 import shutil
+import struct
 from pathlib import Path
 from typing import Any
 
@@ -108,6 +109,48 @@ def test_recordings_that_cannot_be_read_past_a_point(tmp_path):
     assert said, "the flips should reach damage the replay reports"
 
 
+def _cut_short_at(recording: Path, message: int) -> None:
+    """The MCAP file's `message`th message record (counted from 0) claims more
+    bytes than the file holds: none from it on can be read. Found through the
+    summary's chunk index (the writer's one chunk, uncompressed)."""
+    path = next(recording.glob("*.mcap"))
+    data = bytearray(path.read_bytes())
+
+    def u64(at: int) -> int:
+        return int(struct.unpack_from("<Q", data, at)[0])
+
+    footer = len(data) - 8 - (1 + 8 + 8 + 8 + 4)  # the footer record, then the magic
+    assert data[footer] == 0x02
+    position = u64(footer + 9)  # the summary's start
+    while data[position] != 0x08:  # a chunk index record
+        position += 9 + u64(position + 1)
+    chunk = u64(position + 9 + 16)
+    assert data[chunk] == 0x06
+    compression = chunk + 9 + 8 + 8 + 8 + 4  # its times, size and CRC, then this
+    assert struct.unpack_from("<I", data, compression)[0] == 0, "uncompressed"
+    record = compression + 4 + 8  # past the records' length
+    for _ in range(message + 1):
+        while data[record] != 0x05:  # schemas and channels come first
+            record += 9 + u64(record + 1)
+        found, record = record, record + 9 + u64(record + 1)
+    struct.pack_into("<Q", data, found + 1, 2**40)
+    path.write_bytes(bytes(data))
+
+
+def test_a_recording_that_cannot_be_read_past_a_message(tmp_path):
+    """The runtime hears where: the last time read (rosbags reads a chunk whole
+    before giving its first message, so here the recording's start), the rest not
+    checked."""
+    spec_path = tmp_path / "twist.rmv"
+    spec_path.write_text(fleet_recordings.SPEC, encoding="utf-8")
+    recording = fleet_recordings.write(tmp_path / "cut", "mcap", fleet_recordings.speeds(2, 90))
+    _cut_short_at(recording, 40)
+    records = _both(lower(check(str(spec_path))), recording)
+    said = [r for r in records if "the recording cannot be read past" in r]
+    assert len(said) == 1 and "past 1700000000: Truncated record" in said[0], said
+    assert "the rest of it is not checked" in said[0]
+
+
 def test_random_specs_and_recordings(tmp_path):
     rng = random.Random(20261202)
     compared = 0
@@ -172,3 +215,40 @@ def test_the_command_says_a_failing_child_in_words(rmv, monkeypatch):
     assert result.code == 2, result.err
     assert "the recording's reader failed: RuntimeError: the disk went away" in result.err
     assert "Traceback" not in result.err
+
+
+SKIPPED = """system skipped
+topic t: std_msgs/msg/Float64 = "/t"
+var x = t.data
+var y = t.data
+event High when y > 5
+property Low: not High {
+    lateness = 500ms
+}
+"""
+
+
+@pytest.mark.parametrize("skip", [False, True])
+def test_a_variable_a_live_host_skips_is_not_read_from_then_on(tmp_path, skip):
+    """`Runtime.skip` (a live publisher's definition lacks the field): readings
+    taken before, and held by the lateness, still line up with their variables;
+    the skipped one gives no value from then on, its neighbour every value."""
+    from rmvdsl.runtime.engine import Runtime
+
+    source = tmp_path / "skipped.rmv"
+    source.write_text(SKIPPED, encoding="utf-8")
+    runtime = Runtime(lower(check(str(source))), record=("variable",))
+    runtime.message(0, "/t", {"data": 1.0})
+    runtime.message(200_000_000, "/t", {"data": 7.0})  # held: within the lateness
+    if skip:
+        runtime.skip(300_000_000, "/t", {"x": "x cannot be read"})
+        runtime.skip(400_000_000, "/t", {"x": "x cannot be read"})  # said once
+    runtime.message(10**9, "/t", {"data": 9.0})
+    runtime.end()
+    records = runtime.records()
+    values = {name: [r["value"] for r in records if r["kind"] == "variable" and r["name"] == name]
+              for name in ("x", "y")}  # fmt: skip
+    assert values["y"] == [1.0, 7.0, 9.0]
+    assert values["x"] == ([] if skip else [1.0, 7.0, 9.0])
+    said = [r["message"] for r in records if r["kind"] == "diagnostic"]
+    assert said == (["x cannot be read"] if skip else [])
