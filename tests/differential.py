@@ -192,6 +192,58 @@ def check_case(case: Case, folder: Path) -> Any:
     return check(str(path), use_environment=False)
 
 
+def runnable_spec(case: Case, folder: Path) -> Any:
+    """The case's spec lowered (`runnable`), or None where it has errors of its own."""
+    result = check_case(case, folder)
+    if any(e.code not in ANALYSIS_ERRORS for e in result.errors):
+        return None
+    return runnable(result)
+
+
+def runnable(result: Any) -> Any:
+    """A checked spec lowered without the analyses' own errors (a state never
+    entered, ...): the claims under test, which leave a spec that runs."""
+    from rmvdsl.ir import lower
+
+    kept = [d for d in result.diagnostics if d.code not in ANALYSIS_ERRORS]
+    return lower(dataclasses.replace(result, diagnostics=kept))
+
+
+def write_recording(path: Path, kind: str, messages: list[tuple[int, str, Any]],
+                    topics: dict[str, str]) -> Path:  # fmt: skip
+    """A random case's messages (std_msgs), as a .bag, a .db3 or an .mcap."""
+    from rosbags.rosbag1 import Writer as Bag1Writer
+    from rosbags.rosbag2 import StoragePlugin
+    from rosbags.rosbag2 import Writer as Bag2Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    ros1 = kind == "bag"
+    store = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+    types = {name: f"std_msgs/msg/{kind_}" for name, kind_ in topics.items()}
+
+    def data(name: str, message: dict[str, Any]) -> bytes:
+        made = store.types[types[name]](data=message["data"])
+        if ros1:
+            return store.serialize_ros1(made, types[name])
+        return store.serialize_cdr(made, types[name])
+
+    if ros1:
+        target = path.with_suffix(".bag")
+        with Bag1Writer(target) as writer:
+            connections = {n: writer.add_connection(n, t, typestore=store, callerid="/player")
+                           for n, t in types.items()}  # fmt: skip
+            for t, name, message in messages:
+                writer.write(connections[name], t, data(name, message))
+        return target
+    target = path.with_name(f"{path.name}_{kind}")
+    plugin = StoragePlugin.SQLITE3 if kind == "db3" else StoragePlugin.MCAP
+    with Bag2Writer(target, version=9, storage_plugin=plugin) as writer:
+        connections = {n: writer.add_connection(n, t, typestore=store) for n, t in types.items()}
+        for t, name, message in messages:
+            writer.write(connections[name], t, data(name, message))
+    return target
+
+
 def run(
     spec: Any, messages: Iterable[tuple[int, str, Any]], end: int = 4 * NS, early: bool = True
 ) -> list[dict]:
@@ -243,11 +295,7 @@ def _intersect(first: list[Segment], second: list[Segment]) -> list[Segment]:
 
 def contradictions(case: Case, result: Any) -> list[str]:
     """Each claim of the check that a recording or a witness contradicts."""
-    from rmvdsl.ir import lower
-
-    # The analyses' own errors are the claims under test: the spec still runs.
-    kept = [d for d in result.diagnostics if d.code not in ANALYSIS_ERRORS]
-    spec = lower(dataclasses.replace(result, diagnostics=kept))
+    spec = runnable(result)
     runs = [run(spec, r, early=index > 0) for index, r in enumerate(case.recordings)]
     found = []
     for diagnostic in result.diagnostics:
@@ -327,14 +375,12 @@ def _judge(case: Case, spec: Any, diagnostic: Any, runs: list[list[dict]]) -> It
 def _antecedent(case: Case, antecedent: str) -> Iterable[str]:
     """RMV513: the antecedent, monitored as a property of its own on the same
     recordings, is never true."""
-    from rmvdsl.ir import lower
 
     with tempfile.TemporaryDirectory() as folder:
         extra = Case(case.seed, case.text + f"property Antecedent: {antecedent}\n",
                      case.topics, case.variables, case.recordings)  # fmt: skip
         result = check_case(extra, Path(folder))
-    kept = [d for d in result.diagnostics if d.code not in ANALYSIS_ERRORS]
-    spec = lower(dataclasses.replace(result, diagnostics=kept))
+    spec = runnable(result)
     for index, recording in enumerate(case.recordings):
         if _during(run(spec, recording, early=index > 0), "Antecedent", "true"):
             yield f"`{antecedent}` holds in recording {index}"
