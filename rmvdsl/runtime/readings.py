@@ -5,7 +5,7 @@ A reading is a pure function of the message, apart from the runtime's state, so 
 host may take it where the message is decoded, in another process (the replay's
 reader, rmvdsl.tools.read_ahead), and hand the runtime only the reading: small
 values, not the message. `Runtime.message` takes the reading in place; either way
-the runtime does the same with it (docs/runtime.md, "Input").
+the runtime does the same with it (docs/runtime.md, "The whole spec").
 """
 
 from __future__ import annotations
