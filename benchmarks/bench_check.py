@@ -61,6 +61,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from as_installed import byte_compile
+
 from rmvdsl.check import check
 from rmvdsl.check.loader import load
 from rmvdsl.check.names import check_names
@@ -273,6 +275,7 @@ def main() -> int:
     parser.add_argument("--cold-runs", type=int, default=1, help="first checks, empty caches")
     parser.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
     args = parser.parse_args()
+    byte_compile()  # as an install holds rmvdsl: compiled
     scales = args.scale or [1, 3, 10]
     if not args.in_process:
         folder = tempfile.mkdtemp(prefix="rmv-bench-")
