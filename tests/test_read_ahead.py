@@ -6,6 +6,7 @@ and a child that fails, dies or is left behind is said, never hung on."""
 
 from __future__ import annotations
 
+import json
 import os
 import random
 import shutil
@@ -29,11 +30,12 @@ CARLA = EXAMPLES / "carla"
 RECORDINGS = [CARLA / "recordings" / n for n in ("braking.bag", "braking_db3", "braking_mcap")]
 
 
-def _both(spec: Any, path: Path, **options: Any) -> list[str]:
+def _both(spec: Any, path: Path | list[Path], **options: Any) -> list[str]:
     """The records of one process, having asserted the child's are the same."""
-    alone = [to_json(r) for r in replay(spec, [path], **options)]
-    ahead = [to_json(r) for r in replay(spec, [path], in_a_child=True, **options)]
-    assert ahead == alone, (path, options)
+    paths = path if isinstance(path, list) else [path]
+    alone = [to_json(r) for r in replay(spec, paths, **options)]
+    ahead = [to_json(r) for r in replay(spec, paths, in_a_child=True, **options)]
+    assert ahead == alone, (paths, options)
     return alone
 
 
@@ -80,6 +82,31 @@ def test_damaged_messages_and_a_rogue_publisher(carla_spec, tmp_path):
     records = _both(carla_spec, path)
     assert any("a message cannot be decoded" in r for r in records)
     assert any('"kind": "intrusion"' in r for r in records)
+    merged = _both(carla_spec, [RECORDINGS[0], path])  # one run over both, in time order
+    assert sum('"name": "messages", "value": ' in r for r in merged) == 1
+
+
+def test_messages_of_one_time_in_merged_recordings_come_in_the_order_given(carla_spec, tmp_path):
+    """At 0.15 s both recordings hold a status message, the damaged bag's cut
+    short: the recording given first gives its message first, in every run
+    (rosbags orders them by where its readers lie in memory)."""
+    damaged = tmp_path / "damaged.bag"
+    damaged_bag(damaged)
+
+    def first_at_015(paths: list[Path]) -> str:
+        records = _both(carla_spec, paths, record=("variable",))
+        return next(json.loads(r)["kind"] for r in records if '"time": 1700000000.15,' in r)
+
+    assert first_at_015([RECORDINGS[0], damaged]) == "variable"
+    assert first_at_015([damaged, RECORDINGS[0]]) == "diagnostic"
+
+
+def test_a_spec_none_of_whose_topics_the_recording_holds(tmp_path):
+    """Nothing to read: no message is read (rosbags reads every message when
+    given no connection), and the run says what is missing."""
+    records = _both(lower(check(str(EXAMPLES / "gazebo" / "network.rmv"))), RECORDINGS[2])
+    assert any("is not in the recording" in r for r in records)
+    assert not any('"name": "messages"' in r for r in records)  # none was fed
 
 
 def test_recordings_that_cannot_be_read_past_a_point(tmp_path):

@@ -27,7 +27,7 @@ from typing import IO, Any, NamedTuple, NoReturn
 
 from rmvdsl.runtime.engine import seconds
 from rmvdsl.runtime.readings import Readers
-from rmvdsl.tools.recordings import ReplayError, damage, key
+from rmvdsl.tools.recordings import ReplayError, damage, key, messages_in_order
 from rmvdsl.tools.report.text import decimal_text
 
 BATCH = 256  # items per pickled batch: big enough that pickling runs in C
@@ -72,7 +72,7 @@ def readings(
     index_of = {id(c): i for i, c in enumerate(connections)}
     decoders: list[Callable[[bytes], Any] | bool | None] = [False] * len(connections)
     last = reader.start_time
-    messages = iter(reader.messages(connections=connections, **window))
+    messages = messages_in_order(reader, connections, window["start"], window["stop"])
     while True:
         try:  # around the reader only: an error of what follows is not the recording's
             connection, timestamp, raw = next(messages)

@@ -7,8 +7,9 @@ a user's words."""
 
 from __future__ import annotations
 
+import heapq
 import struct
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -163,6 +164,29 @@ def damage(error: Exception) -> str:
     if isinstance(error, OSError):
         return os_words(error)
     return str(error) or f"it is damaged ({type(error).__name__})"
+
+
+def messages_in_order(
+    reader: Any, connections: Sequence[Any], start: int | None, stop: int | None
+) -> Iterator[tuple[Any, int, bytes]]:
+    """The messages of `connections` (none: no message) in time order, those of
+    one time in the order the recordings were given, then as each holds them.
+    (rosbags' AnyReader orders one time's messages of several recordings by where
+    its readers lie in memory, which differs from run to run; and reads every
+    message when given no connection.)"""
+    chosen = {id(c) for c in connections}
+    # by the connection's owner (a recording's reader), in the reader's order of
+    # connections: the recordings' own
+    owners: dict[int, tuple[Any, list[Any]]] = {}
+    for connection in reader.connections:
+        if id(connection) in chosen:
+            owner = connection.owner
+            owners.setdefault(id(owner), (owner, []))[1].append(connection)
+    generators = [
+        owner.messages(connections=chosen_of, start=start, stop=stop)
+        for owner, chosen_of in owners.values()
+    ]
+    return heapq.merge(*generators, key=lambda message: message[1])
 
 
 def key(connection: Any) -> tuple[int, int]:
