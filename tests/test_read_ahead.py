@@ -275,3 +275,12 @@ def test_a_variable_a_live_host_skips_is_not_read_from_then_on(tmp_path, skip):
     assert values["x"] == ([] if skip else [1.0, 7.0, 9.0])
     said = [r["message"] for r in records if r["kind"] == "diagnostic"]
     assert said == (["x cannot be read"] if skip else [])
+
+
+def test_where_no_process_can_be_made_the_replay_reads_in_line(carla_spec, monkeypatch):
+    def refused() -> int:
+        raise BlockingIOError(11, "Resource temporarily unavailable")
+
+    monkeypatch.setattr(os, "fork", refused)
+    alone = [to_json(r) for r in replay(carla_spec, [RECORDINGS[1]])]
+    assert [to_json(r) for r in replay(carla_spec, [RECORDINGS[1]], in_a_child=True)] == alone

@@ -107,16 +107,28 @@ def readings(
 
 def in_a_child(items: Iterator[Item]) -> Iterator[Item]:
     """`items`, made by a forked child process (not started here: the generator
-    runs there). Ending the iteration early ends the child."""
-    read_end, write_end = os.pipe()
-    with warnings.catch_warnings():
-        # Python 3.12 warns of fork in a threaded process (the commands run on a
-        # thread of their own: rmvdsl.util.deep): the child may need a lock that
-        # another thread held. This one takes none that Python does not reset at
-        # fork (the allocator's, the import lock, logging's): it reads, decodes,
-        # pickles and writes to its pipe, then ends without the parent's exit.
-        warnings.simplefilter("ignore", DeprecationWarning)
-        pid = os.fork()
+    runs there). Ending the iteration early ends the child. Where no process or
+    pipe can be made (a limit reached), the items are made here, as on one core."""
+    try:
+        read_end, write_end = os.pipe()
+    except OSError:
+        yield from items
+        return
+    try:
+        with warnings.catch_warnings():
+            # Python 3.12 warns of fork in a threaded process (the commands run on
+            # a thread of their own: rmvdsl.util.deep): the child may need a lock
+            # that another thread held. This one takes none that Python does not
+            # reset at fork (the allocator's, the import lock, logging's): it reads,
+            # decodes, pickles and writes to its pipe, then ends without the
+            # parent's exit.
+            warnings.simplefilter("ignore", DeprecationWarning)
+            pid = os.fork()
+    except OSError:
+        os.close(read_end)
+        os.close(write_end)
+        yield from items
+        return
     if pid == 0:
         _child(items, read_end, write_end)
     os.close(write_end)
