@@ -22,7 +22,7 @@ import struct
 import sys
 import traceback
 import warnings
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Generator, Iterator
 from typing import IO, Any, NamedTuple, NoReturn
 
 from rmvdsl.runtime.engine import seconds
@@ -64,15 +64,17 @@ def readings(
     read: set[tuple[int, int]],
     decoder_of: Callable[[Any], Callable[[bytes], Any]],
     readers: Readers,
-    window: dict[str, int | None],
-) -> Iterator[Item]:
+    start: int | None,
+    stop: int | None,
+) -> Generator[Item, None, None]:
     """The items of the reader's messages on `connections` (those whose key is in
-    `read` decoded, the others only timed), up to where the recording cannot be
+    `read` decoded, the others only timed) from `start` to before `stop` (ns; None:
+    the recording's own ends), up to where the recording cannot be
     read any further (damaged bytes): a Stopped item says where."""
     index_of = {id(c): i for i, c in enumerate(connections)}
     decoders: list[Callable[[bytes], Any] | bool | None] = [False] * len(connections)
     last = reader.start_time
-    messages = messages_in_order(reader, connections, window["start"], window["stop"])
+    messages = messages_in_order(reader, connections, start, stop)
     while True:
         try:  # around the reader only: an error of what follows is not the recording's
             connection, timestamp, raw = next(messages)
@@ -105,15 +107,35 @@ def readings(
         yield index, timestamp, readers.reading(connection.topic, message)
 
 
-def in_a_child(items: Iterator[Item]) -> Iterator[Item]:
+def in_a_child(items: Iterator[Item]) -> Generator[Item, None, None]:
     """`items`, made by a forked child process (not started here: the generator
     runs there). Ending the iteration early ends the child. Where no process or
     pipe can be made (a limit reached), the items are made here, as on one core."""
+    started = _started(items)
+    if started is None:
+        yield from items
+        return
+    pid, read_end = started
+    try:
+        with os.fdopen(read_end, "rb") as pipe:
+            while True:
+                batch = _receive(pipe)
+                if batch is None:  # the end, as the child said it
+                    return
+                if isinstance(batch, str):
+                    raise ReplayError(f"the recording's reader failed: {batch}")
+                yield from batch
+    finally:
+        _end(pid)
+
+
+def _started(items: Iterator[Item]) -> tuple[int, int] | None:
+    """The child making `items` and the end of the pipe it writes them to, or None
+    where either cannot be made."""
     try:
         read_end, write_end = os.pipe()
     except OSError:
-        yield from items
-        return
+        return None
     try:
         with warnings.catch_warnings():
             # Python 3.12 warns of fork in a threaded process (the commands run on
@@ -127,22 +149,11 @@ def in_a_child(items: Iterator[Item]) -> Iterator[Item]:
     except OSError:
         os.close(read_end)
         os.close(write_end)
-        yield from items
-        return
+        return None
     if pid == 0:
         _child(items, read_end, write_end)
     os.close(write_end)
-    try:
-        with os.fdopen(read_end, "rb") as pipe:
-            while True:
-                batch = _receive(pipe)
-                if batch is None:  # the end, as the child said it
-                    return
-                if isinstance(batch, str):
-                    raise ReplayError(f"the recording's reader failed: {batch}")
-                yield from batch
-    finally:
-        _end(pid)
+    return pid, read_end
 
 
 def _child(items: Iterator[Item], read_end: int, write_end: int) -> NoReturn:

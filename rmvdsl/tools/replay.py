@@ -80,7 +80,7 @@ def replay(
     read, and those read. `in_a_child`: the recording is read, decoded and its
     readings taken in a second process (rmvdsl.tools.read_ahead)."""
     reader = open_reader(paths, spec)
-    items: Iterator[read_ahead.Item] = iter(())
+    items: Generator[read_ahead.Item, None, None] | None = None
     try:
         found = plan(spec, reader)
         for origin, problem in found.problems:
@@ -109,7 +109,7 @@ def replay(
         items = read_ahead.readings(
             reader, connections, read,
             connection_readers(reader, partial_decoding.spec_needs(spec, found.skipped_variables)),
-            runtime.readers, {"start": low, "stop": high},
+            runtime.readers, low, high,
         )  # fmt: skip
         if in_a_child:
             items = read_ahead.in_a_child(items)
@@ -168,7 +168,7 @@ def replay(
             progress(position.fed, total)
         yield from runtime.records()
     finally:
-        if isinstance(items, Generator):
+        if items is not None:
             items.close()  # the reader's process ends before its recording closes
         reader.close()
 
